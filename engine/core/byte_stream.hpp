@@ -1,0 +1,59 @@
+// Minimal binary serialisation for save_state()/restore_state(): raw bytes of trivially copyable data.
+#pragma once
+#include <cstddef>
+#include <cstring>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace grains {
+
+class ByteWriter {
+ public:
+  template <class T> void put(const T& x) {
+    static_assert(std::is_standard_layout_v<T>);   // plain data: PODs and Eigen fixed-size types
+    auto p = reinterpret_cast<const std::byte*>(&x);
+    bytes_.insert(bytes_.end(), p, p + sizeof(T));
+  }
+  template <class T> void put_vector(const std::vector<T>& v) {
+    static_assert(std::is_standard_layout_v<T>);   // plain data: PODs and Eigen fixed-size types
+    put<std::uint64_t>(v.size());
+    auto p = reinterpret_cast<const std::byte*>(v.data());
+    bytes_.insert(bytes_.end(), p, p + v.size() * sizeof(T));
+  }
+  std::vector<std::byte> take() { return std::move(bytes_); }
+
+ private:
+  std::vector<std::byte> bytes_;
+};
+
+class ByteReader {
+ public:
+  explicit ByteReader(std::span<const std::byte> b) : bytes_(b) {}
+  template <class T> T get() {
+    T x;
+    need(sizeof(T));
+    std::memcpy(&x, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return x;
+  }
+  template <class T> void get_vector(std::vector<T>& v) {
+    auto n = get<std::uint64_t>();
+    need(n * sizeof(T));
+    v.resize(n);
+    std::memcpy(v.data(), bytes_.data() + pos_, n * sizeof(T));
+    pos_ += n * sizeof(T);
+  }
+  bool done() const { return pos_ == bytes_.size(); }
+
+ private:
+  void need(std::size_t n) const {
+    if (pos_ + n > bytes_.size()) throw std::runtime_error("saved state is truncated or from another scene");
+  }
+  std::span<const std::byte> bytes_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace grains

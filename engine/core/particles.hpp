@@ -1,0 +1,42 @@
+// Particle storage: one array per attribute (structure of arrays), D = 2 or 3.
+#pragma once
+#include <cstddef>
+#include <vector>
+
+#include "core/vec.hpp"
+
+namespace grains {
+
+template <int D>
+struct Particles {
+  using V = Vec<D>;
+  using S = Spin<D>;
+  std::vector<V> position, velocity, force;
+  std::vector<V> accel, accel_prev;          // a_n and a_{n-1}: the velocity predictor uses both
+  std::vector<V> velocity_predicted;         // v(t_{n+1}) estimate used by the dashpots
+  std::vector<S> angular_velocity, torque, angular_accel, angular_accel_prev, angular_velocity_predicted;
+  std::vector<Orientation<D>> orientation;
+  std::vector<double> radius, mass, inv_mass, inertia, inv_inertia;
+
+  std::size_t size() const { return radius.size(); }
+
+  void resize(std::size_t n) {
+    for (auto* v : {&position, &velocity, &force, &accel, &accel_prev, &velocity_predicted}) v->assign(n, V::Zero());
+    for (auto* v : {&angular_velocity, &torque, &angular_accel, &angular_accel_prev, &angular_velocity_predicted})
+      v->assign(n, S::Zero());
+    if constexpr (D == 3) orientation.assign(n, Eigen::Quaterniond::Identity());
+    else orientation.assign(n, 0.0);
+    for (auto* v : {&radius, &mass, &inv_mass, &inertia, &inv_inertia}) v->assign(n, 0.0);
+  }
+
+  // Moment of inertia: solid sphere 2/5 m R^2, disk 1/2 m R^2.
+  void set_mass_and_radius(std::size_t i, double m, double r) {
+    radius[i] = r;
+    mass[i] = m;
+    inv_mass[i] = 1.0 / m;
+    inertia[i] = (D == 3 ? 0.4 : 0.5) * m * r * r;
+    inv_inertia[i] = 1.0 / inertia[i];
+  }
+};
+
+}  // namespace grains

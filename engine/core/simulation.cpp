@@ -1,0 +1,343 @@
+#include "core/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+#include <omp.h>
+
+#include "core/integrator.hpp"
+#include "core/system.hpp"
+#include "interactions/contact_forces.hpp"
+#include "interactions/normal_calibration.hpp"
+#include "io/scene.hpp"
+#include "protocols/initial_state.hpp"
+
+namespace grains {
+
+std::size_t Simulation::index_of(const std::string& name) const {
+  const auto& v = variables();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (v[i].name == name) return i;
+  throw SimulationError(fmt::format("unknown variable '{}'", name));
+}
+
+namespace {
+
+template <int D>
+class SimulationImpl final : public Simulation {
+ public:
+  explicit SimulationImpl(const Scene& scene) {
+    auto init = make_initial_state<D>(scene);
+    sys_.particles = std::move(init.particles);
+    sys_.box = init.box;
+    auto& P = sys_.particles;
+    const std::size_t N = P.size();
+    const long threads = scene.integer("run.threads");
+    sys_.threads = threads > 0 ? int(threads) : std::max(1, omp_get_num_procs());
+    sys_.thread_force.assign(sys_.threads, std::vector<Vec<D>>(N, Vec<D>::Zero()));
+    sys_.thread_torque.assign(sys_.threads, std::vector<Spin<D>>(N, Spin<D>::Zero()));
+    if (sys_.threads == 1) sys_.thread_force.clear(), sys_.thread_torque.clear();
+
+    const double rmin = *std::min_element(P.radius.begin(), P.radius.end());
+    const double rmax = *std::max_element(P.radius.begin(), P.radius.end());
+    double tc = 0;
+    if (scene.boolean("contact.enabled")) {
+      tc = scene.real("contact.duration");
+      add_contact_module(scene, tc);
+    }
+
+    // Time step rule (physics.md section 3).
+    const double nc = scene.real("time.steps_per_contact");
+    if (scene.has("time.dt")) dt_ = scene.real("time.dt");
+    else if (tc > 0) dt_ = tc / nc;
+    else scene.fail("time.dt", "required when contacts are off (there is no contact duration to derive it from)");
+    if (tc > 0 && dt_ > tc / 20)
+      warn(fmt::format("time.dt = {:.6g} exceeds t_c / 20 = {:.6g} (contact duration {:.6g}): contacts are resolved by "
+                       "fewer than 20 steps and restitution will be inaccurate", dt_, tc / 20, tc));
+
+    double range = -1;
+    for (const auto& m : modules_) range = std::max(range, m->pair_range());
+    const double skin = scene.has("neighbours.skin") ? scene.real("neighbours.skin") : 0.4 * rmin;
+    sys_.neighbours.configure(std::max(0.0, range), skin);
+    for (int a = 0; a < D; ++a)
+      if (sys_.box.periodic[a] && 2 * rmax + std::max(0.0, range) + skin > 0.5 * sys_.box.length[a])
+        scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than twice the "
+                                              "largest interaction reach (2 R_max + skin = {:.6g})", a, sys_.box.length[a],
+                                              2 * rmax + std::max(0.0, range) + skin));
+    uses_list_ = range >= 0;
+
+    rebuild();
+    describe_variables(scene);
+    sys_.dt = 0;
+    compute_forces();
+    for (std::size_t i = 0; i < N; ++i) {
+      P.accel[i] = P.accel_prev[i] = P.inv_mass[i] * P.force[i];
+      P.angular_accel[i] = P.angular_accel_prev[i] = P.inv_inertia[i] * P.torque[i];
+    }
+    check_finite("the initial state");
+  }
+
+  void step(double duration) override {
+    if (!(duration >= 0) || !std::isfinite(duration))
+      throw SimulationError(fmt::format("step: duration {} is not allowed: a finite value >= 0", duration));
+    const double target = sys_.time + duration;
+    const long whole = long(std::floor(duration / dt_ * (1 + 1e-12)));
+    for (long k = 0; k < whole; ++k) one_step(dt_);
+    const double rest = target - sys_.time;
+    if (rest > 1e-12 * dt_) one_step(rest);
+    sys_.time = target;
+  }
+  void step_n(long n) override {
+    for (long k = 0; k < n; ++k) one_step(dt_);
+  }
+
+  double time() const override { return sys_.time; }
+  long step_count() const override { return sys_.step; }
+  double dt() const override { return dt_; }
+  int dimension() const override { return D; }
+  std::size_t particle_count() const override { return sys_.particles.size(); }
+  const std::vector<VariableInfo>& variables() const override { return vars_; }
+  const std::vector<std::string>& warnings() const override { return warnings_; }
+
+  double get(std::size_t index) const override {
+    if (index >= vars_.size()) throw SimulationError(fmt::format("unknown variable index {}", index));
+    if (index < parameter_values_.size()) return parameter_values_[index];
+    refresh_observables();
+    return observable_values_.at(vars_[index].name);
+  }
+  void set(std::size_t index, double value) override {
+    if (index >= vars_.size()) throw SimulationError(fmt::format("unknown variable index {}", index));
+    throw SimulationError(fmt::format("variable '{}' is a {} {}: it cannot be set after the simulation is built",
+                                      vars_[index].name, to_string(vars_[index].variability), to_string(vars_[index].causality)));
+    (void)value;
+  }
+
+  std::vector<std::byte> save_state() const override {
+    ByteWriter w;
+    const auto& P = sys_.particles;
+    w.put<int>(D), w.put<std::uint64_t>(P.size());
+    w.put(sys_.time), w.put(sys_.step);
+    w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.accel),
+        w.put_vector(P.accel_prev), w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.angular_accel),
+        w.put_vector(P.angular_accel_prev), w.put_vector(P.orientation);
+    sys_.neighbours.save(w);
+    for (const auto& m : modules_) m->save(w);
+    return w.take();
+  }
+  void restore_state(std::span<const std::byte> bytes) override {
+    ByteReader r(bytes);
+    auto& P = sys_.particles;
+    if (r.get<int>() != D || r.get<std::uint64_t>() != P.size())
+      throw SimulationError("restore_state: the saved state belongs to a scene of another dimension or particle count");
+    sys_.time = r.get<double>(), sys_.step = r.get<long>();
+    r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.accel),
+        r.get_vector(P.accel_prev), r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.angular_accel),
+        r.get_vector(P.angular_accel_prev), r.get_vector(P.orientation);
+    sys_.neighbours.load(r);
+    for (auto& m : modules_) m->load(r);
+    if (!r.done()) throw SimulationError("restore_state: the saved state has trailing bytes (another scene?)");
+    cache_step_ = -1;
+  }
+
+  ParticleView particles() const override {
+    const auto& P = sys_.particles;
+    ParticleView v;
+    v.dimension = D;
+    v.count = P.size();
+    constexpr int S = D == 3 ? 3 : 1;
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      const Vec<D> x = sys_.box.wrap(P.position[i]);
+      for (int a = 0; a < D; ++a) {
+        v.position.push_back(x[a]);
+        v.velocity.push_back(P.velocity[i][a]);
+        v.force.push_back(P.force[i][a]);
+      }
+      for (int a = 0; a < S; ++a) v.angular_velocity.push_back(P.angular_velocity[i][a]);
+      if constexpr (D == 3) {
+        const auto& q = P.orientation[i];
+        v.orientation.insert(v.orientation.end(), {q.w(), q.x(), q.y(), q.z()});
+      } else {
+        v.orientation.push_back(P.orientation[i]);
+      }
+      v.radius.push_back(P.radius[i]);
+      v.mass.push_back(P.mass[i]);
+    }
+    return v;
+  }
+  BoxView box() const override {
+    BoxView b;
+    b.dimension = D;
+    for (int a = 0; a < D; ++a) {
+      b.lower.push_back(sys_.box.lower[a]);
+      b.length.push_back(sys_.box.length[a]);
+      b.periodic.push_back(sys_.box.periodic[a]);
+    }
+    return b;
+  }
+
+ private:
+  void warn(std::string w) { warnings_.push_back(std::move(w)); }
+
+  void add_contact_module(const Scene& scene, double tc) {
+    const auto& P = sys_.particles;
+    const double e = scene.real("contact.restitution");
+    const std::string mode = scene.text("contact.calibration");
+    // The stiffest, most violent collision: the two lightest particles.
+    std::vector<double> m = P.mass;
+    std::partial_sort(m.begin(), m.begin() + std::min<std::size_t>(2, m.size()), m.end());
+    const double mstar_min = m.size() > 1 ? m[0] * m[1] / (m[0] + m[1]) : 0.5 * m[0];
+    const double fmax = scene.real("contact.overlap_limit");
+    SpringDashpot kc = mode == "exact" ? calibrate_exact(e, tc, mstar_min) : calibrate_linear(e, tc, mstar_min);
+    kn_ = kc.k, cn_ = kc.c;
+    const double mu = scene.real("friction.coefficient");
+    CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), false};
+    if (mode == "per-pair") {
+      auto unit = calibrate_linear(e, tc, 1.0);
+      LinearContactLaw<true> law{unit.k, unit.c, fmax};
+      if (mu > 0) modules_.push_back(std::make_unique<ContactForces<D, LinearContactLaw<true>, CoulombFriction>>(law, fr));
+      else modules_.push_back(std::make_unique<ContactForces<D, LinearContactLaw<true>, NoFriction>>(law, NoFriction{}));
+    } else {
+      LinearContactLaw<false> law{kc.k, kc.c, fmax};
+      if (mu > 0) modules_.push_back(std::make_unique<ContactForces<D, LinearContactLaw<false>, CoulombFriction>>(law, fr));
+      else modules_.push_back(std::make_unique<ContactForces<D, LinearContactLaw<false>, NoFriction>>(law, NoFriction{}));
+    }
+  }
+
+  void rebuild() {
+    if (!uses_list_) return;
+    auto& P = sys_.particles;
+    for (auto& x : P.position) x = sys_.box.wrap(x);
+    sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
+    for (auto& m : modules_) m->after_rebuild(sys_.neighbours);
+  }
+
+  void compute_forces() {
+    auto& P = sys_.particles;
+    std::fill(P.force.begin(), P.force.end(), Vec<D>::Zero());
+    std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());
+    for (auto& m : modules_) m->add_forces(sys_);
+  }
+
+  void one_step(double h) {
+    auto& P = sys_.particles;
+    kick_drift_predict(P, h, sys_.threads);
+    if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
+    sys_.dt = h;
+    compute_forces();
+    const double witness = finish_kick(P, h, sys_.threads);
+    sys_.time += h;
+    ++sys_.step;
+    if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+  }
+
+  void check_finite(const std::string& when) const {
+    const auto& P = sys_.particles;
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      const bool bad = !P.position[i].allFinite() || !P.velocity[i].allFinite() || !P.force[i].allFinite() ||
+                       !P.angular_velocity[i].allFinite();
+      if (bad)
+        throw SimulationError(fmt::format(
+            "non-finite value at {}: particle {} has position ({}), velocity ({}), force ({}). With dt = {:.6g}, a "
+            "contact stiffness k_n = {:.6g} and mass {:.6g}, the step rule asks for dt well below t_c / 20.",
+            when, i, fmt::join(P.position[i], ", "), fmt::join(P.velocity[i], ", "), fmt::join(P.force[i], ", "), dt_,
+            kn_, P.mass[i]));
+    }
+  }
+
+  // --- variables ---
+  void describe_variables(const Scene& scene) {
+    auto param = [&](std::string name, double value, std::string unit, std::string doc) {
+      vars_.push_back({std::move(name), std::move(unit), Causality::parameter, Variability::fixed, std::move(doc)});
+      parameter_values_.push_back(value);
+    };
+    param("particles.count", double(sys_.particles.size()), "", "number of particles");
+    vars_.back().is_integer = true;
+    param("scene.dimension", D, "", "2 = disks, 3 = spheres");
+    vars_.back().is_integer = true;
+    param("time.dt", dt_, "s", "internal time step");
+    if (scene.boolean("contact.enabled")) {
+      param("contact.restitution", scene.real("contact.restitution"), "", "normal restitution e");
+      param("contact.duration", scene.real("contact.duration"), "s", "contact duration t_c");
+      param("contact.k_n", kn_, "N/m", "normal stiffness (global mode: from the smallest reduced mass)");
+      param("contact.c_n", cn_, "kg/s", "normal damping (global mode)");
+      param("friction.coefficient", scene.real("friction.coefficient"), "", "Coulomb coefficient mu");
+    }
+    auto out = [&](std::string name, std::string unit, std::string doc) {
+      vars_.push_back({std::move(name), std::move(unit), Causality::output, Variability::continuous, std::move(doc)});
+    };
+    out("time", "s", "simulated time");
+    out("step", "", "internal steps taken");
+    out("kinetic_energy", "J", "translational + rotational kinetic energy");
+    out("translational_energy", "J", "sum of m v^2 / 2");
+    out("rotational_energy", "J", "sum of I w^2 / 2");
+    for (int a = 0; a < D; ++a) out(fmt::format("momentum_{}", "xyz"[a]), "kg m/s", "total linear momentum component");
+    if (D == 3) {
+      for (int a = 0; a < 3; ++a)
+        out(fmt::format("angular_momentum_{}", "xyz"[a]), "kg m^2/s", "total angular momentum about the origin (orbital + spin)");
+    } else {
+      out("angular_momentum_z", "kg m^2/s", "total angular momentum about the origin (orbital + spin)");
+    }
+    out("neighbour_builds", "", "neighbour-list builds so far");
+    out("neighbour_pairs", "", "pairs in the neighbour list");
+    std::vector<std::pair<std::string, double>> module_obs;
+    for (const auto& m : modules_) m->observe(sys_, module_obs);
+    for (const auto& [name, value] : module_obs) out(name, "", "see the README's observable table");
+  }
+
+  void refresh_observables() const {
+    if (cache_step_ == sys_.step && cache_time_ == sys_.time) return;
+    const auto& P = sys_.particles;
+    auto& o = observable_values_;
+    double kt = 0, kr = 0;
+    Vec<D> p = Vec<D>::Zero();
+    Eigen::Vector3d L = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      kt += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
+      kr += 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
+      p += P.mass[i] * P.velocity[i];
+      if constexpr (D == 3) {
+        L += P.mass[i] * P.position[i].cross(P.velocity[i]) + P.inertia[i] * P.angular_velocity[i];
+      } else {
+        L[2] += P.mass[i] * (P.position[i][0] * P.velocity[i][1] - P.position[i][1] * P.velocity[i][0]) +
+                P.inertia[i] * P.angular_velocity[i][0];
+      }
+    }
+    o["time"] = sys_.time;
+    o["step"] = double(sys_.step);
+    o["kinetic_energy"] = kt + kr;
+    o["translational_energy"] = kt;
+    o["rotational_energy"] = kr;
+    for (int a = 0; a < D; ++a) o[fmt::format("momentum_{}", "xyz"[a])] = p[a];
+    for (int a = (D == 3 ? 0 : 2); a < 3; ++a) o[fmt::format("angular_momentum_{}", "xyz"[a])] = L[a];
+    o["neighbour_builds"] = double(sys_.neighbours.builds());
+    o["neighbour_pairs"] = double(sys_.neighbours.pair_count());
+    std::vector<std::pair<std::string, double>> module_obs;
+    for (const auto& m : modules_) m->observe(sys_, module_obs);
+    for (const auto& [name, value] : module_obs) o[name] = value;
+    cache_step_ = sys_.step;
+    cache_time_ = sys_.time;
+  }
+
+  System<D> sys_;
+  std::vector<std::unique_ptr<ForceModule<D>>> modules_;
+  bool uses_list_ = false;
+  double dt_ = 0, kn_ = 0, cn_ = 0;
+  std::vector<VariableInfo> vars_;
+  std::vector<double> parameter_values_;
+  std::vector<std::string> warnings_;
+  mutable std::map<std::string, double> observable_values_;
+  mutable long cache_step_ = -1;
+  mutable double cache_time_ = -1;
+};
+
+}  // namespace
+
+std::unique_ptr<Simulation> Simulation::create(const Scene& scene) {
+  scene.validate();
+  if (scene.integer("scene.dimension") == 2) return std::make_unique<SimulationImpl<2>>(scene);
+  return std::make_unique<SimulationImpl<3>>(scene);
+}
+
+}  // namespace grains

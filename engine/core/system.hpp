@@ -1,0 +1,22 @@
+// Everything a force module may read or write during one step.
+#pragma once
+#include "core/box.hpp"
+#include "core/particles.hpp"
+#include "neighbours/neighbour_list.hpp"
+
+namespace grains {
+
+template <int D>
+struct System {
+  Particles<D> particles;
+  Box<D> box;
+  NeighbourList<D> neighbours;
+  double time = 0, dt = 0;   // dt: length of the step being taken (0 for the initial force evaluation)
+  long step = 0;
+  int threads = 1;
+  // Per-thread force/torque buffers, reused across steps (pair loops add into their thread's slot).
+  std::vector<std::vector<Vec<D>>> thread_force;
+  std::vector<std::vector<Spin<D>>> thread_torque;
+};
+
+}  // namespace grains

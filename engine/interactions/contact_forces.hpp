@@ -1,0 +1,186 @@
+// The pair loop, written once: every neighbour pair is evaluated with a normal law and an optional
+// tangential (friction) law; the compiler specialises the combination a scene uses, so a
+// frictionless scene runs code with no friction in it.
+#pragma once
+#include <atomic>
+#include <cmath>
+#include <string>
+
+#include <fmt/format.h>
+#include <omp.h>
+
+#include "interactions/force_module.hpp"
+#include "interactions/linear_contact_law.hpp"
+
+namespace grains {
+
+struct NoFriction {
+  static constexpr bool enabled = false;
+};
+
+// Incremental tangential spring with Coulomb bound (physics.md section 4).
+struct CoulombFriction {
+  static constexpr bool enabled = true;
+  double mu = 0.5;
+  double stiffness_ratio = 1.0;   // k_t / k_n
+  double damping_ratio = 0.0;     // c_t / c_n
+  bool elastic_bound = false;     // bound on k_n delta (true) or on the full normal force (false)
+};
+
+template <int D, class Law, class Friction>
+class ContactForces final : public ForceModule<D> {
+ public:
+  ContactForces(Law law, Friction friction) : law_(law), friction_(friction) {}
+  std::string name() const override { return Friction::enabled ? "contact+friction" : "contact"; }
+  double pair_range() const override { return 0.0; }
+  const Law& law() const { return law_; }
+
+  void after_rebuild(const NeighbourList<D>& list) override {
+    if constexpr (Friction::enabled) list.carry(tangential_, Vec<D>(Vec<D>::Zero()));
+  }
+
+  void add_forces(System<D>& s) override {
+    auto& P = s.particles;
+    const auto& nl = s.neighbours;
+    if constexpr (Friction::enabled) tangential_.resize(nl.pair_count(), Vec<D>::Zero());
+    const std::size_t N = P.size();
+    long clamped_now = 0;
+    const int T = s.threads;
+    if (T == 1) {
+      clamped_now = loop(s, 0, N, P.force.data(), P.torque.data());
+    } else {
+#pragma omp parallel num_threads(T) reduction(+ : clamped_now)
+      {
+        const int t = omp_get_thread_num();
+        auto& f = s.thread_force[t];
+        auto& q = s.thread_torque[t];
+        std::fill(f.begin(), f.end(), Vec<D>::Zero());
+        if constexpr (Friction::enabled) std::fill(q.begin(), q.end(), Spin<D>::Zero());
+        // Rows have uneven lengths; interleaved chunks balance them while staying deterministic.
+#pragma omp for schedule(static, 256)
+        for (std::size_t i = 0; i < N; ++i) clamped_now += loop(s, i, i + 1, f.data(), q.data());
+#pragma omp for schedule(static)
+        for (std::size_t i = 0; i < N; ++i) {
+          for (int u = 0; u < T; ++u) P.force[i] += s.thread_force[u][i];
+          if constexpr (Friction::enabled)
+            for (int u = 0; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
+        }
+      }
+    }
+    clamped_now_ = clamped_now;
+    clamped_total_ += clamped_now;
+  }
+
+  void observe(const System<D>& s, std::vector<std::pair<std::string, double>>& out) const override {
+    const auto& P = s.particles;
+    const auto& nl = s.neighbours;
+    double elastic = 0, max_ratio = 0;
+    long contacts = 0;
+    for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
+      for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+        const auto j = nl.partner[k];
+        const double d = (P.position[j] + nl.shift[nl.image[k]] - P.position[i]).norm();
+        const double overlap = P.radius[i] + P.radius[j] - d;
+        if (overlap <= 0) continue;
+        ++contacts;
+        const double rmin = std::min(P.radius[i], P.radius[j]);
+        const double used = std::min(overlap, law_.overlap_limit * rmin);
+        elastic += 0.5 * law_.stiffness(P.mass[i], P.mass[j]) * used * used;
+        max_ratio = std::max(max_ratio, overlap / rmin);
+      }
+    out.emplace_back("contacts", double(contacts));
+    out.emplace_back("elastic_energy", elastic);
+    out.emplace_back("max_overlap_ratio", max_ratio);
+    out.emplace_back("clamped_contacts", double(clamped_now_));
+    out.emplace_back("clamped_contacts_total", double(clamped_total_));
+  }
+
+  void save(ByteWriter& w) const override {
+    w.put(clamped_now_), w.put(clamped_total_);
+    w.put_vector(tangential_);
+  }
+  void load(ByteReader& r) override {
+    clamped_now_ = r.get<long>(), clamped_total_ = r.get<long>();
+    r.get_vector(tangential_);
+  }
+
+ private:
+  long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque) {
+    auto& P = s.particles;
+    const auto& nl = s.neighbours;
+    const double dt = s.dt;
+    long clamped = 0;
+    for (std::size_t i = row_begin; i < row_end; ++i) {
+      const Vec<D> xi = P.position[i];
+      const double Ri = P.radius[i], mi = P.mass[i];
+      Vec<D> fi = Vec<D>::Zero();
+      for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+        const auto j = nl.partner[k];
+        const Vec<D> r = P.position[j] + nl.shift[nl.image[k]] - xi;
+        const double Rsum = Ri + P.radius[j];
+        const double d2 = r.squaredNorm();
+        if (d2 >= Rsum * Rsum) {
+          if constexpr (Friction::enabled) tangential_[k].setZero();   // contact open: history deleted
+          continue;
+        }
+        const double d = std::sqrt(d2);
+        const Vec<D> n = r / d;
+        const double mj = P.mass[j], Rj = P.radius[j];
+        const double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
+        // The step moved the positions by dt * v(t + dt/2) exactly: the pair's overlap before the step.
+        const double before = Rsum - (r - dt * (P.velocity[j] - P.velocity[i])).norm();
+        double elastic;
+        bool was_clamped;
+        const double fn = law_.force(Rsum - d, before, vn, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
+        clamped += was_clamped;
+        Vec<D> f = fn * n;   // on j
+        if constexpr (Friction::enabled) {
+          f += tangential_force(P, i, j, k, n, Ri, Rj, mi, mj, fn, elastic, dt, torque);
+        }
+        force[j] += f;
+        fi -= f;
+      }
+      force[i] += fi;
+    }
+    return clamped;
+  }
+
+  // Tangential force on j; adds both torques. xi accumulates the half-step (position-consistent)
+  // tangential velocity; the dashpot uses the predicted end-of-step velocity.
+  Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
+                          double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
+                          Spin<D>* torque) {
+    auto contact_velocity = [&](const std::vector<Vec<D>>& v, const std::vector<Spin<D>>& w) {
+      Vec<D> vc = (v[j] - cross<D>(w[j], Rj * n)) - (v[i] + cross<D>(w[i], Ri * n));
+      return Vec<D>(vc - vc.dot(n) * n);
+    };
+    Vec<D>& xi = tangential_[k];
+    const double before = xi.norm();
+    xi -= xi.dot(n) * n;   // rotate the spring into the current tangent plane, keeping its length
+    const double after = xi.norm();
+    if (after > 0) xi *= before / after;
+    xi += contact_velocity(P.velocity, P.angular_velocity) * dt;
+    const double kn = law_.stiffness(mi, mj);
+    const double mstar = mi * mj / (mi + mj);
+    const double cn = law_.c * (std::is_same_v<Law, LinearContactLaw<true>> ? mstar : 1.0);
+    const double kt = friction_.stiffness_ratio * kn, ct = friction_.damping_ratio * cn;
+    Vec<D> ft = -kt * xi - ct * contact_velocity(P.velocity_predicted, P.angular_velocity_predicted);
+    const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);
+    const double mag = ft.norm();
+    if (mag > bound) {   // sliding: cap the force, and the spring so that |k_t xi| = mu F_n
+      const Vec<D> dir = mag > 0 ? Vec<D>(ft / mag) : Vec<D>::Zero();
+      ft = bound * dir;
+      xi = -(bound / kt) * dir;
+    }
+    torque[j] += grains::torque<D>(-Rj * n, ft);
+    torque[i] += grains::torque<D>(Ri * n, -ft);
+    return ft;
+  }
+
+  Law law_;
+  Friction friction_;
+  std::vector<Vec<D>> tangential_;   // xi per neighbour pair, aligned with the list
+  long clamped_now_ = 0, clamped_total_ = 0;
+};
+
+}  // namespace grains

@@ -1,0 +1,29 @@
+// A force term the scene switches on. Modules the scene leaves off are never constructed.
+#pragma once
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/byte_stream.hpp"
+#include "core/system.hpp"
+
+namespace grains {
+
+template <int D>
+class ForceModule {
+ public:
+  virtual ~ForceModule() = default;
+  virtual std::string name() const = 0;
+  // Surface gap up to which this module needs neighbour pairs (negative: it does not use the list).
+  virtual double pair_range() const { return -1; }
+  // Add this module's forces and torques into particles.force / particles.torque.
+  virtual void add_forces(System<D>& s) = 0;
+  // The neighbour list was rebuilt: re-index per-pair history.
+  virtual void after_rebuild(const NeighbourList<D>&) {}
+  // Scalar observables of this module (name, value), read-only.
+  virtual void observe(const System<D>&, std::vector<std::pair<std::string, double>>&) const {}
+  virtual void save(ByteWriter&) const {}
+  virtual void load(ByteReader&) {}
+};
+
+}  // namespace grains

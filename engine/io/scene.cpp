@@ -1,0 +1,280 @@
+#include "io/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+namespace grains {
+
+std::string describe_allowed(const SchemaEntry& e);   // scene_schema.cpp
+
+namespace {
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string suggestion(std::string_view path) {
+  std::string_view best;
+  std::size_t best_d = 4;
+  for (const auto& e : scene_schema()) {
+    auto d = edit_distance(path, e.path);
+    if (d < best_d) best_d = d, best = e.path;
+  }
+  return best.empty() ? "" : fmt::format(" (did you mean '{}'?)", best);
+}
+
+bool is_section(std::string_view prefix) {
+  for (const auto& e : scene_schema())
+    if (e.path.size() > prefix.size() && e.path.substr(0, prefix.size()) == prefix && e.path[prefix.size()] == '.') return true;
+  return false;
+}
+
+std::string render(const toml::node& n) {
+  std::ostringstream s;
+  n.visit([&](auto&& v) {
+    if constexpr (toml::is_string<decltype(v)>) s << '"' << v.get() << '"';
+    else if constexpr (toml::is_table<decltype(v)>) s << "{table}";
+    else s << v;
+  });
+  return s.str();
+}
+
+void collect_unknown(const toml::table& t, const std::string& prefix, std::vector<std::string>& problems) {
+  for (auto&& [k, v] : t) {
+    std::string path = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    if (v.is_table()) {
+      if (is_section(path)) collect_unknown(*v.as_table(), path, problems);
+      else problems.push_back(fmt::format("unknown section [{}]{}", path, suggestion(path)));
+    } else if (!find_schema_entry(path)) {
+      problems.push_back(fmt::format("unknown key '{}'{}", path, suggestion(path)));
+    }
+  }
+}
+
+bool in_range(const SchemaEntry& e, double x) {
+  if (!std::isfinite(x)) return false;
+  if (e.min_open ? x <= e.min : x < e.min) return false;
+  if (e.max_open ? x >= e.max : x > e.max) return false;
+  return true;
+}
+
+}  // namespace
+
+Scene Scene::from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides) {
+  Scene s;
+  s.origin_ = std::move(origin);
+  try {
+    s.table_ = toml::parse(text, s.origin_);
+  } catch (const toml::parse_error& err) {
+    throw SceneError(fmt::format("{}:{}:{}: TOML syntax error: {}", s.origin_, err.source().begin.line,
+                                 err.source().begin.column, err.description()));
+  }
+  for (const auto& o : overrides) {
+    auto eq = o.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw SceneError(fmt::format("--set '{}': expected key.path=value, e.g. contact.restitution=0.5", o));
+    s.set_value(std::string_view(o).substr(0, eq), std::string_view(o).substr(eq + 1));
+  }
+  return s;
+}
+
+Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+  std::ifstream in(file);
+  if (!in) throw SceneError(fmt::format("cannot read scene file '{}': no such file or not readable", file.string()));
+  std::stringstream buf;
+  buf << in.rdbuf();
+  Scene s = from_string(buf.str(), file.string(), overrides);
+  s.directory_ = std::filesystem::absolute(file).parent_path();
+  return s;
+}
+
+void Scene::set_value(std::string_view path, std::string_view toml_value) {
+  if (!find_schema_entry(path))
+    throw SceneError(fmt::format("--set: unknown key '{}'{}", path, suggestion(path)));
+  toml::table parsed;
+  try {
+    parsed = toml::parse(fmt::format("v = {}", toml_value));
+  } catch (const toml::parse_error&) {   // a bare word is taken as a string: --set output.file=run.h5
+    toml::table t;
+    t.insert("v", std::string(toml_value));
+    parsed = std::move(t);
+  }
+  toml::table* tbl = &table_;
+  std::string_view rest = path;
+  for (auto dot = rest.find('.'); dot != std::string_view::npos; dot = rest.find('.')) {
+    auto key = rest.substr(0, dot);
+    if (!tbl->contains(key)) tbl->insert(key, toml::table{});
+    tbl = (*tbl)[key].as_table();
+    if (!tbl) throw SceneError(fmt::format("--set '{}': '{}' is not a section", path, key));
+    rest = rest.substr(dot + 1);
+  }
+  parsed.get("v")->visit([&](auto&& v) { tbl->insert_or_assign(rest, v); });
+}
+
+const SchemaEntry& Scene::entry(std::string_view path) const {
+  const SchemaEntry* e = find_schema_entry(path);
+  if (!e) throw std::logic_error(fmt::format("scene key '{}' is used by the engine but missing from the schema", path));
+  return *e;
+}
+
+toml::node_view<const toml::node> Scene::node(std::string_view path) const { return table_.at_path(path); }
+
+bool Scene::has(std::string_view path) const { return static_cast<bool>(node(path)); }
+
+void Scene::fail(std::string_view path, const std::string& what) const {
+  throw SceneError(fmt::format("{}: {}: {}", origin_, path, what));
+}
+
+namespace {
+template <class F>
+auto with_default(const Scene& s, toml::node_view<const toml::node> n, const SchemaEntry& e, F&& read) {
+  if (n) return read(*n.node());
+  if (e.fallback.empty()) s.fail(e.path, fmt::format("required here but missing ({})", e.doc));
+  auto t = toml::parse(fmt::format("v = {}", e.fallback));
+  return read(*t.get("v"));
+}
+}  // namespace
+
+double Scene::real(std::string_view path) const {
+  const auto& e = entry(path);
+  return with_default(*this, node(path), e, [&](const toml::node& n) {
+    auto x = n.value<double>();
+    if (!x || n.is_boolean()) fail(path, fmt::format("expected a number, got {}", render(n)));
+    if (!in_range(e, *x)) fail(path, fmt::format("value {} is out of range: allowed {}", *x, describe_allowed(e)));
+    return *x;
+  });
+}
+
+long Scene::integer(std::string_view path) const {
+  const auto& e = entry(path);
+  return with_default(*this, node(path), e, [&](const toml::node& n) {
+    auto x = n.value<int64_t>();
+    if (!n.is_integer() || !x) fail(path, fmt::format("expected an integer, got {}", render(n)));
+    if (!in_range(e, double(*x))) fail(path, fmt::format("value {} is out of range: allowed {}", *x, describe_allowed(e)));
+    return long(*x);
+  });
+}
+
+bool Scene::boolean(std::string_view path) const {
+  const auto& e = entry(path);
+  return with_default(*this, node(path), e, [&](const toml::node& n) {
+    if (!n.is_boolean()) fail(path, fmt::format("expected true or false, got {}", render(n)));
+    return *n.value<bool>();
+  });
+}
+
+std::string Scene::text(std::string_view path) const {
+  const auto& e = entry(path);
+  return with_default(*this, node(path), e, [&](const toml::node& n) {
+    if (!n.is_string()) fail(path, fmt::format("expected a string, got {}", render(n)));
+    std::string v = *n.value<std::string>();
+    if (!e.choices.empty()) {
+      std::string_view c = e.choices;
+      bool ok = false;
+      for (std::size_t start = 0; start <= c.size();) {
+        auto bar = c.find('|', start);
+        if (bar == std::string_view::npos) bar = c.size();
+        if (c.substr(start, bar - start) == v) ok = true;
+        start = bar + 1;
+      }
+      if (!ok) fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
+    }
+    return v;
+  });
+}
+
+std::vector<double> Scene::reals(std::string_view path) const {
+  const auto& e = entry(path);
+  return with_default(*this, node(path), e, [&](const toml::node& n) {
+    const auto* a = n.as_array();
+    if (!a) fail(path, fmt::format("expected an array of numbers, got {}", render(n)));
+    std::vector<double> out;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      auto x = (*a)[i].value<double>();
+      if (!x || (*a)[i].is_boolean()) fail(path, fmt::format("element {} is {}, expected a number", i, render((*a)[i])));
+      if (!in_range(e, *x)) fail(path, fmt::format("element {} = {} is out of range: allowed {}", i, *x, describe_allowed(e)));
+      out.push_back(*x);
+    }
+    return out;
+  });
+}
+
+std::vector<std::vector<double>> Scene::matrix(std::string_view path) const {
+  const auto& e = entry(path);
+  return with_default(*this, node(path), e, [&](const toml::node& n) {
+    const auto* a = n.as_array();
+    if (!a) fail(path, fmt::format("expected an array of arrays of numbers, got {}", render(n)));
+    std::vector<std::vector<double>> out;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const auto* row = (*a)[i].as_array();
+      if (!row) fail(path, fmt::format("element {} is {}, expected an array of numbers", i, render((*a)[i])));
+      std::vector<double> r;
+      for (std::size_t j = 0; j < row->size(); ++j) {
+        auto x = (*row)[j].value<double>();
+        if (!x || !std::isfinite(*x)) fail(path, fmt::format("element [{}][{}] is {}, expected a finite number", i, j, render((*row)[j])));
+        r.push_back(*x);
+      }
+      out.push_back(std::move(r));
+    }
+    return out;
+  });
+}
+
+void Scene::validate() const {
+  std::vector<std::string> problems;
+  collect_unknown(table_, "", problems);
+  for (const auto& e : scene_schema()) {
+    if (!has(e.path)) continue;
+    try {
+      switch (e.kind) {
+        case ValueKind::real: real(e.path); break;
+        case ValueKind::integer: integer(e.path); break;
+        case ValueKind::boolean: boolean(e.path); break;
+        case ValueKind::text: text(e.path); break;
+        case ValueKind::real_array: reals(e.path); break;
+        case ValueKind::real_matrix: matrix(e.path); break;
+      }
+    } catch (const SceneError& err) {
+      problems.push_back(err.what());
+    }
+  }
+  if (problems.empty()) return;
+  std::string msg = fmt::format("{}: {} problem{} in the scene:", origin_, problems.size(), problems.size() > 1 ? "s" : "");
+  for (const auto& p : problems) msg += "\n  - " + p;
+  throw SceneError(msg);
+}
+
+std::string Scene::resolved_toml() const {
+  toml::table out;
+  for (const auto& e : scene_schema()) {
+    toml::node_view<const toml::node> n = node(e.path);
+    toml::table parsed;
+    if (!n) {
+      if (e.fallback.empty()) continue;
+      parsed = toml::parse(fmt::format("v = {}", e.fallback));
+      n = toml::node_view<const toml::node>(parsed.get("v"));
+    }
+    auto dot = e.path.find('.');
+    auto section = e.path.substr(0, dot);
+    if (!out.contains(section)) out.insert(section, toml::table{});
+    auto* t = out[section].as_table();
+    n.node()->visit([&](auto&& v) { t->insert_or_assign(e.path.substr(dot + 1), v); });
+  }
+  std::ostringstream s;
+  s << out;
+  return s.str();
+}
+
+}  // namespace grains

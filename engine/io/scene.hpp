@@ -1,0 +1,71 @@
+// A scene: the TOML file that describes one run, checked against the schema in scene_schema.cpp.
+// Every accessor validates type and range and names the key, the value and what is allowed.
+#pragma once
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <toml++/toml.h>
+
+namespace grains {
+
+struct SceneError : std::runtime_error { using std::runtime_error::runtime_error; };
+
+enum class ValueKind { real, integer, boolean, text, real_array, real_matrix };
+
+// One documented key of the scene format. `fallback` is the default in TOML syntax ("" = no default:
+// the key is optional and its absence has a documented meaning, or it is required where used).
+struct SchemaEntry {
+  std::string_view path;
+  ValueKind kind;
+  std::string_view fallback;
+  double min = -1e308, max = 1e308;
+  bool min_open = false, max_open = false;
+  std::string_view choices;       // for text: "a|b|c"
+  std::string_view doc;
+};
+
+const std::vector<SchemaEntry>& scene_schema();
+const SchemaEntry* find_schema_entry(std::string_view path);
+std::string schema_reference_markdown();   // the scene reference page, generated from the schema
+
+class Scene {
+ public:
+  // Parse a file (or text) and apply "key.path=value" overrides. Throws SceneError.
+  static Scene from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+  static Scene from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides = {});
+
+  // Check every present key: known, right type, in range. Throws SceneError listing all problems.
+  void validate() const;
+
+  bool has(std::string_view path) const;
+  double real(std::string_view path) const;
+  long integer(std::string_view path) const;
+  bool boolean(std::string_view path) const;
+  std::string text(std::string_view path) const;
+  std::vector<double> reals(std::string_view path) const;
+  std::vector<std::vector<double>> matrix(std::string_view path) const;
+  std::optional<double> maybe_real(std::string_view path) const { return has(path) ? std::optional(real(path)) : std::nullopt; }
+
+  // Set or replace a value (used by --set and by hosts); the key must be in the schema.
+  void set_value(std::string_view path, std::string_view toml_value);
+
+  // Every schema key with its effective value (defaults filled in), as TOML text.
+  std::string resolved_toml() const;
+  const std::string& origin() const { return origin_; }
+  std::filesystem::path directory() const { return directory_; }   // for relative file paths
+
+  [[noreturn]] void fail(std::string_view path, const std::string& what) const;
+
+ private:
+  toml::node_view<const toml::node> node(std::string_view path) const;
+  const SchemaEntry& entry(std::string_view path) const;
+  toml::table table_;
+  std::string origin_;
+  std::filesystem::path directory_;
+};
+
+}  // namespace grains

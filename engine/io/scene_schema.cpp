@@ -1,0 +1,149 @@
+// The scene format: every key, its type, default, allowed range and meaning, in one table.
+// docs/scene-reference.md is generated from this table (`grains scene-reference`).
+#include <fmt/format.h>
+
+#include "io/scene.hpp"
+
+namespace grains {
+namespace {
+constexpr double inf = 1e308;
+using K = ValueKind;
+}  // namespace
+
+const std::vector<SchemaEntry>& scene_schema() {
+  static const std::vector<SchemaEntry> schema = {
+      // --- scene ---
+      {"scene.name", K::text, "\"unnamed\"", 0, 0, false, false, "", "Short name, used for the default output file name."},
+      {"scene.description", K::text, "\"\"", 0, 0, false, false, "", "Free text stored with the output."},
+      {"scene.dimension", K::integer, "3", 2, 3, false, false, "", "2 = disks in the plane, 3 = spheres."},
+
+      // --- particles ---
+      {"particles.layout", K::text, "\"lattice\"", 0, 0, false, false, "lattice|random|list|file",
+       "Initial positions: `lattice` (simple cubic/square, centred cells), `random` (non-overlapping random "
+       "insertion), `list` (explicit `positions`), `file` (whitespace table, see `particles.file`)."},
+      {"particles.count", K::integer, "", 1, 1e9, false, false, "",
+       "Number of particles (lattice/random). For `lattice` it must be n^D."},
+      {"particles.seed", K::integer, "1", 0, 9.2e18, false, false, "", "Seed of every random choice in the set-up."},
+      {"particles.diameter", K::real, "1.0", 0, inf, true, false, "", "Diameter of every particle (size distribution `constant`)."},
+      {"particles.size_distribution", K::text, "\"constant\"", 0, 0, false, false, "constant|uniform",
+       "`uniform`: diameters uniform in [diameter_min, diameter_max]."},
+      {"particles.diameter_min", K::real, "0.5", 0, inf, true, false, "", "Smallest diameter (size distribution `uniform`)."},
+      {"particles.diameter_max", K::real, "1.0", 0, inf, true, false, "", "Largest diameter (size distribution `uniform`)."},
+      {"particles.density", K::real, "1.0", 0, inf, true, false, "",
+       "Mass per volume (3D) or per area (2D); m = density * volume unless `mass` is given."},
+      {"particles.mass", K::real, "", 0, inf, true, false, "", "If set, the mass of every particle, whatever its size."},
+      {"particles.solid_fraction", K::real, "", 0, 1, true, true, "",
+       "Sets the box size for `lattice` and `random` layouts when `box.lengths` is absent."},
+      {"particles.velocity", K::text, "\"zero\"", 0, 0, false, false, "zero|gaussian|list",
+       "Initial velocities: zero, Gaussian (zero total momentum, scaled to `kinetic_energy`), or explicit `velocities`."},
+      {"particles.kinetic_energy", K::real, "1.5", 0, inf, false, false, "",
+       "Translational kinetic energy per particle for `velocity = \"gaussian\"`."},
+      {"particles.positions", K::real_matrix, "", 0, 0, false, false, "", "Layout `list`: one [x, y(, z)] per particle."},
+      {"particles.velocities", K::real_matrix, "", 0, 0, false, false, "", "Velocity `list`: one vector per particle."},
+      {"particles.angular_velocities", K::real_matrix, "", 0, 0, false, false, "",
+       "Optional, layout `list`: one [wx, wy, wz] (3D) or [w] (2D) per particle."},
+      {"particles.diameters", K::real_array, "", 0, inf, true, false, "", "Layout `list`: one diameter per particle (else `diameter`)."},
+      {"particles.masses", K::real_array, "", 0, inf, true, false, "", "Layout `list`: one mass per particle (else from density)."},
+      {"particles.file", K::text, "", 0, 0, false, false, "",
+       "Layout `file`: path (relative to the scene) of a table with columns x y [z] diameter mass [vx vy [vz]]; `#` starts a comment."},
+
+      // --- box ---
+      {"box.lengths", K::real_array, "", 0, inf, true, false, "",
+       "Box edge lengths, one per axis; default: from `particles.solid_fraction` (cube/square), or open."},
+      {"box.lower", K::real_array, "", -inf, inf, false, false, "", "Lower corner; default the origin."},
+      {"box.periodic", K::boolean, "true", 0, 0, false, false, "",
+       "Periodic on every axis. `false` = open space (no walls; the box only sets the initial layout)."},
+
+      // --- normal contact ---
+      {"contact.enabled", K::boolean, "true", 0, 0, false, false, "", "Linear spring-dashpot normal contact (physics.md section 2)."},
+      {"contact.restitution", K::real, "0.9", 0, 1, true, false, "", "Normal restitution coefficient e in (0, 1]."},
+      {"contact.duration", K::real, "", 0, inf, true, false, "",
+       "Contact duration t_c of the reference collision (required when contacts are on)."},
+      {"contact.calibration", K::text, "\"global\"", 0, 0, false, false, "global|per-pair|exact",
+       "`global`: one (k_n, c_n) from the smallest reduced mass; `per-pair`: k and c from each pair's reduced mass "
+       "(constant e and t_c); `exact`: global, with the damping solved so the clamped collision realises e exactly."},
+      {"contact.overlap_limit", K::real, "0.1", 0, 1, true, false, "",
+       "f_max: overlaps beyond f_max * min(R_i, R_j) are clamped, counted and reported."},
+
+      // --- friction ---
+      {"friction.coefficient", K::real, "0.0", 0, inf, false, false, "",
+       "Coulomb coefficient mu; 0 leaves the friction module out entirely."},
+      {"friction.stiffness_ratio", K::real, "1.0", 0, inf, true, false, "", "k_t / k_n."},
+      {"friction.damping_ratio", K::real, "0.0", 0, inf, false, false, "", "c_t / c_n."},
+
+      // --- time stepping ---
+      {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},
+      {"time.steps_per_contact", K::real, "50", 1, inf, false, false, "", "n_c: steps per contact duration when dt is not given."},
+      {"time.duration", K::real, "", 0, inf, true, false, "", "Simulated time of a run (or give `steps`)."},
+      {"time.steps", K::integer, "", 0, 9.2e18, false, false, "", "Number of steps of a run (or give `duration`)."},
+
+      // --- neighbour search ---
+      {"neighbours.skin", K::real, "", 0, inf, true, false, "",
+       "Verlet skin (length); default 0.2 * smallest diameter. Lists are rebuilt when a particle has moved skin/2."},
+
+      // --- execution ---
+      {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = every core."},
+
+      // --- output ---
+      {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path; default `<scene.name>.h5`."},
+      {"output.observables_every", K::integer, "100", 1, 9.2e18, false, false, "", "Steps between scalar observable records."},
+      {"output.snapshots_every", K::integer, "0", 0, 9.2e18, false, false, "",
+       "Steps between particle snapshots; 0 = first and last only."},
+      {"output.xdmf", K::boolean, "true", 0, 0, false, false, "", "Write an XDMF file beside the HDF5 file (ParaView)."},
+  };
+  return schema;
+}
+
+const SchemaEntry* find_schema_entry(std::string_view path) {
+  for (const auto& e : scene_schema())
+    if (e.path == path) return &e;
+  return nullptr;
+}
+
+namespace {
+const char* kind_name(ValueKind k) {
+  switch (k) {
+    case K::real: return "number";
+    case K::integer: return "integer";
+    case K::boolean: return "boolean";
+    case K::text: return "string";
+    case K::real_array: return "array of numbers";
+    default: return "array of number arrays";
+  }
+}
+std::string range_text(const SchemaEntry& e) {
+  if (!e.choices.empty()) return fmt::format("one of {}", e.choices);
+  if (e.kind == K::boolean || e.kind == K::text || e.kind == K::real_matrix) return "";
+  bool lo = e.min > -1e307, hi = e.max < 1e307;
+  if (!lo && !hi) return "";
+  return fmt::format("{}{}, {}{}", e.min_open ? "(" : "[", lo ? fmt::format("{}", e.min) : "-inf",
+                     hi ? fmt::format("{}", e.max) : "inf", e.max_open ? ")" : "]");
+}
+}  // namespace
+
+std::string describe_allowed(const SchemaEntry& e) {
+  std::string r = range_text(e);
+  return r.empty() ? kind_name(e.kind) : fmt::format("{} in {}", kind_name(e.kind), r);
+}
+
+std::string schema_reference_markdown() {
+  std::string out =
+      "# Scene reference\n\n"
+      "Generated by `grains scene-reference` from `engine/io/scene_schema.cpp`; do not edit by hand.\n"
+      "A scene is a TOML file; every key below is optional unless its text says otherwise, and an unknown key is an error.\n"
+      "Any key can be overridden from the command line with `--set section.key=value`.\n";
+  std::string section;
+  for (const auto& e : scene_schema()) {
+    auto dot = e.path.find('.');
+    std::string s(e.path.substr(0, dot));
+    if (s != section) {
+      section = s;
+      out += fmt::format("\n## [{}]\n\n| key | type / allowed | default | meaning |\n|---|---|---|---|\n", section);
+    }
+    std::string dflt = e.fallback.empty() ? "—" : fmt::format("`{}`", e.fallback);
+    out += fmt::format("| `{}` | {} | {} | {} |\n", e.path.substr(dot + 1), describe_allowed(e), dflt, e.doc);
+  }
+  return out;
+}
+
+}  // namespace grains

@@ -1,0 +1,232 @@
+#include "protocols/initial_state.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <unordered_map>
+
+#include <fmt/format.h>
+
+namespace grains {
+namespace {
+
+template <int D> double ball_volume(double r) {
+  return D == 3 ? 4.0 / 3.0 * std::numbers::pi * r * r * r : std::numbers::pi * r * r;
+}
+
+template <int D>
+Vec<D> to_vec(const Scene& s, std::string_view key, const std::vector<double>& v, std::size_t row) {
+  if (v.size() != std::size_t(D))
+    s.fail(key, fmt::format("row {} has {} components; a {}D scene needs {}", row, v.size(), D, D));
+  Vec<D> out;
+  for (int a = 0; a < D; ++a) out[a] = v[a];
+  return out;
+}
+
+// Non-overlapping random insertion with a hash grid of cell size = largest diameter.
+template <int D>
+void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt19937_64& rng) {
+  const double dmax = 2 * *std::max_element(P.radius.begin(), P.radius.end());
+  std::unordered_multimap<long long, std::size_t> grid;
+  auto key = [&](const Vec<D>& x) {
+    long long k = 0;
+    for (int a = 0; a < D; ++a) k = k * 1000003 + (long long)std::floor(x[a] / dmax);
+    return k;
+  };
+  std::uniform_real_distribution<double> u(0, 1);
+  const long attempts_per_particle = 20000;
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    bool placed = false;
+    for (long t = 0; t < attempts_per_particle && !placed; ++t) {
+      Vec<D> x;
+      for (int a = 0; a < D; ++a) x[a] = box.lower[a] + u(rng) * box.length[a];
+      bool ok = true;
+      std::array<int, D> o{};
+      for (int a = 0; a < D; ++a) o[a] = -1;
+      for (bool more = true; more && ok;) {
+        Vec<D> probe = x;
+        for (int a = 0; a < D; ++a) probe[a] += o[a] * dmax;
+        auto range = grid.equal_range(key(box.wrap(probe)));
+        for (auto it = range.first; it != range.second && ok; ++it) {
+          auto j = it->second;
+          ok = box.minimum_image(P.position[j] - x).norm() >= P.radius[i] + P.radius[j];
+        }
+        int a = 0;
+        while (a < D && ++o[a] == 2) o[a++] = -1;
+        more = a < D;
+      }
+      if (ok) {
+        P.position[i] = x;
+        grid.emplace(key(box.wrap(x)), i);
+        placed = true;
+      }
+    }
+    if (!placed)
+      s.fail("particles.solid_fraction",
+             fmt::format("random insertion could not place particle {} of {} after {} attempts; lower the solid fraction "
+                         "or use layout = \"lattice\"", i, P.size(), attempts_per_particle));
+  }
+}
+
+}  // namespace
+
+template <int D>
+InitialState<D> make_initial_state(const Scene& s) {
+  InitialState<D> st;
+  auto& P = st.particles;
+  auto& box = st.box;
+  const std::string layout = s.text("particles.layout");
+  std::mt19937_64 rng(std::uint64_t(s.integer("particles.seed")));
+
+  // --- count and explicit rows ---
+  std::vector<std::vector<double>> rows;   // layout = file
+  std::size_t N = 0;
+  if (layout == "list") {
+    N = s.matrix("particles.positions").size();
+    if (N == 0) s.fail("particles.positions", "layout \"list\" needs at least one position");
+  } else if (layout == "file") {
+    auto path = std::filesystem::path(s.text("particles.file"));
+    if (path.is_relative()) path = s.directory() / path;
+    std::ifstream in(path);
+    if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
+    std::string line;
+    for (int lineno = 1; std::getline(in, line); ++lineno) {
+      if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
+      std::istringstream ls(line);
+      std::vector<double> r;
+      for (double v; ls >> v;) r.push_back(v);
+      if (r.empty()) continue;
+      if (r.size() != std::size_t(D + 2) && r.size() != std::size_t(2 * D + 2))
+        s.fail("particles.file", fmt::format("{}:{}: {} columns; expected {} (x.. diameter mass) or {} (with velocity)",
+                                             path.string(), lineno, r.size(), D + 2, 2 * D + 2));
+      rows.push_back(r);
+    }
+    N = rows.size();
+    if (N == 0) s.fail("particles.file", fmt::format("'{}' holds no particle rows", path.string()));
+  } else {
+    N = std::size_t(s.integer("particles.count"));
+  }
+  P.resize(N);
+
+  // --- sizes and masses ---
+  const std::string dist = s.text("particles.size_distribution");
+  std::vector<double> diam(N, s.real("particles.diameter"));
+  if (layout == "file") {
+    for (std::size_t i = 0; i < N; ++i) diam[i] = rows[i][D];
+  } else if (layout == "list" && s.has("particles.diameters")) {
+    diam = s.reals("particles.diameters");
+    if (diam.size() != N) s.fail("particles.diameters", fmt::format("{} values for {} positions", diam.size(), N));
+  } else if (dist == "uniform") {
+    const double lo = s.real("particles.diameter_min"), hi = s.real("particles.diameter_max");
+    if (hi < lo) s.fail("particles.diameter_max", fmt::format("{} is below diameter_min = {}", hi, lo));
+    std::uniform_real_distribution<double> u(lo, hi);
+    for (auto& d : diam) d = u(rng);
+  }
+  std::vector<double> mass(N);
+  const double density = s.real("particles.density");
+  for (std::size_t i = 0; i < N; ++i) mass[i] = density * ball_volume<D>(0.5 * diam[i]);
+  if (layout == "file") {
+    for (std::size_t i = 0; i < N; ++i) mass[i] = rows[i][D + 1];
+  } else if (layout == "list" && s.has("particles.masses")) {
+    mass = s.reals("particles.masses");
+    if (mass.size() != N) s.fail("particles.masses", fmt::format("{} values for {} positions", mass.size(), N));
+  } else if (s.has("particles.mass")) {
+    std::fill(mass.begin(), mass.end(), s.real("particles.mass"));
+  }
+  for (std::size_t i = 0; i < N; ++i) {
+    if (!(diam[i] > 0) || !(mass[i] > 0) || !std::isfinite(diam[i]) || !std::isfinite(mass[i]))
+      s.fail(layout == "file" ? "particles.file" : "particles.diameters",
+             fmt::format("particle {}: diameter {} and mass {} must both be positive and finite", i, diam[i], mass[i]));
+    P.set_mass_and_radius(i, mass[i], 0.5 * diam[i]);
+  }
+
+  // --- box ---
+  double solids = 0;
+  for (std::size_t i = 0; i < N; ++i) solids += ball_volume<D>(P.radius[i]);
+  for (int a = 0; a < D; ++a) box.periodic[a] = s.boolean("box.periodic");
+  if (s.has("box.lengths")) {
+    auto L = s.reals("box.lengths");
+    box.length = to_vec<D>(s, "box.lengths", L, 0);
+  } else if (s.has("particles.solid_fraction")) {
+    box.length.setConstant(std::pow(solids / s.real("particles.solid_fraction"), 1.0 / D));
+  } else if (layout == "lattice" || layout == "random" || box.any_periodic()) {
+    s.fail("box.lengths", "give box.lengths or particles.solid_fraction to size the box");
+  } else {
+    box.length.setConstant(1.0);   // open system with explicit positions: nominal box only
+  }
+  if (s.has("box.lower")) box.lower = to_vec<D>(s, "box.lower", s.reals("box.lower"), 0);
+
+  // --- positions ---
+  if (layout == "lattice") {
+    const long n = std::lround(std::pow(double(N), 1.0 / D));
+    long total = 1;
+    for (int a = 0; a < D; ++a) total *= n;
+    if (total != long(N))
+      s.fail("particles.count", fmt::format("{} is not a perfect {}: a lattice layout needs n^{} particles (e.g. {})",
+                                            N, D == 3 ? "cube" : "square", D, total));
+    for (std::size_t i = 0; i < N; ++i) {
+      std::size_t r = i;
+      for (int a = 0; a < D; ++a, r /= n) P.position[i][a] = box.lower[a] + (double(r % n) + 0.5) * box.length[a] / n;
+    }
+    const double spacing = box.length.minCoeff() / n;
+    const double dmax = 2 * *std::max_element(P.radius.begin(), P.radius.end());
+    if (spacing < dmax)
+      s.fail("particles.solid_fraction", fmt::format("the lattice spacing {:.4g} is below the largest diameter {:.4g}: "
+                                                     "particles would overlap; lower the solid fraction", spacing, dmax));
+  } else if (layout == "random") {
+    place_randomly<D>(s, P, box, rng);
+  } else if (layout == "list") {
+    auto pos = s.matrix("particles.positions");
+    for (std::size_t i = 0; i < N; ++i) P.position[i] = to_vec<D>(s, "particles.positions", pos[i], i);
+  } else {
+    for (std::size_t i = 0; i < N; ++i)
+      for (int a = 0; a < D; ++a) P.position[i][a] = rows[i][a];
+  }
+
+  // --- velocities ---
+  const std::string vel = s.text("particles.velocity");
+  if (vel == "gaussian") {
+    std::normal_distribution<double> g(0, 1);
+    Vec<D> mean = Vec<D>::Zero();
+    double msum = 0;
+    for (std::size_t i = 0; i < N; ++i) {
+      for (int a = 0; a < D; ++a) P.velocity[i][a] = g(rng);
+      mean += P.mass[i] * P.velocity[i];
+      msum += P.mass[i];
+    }
+    mean /= msum;
+    double ke = 0;
+    for (std::size_t i = 0; i < N; ++i) {
+      if (N > 1) P.velocity[i] -= mean;
+      ke += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
+    }
+    const double target = s.real("particles.kinetic_energy") * double(N);
+    if (ke > 0)
+      for (auto& v : P.velocity) v *= std::sqrt(target / ke);
+  } else if (vel == "list") {
+    auto v = s.matrix("particles.velocities");
+    if (v.size() != N) s.fail("particles.velocities", fmt::format("{} velocities for {} particles", v.size(), N));
+    for (std::size_t i = 0; i < N; ++i) P.velocity[i] = to_vec<D>(s, "particles.velocities", v[i], i);
+  } else if (layout == "file" && rows[0].size() == std::size_t(2 * D + 2)) {
+    for (std::size_t i = 0; i < N; ++i)
+      for (int a = 0; a < D; ++a) P.velocity[i][a] = rows[i][D + 2 + a];
+  }
+  if (s.has("particles.angular_velocities")) {
+    auto w = s.matrix("particles.angular_velocities");
+    constexpr std::size_t comps = D == 3 ? 3 : 1;
+    if (w.size() != N) s.fail("particles.angular_velocities", fmt::format("{} rows for {} particles", w.size(), N));
+    for (std::size_t i = 0; i < N; ++i) {
+      if (w[i].size() != comps)
+        s.fail("particles.angular_velocities", fmt::format("row {} has {} components; need {}", i, w[i].size(), comps));
+      for (std::size_t a = 0; a < comps; ++a) P.angular_velocity[i][a] = w[i][a];
+    }
+  }
+  return st;
+}
+
+template InitialState<2> make_initial_state<2>(const Scene&);
+template InitialState<3> make_initial_state<3>(const Scene&);
+
+}  // namespace grains

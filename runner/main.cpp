@@ -1,0 +1,51 @@
+// grains: command-line runner. `grains --help` lists the commands.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "io/scene.hpp"
+#include "run_command.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"grains " GRAINS_VERSION " - discrete element simulations of granular matter.\n"
+               "Runs a scene file (TOML, see docs/scene-reference.md) and writes H5MD output.\n"
+               "Example: grains run models/gas.toml --set contact.restitution=0.5 --out gas.h5"};
+  app.require_subcommand(1);
+
+  grains::RunOptions run;
+  auto* cmd_run = app.add_subcommand("run", "Run a scene and write its HDF5 (H5MD) output, an XDMF file and a summary");
+  cmd_run->add_option("scene", run.scene, "Scene file (.toml)")->required()->check(CLI::ExistingFile);
+  cmd_run->add_option("--set", run.overrides, "Override a scene key: --set section.key=value (repeatable)");
+  cmd_run->add_option("--out", run.output, "Output HDF5 file (default: output.file or <scene.name>.h5)");
+  cmd_run->add_flag("--quiet", run.quiet, "No progress line");
+
+  std::string check_scene;
+  std::vector<std::string> check_overrides;
+  auto* cmd_check = app.add_subcommand("check", "Validate a scene without running it; prints the resolved scene");
+  cmd_check->add_option("scene", check_scene, "Scene file (.toml)")->required()->check(CLI::ExistingFile);
+  cmd_check->add_option("--set", check_overrides, "Override a scene key (repeatable)");
+
+  auto* cmd_ref = app.add_subcommand("scene-reference", "Print the scene reference (every key, default and range) as Markdown");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (*cmd_run) return grains::run_scene(run);
+    if (*cmd_check) {
+      auto scene = grains::Scene::from_file(check_scene, check_overrides);
+      scene.validate();
+      fmt::print("{}", scene.resolved_toml());
+      return 0;
+    }
+    if (*cmd_ref) {
+      fmt::print("{}", grains::schema_reference_markdown());
+      return 0;
+    }
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

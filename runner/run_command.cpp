@@ -1,0 +1,122 @@
+#include "run_command.hpp"
+
+#include <csignal>
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "io/h5md_writer.hpp"
+#include "io/scene.hpp"
+#include "progress.hpp"
+
+namespace grains {
+namespace {
+
+volatile std::sig_atomic_t interrupted = 0;
+void on_signal(int) { interrupted = 1; }
+
+void write_frame(H5mdWriter& out, const Simulation& sim) {
+  const ParticleView p = sim.particles();
+  const BoxView b = sim.box();
+  H5mdFrame f{};
+  f.step = sim.step_count();
+  f.time = sim.time();
+  f.dimension = p.dimension;
+  f.count = p.count;
+  f.position = p.position.data();
+  f.velocity = p.velocity.data();
+  f.radius = p.radius.data();
+  f.mass = p.mass.data();
+  f.angular_velocity = p.angular_velocity.data();
+  f.angular_components = p.dimension == 3 ? 3 : 1;
+  f.orientation = p.orientation.data();
+  f.orientation_components = p.dimension == 3 ? 4 : 1;
+  f.box_lower = b.lower.data();
+  f.box_length = b.length.data();
+  out.write_frame(f);
+}
+
+void write_observables(H5mdWriter& out, const Simulation& sim) {
+  const auto& vars = sim.variables();
+  for (std::size_t i = 0; i < vars.size(); ++i)
+    if (vars[i].causality == Causality::output && vars[i].name != "time" && vars[i].name != "step")
+      out.write_observable(vars[i].name, sim.step_count(), sim.time(), sim.get(i));
+}
+
+}  // namespace
+
+int run_scene(const RunOptions& opt) {
+  // Everything that can be checked is checked before the output file is opened.
+  Scene scene = Scene::from_file(opt.scene, opt.overrides);
+  scene.validate();
+  long steps = 0;
+  auto sim = Simulation::create(scene);
+  if (scene.has("time.steps")) steps = scene.integer("time.steps");
+  else if (scene.has("time.duration")) steps = std::lround(scene.real("time.duration") / sim->dt());
+  else scene.fail("time.duration", "give time.duration or time.steps: how long to run");
+  const long obs_every = scene.integer("output.observables_every");
+  const long snap_every = scene.integer("output.snapshots_every");
+
+  std::string path = opt.output;
+  if (path.empty()) path = scene.has("output.file") ? scene.text("output.file") : scene.text("scene.name") + ".h5";
+  if (auto dir = std::filesystem::path(path).parent_path(); !dir.empty() && !std::filesystem::is_directory(dir))
+    throw SceneError(fmt::format("output directory '{}' does not exist (output file '{}')", dir.string(), path));
+
+  std::vector<bool> periodic = sim->box().periodic;
+  H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
+  for (const auto& w : sim->warnings()) {
+    out.write_warning(w);
+    fmt::print(stderr, "warning: {}\n", w);
+  }
+  write_frame(out, *sim);
+  write_observables(out, *sim);
+
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  Progress progress(steps, sim->particle_count());
+  const long chunk = std::max<long>(1, std::min(obs_every, snap_every > 0 ? snap_every : obs_every));
+  long done = 0;
+  const auto initial_energy = sim->get("kinetic_energy");
+  while (done < steps && !interrupted) {
+    long n = std::min(chunk - done % chunk, steps - done);
+    sim->step_n(n);
+    done += n;
+    if (done % obs_every == 0 || done == steps) write_observables(out, *sim);
+    if ((snap_every > 0 && done % snap_every == 0) || done == steps) write_frame(out, *sim);
+    if (!opt.quiet) progress.update(done);
+  }
+  progress.finish();
+  if (interrupted) {
+    write_observables(out, *sim);
+    write_frame(out, *sim);
+    out.set_attribute("status", fmt::format("interrupted at step {}", sim->step_count()));
+  } else {
+    out.set_attribute("status", "complete");
+  }
+  const double seconds = progress.elapsed_seconds();
+  const double rate = seconds > 0 ? double(done) * double(sim->particle_count()) / seconds : 0.0;
+  out.set_scalar("wall_seconds", seconds);
+  out.set_scalar("particle_steps_per_second", rate);
+  out.flush();
+
+  // One-screen summary.
+  fmt::print("grains {}: scene '{}' ({}D, {} particles)\n", GRAINS_VERSION, scene.text("scene.name"), sim->dimension(),
+             sim->particle_count());
+  fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim->step_count(), sim->dt(), sim->time(),
+             interrupted ? "  INTERRUPTED" : "");
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, scene.integer("run.threads") > 0 ? scene.integer("run.threads") : 0);
+  fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim->get("kinetic_energy"));
+  for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds"}) {
+    try {
+      fmt::print("  {:<15} {:.6g}\n", name, sim->get(name));
+    } catch (const SimulationError&) {
+    }
+  }
+  fmt::print("  warnings     {}\n", sim->warnings().size());
+  fmt::print("  output       {}\n", path);
+  return interrupted ? 130 : 0;
+}
+
+}  // namespace grains
