@@ -67,6 +67,8 @@ class SimulationImpl final : public Simulation {
                                               "largest interaction reach (2 R_max + skin = {:.6g})", a, sys_.box.length[a],
                                               2 * rmax + std::max(0.0, range) + skin));
     uses_list_ = range >= 0;
+    for (const auto& m : modules_) rotate_ |= m->applies_torques();
+    for (const auto& w : sys_.particles.angular_velocity) rotate_ |= !w.isZero(0);
 
     rebuild();
     describe_variables(scene);
@@ -126,21 +128,34 @@ class SimulationImpl final : public Simulation {
     for (const auto& m : modules_) m->save(w);
     return w.take();
   }
+  // A state that does not fit leaves the simulation as it was.
   void restore_state(std::span<const std::byte> bytes) override {
+    const auto backup = save_state();
+    try {
+      load_state(bytes);
+    } catch (const std::exception& e) {
+      load_state(backup);
+      throw SimulationError(fmt::format("restore_state: {}; the simulation is unchanged", e.what()));
+    }
+  }
+
+ private:
+  void load_state(std::span<const std::byte> bytes) {
     ByteReader r(bytes);
     auto& P = sys_.particles;
     if (r.get<int>() != D || r.get<std::uint64_t>() != P.size())
-      throw SimulationError("restore_state: the saved state belongs to a scene of another dimension or particle count");
+      throw SimulationError("the saved state belongs to a scene of another dimension or particle count");
     sys_.time = r.get<double>(), sys_.step = r.get<long>();
     r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.accel),
         r.get_vector(P.accel_prev), r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.angular_accel),
         r.get_vector(P.angular_accel_prev), r.get_vector(P.orientation);
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
-    if (!r.done()) throw SimulationError("restore_state: the saved state has trailing bytes (another scene?)");
+    if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     cache_step_ = -1;
   }
 
+ public:
   ParticleView particles() const override {
     const auto& P = sys_.particles;
     ParticleView v;
@@ -222,11 +237,12 @@ class SimulationImpl final : public Simulation {
 
   void one_step(double h) {
     auto& P = sys_.particles;
-    kick_drift_predict(P, h, sys_.threads);
+    if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
+    else kick_drift_predict<D, false>(P, h, sys_.threads);
     if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
     sys_.dt = h;
     compute_forces();
-    const double witness = finish_kick(P, h, sys_.threads);
+    const double witness = rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
     sys_.time += h;
     ++sys_.step;
     if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
@@ -322,7 +338,7 @@ class SimulationImpl final : public Simulation {
 
   System<D> sys_;
   std::vector<std::unique_ptr<ForceModule<D>>> modules_;
-  bool uses_list_ = false;
+  bool uses_list_ = false, rotate_ = false;
   double dt_ = 0, kn_ = 0, cn_ = 0;
   std::vector<VariableInfo> vars_;
   std::vector<double> parameter_values_;

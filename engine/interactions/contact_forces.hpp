@@ -33,6 +33,7 @@ class ContactForces final : public ForceModule<D> {
   ContactForces(Law law, Friction friction) : law_(law), friction_(friction) {}
   std::string name() const override { return Friction::enabled ? "contact+friction" : "contact"; }
   double pair_range() const override { return 0.0; }
+  bool applies_torques() const override { return Friction::enabled; }
   const Law& law() const { return law_; }
 
   void after_rebuild(const NeighbourList<D>& list) override {
@@ -120,7 +121,8 @@ class ContactForces final : public ForceModule<D> {
         const double Rsum = Ri + P.radius[j];
         const double d2 = r.squaredNorm();
         if (d2 >= Rsum * Rsum) {
-          if constexpr (Friction::enabled) tangential_[k].setZero();   // contact open: history deleted
+          if constexpr (Friction::enabled)   // contact open: history deleted (read first: most are zero already)
+            if (!tangential_[k].isZero(0)) tangential_[k].setZero();
           continue;
         }
         const double d = std::sqrt(d2);

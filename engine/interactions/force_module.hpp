@@ -16,6 +16,9 @@ class ForceModule {
   virtual std::string name() const = 0;
   // Surface gap up to which this module needs neighbour pairs (negative: it does not use the list).
   virtual double pair_range() const { return -1; }
+  // Whether this module applies torques (rotation is integrated only if some module does, or if
+  // particles start spinning).
+  virtual bool applies_torques() const { return false; }
   // Add this module's forces and torques into particles.force / particles.torque.
   virtual void add_forces(System<D>& s) = 0;
   // The neighbour list was rebuilt: re-index per-pair history.

@@ -247,7 +247,9 @@ void Scene::validate() const {
         case ValueKind::real_matrix: matrix(e.path); break;
       }
     } catch (const SceneError& err) {
-      problems.push_back(err.what());
+      std::string what = err.what();
+      if (what.rfind(origin_ + ": ", 0) == 0) what.erase(0, origin_.size() + 2);
+      problems.push_back(what);
     }
   }
   if (problems.empty()) return;

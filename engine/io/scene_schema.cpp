@@ -112,7 +112,11 @@ const char* kind_name(ValueKind k) {
   }
 }
 std::string range_text(const SchemaEntry& e) {
-  if (!e.choices.empty()) return fmt::format("one of {}", e.choices);
+  if (!e.choices.empty()) {
+    std::string c(e.choices);
+    for (auto pos = c.find('|'); pos != std::string::npos; pos = c.find('|', pos)) c.replace(pos, 1, ", ");
+    return fmt::format("one of {}", c);
+  }
   if (e.kind == K::boolean || e.kind == K::text || e.kind == K::real_matrix) return "";
   bool lo = e.min > -1e307, hi = e.max < 1e307;
   if (!lo && !hi) return "";
@@ -123,7 +127,8 @@ std::string range_text(const SchemaEntry& e) {
 
 std::string describe_allowed(const SchemaEntry& e) {
   std::string r = range_text(e);
-  return r.empty() ? kind_name(e.kind) : fmt::format("{} in {}", kind_name(e.kind), r);
+  if (r.empty()) return kind_name(e.kind);
+  return e.choices.empty() ? fmt::format("{} in {}", kind_name(e.kind), r) : fmt::format("{}, {}", kind_name(e.kind), r);
 }
 
 std::string schema_reference_markdown() {

@@ -101,6 +101,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 #pragma omp parallel num_threads(nthreads)
   {
     auto& mine = found[omp_get_thread_num()];
+    mine.reserve(std::size_t(8 * N / nthreads) + 16);
 #pragma omp for schedule(static)
     for (std::size_t p = 0; p < N; ++p) {
       const int cp = klass[p];
@@ -131,9 +132,9 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
             if (c == cp && q <= p) continue;   // same class: each pair once
             Vec<D> r = x[q] - x[p];
             int img = 0;
-            for (int a = D - 1; a >= 0; --a) {
+            for (int a = D - 1; a >= 0; --a) {   // positions are wrapped, so |r_a| < L_a
               int k = 0;
-              if (box.periodic[a]) k = -int(std::lround(r[a] / box.length[a]));
+              if (box.periodic[a]) k = r[a] > 0.5 * box.length[a] ? -1 : (r[a] < -0.5 * box.length[a] ? 1 : 0);
               img = img * 3 + (k + 1);
               r[a] += k * box.length[a];
             }
@@ -169,15 +170,14 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       }
   }
   previous_entry_.assign(partner.size(), -1);
+  // Rows sorted by partner: pack (partner, image) into one integer and sort each row in place.
+  std::vector<std::uint64_t> packed(partner.size());
+  for (std::size_t k = 0; k < partner.size(); ++k) packed[k] = (std::uint64_t(partner[k]) << 8) | image[k];
 #pragma omp parallel for num_threads(nthreads) schedule(static)
   for (std::size_t i = 0; i < N; ++i) {
     std::size_t b = start[i], e = start[i + 1];
-    if (e - b > 1) {   // sort the row by partner, carrying the image along
-      std::vector<std::pair<std::uint32_t, std::uint8_t>> row(e - b);
-      for (std::size_t k = b; k < e; ++k) row[k - b] = {partner[k], image[k]};
-      std::sort(row.begin(), row.end());
-      for (std::size_t k = b; k < e; ++k) partner[k] = row[k - b].first, image[k] = row[k - b].second;
-    }
+    std::sort(packed.begin() + b, packed.begin() + e);
+    for (std::size_t k = b; k < e; ++k) partner[k] = std::uint32_t(packed[k] >> 8), image[k] = std::uint8_t(packed[k] & 0xff);
     if (i + 1 < old_start.size()) {   // merge-walk against the previous row
       std::size_t o = old_start[i], oe = old_start[i + 1];
       for (std::size_t k = b; k < e; ++k) {

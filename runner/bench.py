@@ -1,0 +1,86 @@
+"""Side-by-side throughput benchmark: grains against LAMMPS on the `gas` scene.
+
+    python runner/bench.py [--steps 3000] [--peers ../shared/peers] [--no-lammps]
+
+Runs the frictionless and frictional gas (17,576 spheres) with grains and LAMMPS (Debian's `lmp`,
+the peer inputs in ../shared/peers), on one core and on two, in one session, and prints particle-steps
+per second and the grains/LAMMPS ratio for each. Machines here are shared and noisy: compare the
+ratios, not the absolute numbers, and only within one run.
+"""
+import argparse
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import h5py
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def grains_rate(binary, scene, steps, threads, workdir):
+    out = workdir / f"{scene}-{threads}.h5"
+    subprocess.run([str(binary), "run", str(ROOT / "models" / f"{scene}.toml"), "--quiet", "--out", str(out),
+                    "--set", f"time.steps={steps}", "--set", f"run.threads={threads}",
+                    "--set", "output.snapshots_every=0", "--set", f"output.observables_every={steps}",
+                    "--set", "output.xdmf=false"], check=True, stdout=subprocess.DEVNULL)
+    with h5py.File(out, "r") as f:
+        return float(f["grains"].attrs["particle_steps_per_second"])
+
+
+def lammps_rate(peers, steps, threads, friction, workdir):
+    data = workdir / "gas.data"
+    if not data.exists():
+        subprocess.run([sys.executable, str(peers / "gas_data.py"), "26", "0.3", str(data)], check=True)
+    script = (peers / "gas.lmp").read_text()
+    if friction:   # the peer README's frictional variant: k_t = 2/7 k_n, gamma_t = gamma_n / 2, mu = 0.5
+        script = re.sub(r"pair_style gran/hooke .*",
+                        "pair_style gran/hooke/history ${kn} $(2/7*v_kn) ${gn} $(0.5*v_gn) 0.5 0", script)
+    inp = workdir / ("gas-friction.lmp" if friction else "gas.lmp")
+    inp.write_text(script)
+    cmd = ["lmp", "-in", str(inp), "-var", "data", str(data), "-var", "steps", str(steps), "-log", "none"]
+    if threads > 1:
+        cmd = ["mpirun", "--allow-run-as-root", "-np", str(threads)] + cmd
+    text = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=workdir).stdout
+    m = re.search(r"Loop time of ([0-9.eE+-]+) on \d+ procs for (\d+) steps with (\d+) atoms", text)
+    if not m:
+        raise RuntimeError("could not read LAMMPS' loop time:\n" + text[-2000:])
+    seconds, n_steps, atoms = float(m.group(1)), int(m.group(2)), int(m.group(3))
+    return n_steps * atoms / seconds
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--steps", type=int, default=3000)
+    ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
+    ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
+    ap.add_argument("--no-lammps", action="store_true", help="grains only")
+    args = ap.parse_args()
+    have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()
+    if not args.no_lammps and not have_lammps:
+        print("note: LAMMPS (`lmp`, Debian package lammps) or the peer inputs are missing: grains only", file=sys.stderr)
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = pathlib.Path(tmp)
+        for scene, friction in (("gas", False), ("gas-friction", True)):
+            for threads in (1, 2):
+                g = grains_rate(args.binary, scene, args.steps, threads, work)
+                lmp = lammps_rate(args.peers, args.steps, threads, friction, work) if have_lammps else float("nan")
+                rows.append((scene, threads, g, lmp))
+                print(f"{scene:13s} {threads} core(s): grains {g:.3g}  LAMMPS {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
+
+    print(f"\nparticle-steps per second, gas scene (17,576 spheres), {args.steps} steps")
+    print("| scene | cores | grains | LAMMPS | grains / LAMMPS |")
+    print("|---|---|---|---|---|")
+    for scene, threads, g, lmp in rows:
+        print(f"| {scene} | {threads} | {g:.3g} | {lmp:.3g} | {g / lmp:.2f} |")
+    by = {(s, t): g for s, t, g, _ in rows}
+    print(f"\nfrictionless / frictional (grains, 1 core): {by[('gas', 1)] / by[('gas-friction', 1)]:.2f}")
+    print(f"two cores / one core (grains, frictionless): {by[('gas', 2)] / by[('gas', 1)]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Installs what grains needs (Debian packages, a Python virtual environment) and builds it.
+# Sourced by runner/main.sh and tests/run.sh; safe to run again: it only installs what is missing.
+set -euo pipefail
+GRAINS_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+GRAINS_BUILD="${GRAINS_BUILD:-$GRAINS_ROOT/build}"
+GRAINS_VENV="${GRAINS_VENV:-$GRAINS_ROOT/.venv}"
+
+grains_apt_packages=(g++ make cmake libeigen3-dev libsundials-dev libhdf5-dev hdf5-tools catch2
+                     libtomlplusplus-dev libcli11-dev libfmt-dev python3-venv)
+
+grains_install_system() {
+  local missing=()
+  for p in "${grains_apt_packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  command -v cmake >/dev/null && missing=("${missing[@]/cmake}")
+  command -v python3 >/dev/null && missing=("${missing[@]/python3-venv}")
+  local real=()
+  for p in "${missing[@]}"; do [ -n "$p" ] && real+=("$p"); done
+  [ ${#real[@]} -eq 0 ] && return 0
+  echo "grains: installing Debian packages: ${real[*]}" >&2
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  $sudo apt-get update -q >/dev/null
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q "${real[@]}" >/dev/null
+}
+
+grains_install_python() {
+  if [ ! -x "$GRAINS_VENV/bin/python" ]; then
+    echo "grains: creating Python environment in $GRAINS_VENV" >&2
+    python3 -m venv "$GRAINS_VENV"
+  fi
+  if ! "$GRAINS_VENV/bin/python" -c "import numpy, h5py, matplotlib, pytest" 2>/dev/null; then
+    "$GRAINS_VENV/bin/pip" install -q --disable-pip-version-check -r "$GRAINS_ROOT/runner/requirements.txt"
+  fi
+}
+
+grains_build() {
+  cmake -S "$GRAINS_ROOT" -B "$GRAINS_BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build "$GRAINS_BUILD" -j "$(nproc)" -- --no-print-directory 2>&1 | grep -E "error|warning|Error" || true
+  test -x "$GRAINS_BUILD/runner/grains" || { echo "grains: build failed" >&2; exit 1; }
+}
+
+grains_setup() {
+  grains_install_system
+  grains_install_python
+  grains_build
+}
