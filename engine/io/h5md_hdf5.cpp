@@ -1,0 +1,192 @@
+// HDF5 C API helpers for the H5MD writer (see h5md_hdf5.hpp).
+#include "io/h5md_hdf5.hpp"
+
+#include <limits>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace grains::h5 {
+
+namespace {
+
+// Collects the descriptions on HDF5's error stack, outermost (API call) first.
+herr_t collect_error(unsigned, const H5E_error2_t* e, void* out) {
+  if (e && e->desc && *e->desc) static_cast<std::vector<std::string>*>(out)->emplace_back(e->desc);
+  return 0;
+}
+
+std::string hdf5_reason() {
+  std::vector<std::string> descs;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &descs);
+  H5Eclear2(H5E_DEFAULT);
+  if (descs.empty()) return {};
+  // The outermost says what failed, the innermost usually says why (e.g. "no such file").
+  if (descs.size() == 1 || descs.front() == descs.back()) return descs.front();
+  return descs.front() + ": " + descs.back();
+}
+
+Handle plist(hid_t cls, const std::string& file) {
+  return Handle(check(H5Pcreate(cls), file, "creating a property list"), H5Pclose);
+}
+
+Handle simple_space(const std::vector<hsize_t>& dims, const std::vector<hsize_t>* max, const std::string& file) {
+  hid_t id = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max ? max->data() : nullptr);
+  return Handle(check(id, file, "creating a dataspace"), H5Sclose);
+}
+
+Handle scalar_space(const std::string& file) {
+  return Handle(check(H5Screate(H5S_SCALAR), file, "creating a dataspace"), H5Sclose);
+}
+
+// Attributes cannot be overwritten in place with a different type or size, so replace them.
+void drop_attribute(hid_t obj, const std::string& name, const std::string& file) {
+  if (check(H5Aexists(obj, name.c_str()), file, "checking attribute " + name) > 0)
+    check(H5Adelete(obj, name.c_str()), file, "replacing attribute " + name);
+}
+
+void write_attribute(hid_t obj, const std::string& name, hid_t type, const Handle& space, const void* data,
+                     const std::string& file) {
+  drop_attribute(obj, name, file);
+  Handle a(check(H5Acreate2(obj, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT), file,
+                 "creating attribute " + name),
+           H5Aclose);
+  check(H5Awrite(a.get(), type, data), file, "writing attribute " + name);
+}
+
+Handle fixed_string_type(std::size_t size, const std::string& file) {
+  Handle t(check(H5Tcopy(H5T_C_S1), file, "creating a string type"), H5Tclose);
+  check(H5Tset_size(t.get(), size == 0 ? 1 : size), file, "sizing a string type");
+  check(H5Tset_strpad(t.get(), H5T_STR_NULLTERM), file, "padding a string type");
+  check(H5Tset_cset(t.get(), H5T_CSET_UTF8), file, "setting a string charset");
+  return t;
+}
+
+}  // namespace
+
+void fail(const std::string& file, const std::string& what) {
+  std::string reason = hdf5_reason();
+  if (reason.empty()) throw std::runtime_error(fmt::format("HDF5 output '{}': {} failed", file, what));
+  throw std::runtime_error(fmt::format("HDF5 output '{}': {} failed ({})", file, what, reason));
+}
+
+long long check(long long status, const std::string& file, const std::string& what) {
+  if (status < 0) fail(file, what);
+  return status;
+}
+
+Handle create_group(hid_t parent, const std::string& name, const std::string& file) {
+  return Handle(check(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), file,
+                      "creating group " + name),
+                H5Gclose);
+}
+
+Handle open_or_create_group(hid_t parent, const std::string& name, const std::string& file) {
+  if (check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up group " + name) > 0)
+    return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + name), H5Gclose);
+  return create_group(parent, name, file);
+}
+
+Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,
+                         const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file) {
+  std::vector<hsize_t> dims{0}, max{H5S_UNLIMITED}, chunk{chunk_rows < 1 ? 1 : chunk_rows};
+  for (std::size_t i = 0; i < inner.size(); ++i) {
+    dims.push_back(inner[i]);
+    max.push_back(H5S_UNLIMITED);
+    chunk.push_back(chunk_inner[i] < 1 ? 1 : chunk_inner[i]);
+  }
+  Handle space = simple_space(dims, &max, file);
+  Handle dcpl = plist(H5P_DATASET_CREATE, file);
+  check(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), file, "chunking " + name);
+  if (H5Tequal(type, H5T_NATIVE_DOUBLE) > 0) {
+    // Slots of particles absent from a frame read as NaN rather than a plausible 0.
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    check(H5Pset_fill_value(dcpl.get(), H5T_NATIVE_DOUBLE, &nan), file, "setting the fill value of " + name);
+  }
+  return Handle(check(H5Dcreate2(parent, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
+                      file, "creating dataset " + name),
+                H5Dclose);
+}
+
+std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::string& what) {
+  Handle space(check(H5Dget_space(dataset), file, "reading the shape of " + what), H5Sclose);
+  int rank = static_cast<int>(check(H5Sget_simple_extent_ndims(space.get()), file, "reading the rank of " + what));
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  check(H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr), file, "reading the shape of " + what);
+  return dims;
+}
+
+void append_row(hid_t dataset, hid_t mem_type, const void* data, const std::vector<hsize_t>& count,
+                const std::string& file, const std::string& what) {
+  std::vector<hsize_t> dims = shape(dataset, file, what);
+  if (dims.size() != count.size() + 1) fail(file, "appending to " + what + " (rank mismatch)");
+  std::vector<hsize_t> start(dims.size(), 0), block{1};
+  start[0] = dims[0];
+  dims[0] += 1;
+  bool empty = false;
+  for (std::size_t i = 0; i < count.size(); ++i) {
+    if (count[i] > dims[i + 1]) dims[i + 1] = count[i];
+    block.push_back(count[i]);
+    empty = empty || count[i] == 0;
+  }
+  check(H5Dset_extent(dataset, dims.data()), file, "extending " + what);
+  if (empty) return;  // a frame without particles still takes its row
+  Handle fspace(check(H5Dget_space(dataset), file, "selecting in " + what), H5Sclose);
+  check(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, block.data(), nullptr), file,
+        "selecting in " + what);
+  Handle mspace = simple_space(block, nullptr, file);
+  check(H5Dwrite(dataset, mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, data), file, "writing " + what);
+}
+
+void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file) {
+  // Variable length: scene files and summaries can exceed the 64 KiB limit of compact attributes.
+  Handle type = vlen_string_type(file);
+  const char* p = value.c_str();
+  write_attribute(obj, name, type.get(), scalar_space(file), &p, file);
+}
+
+void attr_strings(hid_t obj, const std::string& name, const std::vector<std::string>& values,
+                  const std::string& file) {
+  // Fixed length, as H5MD readers expect for e.g. box/boundary.
+  std::size_t width = 1;
+  for (const auto& v : values) width = std::max(width, v.size() + 1);
+  std::string packed(width * values.size(), '\0');
+  for (std::size_t i = 0; i < values.size(); ++i) packed.replace(i * width, values[i].size(), values[i]);
+  Handle type = fixed_string_type(width, file);
+  write_attribute(obj, name, type.get(), simple_space({values.size()}, nullptr, file), packed.data(), file);
+}
+
+void attr_fixed_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file) {
+  // Scalar fixed-length, the form H5MD uses for author/creator names.
+  Handle type = fixed_string_type(value.size() + 1, file);
+  write_attribute(obj, name, type.get(), scalar_space(file), value.c_str(), file);
+}
+
+void attr_ints(hid_t obj, const std::string& name, const std::vector<int>& values, bool scalar,
+               const std::string& file) {
+  Handle space = scalar ? scalar_space(file) : simple_space({values.size()}, nullptr, file);
+  write_attribute(obj, name, H5T_NATIVE_INT, space, values.data(), file);
+}
+
+void attr_double(hid_t obj, const std::string& name, double value, const std::string& file) {
+  write_attribute(obj, name, H5T_NATIVE_DOUBLE, scalar_space(file), &value, file);
+}
+
+Handle vlen_string_type(const std::string& file) {
+  Handle t(check(H5Tcopy(H5T_C_S1), file, "creating a string type"), H5Tclose);
+  check(H5Tset_size(t.get(), H5T_VARIABLE), file, "creating a string type");
+  check(H5Tset_cset(t.get(), H5T_CSET_UTF8), file, "setting a string charset");
+  return t;
+}
+
+void dataset_string(hid_t parent, const std::string& name, const std::string& value, const std::string& file) {
+  Handle type = vlen_string_type(file);
+  Handle space = scalar_space(file);
+  Handle d(check(H5Dcreate2(parent, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                 file, "creating dataset " + name),
+           H5Dclose);
+  const char* p = value.c_str();
+  check(H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), file, "writing dataset " + name);
+}
+
+}  // namespace grains::h5

@@ -1,0 +1,67 @@
+// Thin helpers over the HDF5 C API used by the H5MD writer: owning handles, error translation,
+// and extendable ("append a row") datasets. Internal to grains_output.
+#pragma once
+#include <hdf5.h>
+
+#include <string>
+#include <vector>
+
+namespace grains::h5 {
+
+// Owns one HDF5 identifier and closes it with the matching H5?close.
+class Handle {
+ public:
+  using Closer = herr_t (*)(hid_t);
+  Handle() = default;
+  Handle(hid_t id, Closer close) : id_(id), close_(close) {}
+  Handle(Handle&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) { reset(); id_ = o.id_; close_ = o.close_; o.id_ = H5I_INVALID_HID; }
+    return *this;
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() { reset(); }
+
+  hid_t get() const { return id_; }
+  explicit operator bool() const { return id_ >= 0; }
+  void reset() { if (id_ >= 0 && close_) close_(id_); id_ = H5I_INVALID_HID; }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  Closer close_ = nullptr;
+};
+
+// Throws std::runtime_error "HDF5 output <file>: <what> failed (<HDF5's own reason>)".
+[[noreturn]] void fail(const std::string& file, const std::string& what);
+// Returns `status` when it is non-negative, otherwise fail().
+long long check(long long status, const std::string& file, const std::string& what);
+
+Handle create_group(hid_t parent, const std::string& name, const std::string& file);
+Handle open_or_create_group(hid_t parent, const std::string& name, const std::string& file);
+
+// A dataset of shape [0, inner...] with the first axis unlimited (and the inner ones too, so the
+// particle count may grow); chunked as [chunk_rows, chunk_inner...]. Doubles are filled with NaN.
+Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,
+                         const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file);
+// Appends one row holding `count` (per inner axis) elements of `data`, growing inner axes if needed.
+void append_row(hid_t dataset, hid_t mem_type, const void* data, const std::vector<hsize_t>& count,
+                const std::string& file, const std::string& what);
+// Current shape of a dataset.
+std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::string& what);
+
+// Attributes; an existing attribute of the same name is replaced.
+void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file);
+void attr_strings(hid_t obj, const std::string& name, const std::vector<std::string>& values,
+                  const std::string& file);
+void attr_fixed_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file);
+void attr_ints(hid_t obj, const std::string& name, const std::vector<int>& values, bool scalar,
+               const std::string& file);
+void attr_double(hid_t obj, const std::string& name, double value, const std::string& file);
+
+// A scalar variable-length UTF-8 string dataset.
+void dataset_string(hid_t parent, const std::string& name, const std::string& value, const std::string& file);
+// Variable-length UTF-8 string type (caller owns the handle).
+Handle vlen_string_type(const std::string& file);
+
+}  // namespace grains::h5

@@ -1,0 +1,251 @@
+// H5MD 1.1 writer (see h5md_writer.hpp). Every time-dependent element is a group with extendable
+// step/time/value datasets; each frame appends one row and flushes, so a killed run leaves a
+// readable file holding every frame written so far.
+#include "io/h5md_writer.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "io/h5md_hdf5.hpp"
+#include "io/xdmf_writer.hpp"
+
+namespace grains {
+
+namespace {
+
+constexpr hsize_t kObservableChunk = 1024;      // rows per chunk of observables and step/time
+constexpr hsize_t kFrameChunkBytes = 64 * 1024;  // small frames are batched to about this size
+constexpr hsize_t kMaxChunkBytes = 4 * 1024 * 1024;
+constexpr int kFlushEveryObservables = 64;
+
+// A time-dependent H5MD element: <group>/{step,time,value}.
+struct Series {
+  h5::Handle group, step, time, value;
+  int components = 0;  // 0: one scalar per row or per particle
+};
+
+}  // namespace
+
+struct H5mdWriter::Impl {
+  std::string path, xdmf_path;
+  int dim = 3;
+  h5::Handle file, particles, box, observables, grains, parameters, warnings;  // `file` first: closed last
+  std::map<std::string, Series> series;       // particles/all/<name> and box/<name>
+  std::map<std::string, Series> observable;   // observables/<name>
+  std::size_t frames = 0, max_count = 0, xdmf_frames_on_disk = 0;
+  bool has_angular = false, has_orientation = false;
+  int observable_writes = 0;
+  std::unique_ptr<XdmfWriter> xdmf;
+
+  Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components) {
+    Series s;
+    s.components = components;
+    s.group = h5::create_group(parent, name, path);
+    s.step = h5::create_extendable(s.group.get(), "step", H5T_STD_I64LE, {}, {}, kObservableChunk, path);
+    s.time = h5::create_extendable(s.group.get(), "time", H5T_IEEE_F64LE, {}, {}, kObservableChunk, path);
+    // Chunk: whole frames, several per chunk when frames are small, the particle axis cut when huge.
+    hsize_t row_values = 1;
+    for (hsize_t n : inner) row_values *= std::max<hsize_t>(n, 1);
+    const hsize_t row_bytes = row_values * sizeof(double);
+    std::vector<hsize_t> chunk_inner = inner;
+    if (!chunk_inner.empty() && row_bytes > kMaxChunkBytes)
+      chunk_inner[0] = std::max<hsize_t>(1, chunk_inner[0] * kMaxChunkBytes / row_bytes);
+    const hsize_t rows = std::clamp<hsize_t>(kFrameChunkBytes / row_bytes, 1, kObservableChunk);
+    s.value = h5::create_extendable(s.group.get(), "value", H5T_IEEE_F64LE, inner, chunk_inner, rows, path);
+    return s;
+  }
+
+  void append(Series& s, const std::string& what, long step, double time, const double* data,
+              const std::vector<hsize_t>& count) {
+    const std::int64_t step64 = step;
+    h5::append_row(s.step.get(), H5T_NATIVE_INT64, &step64, {}, path, what + "/step");
+    h5::append_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, {}, path, what + "/time");
+    h5::append_row(s.value.get(), H5T_NATIVE_DOUBLE, data, count, path, what + "/value");
+  }
+
+  // Appends one per-particle element, creating it on first use with this frame's particle count.
+  void particle_element(const std::string& name, const H5mdFrame& f, const double* data, int components) {
+    auto it = series.find(name);
+    const std::vector<hsize_t> count = components > 1 ? std::vector<hsize_t>{f.count, hsize_t(components)}
+                                                      : std::vector<hsize_t>{f.count};
+    if (it == series.end()) it = series.emplace(name, make_series(particles.get(), name, count, components)).first;
+    if (it->second.components != components)
+      throw std::invalid_argument(fmt::format("H5MD output '{}': {} changed from {} to {} components", path, name,
+                                              it->second.components, components));
+    append(it->second, "/particles/all/" + name, f.step, f.time, data, count);
+  }
+
+  void box_element(const std::string& name, const H5mdFrame& f, const double* data) {
+    auto it = series.find("box/" + name);
+    if (it == series.end())
+      it = series.emplace("box/" + name, make_series(box.get(), name, {hsize_t(dim)}, dim)).first;
+    append(it->second, "/particles/all/box/" + name, f.step, f.time, data, {hsize_t(dim)});
+  }
+
+  void update_xdmf(bool final) {
+    if (!xdmf || xdmf_frames_on_disk == frames) return;
+    // Rewriting costs O(frames); past a few hundred frames rewrite at a steady fraction so the total
+    // stays linear. The file on disk then lags by at most ~3% of the frames, and is exact at close.
+    if (!final && frames > 256 && frames - xdmf_frames_on_disk < frames / 32) return;
+    xdmf->write();
+    xdmf_frames_on_disk = frames;
+  }
+
+  void flush() { h5::check(H5Fflush(file.get(), H5F_SCOPE_GLOBAL), path, "flushing the file"); }
+};
+
+H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
+                       const std::string& creator_version, const std::string& resolved_scene_toml, bool write_xdmf)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.path = path;
+  m.dim = dimension;
+  if (dimension != 2 && dimension != 3)
+    throw std::invalid_argument(fmt::format("H5MD output '{}': dimension must be 2 or 3, got {}", path, dimension));
+  if (boundary_periodic.size() != static_cast<std::size_t>(dimension))
+    throw std::invalid_argument(fmt::format("H5MD output '{}': {} boundary flags given for dimension {}", path,
+                                            boundary_periodic.size(), dimension));
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions, not stderr noise
+
+  const std::filesystem::path fs_path(path);
+  const std::filesystem::path dir = fs_path.has_parent_path() ? fs_path.parent_path() : ".";
+  if (!std::filesystem::is_directory(dir))
+    throw std::runtime_error(fmt::format("cannot create output file '{}': directory '{}' does not exist", path,
+                                         dir.string()));
+  hid_t fid = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (fid < 0) h5::fail(path, "creating the file (is the directory writable?)");
+  m.file = h5::Handle(fid, H5Fclose);
+  const hid_t root = m.file.get();
+
+  {
+    h5::Handle h5md = h5::create_group(root, "h5md", path);
+    h5::attr_ints(h5md.get(), "version", {1, 1}, false, path);
+    h5::Handle author = h5::create_group(h5md.get(), "author", path);
+    h5::attr_fixed_string(author.get(), "name", "grains", path);
+    h5::Handle creator = h5::create_group(h5md.get(), "creator", path);
+    h5::attr_fixed_string(creator.get(), "name", "grains", path);
+    h5::attr_fixed_string(creator.get(), "version", creator_version, path);
+  }
+
+  h5::Handle particles = h5::create_group(root, "particles", path);
+  m.particles = h5::create_group(particles.get(), "all", path);
+  m.box = h5::create_group(m.particles.get(), "box", path);
+  h5::attr_ints(m.box.get(), "dimension", {dimension}, true, path);
+  std::vector<std::string> boundary;
+  for (bool p : boundary_periodic) boundary.emplace_back(p ? "periodic" : "none");
+  h5::attr_strings(m.box.get(), "boundary", boundary, path);
+
+  m.observables = h5::create_group(root, "observables", path);
+  m.parameters = h5::create_group(root, "parameters", path);
+  h5::dataset_string(m.parameters.get(), "scene.toml", resolved_scene_toml, path);
+  h5::attr_string(m.parameters.get(), "scene.toml", resolved_scene_toml, path);
+
+  m.grains = h5::create_group(root, "grains", path);
+  h5::Handle vstr = h5::vlen_string_type(path);
+  m.warnings = h5::create_extendable(m.grains.get(), "warnings", vstr.get(), {}, {}, 64, path);
+
+  if (write_xdmf) {
+    m.xdmf_path = std::filesystem::path(path).replace_extension(".xdmf").string();
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, fs_path.filename().string(), dimension);
+  }
+  m.flush();
+}
+
+H5mdWriter::~H5mdWriter() {
+  if (!impl_ || !impl_->file) return;
+  try {
+    impl_->update_xdmf(true);
+    impl_->flush();
+  } catch (...) {
+    // A destructor must not throw; the data written so far is already flushed.
+  }
+}
+
+void H5mdWriter::write_frame(const H5mdFrame& f) {
+  Impl& m = *impl_;
+  if (f.dimension != m.dim)
+    throw std::invalid_argument(fmt::format("H5MD output '{}': frame of dimension {} in a {}-D file", m.path,
+                                            f.dimension, m.dim));
+  if (f.count > 0 && (!f.position || !f.velocity || !f.radius || !f.mass))
+    throw std::invalid_argument(fmt::format("H5MD output '{}': frame at step {} lacks position, velocity, radius "
+                                            "or mass", m.path, f.step));
+  if (!f.box_lower || !f.box_length)
+    throw std::invalid_argument(fmt::format("H5MD output '{}': frame at step {} lacks the box", m.path, f.step));
+  const bool angular = f.angular_velocity != nullptr, orient = f.orientation != nullptr;
+  if (m.frames == 0) {
+    m.has_angular = angular;
+    m.has_orientation = orient;
+  } else if (angular != m.has_angular || orient != m.has_orientation) {
+    // Rows must line up across elements, which the XDMF hyperslabs rely on.
+    throw std::invalid_argument(fmt::format("H5MD output '{}': angular_velocity/orientation must be given in every "
+                                            "frame or in none (step {})", m.path, f.step));
+  }
+
+  m.particle_element("position", f, f.position, m.dim);
+  m.particle_element("velocity", f, f.velocity, m.dim);
+  m.particle_element("radius", f, f.radius, 1);
+  m.particle_element("mass", f, f.mass, 1);
+  if (angular) m.particle_element("angular_velocity", f, f.angular_velocity, f.angular_components);
+  if (orient) m.particle_element("orientation", f, f.orientation, f.orientation_components);
+  m.box_element("edges", f, f.box_length);
+  m.box_element("offset", f, f.box_lower);  // not in H5MD 1.1, which assumes the box starts at 0
+  ++m.frames;
+  m.max_count = std::max(m.max_count, f.count);
+  m.flush();
+
+  if (m.xdmf) {
+    if (m.frames == 1) {
+      m.xdmf->add_field("radius", "/particles/all/radius/value", 1);
+      m.xdmf->add_field("mass", "/particles/all/mass/value", 1);
+      if (m.dim == 3) m.xdmf->add_field("velocity", "/particles/all/velocity/value", 3);  // ParaView wants 3 components
+      if (angular && (f.angular_components == 1 || f.angular_components == 3))
+        m.xdmf->add_field("angular_velocity", "/particles/all/angular_velocity/value", f.angular_components);
+    }
+    m.xdmf->add_frame(m.frames - 1, f.time, f.count, m.frames, m.max_count);
+    m.update_xdmf(false);
+  }
+}
+
+void H5mdWriter::write_observable(const std::string& name, long step, double time, double value) {
+  Impl& m = *impl_;
+  auto it = m.observable.find(name);
+  if (it == m.observable.end()) {
+    if (name.empty() || name == "." || name.find('/') != std::string::npos)
+      throw std::invalid_argument(fmt::format("H5MD output '{}': invalid observable name '{}'", m.path, name));
+    it = m.observable.emplace(name, m.make_series(m.observables.get(), name, {}, 0)).first;
+  }
+  m.append(it->second, "/observables/" + name, step, time, &value, {});
+  if (++m.observable_writes % kFlushEveryObservables == 0) m.flush();
+}
+
+void H5mdWriter::write_warning(const std::string& text) {
+  Impl& m = *impl_;
+  const char* p = text.c_str();
+  h5::Handle vstr = h5::vlen_string_type(m.path);
+  h5::append_row(m.warnings.get(), vstr.get(), &p, {}, m.path, "/grains/warnings");
+  m.flush();  // warnings are rare and often precede a crash
+}
+
+void H5mdWriter::set_attribute(const std::string& name, const std::string& value) {
+  h5::attr_string(impl_->grains.get(), name, value, impl_->path);
+}
+
+void H5mdWriter::set_scalar(const std::string& name, double value) {
+  h5::attr_double(impl_->grains.get(), name, value, impl_->path);
+}
+
+void H5mdWriter::flush() {
+  impl_->update_xdmf(true);
+  impl_->flush();
+}
+
+const std::string& H5mdWriter::path() const { return impl_->path; }
+const std::string& H5mdWriter::xdmf_path() const { return impl_->xdmf_path; }
+std::size_t H5mdWriter::frames_written() const { return impl_->frames; }
+
+}  // namespace grains

@@ -1,0 +1,52 @@
+// Run output in the H5MD 1.1 layout (particles/all/*, observables/*, parameters/) plus an XDMF
+// companion for ParaView. The HDF5 types stay inside the .cpp so users of this header need no hdf5.h.
+#pragma once
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace grains {
+
+// One particle snapshot; the writer copies nothing, the pointers need only live for the call.
+struct H5mdFrame {
+  long step = 0;
+  double time = 0.0;
+  int dimension = 3;                       // 2 or 3
+  std::size_t count = 0;
+  const double* position = nullptr;        // count*dimension
+  const double* velocity = nullptr;        // count*dimension
+  const double* radius = nullptr;          // count
+  const double* mass = nullptr;            // count
+  const double* angular_velocity = nullptr; int angular_components = 0;  // count*components, may be null
+  const double* orientation = nullptr; int orientation_components = 0;   // count*4 (w,x,y,z) or count*1, may be null
+  const double* box_lower = nullptr;       // dimension
+  const double* box_length = nullptr;      // dimension
+};
+
+class H5mdWriter {
+ public:
+  // Creates (truncates) `path`; throws std::runtime_error naming the path when that fails.
+  H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
+             const std::string& creator_version, const std::string& resolved_scene_toml, bool write_xdmf);
+  ~H5mdWriter();
+  H5mdWriter(const H5mdWriter&) = delete;
+  H5mdWriter& operator=(const H5mdWriter&) = delete;
+
+  void write_frame(const H5mdFrame& f);    // appends to particles/all/*, then flushes
+  void write_observable(const std::string& name, long step, double time, double value);
+  void write_warning(const std::string& text);                        // appends to /grains/warnings
+  void set_attribute(const std::string& name, const std::string& value);  // string attribute on /grains
+  void set_scalar(const std::string& name, double value);                 // double attribute on /grains
+  void flush();                             // the file stays readable if the process dies afterwards
+
+  const std::string& path() const;
+  const std::string& xdmf_path() const;     // empty when XDMF is off
+  std::size_t frames_written() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace grains

@@ -1,0 +1,108 @@
+"""The run file of `grains run` follows H5MD 1.1, its XDMF companion points at real data, and
+runner/plot.py can draw it. Needs GRAINS_BIN (the built `grains` executable); skipped otherwise."""
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+h5py = pytest.importorskip("h5py")
+
+REPO = Path(__file__).resolve().parents[2]
+SCENE = REPO / "models" / "collision.toml"
+
+
+def text(v):
+    """h5py gives strings as bytes, str or 0-d/1-element arrays depending on how they were stored."""
+    if isinstance(v, np.ndarray):
+        v = v.reshape(-1)[0]
+    return v.decode() if isinstance(v, bytes) else str(v)
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    binary = os.environ.get("GRAINS_BIN")
+    if not binary:
+        pytest.skip("GRAINS_BIN is not set")
+    out = tmp_path_factory.mktemp("h5md") / "run.h5"
+    proc = subprocess.run([binary, "run", str(SCENE), "--out", str(out)], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, f"grains run failed:\n{proc.stdout}\n{proc.stderr}"
+    assert out.is_file()
+    return out
+
+
+def test_h5md_header(run_file):
+    with h5py.File(run_file, "r") as f:
+        assert list(f["h5md"].attrs["version"]) == [1, 1]
+        assert text(f["h5md/author"].attrs["name"])
+        assert text(f["h5md/creator"].attrs["name"]) == "grains"
+        assert text(f["h5md/creator"].attrs["version"])
+
+
+def test_particle_elements(run_file):
+    with h5py.File(run_file, "r") as f:
+        box = f["particles/all/box"]
+        dim = int(box.attrs["dimension"])
+        assert dim in (2, 3)
+        assert [text(b) for b in box.attrs["boundary"]] and all(
+            text(b) in ("periodic", "none") for b in box.attrs["boundary"])
+        assert len(box.attrs["boundary"]) == dim
+
+        pos = f["particles/all/position"]
+        frames, n, d = pos["value"].shape
+        assert frames >= 1 and n >= 1 and d == dim
+        for name in ("position", "velocity", "radius", "mass"):
+            el = f["particles/all"][name]
+            step, time = el["step"][()], el["time"][()]
+            assert len(step) == len(time) == el["value"].shape[0] == frames, name
+            assert np.all(np.diff(step) > 0) and np.all(np.diff(time) > 0), f"{name}: step/time not increasing"
+            assert el["value"].maxshape[0] is None, f"{name}: not extendable"
+        assert f["particles/all/velocity/value"].shape == (frames, n, dim)
+        assert f["particles/all/radius/value"].shape == (frames, n)
+        assert box["edges/value"].shape == (frames, dim)
+
+
+def test_observables(run_file):
+    with h5py.File(run_file, "r") as f:
+        ke = f["observables/kinetic_energy"]
+        assert len(ke["step"]) == len(ke["time"]) == len(ke["value"]) > 0
+        assert np.all(np.diff(ke["step"][()]) > 0)
+        assert np.all(np.isfinite(ke["value"][()]))
+
+
+def test_scene_is_stored(run_file):
+    with h5py.File(run_file, "r") as f:
+        params = f["parameters"]
+        scene = text(params["scene.toml"][()]) if "scene.toml" in params else text(params.attrs["scene.toml"])
+        assert "restitution" in scene
+
+
+def test_xdmf_references_existing_data(run_file):
+    xdmf = run_file.with_suffix(".xdmf")
+    assert xdmf.is_file()
+    root = ET.parse(xdmf).getroot()  # raises on malformed XML
+    grids = root.findall(".//Grid[@GridType='Uniform']")
+    assert grids, "no per-frame grids"
+    refs = [item for item in root.iter("DataItem") if item.get("Format") == "HDF"]
+    assert refs, "no HDF5 references"
+    with h5py.File(run_file, "r") as f:
+        for item in refs:
+            filename, _, dataset = item.text.strip().partition(":")
+            assert (xdmf.parent / filename).is_file(), f"{filename} is not beside the .xdmf"
+            assert dataset in f, f"{dataset} missing from {run_file.name}"
+            dims = tuple(int(x) for x in item.get("Dimensions").split())
+            assert dims == f[dataset].shape, f"{dataset}: XDMF says {dims}, file has {f[dataset].shape}"
+
+
+def test_plot_makes_png(run_file, tmp_path):
+    pytest.importorskip("matplotlib")
+    png = tmp_path / "observables.png"
+    proc = subprocess.run([sys.executable, str(REPO / "runner" / "plot.py"), str(run_file), "-o", str(png)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert str(png) in proc.stdout
+    assert png.is_file() and png.stat().st_size > 0
