@@ -16,6 +16,8 @@ struct Grid {
   Vec<D> origin, cell;
   std::array<int, D> n{};
   std::vector<std::uint32_t> cell_start, members;   // counting-sorted particle indices per cell
+  std::vector<Vec<D>> member_position;               // positions and radii in cell order: the
+  std::vector<double> member_radius;                 // candidate loop then reads memory in sequence
   double max_radius = 0;
 
   int flat(const std::array<int, D>& c) const {
@@ -85,6 +87,12 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     std::vector<std::vector<std::uint32_t>> fill(classes);
     for (int c = 0; c < classes; ++c) fill[c].assign(grids[c].cell_start.begin(), grids[c].cell_start.end() - 1);
     for (std::size_t i = 0; i < N; ++i) grids[klass[i]].members[fill[klass[i]][cell_of[i]]++] = std::uint32_t(i);
+    for (auto& g : grids) {
+      g.member_position.resize(g.members.size());
+      g.member_radius.resize(g.members.size());
+      for (std::size_t m = 0; m < g.members.size(); ++m)
+        g.member_position[m] = x[g.members[m]], g.member_radius[m] = radius[g.members[m]];
+    }
   }
 
   // Periodic image shifts, indexed by sum (k_a + 1) 3^a with k_a in {-1, 0, 1}.
@@ -105,6 +113,8 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 #pragma omp for schedule(static)
     for (std::size_t p = 0; p < N; ++p) {
       const int cp = klass[p];
+      const Vec<D> xp = x[p];
+      const double rp = radius[p];
       for (int c = cp; c >= 0; --c) {   // own class and every larger class
         const auto& g = grids[c];
         auto home = g.coords(x[p]);
@@ -130,7 +140,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
           for (std::uint32_t m = g.cell_start[f]; m < g.cell_start[f + 1]; ++m) {
             std::uint32_t q = g.members[m];
             if (c == cp && q <= p) continue;   // same class: each pair once
-            Vec<D> r = x[q] - x[p];
+            Vec<D> r = g.member_position[m] - xp;
             int img = 0;
             for (int a = D - 1; a >= 0; --a) {   // positions are wrapped, so |r_a| < L_a
               int k = 0;
@@ -138,7 +148,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
               img = img * 3 + (k + 1);
               r[a] += k * box.length[a];
             }
-            double cut = radius[p] + radius[q] + reach_extra;
+            double cut = rp + g.member_radius[m] + reach_extra;
             if (r.squaredNorm() < cut * cut) {
               if (p < q) mine.push_back({std::uint32_t(p), q, std::uint8_t(img)});
               else mine.push_back({q, std::uint32_t(p), std::uint8_t(images - 1 - img)});   // reversed pair, negated shift
