@@ -106,7 +106,7 @@ int run_scene(const RunOptions& opt) {
              sim->particle_count());
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim->step_count(), sim->dt(), sim->time(),
              interrupted ? "  INTERRUPTED" : "");
-  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, scene.integer("run.threads") > 0 ? scene.integer("run.threads") : 0);
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
   fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim->get("kinetic_energy"));
   for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds"}) {
     try {

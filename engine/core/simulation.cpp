@@ -35,7 +35,9 @@ class SimulationImpl final : public Simulation {
     auto& P = sys_.particles;
     const std::size_t N = P.size();
     const long threads = scene.integer("run.threads");
-    sys_.threads = threads > 0 ? int(threads) : std::max(1, omp_get_num_procs());
+    // Automatic: every core, but no more than one thread per 2000 particles (threads cost more than
+    // they give on small systems).
+    sys_.threads = threads > 0 ? int(threads) : std::clamp(int(N / 2000), 1, std::max(1, omp_get_num_procs()));
     sys_.thread_force.assign(sys_.threads, std::vector<Vec<D>>(N, Vec<D>::Zero()));
     sys_.thread_torque.assign(sys_.threads, std::vector<Spin<D>>(N, Spin<D>::Zero()));
     if (sys_.threads == 1) sys_.thread_force.clear(), sys_.thread_torque.clear();
@@ -99,6 +101,7 @@ class SimulationImpl final : public Simulation {
   long step_count() const override { return sys_.step; }
   double dt() const override { return dt_; }
   int dimension() const override { return D; }
+  int threads() const override { return sys_.threads; }
   std::size_t particle_count() const override { return sys_.particles.size(); }
   const std::vector<VariableInfo>& variables() const override { return vars_; }
   const std::vector<std::string>& warnings() const override { return warnings_; }

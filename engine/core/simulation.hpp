@@ -53,6 +53,7 @@ class Simulation {
   virtual long step_count() const = 0;
   virtual double dt() const = 0;
   virtual int dimension() const = 0;
+  virtual int threads() const = 0;   // worker threads in use
   virtual std::size_t particle_count() const = 0;
 
   // Named variables: parameters, inputs, outputs. Index = position in variables().

@@ -82,7 +82,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Verlet skin (length); default 0.2 * smallest diameter. Lists are rebuilt when a particle has moved skin/2."},
 
       // --- execution ---
-      {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = every core."},
+      {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = automatic: every core, at most one thread per 2000 particles. Results are deterministic for a given thread count."},
 
       // --- output ---
       {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path; default `<scene.name>.h5`."},
