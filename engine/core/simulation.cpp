@@ -10,6 +10,7 @@
 #include "core/integrator.hpp"
 #include "core/system.hpp"
 #include "interactions/contact_forces.hpp"
+#include "interactions/gravity.hpp"
 #include "interactions/normal_calibration.hpp"
 #include "io/scene.hpp"
 #include "protocols/initial_state.hpp"
@@ -48,6 +49,14 @@ class SimulationImpl final : public Simulation {
     if (scene.boolean("contact.enabled")) {
       tc = scene.real("contact.duration");
       add_contact_module(scene, tc);
+    }
+    if (scene.boolean("gravity.enabled")) {
+      if (sys_.box.any_periodic())
+        scene.fail("gravity.enabled", "self-gravity needs an open box, but box.periodic = true (there are no periodic "
+                                      "images of gravity): set box.periodic = false or gravity.enabled = false");
+      modules_.push_back(std::make_unique<SoftenedGravity<D>>(scene.real("gravity.G"), scene.real("gravity.softening") * rmin,
+                                                              gravity_solver_from_string(scene.text("gravity.solver")),
+                                                              scene.real("gravity.opening_angle")));
     }
 
     // Time step rule (physics.md section 3).

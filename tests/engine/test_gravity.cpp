@@ -1,0 +1,337 @@
+// Softened self-gravity (physics.md section 7): Kepler orbit, cold collapse, tree vs direct,
+// momentum conservation with contacts, scene checks.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "interactions/gravity.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+// n points uniform in the ball of radius R about the origin (rejection sampling, fixed seed).
+std::vector<Eigen::Vector3d> uniform_ball(int n, double R, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Vector3d> p;
+  while (int(p.size()) < n) {
+    Eigen::Vector3d x(u(rng), u(rng), u(rng));
+    if (x.squaredNorm() <= 1) p.push_back(R * x);
+  }
+  return p;
+}
+
+std::string matrix_text(const std::vector<Eigen::Vector3d>& p) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < p.size(); ++i)
+    s += fmt::format("{}[{:.17g},{:.17g},{:.17g}]", i ? "," : "", p[i][0], p[i][1], p[i][2]);
+  return s + "]";
+}
+
+template <int D>
+Particles<D> particles_from(const std::vector<Eigen::Vector3d>& p, double mass) {
+  Particles<D> P;
+  P.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    P.position[i] = p[i].head<D>();
+    P.set_mass_and_radius(i, mass, 0.01);
+  }
+  return P;
+}
+
+// Median of |a_tree - a_direct| / |a_direct|.
+template <int D>
+double median_tree_error(const Particles<D>& P, double theta, double eps) {
+  SoftenedGravity<D> tree(1.0, eps, GravitySolver::tree, theta);
+  const auto a = tree.accelerations(P, GravitySolver::direct, 2);
+  const auto b = tree.accelerations(P, GravitySolver::tree, 2);
+  std::vector<double> e(P.size());
+  for (std::size_t i = 0; i < P.size(); ++i) e[i] = (b[i] - a[i]).norm() / a[i].norm();
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  return e[e.size() / 2];
+}
+
+}  // namespace
+
+TEST_CASE("gravity: circular two-body Kepler orbit keeps its period and energy over 100 orbits", "[gravity]") {
+  // m1 = m2 = 1, separation a = 1, G = 1: relative speed sqrt(G M / a) = sqrt(2), T = 2 pi sqrt(a^3 / (G M)).
+  const double M = 2, a = 1, T = 2 * pi * std::sqrt(a * a * a / M), v = 0.5 * std::sqrt(M / a);
+  const int steps_per_orbit = 1000, orbits = 100;
+  auto sim = Simulation::create(Scene::from_string(fmt::format(R"(
+[particles]
+layout = "list"
+positions = [[-0.5, 0, 0], [0.5, 0, 0]]
+velocity = "list"
+velocities = [[0, {0:.17g}, 0], [0, {1:.17g}, 0]]
+mass = 1.0
+diameter = 0.01
+[box]
+periodic = false
+[contact]
+enabled = false
+[gravity]
+enabled = true
+softening = 0
+[time]
+dt = {2:.17g}
+[run]
+threads = 1
+)", -v, v, T / steps_per_orbit), "kepler"));
+  auto energy = [&] { return sim->get("kinetic_energy") + sim->get("gravity_potential_energy"); };
+  const double E0 = energy();
+  REQUIRE(E0 == Approx(2 * 0.5 * v * v - 1.0).epsilon(1e-14));
+  auto angle = [&] {
+    auto p = sim->particles();
+    return std::atan2(p.position[4] - p.position[1], p.position[3] - p.position[0]);
+  };
+  double phase = 0, last = angle(), err_first = 0, err_last = 0;
+  const int sample = 10;
+  for (int k = 0; k < orbits * steps_per_orbit / sample; ++k) {
+    sim->step_n(sample);
+    const double th = angle();
+    double d = th - last;
+    d -= 2 * pi * std::round(d / (2 * pi));
+    phase += d, last = th;
+    const double err = std::abs(energy() - E0) / std::abs(E0);
+    const int orbit = k * sample / steps_per_orbit;
+    if (orbit < 10) err_first = std::max(err_first, err);
+    if (orbit >= orbits - 10) err_last = std::max(err_last, err);
+  }
+  const double period = sim->time() * 2 * pi / phase;
+  INFO(fmt::format("period {:.12g} (exact {:.12g}, rel {:.3g}); energy error first 10 orbits {:.3g}, last 10 {:.3g}",
+                   period, T, period / T - 1, err_first, err_last));
+  WARN(fmt::format("Kepler: period rel. error {:.3g}; max energy error first 10 orbits {:.3g}, last 10 {:.3g}", period / T - 1,
+                   err_first, err_last));
+  CHECK(std::abs(period / T - 1) < 1e-4);
+  CHECK(err_last < 1e-5);
+  CHECK(err_last <= 2 * err_first + 1e-14);   // bounded, no secular growth
+}
+
+TEST_CASE("gravity: cold collapse of a uniform sphere reaches maximum compression at pi/(2 sqrt 2) t_ff", "[gravity]") {
+  const int N = 2000;
+  const double R0 = 1, M = 1, G = 1;
+  const double t_ff = std::sqrt(R0 * R0 * R0 / (G * M)), t_collapse = pi / (2 * std::sqrt(2.0)) * t_ff;
+  const double spacing = R0 * std::cbrt(4 * pi / 3 / N);
+  const double diameter = 0.002, eps = 0.01 * spacing;
+  const double dt = 1e-3;
+  auto pos = uniform_ball(N, R0, 12345);
+  auto sim = Simulation::create(Scene::from_string(fmt::format(R"(
+[particles]
+layout = "list"
+positions = {}
+mass = {:.17g}
+diameter = {}
+[box]
+periodic = false
+[contact]
+enabled = false
+[gravity]
+enabled = true
+G = {}
+softening = {:.17g}
+[time]
+dt = {}
+[run]
+threads = 2
+)", matrix_text(pos), M / N, diameter, G, eps / (0.5 * diameter), dt), "collapse"));
+  // Half-mass radius about the centre of mass and kinetic energy, every `every` steps, to t = 1.22 t_ff.
+  const int every = 5;
+  std::vector<double> t, r50, ke;
+  auto record = [&] {
+    auto p = sim->particles();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int i = 0; i < N; ++i) c += Eigen::Vector3d(p.position[3 * i], p.position[3 * i + 1], p.position[3 * i + 2]);
+    c /= N;
+    std::vector<double> r(N);
+    double k = 0;
+    for (int i = 0; i < N; ++i) {
+      r[i] = (Eigen::Vector3d(p.position[3 * i], p.position[3 * i + 1], p.position[3 * i + 2]) - c).norm();
+      k += 0.5 * p.mass[i] * (std::pow(p.velocity[3 * i], 2) + std::pow(p.velocity[3 * i + 1], 2) + std::pow(p.velocity[3 * i + 2], 2));
+    }
+    std::nth_element(r.begin(), r.begin() + N / 2, r.end());
+    t.push_back(sim->time()), r50.push_back(r[N / 2]), ke.push_back(k);
+  };
+  const auto start = std::chrono::steady_clock::now();
+  record();
+  while (sim->time() < 1.22 * t_ff) sim->step_n(every), record();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // Extremum time refined by the parabola through the best sample and its neighbours.
+  auto peak_time = [&](const std::vector<double>& y, bool maximum) {
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < y.size(); ++i)
+      if (maximum ? y[i] > y[k] : y[i] < y[k]) k = i;
+    if (k == 0 || k + 1 >= y.size()) return t[k];
+    const double d1 = 0.5 * (y[k + 1] - y[k - 1]), d2 = y[k + 1] - 2 * y[k] + y[k - 1];
+    return t[k] - (t[1] - t[0]) * d1 / d2;
+  };
+  const double t_ke = peak_time(ke, true), t_r50 = peak_time(r50, false);
+  INFO(fmt::format("expected {:.4f}; kinetic energy peak at {:.4f} ({:+.2f}%), half-mass radius minimum at {:.4f} ({:+.2f}%); "
+                   "min r50 / R0 = {:.3f}; {:.1f} s on {} threads",
+                   t_collapse, t_ke, 100 * (t_ke / t_collapse - 1), t_r50, 100 * (t_r50 / t_collapse - 1),
+                   *std::min_element(r50.begin(), r50.end()) / R0, seconds, sim->threads()));
+  WARN(fmt::format("cold collapse: kinetic-energy peak {:+.2f}%, half-mass-radius minimum {:+.2f}% from pi/(2 sqrt 2) t_ff; {:.1f} s",
+                   100 * (t_ke / t_collapse - 1), 100 * (t_r50 / t_collapse - 1), seconds));
+  CHECK(std::abs(t_ke / t_collapse - 1) < 0.03);
+  CHECK(std::abs(t_r50 / t_collapse - 1) < 0.03);
+}
+
+TEST_CASE("gravity: Barnes-Hut forces converge to direct summation as theta decreases", "[gravity]") {
+  const auto pos = uniform_ball(3000, 1.0, 7);
+  const auto P = particles_from<3>(pos, 1.0 / 3000);
+  const double eps = 1e-3;
+  std::vector<double> err;
+  for (double theta : {0.2, 0.4, 0.6, 0.8}) err.push_back(median_tree_error(P, theta, eps));
+  const double at_default = median_tree_error(P, 0.5, eps);
+  INFO(fmt::format("median relative force error: theta 0.2 {:.3g}, 0.4 {:.3g}, 0.6 {:.3g}, 0.8 {:.3g}; default 0.5 {:.3g}",
+                   err[0], err[1], err[2], err[3], at_default));
+  WARN(fmt::format("tree median force error: 0.2 {:.3g}, 0.4 {:.3g}, 0.5 {:.3g}, 0.6 {:.3g}, 0.8 {:.3g}", err[0], err[1],
+                   at_default, err[2], err[3]));
+  CHECK(at_default < 1e-3);
+  for (std::size_t k = 1; k < err.size(); ++k) CHECK(err[k] > err[k - 1]);
+  // theta = 0 opens every cell: the tree is then direct summation, up to round-off.
+  CHECK(median_tree_error(P, 0.0, eps) < 1e-13);
+
+  // The tree potential agrees with the direct one.
+  SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
+  const double Wd = g.potential_energy(P, GravitySolver::direct, 2), Wt = g.potential_energy(P, GravitySolver::tree, 2);
+  CHECK(Wt == Approx(Wd).epsilon(1e-4));
+  // Uniform ball: W = -3/5 G M^2 / R (up to discreteness).
+  CHECK(Wd == Approx(-0.6).epsilon(0.05));
+
+  // 2D (quadtree) too.
+  const auto P2 = particles_from<2>(pos, 1.0 / 3000);
+  CHECK(median_tree_error(P2, 0.5, eps) < 1e-3);
+  CHECK(median_tree_error(P2, 0.0, eps) < 1e-13);
+}
+
+TEST_CASE("gravity: direct summation is identical on 1 and 2 threads and pairs are antisymmetric", "[gravity]") {
+  const auto pos = uniform_ball(501, 1.0, 3);
+  auto P = particles_from<3>(pos, 1.0);
+  for (std::size_t i = 0; i < P.size(); ++i) P.mass[i] = 1.0 + 0.001 * double(i);
+  SoftenedGravity<3> g(2.0, 0.01, GravitySolver::direct);
+  const auto a1 = g.accelerations(P, GravitySolver::direct, 1), a2 = g.accelerations(P, GravitySolver::direct, 2);
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  double scale = 0;
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    REQUIRE(a1[i] == a2[i]);
+    total += P.mass[i] * a1[i], scale += P.mass[i] * a1[i].norm();
+  }
+  CHECK(total.norm() < 1e-13 * scale);
+  // Two particles: F = G m1 m2 d / (d^2 + eps^2)^{3/2}.
+  Particles<2> Q;
+  Q.resize(2);
+  Q.set_mass_and_radius(0, 2.0, 0.1), Q.set_mass_and_radius(1, 3.0, 0.1);
+  Q.position[1] = Vec<2>(3.0, 4.0);
+  SoftenedGravity<2> g2(0.5, 1.0, GravitySolver::direct);
+  const auto a = g2.accelerations(Q, GravitySolver::direct, 1);
+  const double f = 0.5 * 2 * 3 * 5 / std::pow(26.0, 1.5);
+  CHECK((2.0 * a[0] - f * Vec<2>(0.6, 0.8)).norm() < 1e-15);
+  CHECK((3.0 * a[1] + f * Vec<2>(0.6, 0.8)).norm() < 1e-15);
+  CHECK(g2.potential_energy(Q, GravitySolver::direct, 1) == Approx(-0.5 * 6 / std::sqrt(26.0)).epsilon(1e-15));
+}
+
+TEST_CASE("gravity: total momentum is conserved with direct gravity and contacts", "[gravity]") {
+  auto sim = Simulation::create(Scene::from_string(R"(
+[particles]
+layout = "random"
+count = 40
+seed = 5
+diameter = 1.0
+mass = 1.0
+[box]
+lengths = [8, 8, 8]
+periodic = false
+[contact]
+restitution = 0.5
+duration = 0.05
+[gravity]
+enabled = true
+G = 1.0
+[time]
+steps_per_contact = 50
+[run]
+threads = 2
+)", "gravity-momentum"));
+  double worst = 0, min_gap = 1e9;
+  for (int k = 0; k < 40; ++k) {
+    sim->step(0.1);
+    auto p = sim->particles();
+    double scale = 0;
+    Eigen::Vector3d mom = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < p.count; ++i) {
+      const Eigen::Vector3d v(p.velocity[3 * i], p.velocity[3 * i + 1], p.velocity[3 * i + 2]);
+      mom += p.mass[i] * v, scale += p.mass[i] * v.norm();
+      for (std::size_t j = 0; j < i; ++j) {
+        const Eigen::Vector3d d(p.position[3 * i] - p.position[3 * j], p.position[3 * i + 1] - p.position[3 * j + 1],
+                                p.position[3 * i + 2] - p.position[3 * j + 2]);
+        min_gap = std::min(min_gap, d.norm() - 1.0);
+      }
+    }
+    worst = std::max(worst, mom.norm() / scale);
+  }
+  INFO(fmt::format("max |P| / sum |m v| = {:.3g}; smallest gap {:.3g}", worst, min_gap));
+  CHECK(min_gap < 0);   // collisions happened
+  CHECK(worst < 1e-12);
+}
+
+TEST_CASE("gravity: scene checks", "[gravity]") {
+  const std::string base = R"(
+[particles]
+layout = "lattice"
+count = 8
+[box]
+lengths = [4, 4, 4]
+periodic = {}
+[contact]
+duration = 0.1
+[gravity]
+enabled = true
+solver = "{}"
+)";
+  try {
+    Simulation::create(Scene::from_string(fmt::format(fmt::runtime(base), "true", "direct"), "periodic-gravity"));
+    FAIL("a periodic box with gravity was accepted");
+  } catch (const SceneError& e) {
+    const std::string msg = e.what();
+    CHECK(msg.find("gravity.enabled") != std::string::npos);
+    CHECK(msg.find("box.periodic") != std::string::npos);
+  }
+  CHECK_THROWS_AS(Simulation::create(Scene::from_string(fmt::format(fmt::runtime(base), "false", "fmm"), "bad-solver")), SceneError);
+  auto sim = Simulation::create(Scene::from_string(fmt::format(fmt::runtime(base), "false", "tree"), "tree-gravity"));
+  CHECK(sim->get("gravity_potential_energy") < 0);
+  sim->step_n(10);
+  CHECK(std::isfinite(sim->get("gravity_potential_energy")));
+}
+
+TEST_CASE("gravity: direct kernel and tree throughput", "[.gravity-bench]") {
+  for (int n : {4000, 16000}) {
+    const auto P = particles_from<3>(uniform_ball(n, 1.0, 1), 1.0 / n);
+    SoftenedGravity<3> g(1.0, 1e-3, GravitySolver::direct);
+    g.accelerations(P, GravitySolver::direct, 2);
+    const int reps = n <= 4000 ? 20 : 3;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int r = 0; r < reps; ++r) g.accelerations(P, GravitySolver::direct, 2);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+    WARN(fmt::format("direct N = {}: {:.4f} s per call, {:.3g} pair interactions / s on 2 threads", n, s, double(n) * (n - 1) / s));
+  }
+  const int n = 100000;
+  const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
+  SoftenedGravity<3> g(1.0, 1e-3, GravitySolver::tree, 0.5);
+  auto t0 = std::chrono::steady_clock::now();
+  g.accelerations(P, GravitySolver::tree, 2);
+  const double st = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  t0 = std::chrono::steady_clock::now();
+  g.accelerations(P, GravitySolver::direct, 2);
+  const double sd = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  WARN(fmt::format("N = 1e5: tree (theta 0.5) {:.3f} s, direct {:.3f} s, speed-up {:.1f}", st, sd, sd / st));
+}
