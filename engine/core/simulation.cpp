@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include <fmt/format.h>
 #include <omp.h>
 
+#include "analysis/clusters.hpp"
+#include "analysis/fractal_dimension.hpp"
 #include "core/integrator.hpp"
 #include "core/system.hpp"
 #include "interactions/contact_forces.hpp"
@@ -57,6 +60,7 @@ class SimulationImpl final : public Simulation {
       modules_.push_back(std::make_unique<SoftenedGravity<D>>(scene.real("gravity.G"), scene.real("gravity.softening") * rmin,
                                                               gravity_solver_from_string(scene.text("gravity.solver")),
                                                               scene.real("gravity.opening_angle")));
+      setup_aggregation_analysis(scene, rmin);
     }
 
     // Time step rule (physics.md section 3).
@@ -90,6 +94,7 @@ class SimulationImpl final : public Simulation {
       P.angular_accel[i] = P.angular_accel_prev[i] = P.inv_inertia[i] * P.torque[i];
     }
     check_finite("the initial state");
+    track_aggregation();
   }
 
   void step(double duration) override {
@@ -138,6 +143,7 @@ class SimulationImpl final : public Simulation {
         w.put_vector(P.angular_accel_prev), w.put_vector(P.orientation);
     sys_.neighbours.save(w);
     for (const auto& m : modules_) m->save(w);
+    if (analysis_) w.put(aggregation_time_);
     return w.take();
   }
   // A state that does not fit leaves the simulation as it was.
@@ -163,6 +169,7 @@ class SimulationImpl final : public Simulation {
         r.get_vector(P.angular_accel_prev), r.get_vector(P.orientation);
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
+    if (analysis_) aggregation_time_ = r.get<double>();
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     cache_step_ = -1;
   }
@@ -258,6 +265,32 @@ class SimulationImpl final : public Simulation {
     sys_.time += h;
     ++sys_.step;
     if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+    if (analysis_ && sys_.step % analysis_every_ == 0) track_aggregation();
+  }
+
+  // --- aggregation analysis (gravity scenes, physics.md section 8) ---
+  void setup_aggregation_analysis(const Scene& scene, double rmin) {
+    const auto& P = sys_.particles;
+    analysis_ = true;
+    cluster_tol_ = scene.real("analysis.cluster_tolerance") * rmin;
+    aggregation_threshold_ = scene.real("analysis.aggregation_threshold");
+    analysis_every_ = scene.integer("analysis.every");
+    // Free-fall time from the initial state: R0 = largest distance from the centre of mass.
+    double M = 0, R0 = 0;
+    Vec<D> c = Vec<D>::Zero();
+    for (std::size_t i = 0; i < P.size(); ++i) c += P.mass[i] * P.position[i], M += P.mass[i];
+    c /= M;
+    for (std::size_t i = 0; i < P.size(); ++i) R0 = std::max(R0, (P.position[i] - c).norm());
+    free_fall_time_ = std::sqrt(R0 * R0 * R0 / (scene.real("gravity.G") * M));
+  }
+  ClusterStats clusters() const {
+    const auto& P = sys_.particles;
+    return find_clusters<D>(P.position, P.radius, P.mass, cluster_tol_);
+  }
+  // Records the first time the largest cluster reaches the threshold (called every analysis.every steps).
+  void track_aggregation() {
+    if (!analysis_ || !std::isnan(aggregation_time_)) return;
+    if (clusters().largest_fraction >= aggregation_threshold_) aggregation_time_ = sys_.time;
   }
 
   void check_finite(const std::string& when) const {
@@ -312,6 +345,16 @@ class SimulationImpl final : public Simulation {
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) out(name, "", "see the README's observable table");
+    if (analysis_) {
+      out("cluster_count", "", "N_c: clusters of the contact graph (d < R_i + R_j + tol), isolated particles included");
+      out("cluster_index", "", "N_c / N: 1 = all isolated, 1/N = one aggregate");
+      out("largest_cluster_fraction", "", "f_max: mass fraction of the largest cluster");
+      out("virial_ratio", "", "Q = K / |W| (0.5 at virial equilibrium)");
+      out("free_fall_time", "s", "t_ff = sqrt(R0^3 / (G M)), R0 = largest initial distance from the centre of mass");
+      out("time_over_free_fall", "", "t / t_ff");
+      out("fractal_dimension", "", "mass-radius D_f of the largest cluster (NaN when it is too small)");
+      out("aggregation_time", "s", "first time f_max >= analysis.aggregation_threshold, checked every analysis.every steps; NaN until then");
+    }
   }
 
   void refresh_observables() const {
@@ -344,6 +387,22 @@ class SimulationImpl final : public Simulation {
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) o[name] = value;
+    if (analysis_) {
+      const ClusterStats cs = clusters();
+      const double N = double(P.size());
+      o["cluster_count"] = double(cs.count);
+      o["cluster_index"] = double(cs.count) / N;
+      o["largest_cluster_fraction"] = cs.largest_fraction;
+      o["virial_ratio"] = (kt + kr) / std::abs(o.at("gravity_potential_energy"));
+      o["free_fall_time"] = free_fall_time_;
+      o["time_over_free_fall"] = sys_.time / free_fall_time_;
+      std::vector<Vec<D>> x;
+      std::vector<double> r, m;
+      for (std::size_t i = 0; i < P.size(); ++i)
+        if (cs.label[i] == cs.largest) x.push_back(P.position[i]), r.push_back(P.radius[i]), m.push_back(P.mass[i]);
+      o["fractal_dimension"] = fractal_dimension<D>(x, r, m);
+      o["aggregation_time"] = aggregation_time_;
+    }
     cache_step_ = sys_.step;
     cache_time_ = sys_.time;
   }
@@ -352,6 +411,10 @@ class SimulationImpl final : public Simulation {
   std::vector<std::unique_ptr<ForceModule<D>>> modules_;
   bool uses_list_ = false, rotate_ = false;
   double dt_ = 0, kn_ = 0, cn_ = 0;
+  bool analysis_ = false;   // gravity scenes only
+  double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0;
+  long analysis_every_ = 100;
+  double aggregation_time_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<VariableInfo> vars_;
   std::vector<double> parameter_values_;
   std::vector<std::string> warnings_;

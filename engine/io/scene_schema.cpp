@@ -84,6 +84,15 @@ const std::vector<SchemaEntry>& scene_schema() {
        "than s / theta + (distance from the cell centre to its centre of mass); 0 = exact. At 0.5 the median force "
        "error is about 6e-4 (uniform ball)."},
 
+      // --- aggregation analysis ---
+      {"analysis.cluster_tolerance", K::real, "1e-3", 0, inf, false, false, "",
+       "Cluster graph (gravity scenes, physics.md section 8): i and j are linked when d < R_i + R_j + tol, "
+       "tol = value * R_min."},
+      {"analysis.aggregation_threshold", K::real, "0.9", 0, 1, true, false, "",
+       "`aggregation_time` is the first time the largest cluster holds at least this mass fraction."},
+      {"analysis.every", K::integer, "100", 1, 9.2e18, false, false, "",
+       "Steps between the checks of the largest-cluster fraction that set `aggregation_time` (gravity scenes)."},
+
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},
       {"time.steps_per_contact", K::real, "50", 1, inf, false, false, "", "n_c: steps per contact duration when dt is not given."},

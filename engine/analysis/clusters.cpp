@@ -1,0 +1,99 @@
+#include "analysis/clusters.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <unordered_map>
+
+namespace grains {
+
+namespace {
+
+struct UnionFind {
+  std::vector<int> parent, size;
+  explicit UnionFind(std::size_t n) : parent(n), size(n, 1) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];   // path halving
+    return i;
+  }
+  void unite(int a, int b) {
+    a = find(a), b = find(b);
+    if (a == b) return;
+    if (size[a] < size[b]) std::swap(a, b);
+    parent[b] = a, size[a] += size[b];
+  }
+};
+
+template <int D>
+struct CellHash {
+  std::size_t operator()(const std::array<std::int64_t, D>& c) const {
+    std::uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int a = 0; a < D; ++a) h = (h ^ std::uint64_t(c[a])) * 0xBF58476D1CE4E5B9ull, h ^= h >> 31;
+    return std::size_t(h);
+  }
+};
+
+}  // namespace
+
+template <int D>
+ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<double>& radius, const std::vector<double>& mass,
+                           double tol) {
+  ClusterStats st;
+  const std::size_t N = x.size();
+  if (N == 0) return st;
+  const double rmax = *std::max_element(radius.begin(), radius.end());
+  const double h = 2 * rmax + std::max(0.0, tol);   // any linked pair lies in neighbouring cells
+  using Cell = std::array<std::int64_t, D>;
+  auto cell_of = [&](const Vec<D>& p) {
+    Cell c;
+    for (int a = 0; a < D; ++a) c[a] = std::int64_t(std::floor(p[a] / h));
+    return c;
+  };
+  // Cell -> first particle; next[i] chains the particles of one cell.
+  std::unordered_map<Cell, int, CellHash<D>> head;
+  head.reserve(N);
+  std::vector<int> next(N, -1);
+  for (std::size_t i = 0; i < N; ++i) {
+    auto [it, inserted] = head.try_emplace(cell_of(x[i]), int(i));
+    if (!inserted) next[i] = it->second, it->second = int(i);
+  }
+  UnionFind uf(N);
+  constexpr int stencil = D == 3 ? 27 : 9;
+  for (std::size_t i = 0; i < N; ++i) {
+    const Cell c = cell_of(x[i]);
+    for (int s = 0; s < stencil; ++s) {
+      Cell n = c;
+      for (int a = 0, r = s; a < D; ++a, r /= 3) n[a] += r % 3 - 1;
+      auto it = head.find(n);
+      if (it == head.end()) continue;
+      for (int j = it->second; j >= 0; j = next[j]) {
+        if (j <= int(i)) continue;
+        const double reach = radius[i] + radius[j] + tol;
+        if ((x[j] - x[i]).squaredNorm() < reach * reach) uf.unite(int(i), j);
+      }
+    }
+  }
+  // Relabel roots 0 .. N_c-1 in order of first appearance; sum masses per cluster.
+  st.label.assign(N, -1);
+  std::vector<int> root_label(N, -1);
+  std::vector<double> cluster_mass;
+  double total = 0;
+  for (std::size_t i = 0; i < N; ++i) {
+    const int r = uf.find(int(i));
+    if (root_label[r] < 0) root_label[r] = int(cluster_mass.size()), cluster_mass.push_back(0);
+    st.label[i] = root_label[r];
+    cluster_mass[root_label[r]] += mass[i];
+    total += mass[i];
+  }
+  st.count = cluster_mass.size();
+  st.largest = int(std::max_element(cluster_mass.begin(), cluster_mass.end()) - cluster_mass.begin());
+  st.largest_fraction = total > 0 ? cluster_mass[st.largest] / total : 0;
+  return st;
+}
+
+template ClusterStats find_clusters<2>(const std::vector<Vec<2>>&, const std::vector<double>&, const std::vector<double>&, double);
+template ClusterStats find_clusters<3>(const std::vector<Vec<3>>&, const std::vector<double>&, const std::vector<double>&, double);
+
+}  // namespace grains

@@ -1,0 +1,218 @@
+// Aggregation analysis (physics.md section 8): cluster graph, fractal dimension, and the gravity-scene
+// observables (cluster counts, aggregation time, free-fall time) end to end.
+#include <catch2/catch.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "analysis/clusters.hpp"
+#include "analysis/fractal_dimension.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+
+namespace {
+
+// Brute-force O(N^2) cluster count, the reference for the cell-grid search.
+std::size_t brute_force_count(const std::vector<Vec<3>>& x, const std::vector<double>& r, double tol) {
+  const std::size_t N = x.size();
+  std::vector<int> parent(N);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i];
+    return i;
+  };
+  for (std::size_t i = 0; i < N; ++i)
+    for (std::size_t j = i + 1; j < N; ++j)
+      if ((x[i] - x[j]).norm() < r[i] + r[j] + tol) parent[find(int(i))] = find(int(j));
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < N; ++i) n += find(int(i)) == int(i);
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("clusters: two separated touching chains and an isolated particle", "[aggregation]") {
+  std::vector<Vec<3>> x;
+  std::vector<double> r, m;
+  for (int k = 0; k < 5; ++k) x.emplace_back(k * 1.0, 0, 0), r.push_back(0.5), m.push_back(1);      // chain A, mass 5
+  for (int k = 0; k < 3; ++k) x.emplace_back(k * 1.0, 10, 0), r.push_back(0.5), m.push_back(3);     // chain B, mass 9
+  x.emplace_back(0, 0, 20), r.push_back(0.5), m.push_back(1);                                       // isolated
+  const auto cs = find_clusters<3>(x, r, m, 1e-3);
+  CHECK(cs.count == 3);
+  for (int k = 1; k < 5; ++k) CHECK(cs.label[k] == cs.label[0]);
+  for (int k = 6; k < 8; ++k) CHECK(cs.label[k] == cs.label[5]);
+  CHECK(cs.label[0] != cs.label[5]);
+  CHECK(cs.label[8] != cs.label[0]);
+  CHECK(cs.label[8] != cs.label[5]);
+  CHECK(cs.largest == cs.label[5]);
+  CHECK(cs.largest_fraction == Approx(9.0 / 15.0).epsilon(1e-14));
+
+  // Equal masses: chain A is the largest.
+  std::fill(m.begin(), m.end(), 1.0);
+  const auto eq = find_clusters<3>(x, r, m, 1e-3);
+  CHECK(eq.largest == eq.label[0]);
+  CHECK(eq.largest_fraction == Approx(5.0 / 9.0).epsilon(1e-14));
+
+  // 2D as well.
+  std::vector<Vec<2>> x2;
+  for (const auto& p : x) x2.push_back(p.head<2>());
+  x2.back() = Vec<2>(0, 20);
+  CHECK(find_clusters<2>(x2, r, m, 1e-3).count == 3);
+}
+
+TEST_CASE("clusters: the tolerance is honoured (gap just below / above tol)", "[aggregation]") {
+  const double tol = 0.01, R = 0.5;
+  const std::vector<double> r{R, 0.25}, m{1, 1};
+  for (double gap : {0.0, 0.99 * tol, 1.01 * tol, 2 * tol}) {
+    const std::vector<Vec<3>> x{Vec<3>(0, 0, 0), Vec<3>(R + 0.25 + gap, 0, 0)};
+    const auto cs = find_clusters<3>(x, r, m, tol);
+    INFO("gap " << gap);
+    CHECK(cs.count == (gap < tol ? 1u : 2u));
+    CHECK(cs.largest_fraction == Approx(gap < tol ? 1.0 : 0.5));
+  }
+  // Zero tolerance: touching exactly is not linked (strict d < R_i + R_j), overlapping is.
+  const std::vector<Vec<3>> touching{Vec<3>(0, 0, 0), Vec<3>(0.75, 0, 0)}, overlapping{Vec<3>(0, 0, 0), Vec<3>(0.7499, 0, 0)};
+  CHECK(find_clusters<3>(touching, r, m, 0.0).count == 2);
+  CHECK(find_clusters<3>(overlapping, r, m, 0.0).count == 1);
+}
+
+TEST_CASE("clusters: the cell-grid search agrees with brute force on a random polydisperse cloud", "[aggregation]") {
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> u(-6, 6), ur(0.2, 0.6);
+  std::vector<Vec<3>> x;
+  std::vector<double> r, m;
+  for (int i = 0; i < 1500; ++i) x.emplace_back(u(rng), u(rng), u(rng)), r.push_back(ur(rng)), m.push_back(1);
+  x.emplace_back(1e6, -1e6, 3e5), r.push_back(0.5), m.push_back(1);   // a far escaper: the hashed grid copes
+  for (double tol : {0.0, 0.05, 0.3}) {
+    const auto cs = find_clusters<3>(x, r, m, tol);
+    INFO("tol " << tol);
+    CHECK(cs.count == brute_force_count(x, r, tol));
+    CHECK(cs.count > 1);
+  }
+}
+
+TEST_CASE("fractal dimension: compact lattice ball ~3, straight chain ~1, tiny sets NaN", "[aggregation]") {
+  // Simple cubic lattice (spacing = diameter = 1) inside a ball: ~4000 particles.
+  std::vector<Vec<3>> ball;
+  const int n = 10;
+  const double Rb = 9.85;
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      for (int k = -n; k <= n; ++k)
+        if (i * i + j * j + k * k <= Rb * Rb) ball.emplace_back(i, j, k);
+  const std::vector<double> rb(ball.size(), 0.5), mb(ball.size(), 1.0);
+  const double df_ball = fractal_dimension<3>(ball, rb, mb);
+
+  std::vector<Vec<3>> chain;
+  for (int i = 0; i < 400; ++i) chain.emplace_back(i * 1.0, 0, 0);
+  const std::vector<double> rc(chain.size(), 0.5), mc(chain.size(), 1.0);
+  const double df_chain = fractal_dimension<3>(chain, rc, mc);
+
+  WARN(fmt::format("D_f: lattice ball of {} particles {:.4f}; chain of {} touching spheres {:.4f}", ball.size(), df_ball,
+                   chain.size(), df_chain));
+  CHECK(ball.size() > 3800);
+  CHECK(ball.size() < 4200);
+  CHECK(std::abs(df_ball - 3) < 0.1);
+  CHECK(std::abs(df_chain - 1) < 0.1);
+
+  // Five touching spheres: the 90 % radius is below two diameters, no scaling range.
+  std::vector<Vec<3>> few(chain.begin(), chain.begin() + 5);
+  CHECK(std::isnan(fractal_dimension<3>(few, std::vector<double>(5, 0.5), std::vector<double>(5, 1.0))));
+  CHECK(std::isnan(fractal_dimension<3>(std::vector<Vec<3>>{Vec<3>::Zero()}, {0.5}, {1.0})));
+}
+
+TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; save/restore keeps aggregation_time",
+          "[aggregation]") {
+  const std::string text = R"(
+[particles]
+layout = "random"
+count = 200
+diameter = 1.0
+mass = 1.0
+solid_fraction = 0.05
+seed = 3
+[box]
+periodic = false
+[contact]
+restitution = 0.1
+duration = 0.01
+[gravity]
+enabled = true
+G = 1.0
+softening = 0.1
+[analysis]
+aggregation_threshold = 0.9
+every = 50
+[run]
+threads = 2
+)";
+  auto sim = Simulation::create(Scene::from_string(text, "cloud"));
+  const double tff = sim->get("free_fall_time");
+  CHECK(sim->get("cluster_count") > 150);
+  CHECK(sim->get("cluster_index") == Approx(sim->get("cluster_count") / 200));
+  CHECK(std::isnan(sim->get("aggregation_time")));
+  CHECK(sim->get("virial_ratio") == 0.0);
+  CHECK(sim->get("time_over_free_fall") == 0.0);
+  const double f0 = sim->get("largest_cluster_fraction");
+
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<std::byte> saved;
+  double t_saved = 0;
+  // Run in chunks without reading in between (the aggregation time must be tracked inside stepping);
+  // keep the state at 0.5 t_ff, before aggregation.
+  auto run_to = [&](double t_end) {
+    while (sim->time() < t_end - 1e-9 * tff) {
+      sim->step(0.25 * tff);
+      if (saved.empty() && sim->time() >= 0.5 * tff) saved = sim->save_state(), t_saved = sim->time();
+    }
+  };
+  run_to(2.5 * tff);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double f_end = sim->get("largest_cluster_fraction"), t_agg = sim->get("aggregation_time");
+  WARN(fmt::format("cold cloud of 200: t_ff = {:.4g}; f_max {:.3f} -> {:.3f} (2.5 t_ff); N_c {}; t_agg / t_ff = {:.3f}; "
+                   "Q = {:.3g}; D_f = {:.3f}; {} steps in {:.1f} s",
+                   tff, f0, f_end, sim->get("cluster_count"), t_agg / tff, sim->get("virial_ratio"),
+                   sim->get("fractal_dimension"), sim->step_count(), seconds));
+  CHECK(f_end > f0);
+  CHECK(f_end >= 0.9);
+  REQUIRE(std::isfinite(t_agg));
+  CHECK(t_agg > t_saved);
+  CHECK(t_agg <= sim->time());
+  CHECK(sim->get("time_over_free_fall") == Approx(sim->time() / tff));
+
+  // Restoring the pre-aggregation state brings back its undefined aggregation time; running on
+  // reproduces the same aggregation time; restoring the end state brings it back.
+  const auto end_state = sim->save_state();
+  sim->restore_state(saved);
+  CHECK(sim->time() == t_saved);
+  CHECK(std::isnan(sim->get("aggregation_time")));
+  sim->restore_state(end_state);
+  CHECK(sim->get("aggregation_time") == t_agg);
+  sim->restore_state(saved);
+  run_to(2.5 * tff);
+  CHECK(sim->get("aggregation_time") == t_agg);
+}
+
+TEST_CASE("aggregation observables: absent without gravity; scene keys are validated", "[aggregation]") {
+  const std::string plain = R"(
+[particles]
+layout = "lattice"
+count = 8
+solid_fraction = 0.1
+[contact]
+duration = 0.01
+)";
+  auto sim = Simulation::create(Scene::from_string(plain, "plain"));
+  CHECK_THROWS(sim->index_of("cluster_count"));
+  CHECK_THROWS(sim->index_of("aggregation_time"));
+  const std::string good = plain + "[analysis]\naggregation_threshold = 1.0\nevery = 1\ncluster_tolerance = 0.0\n";
+  CHECK_NOTHROW(Scene::from_string(good, "good").validate());
+  for (std::string bad : {"aggregation_threshold = 0.0", "aggregation_threshold = 1.5", "every = 0", "cluster_tolerance = -1.0"})
+    CHECK_THROWS(Scene::from_string(plain + "[analysis]\n" + bad + "\n", "bad").validate());
+}
