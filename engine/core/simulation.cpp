@@ -242,6 +242,8 @@ class SimulationImpl final : public Simulation {
   void rebuild() {
     if (!uses_list_) return;
     auto& P = sys_.particles;
+    for (const auto& x : P.position)   // never grid a non-finite position
+      if (!x.allFinite()) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step + 1, sys_.time));
     for (auto& x : P.position) x = sys_.box.wrap(x);
     sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
     for (auto& m : modules_) m->after_rebuild(sys_.neighbours);

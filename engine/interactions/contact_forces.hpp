@@ -85,8 +85,12 @@ class ContactForces final : public ForceModule<D> {
         if (overlap <= 0) continue;
         ++contacts;
         const double rmin = std::min(P.radius[i], P.radius[j]);
-        const double used = std::min(overlap, law_.overlap_limit * rmin);
-        elastic += 0.5 * law_.stiffness(P.mass[i], P.mass[j]) * used * used;
+        const double limit = law_.overlap_limit * rmin;
+        const double kn = law_.stiffness(P.mass[i], P.mass[j]);
+        // The potential of the clamped spring: quadratic up to the limit, linear beyond.
+        elastic += overlap <= limit ? 0.5 * kn * overlap * overlap : kn * limit * (overlap - 0.5 * limit);
+        if constexpr (Friction::enabled)   // energy stored in the tangential spring
+          if (k < tangential_.size()) elastic += 0.5 * friction_.stiffness_ratio * kn * tangential_[k].squaredNorm();
         max_ratio = std::max(max_ratio, overlap / rmin);
       }
     out.emplace_back("contacts", double(contacts));

@@ -1,5 +1,6 @@
 #include "protocols/initial_state.hpp"
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -25,15 +26,31 @@ Vec<D> to_vec(const Scene& s, std::string_view key, const std::vector<double>& v
   return out;
 }
 
-// Non-overlapping random insertion with a hash grid of cell size = largest diameter.
+// Non-overlapping random insertion. Candidates are checked against a hashed cell grid whose cells are
+// at least one largest diameter wide and tile each periodic axis exactly (so neighbours across the
+// boundary are found by wrapping cell indices).
 template <int D>
 void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt19937_64& rng) {
   const double dmax = 2 * *std::max_element(P.radius.begin(), P.radius.end());
+  std::array<long long, D> n;
+  Vec<D> cell;
+  for (int a = 0; a < D; ++a) {
+    n[a] = std::max(1LL, (long long)std::floor(box.length[a] / dmax));
+    cell[a] = box.length[a] / double(n[a]);
+  }
   std::unordered_multimap<long long, std::size_t> grid;
-  auto key = [&](const Vec<D>& x) {
+  auto key = [&](std::array<long long, D> c) {
     long long k = 0;
-    for (int a = 0; a < D; ++a) k = k * 1000003 + (long long)std::floor(x[a] / dmax);
+    for (int a = 0; a < D; ++a) {
+      if (box.periodic[a]) c[a] = ((c[a] % n[a]) + n[a]) % n[a];
+      k = k * 2000003 + c[a] + 1000000;
+    }
     return k;
+  };
+  auto coords = [&](const Vec<D>& x) {
+    std::array<long long, D> c;
+    for (int a = 0; a < D; ++a) c[a] = (long long)std::floor((x[a] - box.lower[a]) / cell[a]);
+    return c;
   };
   std::uniform_real_distribution<double> u(0, 1);
   const long attempts_per_particle = 20000;
@@ -42,13 +59,14 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
     for (long t = 0; t < attempts_per_particle && !placed; ++t) {
       Vec<D> x;
       for (int a = 0; a < D; ++a) x[a] = box.lower[a] + u(rng) * box.length[a];
+      const auto home = coords(x);
       bool ok = true;
-      std::array<int, D> o{};
-      for (int a = 0; a < D; ++a) o[a] = -1;
+      std::array<int, D> o;
+      o.fill(-1);
       for (bool more = true; more && ok;) {
-        Vec<D> probe = x;
-        for (int a = 0; a < D; ++a) probe[a] += o[a] * dmax;
-        auto range = grid.equal_range(key(box.wrap(probe)));
+        auto c = home;
+        for (int a = 0; a < D; ++a) c[a] += o[a];
+        auto range = grid.equal_range(key(c));
         for (auto it = range.first; it != range.second && ok; ++it) {
           auto j = it->second;
           ok = box.minimum_image(P.position[j] - x).norm() >= P.radius[i] + P.radius[j];
@@ -59,7 +77,7 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
       }
       if (ok) {
         P.position[i] = x;
-        grid.emplace(key(box.wrap(x)), i);
+        grid.emplace(key(home), i);
         placed = true;
       }
     }
