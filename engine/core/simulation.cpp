@@ -223,6 +223,14 @@ class SimulationImpl final : public Simulation {
     std::partial_sort(m.begin(), m.begin() + std::min<std::size_t>(2, m.size()), m.end());
     const double mstar_min = m.size() > 1 ? m[0] * m[1] / (m[0] + m[1]) : 0.5 * m[0];
     const double fmax = scene.real("contact.overlap_limit");
+    if (mode == "exact" && e < 1) {   // the clamped collision cannot realise e below its critical-damping value
+      const double floor = clamped_collision(1 - 1e-12, 1.0).restitution;   // exp(-2)
+      if (e <= floor)
+        scene.fail("contact.restitution",
+                   fmt::format("value {} is out of range for calibration = \"exact\": allowed ({:.6g}, 1] (the clamped "
+                               "collision realises at least exp(-2) = {:.6g}, at critical damping); use calibration = "
+                               "\"global\" or \"per-pair\" for smaller e", e, floor, floor));
+    }
     SpringDashpot kc = mode == "exact" ? calibrate_exact(e, tc, mstar_min) : calibrate_linear(e, tc, mstar_min);
     kn_ = kc.k, cn_ = kc.c;
     const double mu = scene.real("friction.coefficient");

@@ -141,7 +141,10 @@ class ContactForces final : public ForceModule<D> {
         clamped += was_clamped;
         Vec<D> f = fn * n;   // on j
         if constexpr (Friction::enabled) {
-          f += tangential_force(P, i, j, k, n, Ri, Rj, mi, mj, fn, elastic, dt, torque);
+          // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
+          // torques of F_t balance its moment and total angular momentum is conserved exactly.
+          const double half_overlap = 0.5 * (Rsum - d);
+          f += tangential_force(P, i, j, k, n, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt, torque);
         }
         force[j] += f;
         fi -= f;
@@ -151,7 +154,8 @@ class ContactForces final : public ForceModule<D> {
     return clamped;
   }
 
-  // Tangential force on j; adds both torques. xi accumulates the half-step (position-consistent)
+  // Tangential force on j; adds both torques. Ri, Rj: distances from the centres to the contact point.
+  // xi accumulates the half-step (position-consistent)
   // tangential velocity; the dashpot uses the predicted end-of-step velocity.
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
                           double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,

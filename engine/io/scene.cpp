@@ -35,6 +35,40 @@ std::string suggestion(std::string_view path) {
   return best.empty() ? "" : fmt::format(" (did you mean '{}'?)", best);
 }
 
+// The sections of the schema, in order, and the keys of one section.
+std::vector<std::string> section_names() {
+  std::vector<std::string> out;
+  for (const auto& e : scene_schema()) {
+    std::string s(e.path.substr(0, e.path.find('.')));
+    if (std::find(out.begin(), out.end(), s) == out.end()) out.push_back(s);
+  }
+  return out;
+}
+std::string section_keys(std::string_view section) {
+  std::string out;
+  for (const auto& e : scene_schema())
+    if (e.path.substr(0, e.path.find('.')) == section) out += (out.empty() ? "" : ", ") + std::string(e.path.substr(section.size() + 1));
+  return out;
+}
+// What is allowed in place of an unknown key or section: the nearest name, else the full list.
+std::string allowed_keys(std::string_view path) {
+  std::string hint = suggestion(path);
+  if (!hint.empty()) return hint;
+  auto dot = path.find('.');
+  std::string section(path.substr(0, dot == std::string_view::npos ? 0 : dot));
+  std::string keys = section.empty() ? "" : section_keys(section);
+  if (!keys.empty()) return fmt::format("; the keys of [{}] are: {}", section, keys);
+  return fmt::format("; the sections are: {}", fmt::join(section_names(), ", "));
+}
+std::string allowed_sections(std::string_view path) {
+  std::string best;
+  std::size_t best_d = 3;
+  for (const auto& s : section_names())
+    if (auto d = edit_distance(path, s); d < best_d) best_d = d, best = s;
+  std::string list = fmt::format("the sections are: {}", fmt::join(section_names(), ", "));
+  return best.empty() ? "; " + list : fmt::format(" (did you mean [{}]?); {}", best, list);
+}
+
 bool is_section(std::string_view prefix) {
   for (const auto& e : scene_schema())
     if (e.path.size() > prefix.size() && e.path.substr(0, prefix.size()) == prefix && e.path[prefix.size()] == '.') return true;
@@ -56,9 +90,9 @@ void collect_unknown(const toml::table& t, const std::string& prefix, std::vecto
     std::string path = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
     if (v.is_table()) {
       if (is_section(path)) collect_unknown(*v.as_table(), path, problems);
-      else problems.push_back(fmt::format("unknown section [{}]{}", path, suggestion(path)));
+      else problems.push_back(fmt::format("unknown section [{}]{}", path, allowed_sections(path)));
     } else if (!find_schema_entry(path)) {
-      problems.push_back(fmt::format("unknown key '{}'{}", path, suggestion(path)));
+      problems.push_back(fmt::format("unknown key '{}'{}", path, allowed_keys(path)));
     }
   }
 }
@@ -102,7 +136,7 @@ Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std:
 
 void Scene::set_value(std::string_view path, std::string_view toml_value) {
   if (!find_schema_entry(path))
-    throw SceneError(fmt::format("--set: unknown key '{}'{}", path, suggestion(path)));
+    throw SceneError(fmt::format("--set: unknown key '{}'{}", path, allowed_keys(path)));
   toml::table parsed;
   try {
     parsed = toml::parse(fmt::format("v = {}", toml_value));

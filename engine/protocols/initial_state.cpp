@@ -81,10 +81,14 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
         placed = true;
       }
     }
-    if (!placed)
-      s.fail("particles.solid_fraction",
-             fmt::format("random insertion could not place particle {} of {} after {} attempts; lower the solid fraction "
-                         "or use layout = \"lattice\"", i, P.size(), attempts_per_particle));
+    if (!placed) {
+      double solids = 0;
+      for (std::size_t j = 0; j < P.size(); ++j) solids += ball_volume<D>(P.radius[j]);
+      s.fail(s.has("box.lengths") ? "box.lengths" : "particles.solid_fraction",
+             fmt::format("random insertion could not place particle {} of {} after {} attempts at solid fraction {:.4g}; "
+                         "lower the solid fraction (random insertion jams near {}) or use layout = \"lattice\"",
+                         i, P.size(), attempts_per_particle, solids / box.volume(), D == 3 ? "0.38" : "0.55"));
+    }
   }
 }
 

@@ -99,24 +99,3 @@ TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50",
     }
 }
 
-TEST_CASE("binary collision: the restitution error falls with dt (measured order)", "[contact][analytic]") {
-  for (double e : {0.9, 0.5, 0.1, 0.01}) {
-    const auto tc = calibrate_linear(e, 1.0, 0.5);
-    const double exact = clamped_collision(damping_ratio(e), std::sqrt(tc.k / 0.5)).restitution;
-    std::vector<double> worst;
-    for (double nc : {50.0, 100.0, 200.0, 400.0}) {
-      double w = 0;
-      for (double phase : {0.0, 0.13, 0.37, 0.5, 0.71, 0.93})
-        w = std::max(w, std::abs(collide(3, e, nc, phase).restitution / exact - 1));
-      worst.push_back(w);
-    }
-    const double order_lo = std::log2(worst[0] / worst[1]), order_hi = std::log2(worst[2] / worst[3]);
-    WARN(fmt::format("e = {}: worst relative error at n_c = 50, 100, 200, 400: {:.2e} {:.2e} {:.2e} {:.2e}; "
-                     "observed order {:.2f} (50-100), {:.2f} (200-400)", e, worst[0], worst[1], worst[2], worst[3],
-                     order_lo, order_hi));
-    CHECK(worst[1] < worst[0]);
-    CHECK(worst[2] < worst[1]);
-    CHECK(worst[3] < worst[2]);
-    CHECK(std::log2(worst[0] / worst[3]) / 3 > 1.3);   // average order over three halvings
-  }
-}

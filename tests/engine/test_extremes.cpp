@@ -1,0 +1,357 @@
+// The contact law at its extremes: restitution 1e-4 and 1, stiffness over six decades, a dense
+// periodic system whose energy may never grow, size ratio 10, the time-step rule's boundary, a
+// blow-up that must stop with a clear error, and friction: momentum, angular momentum and a
+// bit-for-bit save/restore in the middle of a sliding contact.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "interactions/normal_calibration.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+using Catch::Contains;
+
+namespace {
+
+std::unique_ptr<Simulation> make(const std::string& text) { return Simulation::create(Scene::from_string(text, "extremes")); }
+
+// Head-on collision of two spheres (diameters d1, d2, masses from unit density unless given) at
+// closing speed `speed`; returns the realised restitution.
+struct HeadOn {
+  double d1 = 1, d2 = 1, m1 = 0, m2 = 0;   // 0: mass from density 1
+  double speed = 1.0;
+  double e = 0.5, tc = 1.0, nc = 50, phase = 0.37;
+  std::string calibration = "global";
+};
+
+double realised_restitution(const HeadOn& h, bool& finite) {
+  const double dt = h.tc / h.nc;
+  const double gap = h.speed * (3 + h.phase) * dt;
+  std::string masses = h.m1 > 0 ? fmt::format("masses = [{}, {}]", h.m1, h.m2) : "";
+  auto sim = make(fmt::format(R"(
+[scene]
+dimension = 3
+[particles]
+layout = "list"
+positions = [[0, 0, 0], [{}, 0, 0]]
+diameters = [{}, {}]
+{}
+velocity = "list"
+velocities = [[{}, 0, 0], [0, 0, 0]]
+[box]
+periodic = false
+[contact]
+restitution = {}
+duration = {}
+calibration = "{}"
+overlap_limit = 1.0
+[time]
+steps_per_contact = {}
+[run]
+threads = 1
+)", 0.5 * (h.d1 + h.d2) + gap, h.d1, h.d2, masses, h.speed, h.e, h.tc, h.calibration, h.nc));
+  finite = true;
+  const long steps = long(std::ceil(gap / h.speed / dt)) + long(4 * h.nc);
+  for (long k = 0; k < steps; ++k) {
+    sim->step_n(1);
+    finite &= std::isfinite(sim->get("kinetic_energy")) && std::isfinite(sim->get("elastic_energy"));
+  }
+  REQUIRE(sim->get("contacts") == 0.0);
+  const auto p = sim->particles();
+  REQUIRE(p.position[3] > p.position[0]);
+  return (p.velocity[3] - p.velocity[0]) / h.speed;
+}
+
+double clamped_for(double e, double tc, double mstar_law, double mstar_pair) {
+  const auto kc = calibrate_linear(e, tc, mstar_law);
+  return clamped_collision(kc.c / (2 * std::sqrt(mstar_pair * kc.k)), std::sqrt(kc.k / mstar_pair)).restitution;
+}
+
+std::string dense_periodic(double e, double tc, const std::string& time = "steps_per_contact = 50") {
+  return fmt::format(R"(
+[scene]
+dimension = 3
+[particles]
+layout = "random"
+count = 200
+size_distribution = "uniform"
+diameter_min = 0.8
+diameter_max = 1.0
+solid_fraction = 0.3
+velocity = "gaussian"
+kinetic_energy = 1.0
+seed = 5
+[contact]
+restitution = {}
+duration = {}
+overlap_limit = 0.1
+[time]
+{}
+[run]
+threads = 1
+)", e, tc, time);
+}
+
+double total_energy(const Simulation& s) { return s.get("kinetic_energy") + s.get("elastic_energy"); }
+
+}  // namespace
+
+TEST_CASE("extremes: restitution 1e-4 and 1 realise the exact clamped values", "[extremes]") {
+  // The restitution error is second order, |error| <= C (w0 dt)^2 with w0 = sqrt(k / m*) (for
+  // e = 1e-4, w0 = 9.7 / t_c: ten steps per realised contact at n_c = 50). Over e = 0.9 .. 1e-4 and
+  // every onset/release phase C stays below 0.13 (test_collision_convergence); the bound takes 0.25.
+  for (double e : {1e-4, 1.0})
+    for (double nc : {50.0, 100.0}) {
+      const double exact = clamped_for(e, 1.0, 0.5, 0.5);
+      const auto kc = calibrate_linear(e, 1.0, 0.5);
+      const double w0dt = std::sqrt(kc.k / 0.5) / nc;
+      double worst = 0;
+      for (double phase : {0.05, 0.37, 0.81}) {
+        HeadOn h;
+        h.m1 = h.m2 = 1.0, h.e = e, h.phase = phase, h.speed = 0.2, h.nc = nc;
+        bool finite;
+        worst = std::max(worst, std::abs(realised_restitution(h, finite) - exact));
+        CHECK(finite);
+      }
+      INFO("e = " << e << ", n_c = " << nc << ": exact clamped restitution " << exact << ", worst error " << worst
+                  << ", bound " << 0.25 * w0dt * w0dt);
+      CHECK(worst < 0.25 * w0dt * w0dt);
+    }
+  // e = 1e-4 is far below what the clamped law can realise: the clamp floors it near exp(-2).
+  CHECK(clamped_for(1e-4, 1.0, 0.5, 0.5) > std::exp(-2.0));
+}
+
+TEST_CASE("extremes: stiffness over six decades at fixed masses gives the same finite collision", "[extremes]") {
+  // m* = 1/2 (unit density, unit diameter -> m = pi/6; use explicit unit masses instead).
+  const double mstar = 0.5, e = 0.3, ln = std::log(e);
+  const double exact = clamped_for(e, 1.0, mstar, mstar);   // independent of k and t_c
+  for (int decade = 0; decade <= 6; ++decade) {
+    const double k = std::pow(10.0, decade);
+    const double tc = std::sqrt(mstar * (std::numbers::pi * std::numbers::pi + ln * ln) / k);
+    REQUIRE(calibrate_linear(e, tc, mstar).k == Approx(k).epsilon(1e-12));
+    HeadOn h;
+    h.m1 = h.m2 = 1.0, h.e = e, h.tc = tc, h.speed = 0.1;   // overlap <= speed / w0 = 0.07 R at k = 1
+    bool finite;
+    const double r = realised_restitution(h, finite);
+    INFO("k = " << k << " (t_c = " << tc << "): realised " << r << ", exact " << exact);
+    CHECK(finite);
+    CHECK(std::abs(r - exact) < 1e-3);
+  }
+}
+
+TEST_CASE("extremes: K + elastic energy never grows in a dense periodic system, six stiffness decades", "[extremes]") {
+  // 200 polydisperse spheres at solid fraction 0.3 (random insertion reaches neither 0.5 nor 0.35)
+  // with Gaussian velocities: many simultaneous contacts, from heavily clamped soft ones (t_c = 1)
+  // to stiff ones (t_c = 1e-3). The dashpot only removes energy and the clamped spring stores it
+  // exactly (elastic_energy is the clamped potential). What velocity Verlet conserves for a spring
+  // of frequency w is not K + U but a modified energy that differs from it by (w dt / 2)^2 U; so
+  // while a contact is compressed and its velocity nearly zero (no dissipation), the sampled K + U can
+  // rise by up to (w dt / 2)^2 of the elastic energy. The bound per step: that, with the stiffest
+  // contact's w (global calibration: the lightest pair), plus round-off of the sums (1e-13 E).
+  for (double e : {1e-4, 0.5, 0.9})
+    for (double tc : {1.0, 0.1, 0.01, 0.001}) {   // k ~ 1/t_c^2: six decades
+      auto sim = make(dense_periodic(e, tc));
+      const double w_max = std::sqrt(std::numbers::pi * std::numbers::pi + std::log(e) * std::log(e)) / tc;
+      const double verlet = std::pow(0.5 * w_max * sim->dt(), 2);
+      const double start = total_energy(*sim);
+      double previous = start, previous_elastic = sim->get("elastic_energy"), worst = 0, largest_rise = 0, contacts = 0;
+      long steps_with_rise = 0;
+      // At least 400 steps, and 0.3 time units so that the stiff cases see many collisions too.
+      const long steps = std::max(400L, long(std::ceil(0.3 / sim->dt())));
+      for (long k = 0; k < steps; ++k) {
+        sim->step_n(1);
+        const double now = total_energy(*sim), elastic = sim->get("elastic_energy");
+        REQUIRE(std::isfinite(now));
+        const double allowed = 1e-13 * previous + verlet * std::max(elastic, previous_elastic);
+        worst = std::max(worst, (now - previous) / allowed);
+        largest_rise = std::max(largest_rise, (now - previous) / previous);
+        steps_with_rise += now > previous * (1 + 1e-13);
+        contacts = std::max(contacts, sim->get("contacts"));
+        previous = now, previous_elastic = elastic;
+      }
+      WARN(fmt::format("e = {}, t_c = {}: {} steps, {} contacts at most, {} clamped contact-steps, energy {:.4g} -> {:.4g}; "
+                       "{} steps rose beyond round-off, largest relative rise {:.3e}, worst rise / allowed {:.3g}",
+                       e, tc, steps, contacts, sim->get("clamped_contacts_total"), start, previous, steps_with_rise,
+                       largest_rise, worst));
+      CHECK(contacts >= 5);
+      CHECK(previous < start);
+      CHECK(worst <= 1.0);
+      CHECK(steps_with_rise <= steps / 1000);   // rare: only near the turning point of a slow contact
+    }
+}
+
+TEST_CASE("extremes: size ratio 10 head-on realises the per-pair clamped restitution", "[extremes]") {
+  for (double e : {0.9, 0.5, 0.1}) {
+    HeadOn h;
+    h.d1 = 0.1, h.d2 = 1.0, h.e = e, h.calibration = "per-pair", h.speed = 0.05;
+    const double m1 = std::numbers::pi / 6 * 1e-3, m2 = std::numbers::pi / 6;
+    const double mstar = m1 * m2 / (m1 + m2);
+    const double exact = clamped_for(e, 1.0, mstar, mstar);
+    double worst = 0;
+    for (double phase : {0.1, 0.6}) {
+      h.phase = phase;
+      bool finite;
+      worst = std::max(worst, std::abs(realised_restitution(h, finite) - exact));
+      CHECK(finite);
+    }
+    INFO("e = " << e << ", diameters 0.1 and 1 (m* = " << mstar << "): exact " << exact << ", worst error " << worst);
+    CHECK(worst < 1e-3);
+  }
+}
+
+TEST_CASE("extremes: the time-step rule warns exactly past t_c / 20 and names both numbers", "[extremes]") {
+  for (double tc : {1.0, 0.38, 0.0123, 3.7e-5}) {
+    const std::string at_rule = fmt::format("dt = {}", tc / 20);   // shortest exact decimal of t_c / 20
+    auto ok = make(dense_periodic(0.5, tc, at_rule));
+    INFO("t_c = " << tc);
+    CHECK(ok->warnings().empty());
+    auto by_count = make(dense_periodic(0.5, tc, "steps_per_contact = 20"));
+    CHECK(by_count->warnings().empty());
+    auto past = make(dense_periodic(0.5, tc, fmt::format("dt = {}", tc / 19)));
+    REQUIRE(past->warnings().size() == 1);
+    CHECK_THAT(past->warnings()[0], Contains(fmt::format("{:.6g}", tc / 19)) && Contains(fmt::format("{:.6g}", tc / 20)));
+    auto past_count = make(dense_periodic(0.5, tc, "steps_per_contact = 19"));
+    REQUIRE(past_count->warnings().size() == 1);
+    CHECK_THAT(past_count->warnings()[0], Contains(fmt::format("{:.6g}", tc / 19)) && Contains(fmt::format("{:.6g}", tc / 20)));
+  }
+}
+
+TEST_CASE("extremes: a huge time step blows up into a SimulationError naming the particle and the step", "[extremes]") {
+  // dt = 5 t_c with strong damping: the explicit dashpot amplifies each collision (c dt / m* >> 2),
+  // the velocities grow geometrically until they overflow.
+  auto sim = make(dense_periodic(0.01, 0.01, "dt = 0.05"));
+  CHECK(sim->warnings().size() == 1);
+  try {
+    sim->step_n(100000);
+    FAIL("no SimulationError after 100000 steps at dt = 5 t_c; kinetic energy " << sim->get("kinetic_energy"));
+  } catch (const SimulationError& err) {
+    const std::string what = err.what();
+    INFO(what);
+    CHECK_THAT(what, Contains("particle") && Contains("step") && Contains("non-finite"));
+    CHECK(sim->step_count() < 100000);
+  }
+}
+
+namespace {
+
+// Two spheres, the second sliding obliquely into the first with spin, friction on. 3D, open box.
+std::string oblique(double mu, int threads = 1, double skin = 0.05) {
+  return fmt::format(R"(
+[scene]
+dimension = 3
+[particles]
+layout = "list"
+positions = [[0.1, -0.2, 0.3], [1.35, 0.45, 0.0]]
+diameters = [1.0, 0.8]
+masses = [1.0, 0.6]
+velocity = "list"
+velocities = [[0.3, 0.1, -0.05], [-0.9, -0.2, 0.1]]
+angular_velocities = [[0.0, 0.5, -1.0], [2.0, 0.0, 0.3]]
+[box]
+periodic = false
+[contact]
+restitution = 0.6
+duration = 0.1
+[friction]
+coefficient = {}
+damping_ratio = 0.5
+[neighbours]
+skin = {}
+[time]
+steps_per_contact = 50
+[run]
+threads = {}
+)", mu, skin, threads);
+}
+
+struct Totals { double p[3], L[3]; };
+Totals totals(const Simulation& s) {
+  Totals t{};
+  for (int a = 0; a < 3; ++a) {
+    t.p[a] = s.get(fmt::format("momentum_{}", "xyz"[a]));
+    t.L[a] = s.get(fmt::format("angular_momentum_{}", "xyz"[a]));
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("extremes: an oblique frictional collision conserves linear and angular momentum", "[extremes][friction]") {
+  for (double mu : {0.1, 0.5, 2.0}) {   // sliding throughout, mixed, mostly sticking
+    auto sim = make(oblique(mu));
+    const Totals t0 = totals(*sim);
+    // Scales: |p| and |L| from the particles' own magnitudes, so that a zero component is no problem.
+    const auto p = sim->particles();
+    double pscale = 0, lscale = 0;
+    for (int i = 0; i < 2; ++i) {
+      Eigen::Vector3d x(&p.position[3 * i]), v(&p.velocity[3 * i]), w(&p.angular_velocity[3 * i]);
+      const double I = 0.4 * p.mass[i] * p.radius[i] * p.radius[i];
+      pscale += p.mass[i] * v.norm();
+      lscale += p.mass[i] * x.norm() * v.norm() + I * w.norm();
+    }
+    double worst_p = 0, worst_L = 0, max_contacts = 0, rot_change = 0;
+    const double spin0 = sim->get("rotational_energy");
+    for (int k = 0; k < 400; ++k) {
+      sim->step_n(1);
+      const Totals t = totals(*sim);
+      for (int a = 0; a < 3; ++a) {
+        worst_p = std::max(worst_p, std::abs(t.p[a] - t0.p[a]) / pscale);
+        worst_L = std::max(worst_L, std::abs(t.L[a] - t0.L[a]) / lscale);
+      }
+      max_contacts = std::max(max_contacts, sim->get("contacts"));
+      rot_change = std::max(rot_change, std::abs(sim->get("rotational_energy") - spin0));
+    }
+    INFO("mu = " << mu << ": worst relative change of momentum " << worst_p << ", of angular momentum " << worst_L);
+    REQUIRE(max_contacts == 1.0);       // they did collide
+    REQUIRE(sim->get("contacts") == 0.0);   // and separated
+    CHECK(rot_change > 1e-3 * spin0);   // friction really acted on the spins
+    CHECK(worst_p < 1e-12);
+    CHECK(worst_L < 1e-12);
+  }
+}
+
+TEST_CASE("extremes: save/restore in the middle of a frictional contact continues bit-for-bit", "[extremes][friction]") {
+  for (int threads : {1, 2}) {
+    // Small skin: the list is rebuilt during the contact, so the tangential history is carried too.
+    const std::string text = oblique(0.3, threads, 0.002);
+    auto a = make(text);
+    long k = 0;
+    while (a->get("contacts") == 0.0 && k < 10000) a->step_n(1), ++k;
+    REQUIRE(a->get("contacts") == 1.0);
+    a->step_n(20);   // well inside the contact, tangential spring loaded
+    REQUIRE(a->get("contacts") == 1.0);
+    const auto state = a->save_state();
+    const double builds_at_save = a->get("neighbour_builds");
+    a->step_n(150);   // through the end of the contact
+    const auto reference = a->particles();
+    const double reference_time = a->time();
+    CHECK(a->get("neighbour_builds") > builds_at_save);
+
+    auto b = make(text);   // a fresh simulation restored from the bytes
+    b->restore_state(state);
+    b->step_n(150);
+    a->restore_state(state);   // and the original one, rewound
+    a->step_n(150);
+    for (const auto* sim : {b.get(), a.get()}) {
+      const auto p = sim->particles();
+      INFO("threads " << threads);
+      CHECK(p.position == reference.position);
+      CHECK(p.velocity == reference.velocity);
+      CHECK(p.angular_velocity == reference.angular_velocity);
+      CHECK(p.orientation == reference.orientation);
+      CHECK(p.force == reference.force);
+      CHECK(sim->time() == reference_time);
+    }
+  }
+}
+
+

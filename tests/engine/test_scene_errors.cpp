@@ -1,0 +1,164 @@
+// Every class of bad scene is refused with a grains::SceneError whose message names the key, the
+// offending value and what is allowed.
+#include <catch2/catch.hpp>
+
+#include <string>
+#include <vector>
+
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+using Catch::Contains;
+
+namespace {
+
+const std::string good = R"(
+[scene]
+dimension = 3
+[particles]
+layout = "lattice"
+count = 27
+solid_fraction = 0.2
+[contact]
+restitution = 0.5
+duration = 0.05
+[run]
+threads = 1
+)";
+
+void build(const std::string& text, const std::vector<std::string>& overrides = {}) {
+  Simulation::create(Scene::from_string(text, "bad.toml", overrides));
+}
+
+// Replace the first occurrence of `what` in the good scene.
+std::string with(const std::string& what, const std::string& by) {
+  std::string s = good;
+  auto at = s.find(what);
+  REQUIRE(at != std::string::npos);
+  return s.replace(at, what.size(), by);
+}
+
+}  // namespace
+
+TEST_CASE("scene errors: the reference scene itself is accepted", "[scene][errors]") {
+  REQUIRE_NOTHROW(build(good));
+}
+
+TEST_CASE("scene errors: an unknown key is named, with the nearest key or the section's keys", "[scene][errors]") {
+  // Typo: did-you-mean.
+  REQUIRE_THROWS_AS(build(with("restitution = 0.5", "restitutoin = 0.5")), SceneError);
+  REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitutoin = 0.5")),
+                      Contains("unknown key 'contact.restitutoin'") && Contains("did you mean 'contact.restitution'"));
+  // Nothing close: the keys that [contact] does have.
+  REQUIRE_THROWS_WITH(build(with("duration = 0.05", "duration = 0.05\nstiffness = 1e4")),
+                      Contains("unknown key 'contact.stiffness'") && Contains("restitution") && Contains("duration") &&
+                          Contains("calibration"));
+}
+
+TEST_CASE("scene errors: an unknown section is named, with the nearest section and the list", "[scene][errors]") {
+  REQUIRE_THROWS_AS(build(good + "[walls]\nx = 1\n"), SceneError);
+  REQUIRE_THROWS_WITH(build(good + "[walls]\nx = 1\n"),
+                      Contains("unknown section [walls]") && Contains("particles") && Contains("contact") && Contains("friction"));
+  REQUIRE_THROWS_WITH(build(good + "[fricton]\ncoefficient = 0.3\n"),
+                      Contains("unknown section [fricton]") && Contains("did you mean [friction]"));
+}
+
+TEST_CASE("scene errors: a wrong type names key, value and expected type", "[scene][errors]") {
+  REQUIRE_THROWS_AS(build(with("restitution = 0.5", "restitution = \"0.5\"")), SceneError);
+  REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitution = \"0.5\"")),
+                      Contains("contact.restitution") && Contains("\"0.5\"") && Contains("expected a number"));
+  REQUIRE_THROWS_WITH(build(with("count = 27", "count = 27.0")),
+                      Contains("particles.count") && Contains("27") && Contains("expected an integer"));
+  REQUIRE_THROWS_WITH(build(good + "[box]\nperiodic = \"yes\"\n"),
+                      Contains("box.periodic") && Contains("\"yes\"") && Contains("true or false"));
+  REQUIRE_THROWS_WITH(build(good, {"box.lengths=3.0"}), Contains("box.lengths") && Contains("3") && Contains("array of numbers"));
+}
+
+TEST_CASE("scene errors: out-of-range values name key, value and the allowed interval", "[scene][errors]") {
+  REQUIRE_THROWS_AS(build(with("restitution = 0.5", "restitution = 1.5")), SceneError);
+  REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitution = 1.5")),
+                      Contains("contact.restitution") && Contains("1.5") && Contains("out of range") && Contains("(0, 1]"));
+  REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitution = 0.0")),
+                      Contains("contact.restitution") && Contains("value 0 ") && Contains("(0, 1]"));
+  REQUIRE_THROWS_WITH(build(good, {"particles.diameter=-0.5"}),
+                      Contains("particles.diameter") && Contains("-0.5") && Contains("(0, inf]"));
+  REQUIRE_THROWS_WITH(build(with("dimension = 3", "dimension = 4")),
+                      Contains("scene.dimension") && Contains("value 4") && Contains("[2, 3]"));
+  REQUIRE_THROWS_WITH(build(good, {"box.lengths=[4.0, -2.0, 4.0]"}),
+                      Contains("box.lengths") && Contains("element 1") && Contains("-2") && Contains("(0, inf]"));
+  REQUIRE_THROWS_WITH(build(good, {"contact.duration=0"}), Contains("contact.duration") && Contains("(0, inf]"));
+}
+
+TEST_CASE("scene errors: a bad choice for a text key lists the choices", "[scene][errors]") {
+  REQUIRE_THROWS_AS(build(with("layout = \"lattice\"", "layout = \"hexagonal\"")), SceneError);
+  REQUIRE_THROWS_WITH(build(with("layout = \"lattice\"", "layout = \"hexagonal\"")),
+                      Contains("particles.layout") && Contains("\"hexagonal\"") && Contains("lattice, random, list, file"));
+  REQUIRE_THROWS_WITH(build(good, {"contact.calibration=\"pairwise\""}),
+                      Contains("contact.calibration") && Contains("\"pairwise\"") && Contains("global, per-pair, exact"));
+}
+
+TEST_CASE("scene errors: a TOML syntax error gives the file and line", "[scene][errors]") {
+  const std::string broken = "[scene]\ndimension = 3\n\n[contact]\nrestitution = = 0.5\n";
+  REQUIRE_THROWS_AS(build(broken), SceneError);
+  REQUIRE_THROWS_WITH(build(broken), Contains("bad.toml:5") && Contains("syntax"));
+  REQUIRE_THROWS_WITH(build("[scene\ndimension = 3\n"), Contains("bad.toml:1") && Contains("syntax"));
+}
+
+TEST_CASE("scene errors: inconsistent layouts name the key, the value and what would work", "[scene][errors]") {
+  // Lattice count not n^D: names the count and the nearest n^D.
+  REQUIRE_THROWS_AS(build(with("count = 27", "count = 30")), SceneError);
+  REQUIRE_THROWS_WITH(build(with("count = 27", "count = 30")),
+                      Contains("particles.count") && Contains("30") && Contains("n^3") && Contains("27"));
+  REQUIRE_THROWS_WITH(build(with("dimension = 3", "dimension = 2"), {"particles.count=20"}),
+                      Contains("particles.count") && Contains("20") && Contains("n^2") && Contains("16"));
+  // Periodic box too small for the particles.
+  REQUIRE_THROWS_AS(build(good, {"particles.count=8", "box.lengths=[2.0, 2.0, 2.0]", "particles.diameter=0.9"}), SceneError);
+  REQUIRE_THROWS_WITH(build(good, {"particles.count=8", "box.lengths=[2.0, 2.0, 2.0]", "particles.diameter=0.9"}),
+                      Contains("box.lengths") && Contains("2 long") && Contains("periodic box must be longer"));
+  // Random insertion at an impossible solid fraction: names the fraction.
+  REQUIRE_THROWS_AS(build(good, {"particles.layout=\"random\"", "particles.count=200", "particles.solid_fraction=0.7"}),
+                    SceneError);
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"random\"", "particles.count=200", "particles.solid_fraction=0.7"}),
+                      Contains("particles.solid_fraction") && Contains("0.7") && Contains("random insertion could not place") &&
+                          Contains("lower the solid fraction"));
+  // Lists of mismatched lengths.
+  const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
+                                        "box.periodic=false"};
+  auto plus = [&](std::string extra) { auto v = two; v.push_back(std::move(extra)); return v; };
+  REQUIRE_THROWS_AS(build(good, plus("particles.diameters=[1.0]")), SceneError);
+  REQUIRE_THROWS_WITH(build(good, plus("particles.diameters=[1.0]")), Contains("particles.diameters") && Contains("1 values for 2"));
+  REQUIRE_THROWS_WITH(build(good, plus("particles.masses=[1.0, 2.0, 3.0]")),
+                      Contains("particles.masses") && Contains("3 values for 2"));
+  auto vel = plus("particles.velocity=\"list\"");
+  vel.push_back("particles.velocities=[[1,0,0]]");
+  REQUIRE_THROWS_WITH(build(good, vel), Contains("particles.velocities") && Contains("1 velocities for 2"));
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"list\"", "particles.positions=[[0,0],[2,0]]", "box.periodic=false"}),
+                      Contains("particles.positions") && Contains("2 components") && Contains("3D scene needs 3"));
+}
+
+TEST_CASE("scene errors: a bad --set override is named", "[scene][errors]") {
+  REQUIRE_THROWS_AS(build(good, {"contact.restitutoin=0.3"}), SceneError);
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitutoin=0.3"}),
+                      Contains("--set") && Contains("contact.restitutoin") && Contains("did you mean 'contact.restitution'"));
+  REQUIRE_THROWS_WITH(build(good, {"contact.stiffness=3"}),
+                      Contains("--set") && Contains("contact.stiffness") && Contains("restitution, duration"));
+  REQUIRE_THROWS_AS(build(good, {"contact.restitution"}), SceneError);
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitution"}),
+                      Contains("'contact.restitution'") && Contains("expected key.path=value"));
+  REQUIRE_THROWS_WITH(build(good, {"=0.3"}), Contains("'=0.3'") && Contains("expected key.path=value"));
+  // A --set value is validated like a file value.
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitution=2"}), Contains("contact.restitution") && Contains("value 2") && Contains("(0, 1]"));
+}
+
+TEST_CASE("scene errors: exact calibration refuses a restitution it cannot realise", "[scene][errors]") {
+  REQUIRE_THROWS_AS(build(good, {"contact.calibration=\"exact\"", "contact.restitution=0.1"}), SceneError);
+  REQUIRE_THROWS_WITH(build(good, {"contact.calibration=\"exact\"", "contact.restitution=0.1"}),
+                      Contains("contact.restitution") && Contains("0.1") && Contains("(0.135335, 1]"));
+  REQUIRE_NOTHROW(build(good, {"contact.calibration=\"exact\"", "contact.restitution=0.14"}));
+}
+
+TEST_CASE("scene errors: all problems of a scene are listed at once", "[scene][errors]") {
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitution=2", "particles.seed=-3"}),
+                      Contains("2 problems") && Contains("contact.restitution") && Contains("particles.seed"));
+}
