@@ -108,9 +108,12 @@ int run_scene(const RunOptions& opt) {
              interrupted ? "  INTERRUPTED" : "");
   fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
   fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim->get("kinetic_energy"));
-  for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds"}) {
+  // Whatever of these the scene's modules provide.
+  for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds",
+                           "gravity_potential_energy", "virial_ratio", "time_over_free_fall", "cluster_count",
+                           "largest_cluster_fraction", "aggregation_time", "fractal_dimension"}) {
     try {
-      fmt::print("  {:<15} {:.6g}\n", name, sim->get(name));
+      fmt::print("  {:<25} {:.6g}\n", name, sim->get(name));
     } catch (const SimulationError&) {
     }
   }
