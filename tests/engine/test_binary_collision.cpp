@@ -7,6 +7,7 @@
 #include "core/simulation.hpp"
 #include "interactions/normal_calibration.hpp"
 #include "io/scene.hpp"
+#include "head_on_scene.hpp"
 
 using namespace grains;
 
@@ -19,29 +20,14 @@ struct Outcome { double restitution, contact_time, momentum_error, energy_in, en
 Outcome collide(int dim, double e, double nc, double phase, const std::string& calibration = "global") {
   const double tc = 1.0, dt = tc / nc;
   const double gap = 0.05 + phase * dt;   // surfaces touch after gap / 1 time units
-  std::string pos = dim == 3 ? fmt::format("[[0,0,0],[{},0,0]]", 1 + gap) : fmt::format("[[0,0],[{},0]]", 1 + gap);
-  std::string vel = dim == 3 ? "[[0.5,0,0],[-0.5,0,0]]" : "[[0.5,0],[-0.5,0]]";
-  std::string text = fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "list"
-positions = {}
-velocity = "list"
-velocities = {}
-mass = 1.0
-[box]
-periodic = false
-[contact]
-restitution = {}
-duration = {}
-calibration = "{}"
-overlap_limit = 1.0
-[time]
-steps_per_contact = {}
-[run]
-threads = 1
-)", dim, pos, vel, e, tc, calibration, nc);
+  ListedParticles parts;
+  parts.positions = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
+  parts.positions[1][0] = 1 + gap;
+  parts.velocities = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
+  parts.velocities[0][0] = 0.5, parts.velocities[1][0] = -0.5;
+  parts.diameters = {1.0, 1.0};
+  parts.masses = {1.0, 1.0};
+  const std::string text = listed_scene(dim, parts, {e, tc, nc, calibration});
   auto sim = Simulation::create(Scene::from_string(text, "collision-test"));
   Outcome o{};
   o.energy_in = sim->get("kinetic_energy");

@@ -13,6 +13,7 @@
 #include "core/simulation.hpp"
 #include "interactions/normal_calibration.hpp"
 #include "io/scene.hpp"
+#include "head_on_scene.hpp"
 
 using namespace grains;
 
@@ -34,37 +35,14 @@ Result run_collision(const Pair& c, double e, double nc, double phase, const std
   const double dt = tc / nc, closing = c.v1 - c.v2;
   const double gap = closing * (std::round(0.05 * nc) + phase) * dt;
   const double x2 = 0.5 * (c.d1 + c.d2) + gap;
-  std::string positions = fmt::format("[[0, 0, 0], [{}, 0, 0]", x2);
-  std::string velocities = fmt::format("[[{}, 0, 0], [{}, 0, 0]", c.v1, c.v2);
-  std::string diameters = fmt::format("[{}, {}", c.d1, c.d2), masses = fmt::format("[{}, {}", c.m1, c.m2);
+  ListedParticles parts{{{0, 0, 0}, {x2, 0, 0}}, {{c.v1, 0, 0}, {c.v2, 0, 0}}, {c.d1, c.d2}, {c.m1, c.m2}};
   if (c.spectators) {   // far off the collision line, at rest: they never touch anything
-    positions += ", [0, 100, 0], [0, -100, 0]";
-    velocities += ", [0, 0, 0], [0, 0, 0]";
-    diameters += ", 1.0, 1.0";
-    masses += ", 0.5, 0.5";
+    parts.positions.insert(parts.positions.end(), {{0, 100, 0}, {0, -100, 0}});
+    parts.velocities.insert(parts.velocities.end(), {{0, 0, 0}, {0, 0, 0}});
+    parts.diameters.insert(parts.diameters.end(), {1.0, 1.0});
+    parts.masses.insert(parts.masses.end(), {0.5, 0.5});
   }
-  const std::string text = fmt::format(R"(
-[scene]
-dimension = 3
-[particles]
-layout = "list"
-positions = {}]
-velocity = "list"
-velocities = {}]
-diameters = {}]
-masses = {}]
-[box]
-periodic = false
-[contact]
-restitution = {}
-duration = {}
-calibration = "{}"
-overlap_limit = 1.0
-[time]
-steps_per_contact = {}
-[run]
-threads = 1
-)", positions, velocities, diameters, masses, e, tc, calibration, nc);
+  const std::string text = listed_scene(3, parts, {e, tc, nc, calibration});
   auto sim = Simulation::create(Scene::from_string(text, "convergence"));
   Result r{};
   r.energy_in = sim->get("kinetic_energy");

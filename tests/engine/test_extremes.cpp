@@ -16,6 +16,7 @@
 #include "core/simulation.hpp"
 #include "interactions/normal_calibration.hpp"
 #include "io/scene.hpp"
+#include "head_on_scene.hpp"
 
 using namespace grains;
 using Catch::Contains;
@@ -36,29 +37,9 @@ struct HeadOn {
 double realised_restitution(const HeadOn& h, bool& finite) {
   const double dt = h.tc / h.nc;
   const double gap = h.speed * (3 + h.phase) * dt;
-  std::string masses = h.m1 > 0 ? fmt::format("masses = [{}, {}]", h.m1, h.m2) : "";
-  auto sim = make(fmt::format(R"(
-[scene]
-dimension = 3
-[particles]
-layout = "list"
-positions = [[0, 0, 0], [{}, 0, 0]]
-diameters = [{}, {}]
-{}
-velocity = "list"
-velocities = [[{}, 0, 0], [0, 0, 0]]
-[box]
-periodic = false
-[contact]
-restitution = {}
-duration = {}
-calibration = "{}"
-overlap_limit = 1.0
-[time]
-steps_per_contact = {}
-[run]
-threads = 1
-)", 0.5 * (h.d1 + h.d2) + gap, h.d1, h.d2, masses, h.speed, h.e, h.tc, h.calibration, h.nc));
+  ListedParticles parts{{{0, 0, 0}, {0.5 * (h.d1 + h.d2) + gap, 0, 0}}, {{h.speed, 0, 0}, {0, 0, 0}}, {h.d1, h.d2}, {}};
+  if (h.m1 > 0) parts.masses = {h.m1, h.m2};
+  auto sim = make(listed_scene(3, parts, {h.e, h.tc, h.nc, h.calibration}));
   finite = true;
   const long steps = long(std::ceil(gap / h.speed / dt)) + long(4 * h.nc);
   for (long k = 0; k < steps; ++k) {
