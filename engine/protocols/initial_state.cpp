@@ -17,6 +17,13 @@ template <int D> double ball_volume(double r) {
   return D == 3 ? 4.0 / 3.0 * std::numbers::pi * r * r * r : std::numbers::pi * r * r;
 }
 
+// Total volume (3D) or area (2D) of the particles.
+template <int D> double solid_volume(const Particles<D>& P) {
+  double v = 0;
+  for (double r : P.radius) v += ball_volume<D>(r);
+  return v;
+}
+
 template <int D>
 Vec<D> to_vec(const Scene& s, std::string_view key, const std::vector<double>& v, std::size_t row) {
   if (v.size() != std::size_t(D))
@@ -82,12 +89,10 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
       }
     }
     if (!placed) {
-      double solids = 0;
-      for (std::size_t j = 0; j < P.size(); ++j) solids += ball_volume<D>(P.radius[j]);
       s.fail(s.has("box.lengths") ? "box.lengths" : "particles.solid_fraction",
              fmt::format("random insertion could not place particle {} of {} after {} attempts at solid fraction {:.4g}; "
                          "lower the solid fraction (random insertion jams near {}) or use layout = \"lattice\"",
-                         i, P.size(), attempts_per_particle, solids / box.volume(), D == 3 ? "0.38" : "0.55"));
+                         i, P.size(), attempts_per_particle, solid_volume(P) / box.volume(), D == 3 ? "0.38" : "0.55"));
     }
   }
 }
@@ -165,8 +170,7 @@ InitialState<D> make_initial_state(const Scene& s) {
   }
 
   // --- box ---
-  double solids = 0;
-  for (std::size_t i = 0; i < N; ++i) solids += ball_volume<D>(P.radius[i]);
+  const double solids = solid_volume(P);
   for (int a = 0; a < D; ++a) box.periodic[a] = s.boolean("box.periodic");
   if (s.has("box.lengths")) {
     auto L = s.reals("box.lengths");
