@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 
@@ -122,15 +123,22 @@ class SimulationImpl final : public Simulation {
 
   double get(std::size_t index) const override {
     if (index >= vars_.size()) throw SimulationError(fmt::format("unknown variable index {}", index));
+    if (auto c = controls_.find(index); c != controls_.end()) return c->second.get();
     if (index < parameter_values_.size()) return parameter_values_[index];
     refresh_observables();
     return observable_values_.at(vars_[index].name);
   }
   void set(std::size_t index, double value) override {
     if (index >= vars_.size()) throw SimulationError(fmt::format("unknown variable index {}", index));
-    throw SimulationError(fmt::format("variable '{}' is a {} {}: it cannot be set after the simulation is built",
-                                      vars_[index].name, to_string(vars_[index].variability), to_string(vars_[index].causality)));
-    (void)value;
+    const VariableInfo& v = vars_[index];
+    const auto c = controls_.find(index);
+    if (c == controls_.end())
+      throw SimulationError(fmt::format("variable '{}' is a {} {}: it cannot be set after the simulation is built",
+                                        v.name, to_string(v.variability), to_string(v.causality)));
+    if (!std::isfinite(value) || value < v.min || value > v.max)
+      throw SimulationError(fmt::format("{} = {} is not allowed: a finite value in [{}, {}]", v.name, value, v.min, v.max));
+    c->second.set(value);
+    cache_step_ = -1;
   }
 
   std::vector<std::byte> save_state() const override {
@@ -144,6 +152,7 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.save(w);
     for (const auto& m : modules_) m->save(w);
     if (analysis_) w.put(aggregation_time_);
+    for (const auto& [index, c] : controls_) w.put(c.get());
     return w.take();
   }
   // A state that does not fit leaves the simulation as it was.
@@ -170,6 +179,7 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
     if (analysis_) aggregation_time_ = r.get<double>();
+    for (auto& [index, c] : controls_) c.set(r.get<double>());
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     cache_step_ = -1;
   }
@@ -213,6 +223,18 @@ class SimulationImpl final : public Simulation {
 
  private:
   void warn(std::string w) { warnings_.push_back(std::move(w)); }
+
+  // An input or tunable parameter: a host sets it between steps. Register after describe_variables()
+  // has listed the fixed parameters (they occupy the first entries of vars_). Its value is part of the saved
+  // state; set() has checked it is finite and inside [info.min, info.max] before `set` is called.
+  struct Control {
+    std::function<double()> get;
+    std::function<void(double)> set;
+  };
+  void add_control(VariableInfo info, std::function<double()> get, std::function<void(double)> set) {
+    controls_.emplace(vars_.size(), Control{std::move(get), std::move(set)});
+    vars_.push_back(std::move(info));
+  }
 
   void add_contact_module(const Scene& scene, double tc) {
     const auto& P = sys_.particles;
@@ -426,7 +448,8 @@ class SimulationImpl final : public Simulation {
   long analysis_every_ = 100;
   double aggregation_time_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<VariableInfo> vars_;
-  std::vector<double> parameter_values_;
+  std::vector<double> parameter_values_;   // fixed parameters: the first entries of vars_
+  std::map<std::size_t, Control> controls_;  // inputs and tunable parameters, by index in vars_
   std::vector<std::string> warnings_;
   mutable std::map<std::string, double> observable_values_;
   mutable long cache_step_ = -1;
