@@ -283,6 +283,7 @@ class SimulationImpl final : public Simulation {
     auto& P = sys_.particles;
     std::fill(P.force.begin(), P.force.end(), Vec<D>::Zero());
     std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());
+    sys_.virial.setZero();
     for (auto& m : modules_) m->add_forces(sys_);
   }
 

@@ -17,6 +17,11 @@ struct System {
   // Per-thread force/torque buffers, reused across steps (pair loops add into their thread's slot).
   std::vector<std::vector<Vec<D>>> thread_force;
   std::vector<std::vector<Spin<D>>> thread_torque;
+  // Contact virial W = sum over pairs of F_ij (x) r_ij (F_ij: force on j, r_ij = x_j - x_i): the contact
+  // stress is W / V. Pair loops accumulate it only while want_virial is set (the barostat, stress
+  // observables), so scenes that never read it pay nothing.
+  bool want_virial = false;
+  Eigen::Matrix<double, D, D> virial = Eigen::Matrix<double, D, D>::Zero();
 };
 
 }  // namespace grains

@@ -41,25 +41,37 @@ class ContactForces final : public ForceModule<D> {
   }
 
   void add_forces(System<D>& s) override {
+    if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
+    if (s.want_virial) clamped_now_ = add_forces_and<true>(s);
+    else clamped_now_ = add_forces_and<false>(s);
+    clamped_total_ += clamped_now_;
+  }
+
+  // Adds this loop's pair virial into s.virial (zeroed by whoever evaluates the forces).
+  template <bool Virial>
+  long add_forces_and(System<D>& s) {
+    using Mat = Eigen::Matrix<double, D, D>;
     auto& P = s.particles;
-    const auto& nl = s.neighbours;
-    if constexpr (Friction::enabled) tangential_.resize(nl.pair_count(), Vec<D>::Zero());
     const std::size_t N = P.size();
     long clamped_now = 0;
     const int T = s.threads;
     if (T == 1) {
-      clamped_now = loop(s, 0, N, P.force.data(), P.torque.data());
+      clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial);
     } else {
+      // One virial per thread, summed in thread order afterwards: deterministic for a thread count.
+      std::vector<Mat> thread_virial(Virial ? T : 0, Mat::Zero());
 #pragma omp parallel num_threads(T) reduction(+ : clamped_now)
       {
         const int t = omp_get_thread_num();
+        Mat local = Mat::Zero();
         auto& f = s.thread_force[t];
         auto& q = s.thread_torque[t];
         std::fill(f.begin(), f.end(), Vec<D>::Zero());
         if constexpr (Friction::enabled) std::fill(q.begin(), q.end(), Spin<D>::Zero());
         // Rows have uneven lengths; interleaved chunks balance them while staying deterministic.
 #pragma omp for schedule(static, 256)
-        for (std::size_t i = 0; i < N; ++i) clamped_now += loop(s, i, i + 1, f.data(), q.data());
+        for (std::size_t i = 0; i < N; ++i) clamped_now += loop<Virial>(s, i, i + 1, f.data(), q.data(), local);
+        if constexpr (Virial) thread_virial[t] = local;
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < N; ++i) {
           for (int u = 0; u < T; ++u) P.force[i] += s.thread_force[u][i];
@@ -67,9 +79,10 @@ class ContactForces final : public ForceModule<D> {
             for (int u = 0; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
         }
       }
+      if constexpr (Virial)
+        for (const Mat& w : thread_virial) s.virial += w;
     }
-    clamped_now_ = clamped_now;
-    clamped_total_ += clamped_now;
+    return clamped_now;
   }
 
   void observe(const System<D>& s, std::vector<std::pair<std::string, double>>& out) const override {
@@ -110,7 +123,9 @@ class ContactForces final : public ForceModule<D> {
   }
 
  private:
-  long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque) {
+  template <bool Virial>
+  long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
+            Eigen::Matrix<double, D, D>& virial) {
     auto& P = s.particles;
     const auto& nl = s.neighbours;
     const double dt = s.dt;
@@ -148,6 +163,7 @@ class ContactForces final : public ForceModule<D> {
         }
         force[j] += f;
         fi -= f;
+        if constexpr (Virial) virial.noalias() += f * r.transpose();
       }
       force[i] += fi;
     }
