@@ -5,14 +5,17 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <numbers>
 
 #include <fmt/format.h>
 #include <omp.h>
 
 #include "analysis/clusters.hpp"
+#include "analysis/contact_network.hpp"
 #include "analysis/fractal_dimension.hpp"
 #include "core/integrator.hpp"
 #include "core/system.hpp"
+#include "interactions/adhesive_contact_law.hpp"
 #include "interactions/contact_forces.hpp"
 #include "interactions/gravity.hpp"
 #include "interactions/normal_calibration.hpp"
@@ -50,9 +53,19 @@ class SimulationImpl final : public Simulation {
     const double rmin = *std::min_element(P.radius.begin(), P.radius.end());
     const double rmax = *std::max_element(P.radius.begin(), P.radius.end());
     double tc = 0;
+    if (scene.boolean("adhesion.enabled") && !scene.boolean("contact.enabled"))
+      scene.fail("adhesion.enabled", "adhesion is a contact law: it needs contact.enabled = true");
+    if (scene.real("rolling.coefficient") > 0 && !scene.boolean("adhesion.enabled"))
+      scene.fail("rolling.coefficient", fmt::format("value {} needs the consolidation contact law: set adhesion.enabled = "
+                                                    "true (adhesion.force = 0 for a cohesionless packing) or "
+                                                    "rolling.coefficient = 0", scene.real("rolling.coefficient")));
     if (scene.boolean("contact.enabled")) {
-      tc = scene.real("contact.duration");
-      add_contact_module(scene, tc);
+      if (scene.boolean("adhesion.enabled")) {
+        tc = add_adhesive_contact_module(scene, rmax);
+      } else {
+        tc = scene.real("contact.duration");
+        add_contact_module(scene, tc);
+      }
     }
     if (scene.boolean("gravity.enabled")) {
       if (sys_.box.any_periodic())
@@ -96,6 +109,7 @@ class SimulationImpl final : public Simulation {
     }
     check_finite("the initial state");
     track_aggregation();
+    if (network_) reference_contacts_ = contact_keys(interactions());
   }
 
   void step(double duration) override {
@@ -152,6 +166,7 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.save(w);
     for (const auto& m : modules_) m->save(w);
     if (analysis_) w.put(aggregation_time_);
+    if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
     for (const auto& [index, c] : controls_) w.put(c.get());
     return w.take();
   }
@@ -179,7 +194,8 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
     if (analysis_) aggregation_time_ = r.get<double>();
-    for (auto& [index, c] : controls_) c.set(r.get<double>());
+    if (network_) r.get_vector(reference_contacts_), network_mark_ = r.get<double>();
+    for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     cache_step_ = -1;
   }
@@ -237,13 +253,9 @@ class SimulationImpl final : public Simulation {
   }
 
   void add_contact_module(const Scene& scene, double tc) {
-    const auto& P = sys_.particles;
     const double e = scene.real("contact.restitution");
     const std::string mode = scene.text("contact.calibration");
-    // The stiffest, most violent collision: the two lightest particles.
-    std::vector<double> m = P.mass;
-    std::partial_sort(m.begin(), m.begin() + std::min<std::size_t>(2, m.size()), m.end());
-    const double mstar_min = m.size() > 1 ? m[0] * m[1] / (m[0] + m[1]) : 0.5 * m[0];
+    const double mstar_min = smallest_reduced_mass();
     const double fmax = scene.real("contact.overlap_limit");
     if (mode == "exact" && e < 1) {   // the clamped collision cannot realise e below its critical-damping value
       const double floor = clamped_collision(1 - 1e-12, 1.0).restitution;   // exp(-2)
@@ -267,6 +279,50 @@ class SimulationImpl final : public Simulation {
       if (mu > 0) modules_.push_back(std::make_unique<ContactForces<D, LinearContactLaw<false>, CoulombFriction>>(law, fr));
       else modules_.push_back(std::make_unique<ContactForces<D, LinearContactLaw<false>, NoFriction>>(law, NoFriction{}));
     }
+  }
+
+  // The consolidation law (physics.md sections 4-6): adhesive normal law, friction bounded by the elastic
+  // part, optional rolling resistance. Returns the contact duration t_c = pi sqrt(m*_min / K_N) that sets dt.
+  double add_adhesive_contact_module(const Scene& scene, double rmax) {
+    const double mstar_min = smallest_reduced_mass();
+    AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"), scene.real("adhesion.range"),
+                           damping_ratio(scene.real("adhesion.restitution")), scene.real("contact.overlap_limit")};
+    kn_ = law.k;
+    cn_ = law.damping(2 * mstar_min, 2 * mstar_min);   // the lightest pair's c_n (m* of two masses 2 m* is m*)
+    network_ = true;
+    attraction_ = law.attraction;
+    zero_force_ = scene.real("analysis.zero_force");
+    const double mu = scene.real("friction.coefficient");
+    CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), true};
+    const double mu_r = scene.real("rolling.coefficient");
+    const double a = 2 * rmax;
+    RollingResistance rr{scene.real("rolling.stiffness_ratio") * law.k * a * a, mu_r};
+    using L = AdhesiveContactLaw;
+    if (mu > 0 && mu_r > 0) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction, RollingResistance>>(law, fr, rr));
+    else if (mu > 0) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction>>(law, fr));
+    else if (mu_r > 0) modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction, RollingResistance>>(law, NoFriction{}, rr));
+    else modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction>>(law, NoFriction{}));
+    return std::numbers::pi * std::sqrt(mstar_min / law.k);
+  }
+
+  // The stiffest, most violent collision: the two lightest particles.
+  double smallest_reduced_mass() const {
+    std::vector<double> m = sys_.particles.mass;
+    std::partial_sort(m.begin(), m.begin() + std::min<std::size_t>(2, m.size()), m.end());
+    return m.size() > 1 ? m[0] * m[1] / (m[0] + m[1]) : 0.5 * m[0];
+  }
+
+  // --- contact network (adhesion scenes) ---
+  std::vector<NetworkInteraction> interactions() const {
+    std::vector<NetworkInteraction> list;
+    for (const auto& m : modules_) m->list_interactions(sys_, list);
+    return list;
+  }
+  // A new mark value makes the current contacts the reference for kept / lost / gained.
+  void mark_network(double value) {
+    if (value == network_mark_) return;
+    network_mark_ = value;
+    reference_contacts_ = contact_keys(interactions());
   }
 
   void rebuild() {
@@ -351,7 +407,15 @@ class SimulationImpl final : public Simulation {
     param("scene.dimension", D, "", "2 = disks, 3 = spheres");
     vars_.back().is_integer = true;
     param("time.dt", dt_, "s", "internal time step");
-    if (scene.boolean("contact.enabled")) {
+    if (network_) {
+      param("adhesion.force", attraction_, "N", "F0: attraction of contacting grains");
+      param("adhesion.range", scene.real("adhesion.range"), "m", "D0: range of the attraction beyond contact");
+      param("adhesion.restitution", scene.real("adhesion.restitution"), "", "e_N, sets the normal damping as if F0 = 0");
+      param("contact.k_n", kn_, "N/m", "normal stiffness K_N");
+      param("contact.c_n", cn_, "kg/s", "normal damping of the lightest pair");
+      param("friction.coefficient", scene.real("friction.coefficient"), "", "Coulomb coefficient mu");
+      param("rolling.coefficient", scene.real("rolling.coefficient"), "m", "mu_R: rolling moment bound over K_N delta");
+    } else if (scene.boolean("contact.enabled")) {
       param("contact.restitution", scene.real("contact.restitution"), "", "normal restitution e");
       param("contact.duration", scene.real("contact.duration"), "s", "contact duration t_c");
       param("contact.k_n", kn_, "N/m", "normal stiffness (global mode: from the smallest reduced mass)");
@@ -387,6 +451,27 @@ class SimulationImpl final : public Simulation {
       out("time_over_free_fall", "", "t / t_ff");
       out("fractal_dimension", "", "mass-radius D_f of the largest cluster (NaN when it is too small)");
       out("aggregation_time", "s", "first time f_max >= analysis.aggregation_threshold, checked every analysis.every steps; NaN until then");
+    }
+    if (network_) {
+      out("coordination", "", "z = 2 (contacts + distant bonds) / N");
+      out("coordination_compressive", "", "z+: the part of z carried by compressive forces");
+      out("coordination_tensile", "", "z-: the part of z carried by tensile forces (distant bonds included)");
+      out("coordination_zero", "", "z0: the part of z carrying no force (|F_N| <= analysis.zero_force * max(F0, mean |F_N|))");
+      out("rattler_fraction", "", "x0: fraction of grains none of whose interactions carries a force");
+      out("backbone_coordination", "", "z* = z / (1 - x0)");
+      out("distant_bonds", "", "pairs attracting across a gap 0 <= h < D0");
+      out("contacts_kept", "", "contacts (h < 0) present both now and at the last network.mark");
+      out("contacts_lost", "", "contacts at the last network.mark that are open now");
+      out("contacts_gained", "", "contacts now that were open at the last network.mark");
+      for (int b = 0; b <= network_bins_; ++b)
+        out(fmt::format("force_histogram_{:02}", b), "",
+            b < network_bins_ ? fmt::format("fraction of interactions with F_N / F0 in [{:g}, {:g}) (the first bin also holds "
+                                            "what is below)", -1 + 0.5 * b, -0.5 + 0.5 * b)
+                              : fmt::format("fraction of interactions with F_N / F0 >= {:g}", -1 + 0.5 * network_bins_));
+      VariableInfo mark{"network.mark", "", Causality::input, Variability::continuous,
+                        "setting a new value makes the current contacts the reference of contacts_kept / lost / gained "
+                        "(e.g. the stage number of a compression programme)"};
+      add_control(mark, [this] { return network_mark_; }, [this](double v) { mark_network(v); });
     }
   }
 
@@ -436,6 +521,30 @@ class SimulationImpl final : public Simulation {
       o["fractal_dimension"] = fractal_dimension<D>(x, r, m);
       o["aggregation_time"] = aggregation_time_;
     }
+    if (network_) {
+      const auto list = interactions();
+      double mean_force = 0;
+      for (const auto& c : list) mean_force += std::abs(c.normal_force);
+      if (!list.empty()) mean_force /= double(list.size());
+      const double scale = std::max(attraction_, mean_force);
+      ContactNetworkOptions opt;
+      opt.zero_force = zero_force_ * scale;
+      opt.force_scale = attraction_ > 0 ? attraction_ : (mean_force > 0 ? mean_force : 1.0);
+      opt.histogram_bins = network_bins_;
+      const ContactNetwork net = analyse_contact_network(P.size(), list, opt);
+      o["coordination"] = net.z;
+      o["coordination_compressive"] = net.z_plus;
+      o["coordination_tensile"] = net.z_minus;
+      o["coordination_zero"] = net.z_zero;
+      o["rattler_fraction"] = net.rattler_fraction;
+      o["backbone_coordination"] = net.z_star;
+      o["distant_bonds"] = double(net.distant_bonds);
+      const ContactChanges ch = compare_contacts(reference_contacts_, contact_keys(list));
+      o["contacts_kept"] = double(ch.kept);
+      o["contacts_lost"] = double(ch.lost);
+      o["contacts_gained"] = double(ch.gained);
+      for (int b = 0; b <= network_bins_; ++b) o[fmt::format("force_histogram_{:02}", b)] = net.histogram[b];
+    }
     cache_step_ = sys_.step;
     cache_time_ = sys_.time;
   }
@@ -447,6 +556,10 @@ class SimulationImpl final : public Simulation {
   bool analysis_ = false;   // gravity scenes only
   double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0;
   long analysis_every_ = 100;
+  bool network_ = false;   // adhesion scenes: contact-network outputs
+  double attraction_ = 0, zero_force_ = 1e-5, network_mark_ = 0;
+  static constexpr int network_bins_ = 20;   // histogram of F_N / F0: width 0.5 from -1, plus one open bin
+  std::vector<std::uint64_t> reference_contacts_;
   double aggregation_time_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<VariableInfo> vars_;
   std::vector<double> parameter_values_;   // fixed parameters: the first entries of vars_

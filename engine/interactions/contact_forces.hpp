@@ -1,6 +1,7 @@
-// The pair loop, written once: every neighbour pair is evaluated with a normal law and an optional
-// tangential (friction) law; the compiler specialises the combination a scene uses, so a
-// frictionless scene runs code with no friction in it.
+// The pair loop, written once: every neighbour pair is evaluated with a normal law, an optional
+// tangential (friction) law and optional rolling resistance; the compiler specialises the
+// combination a scene uses, so a frictionless scene runs code with no friction in it.
+// A normal law with an attractive tail (Law::has_tail) also acts on open pairs with gap below reach().
 #pragma once
 #include <atomic>
 #include <cmath>
@@ -11,6 +12,7 @@
 
 #include "interactions/force_module.hpp"
 #include "interactions/linear_contact_law.hpp"
+#include "interactions/rolling_resistance.hpp"
 
 namespace grains {
 
@@ -27,21 +29,27 @@ struct CoulombFriction {
   bool elastic_bound = false;     // bound on k_n delta (true) or on the full normal force (false)
 };
 
-template <int D, class Law, class Friction>
+template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {
+  static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
+
  public:
-  ContactForces(Law law, Friction friction) : law_(law), friction_(friction) {}
-  std::string name() const override { return Friction::enabled ? "contact+friction" : "contact"; }
-  double pair_range() const override { return 0.0; }
-  bool applies_torques() const override { return Friction::enabled; }
+  ContactForces(Law law, Friction friction, Rolling rolling = {}) : law_(law), friction_(friction), rolling_(rolling) {}
+  std::string name() const override {
+    return std::string("contact") + (Friction::enabled ? "+friction" : "") + (Rolling::enabled ? "+rolling" : "");
+  }
+  double pair_range() const override { return law_.reach(); }
+  bool applies_torques() const override { return torques_; }
   const Law& law() const { return law_; }
 
   void after_rebuild(const NeighbourList<D>& list) override {
     if constexpr (Friction::enabled) list.carry(tangential_, Vec<D>(Vec<D>::Zero()));
+    if constexpr (Rolling::enabled) list.carry(rolling_angle_, Spin<D>(Spin<D>::Zero()));
   }
 
   void add_forces(System<D>& s) override {
     if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
+    if constexpr (Rolling::enabled) rolling_angle_.resize(s.neighbours.pair_count(), Spin<D>::Zero());
     if (s.want_virial) clamped_now_ = add_forces_and<true>(s);
     else clamped_now_ = add_forces_and<false>(s);
     clamped_total_ += clamped_now_;
@@ -67,7 +75,7 @@ class ContactForces final : public ForceModule<D> {
         auto& f = s.thread_force[t];
         auto& q = s.thread_torque[t];
         std::fill(f.begin(), f.end(), Vec<D>::Zero());
-        if constexpr (Friction::enabled) std::fill(q.begin(), q.end(), Spin<D>::Zero());
+        if constexpr (torques_) std::fill(q.begin(), q.end(), Spin<D>::Zero());
         // Rows have uneven lengths; interleaved chunks balance them while staying deterministic.
 #pragma omp for schedule(static, 256)
         for (std::size_t i = 0; i < N; ++i) clamped_now += loop<Virial>(s, i, i + 1, f.data(), q.data(), local);
@@ -75,7 +83,7 @@ class ContactForces final : public ForceModule<D> {
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < N; ++i) {
           for (int u = 0; u < T; ++u) P.force[i] += s.thread_force[u][i];
-          if constexpr (Friction::enabled)
+          if constexpr (torques_)
             for (int u = 0; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
         }
       }
@@ -88,13 +96,14 @@ class ContactForces final : public ForceModule<D> {
   void observe(const System<D>& s, std::vector<std::pair<std::string, double>>& out) const override {
     const auto& P = s.particles;
     const auto& nl = s.neighbours;
-    double elastic = 0, max_ratio = 0;
+    double elastic = 0, max_ratio = 0, adhesion = 0;
     long contacts = 0;
     for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
       for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
         const auto j = nl.partner[k];
         const double d = (P.position[j] + nl.shift[nl.image[k]] - P.position[i]).norm();
         const double overlap = P.radius[i] + P.radius[j] - d;
+        if constexpr (Law::has_tail) adhesion += law_.adhesion_energy(-overlap);
         if (overlap <= 0) continue;
         ++contacts;
         const double rmin = std::min(P.radius[i], P.radius[j]);
@@ -104,10 +113,13 @@ class ContactForces final : public ForceModule<D> {
         elastic += overlap <= limit ? 0.5 * kn * overlap * overlap : kn * limit * (overlap - 0.5 * limit);
         if constexpr (Friction::enabled)   // energy stored in the tangential spring
           if (k < tangential_.size()) elastic += 0.5 * friction_.stiffness_ratio * kn * tangential_[k].squaredNorm();
+        if constexpr (Rolling::enabled)   // and in the rolling spring
+          if (k < rolling_angle_.size()) elastic += 0.5 * rolling_.stiffness * rolling_angle_[k].squaredNorm();
         max_ratio = std::max(max_ratio, overlap / rmin);
       }
     out.emplace_back("contacts", double(contacts));
     out.emplace_back("elastic_energy", elastic);
+    if constexpr (Law::has_tail) out.emplace_back("adhesion_energy", adhesion);
     out.emplace_back("max_overlap_ratio", max_ratio);
     out.emplace_back("clamped_contacts", double(clamped_now_));
     out.emplace_back("clamped_contacts_total", double(clamped_total_));
@@ -116,10 +128,27 @@ class ContactForces final : public ForceModule<D> {
   void save(ByteWriter& w) const override {
     w.put(clamped_now_), w.put(clamped_total_);
     w.put_vector(tangential_);
+    if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
   }
   void load(ByteReader& r) override {
     clamped_now_ = r.get<long>(), clamped_total_ = r.get<long>();
     r.get_vector(tangential_);
+    if constexpr (Rolling::enabled) r.get_vector(rolling_angle_);
+  }
+
+  // Interacting pairs (contacts and, with an attractive tail, distant bonds) with their static normal
+  // force, for the contact-network analysis.
+  void list_interactions(const System<D>& s, std::vector<NetworkInteraction>& out) const override {
+    if constexpr (Law::has_tail) {
+      const auto& P = s.particles;
+      const auto& nl = s.neighbours;
+      for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
+        for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+          const auto j = nl.partner[k];
+          const double gap = (P.position[j] + nl.shift[nl.image[k]] - P.position[i]).norm() - P.radius[i] - P.radius[j];
+          if (gap < law_.reach()) out.push_back({std::uint32_t(i), j, gap, law_.static_force(gap)});
+        }
+    }
   }
 
  private:
@@ -142,6 +171,18 @@ class ContactForces final : public ForceModule<D> {
         if (d2 >= Rsum * Rsum) {
           if constexpr (Friction::enabled)   // contact open: history deleted (read first: most are zero already)
             if (!tangential_[k].isZero(0)) tangential_[k].setZero();
+          if constexpr (Rolling::enabled)
+            if (!rolling_angle_[k].isZero(0)) rolling_angle_[k].setZero();
+          if constexpr (Law::has_tail) {   // open pair within the attraction range: central force only
+            const double reach = Rsum + law_.reach();
+            if (d2 < reach * reach) {
+              const double d = std::sqrt(d2);
+              const Vec<D> f = law_.tail(d - Rsum) / d * r;
+              force[j] += f;
+              fi -= f;
+              if constexpr (Virial) virial.noalias() += f * r.transpose();   // attraction counts too
+            }
+          }
           continue;
         }
         const double d = std::sqrt(d2);
@@ -161,6 +202,7 @@ class ContactForces final : public ForceModule<D> {
           const double half_overlap = 0.5 * (Rsum - d);
           f += tangential_force(P, i, j, k, n, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt, torque);
         }
+        if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, dt, torque);
         force[j] += f;
         fi -= f;
         if constexpr (Virial) virial.noalias() += f * r.transpose();
@@ -186,10 +228,8 @@ class ContactForces final : public ForceModule<D> {
     const double after = xi.norm();
     if (after > 0) xi *= before / after;
     xi += contact_velocity(P.velocity, P.angular_velocity) * dt;
-    const double kn = law_.stiffness(mi, mj);
-    const double mstar = mi * mj / (mi + mj);
-    const double cn = law_.c * (std::is_same_v<Law, LinearContactLaw<true>> ? mstar : 1.0);
-    const double kt = friction_.stiffness_ratio * kn, ct = friction_.damping_ratio * cn;
+    const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
+    const double ct = friction_.damping_ratio * law_.damping(mi, mj);
     Vec<D> ft = -kt * xi - ct * contact_velocity(P.velocity_predicted, P.angular_velocity_predicted);
     const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);
     const double mag = ft.norm();
@@ -203,9 +243,36 @@ class ContactForces final : public ForceModule<D> {
     return ft;
   }
 
+  // Rolling resistance (physics.md section 5): theta_R accumulates the half-step relative rotation
+  // (3D: its part perpendicular to n, the spring rotated into the current tangent plane like xi).
+  void rolling_moment(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
+                      double elastic, double dt, Spin<D>* torque) {
+    Spin<D>& theta = rolling_angle_[k];
+    Spin<D> relative = P.angular_velocity[j] - P.angular_velocity[i];
+    if constexpr (D == 3) {
+      const double before = theta.norm();
+      theta -= theta.dot(n) * n;
+      const double after = theta.norm();
+      if (after > 0) theta *= before / after;
+      relative -= relative.dot(n) * n;
+    }
+    theta += relative * dt;
+    Spin<D> moment = -rolling_.stiffness * theta;   // on j
+    const double bound = rolling_.coefficient * elastic;
+    const double mag = moment.norm();
+    if (mag > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
+      moment *= mag > 0 ? bound / mag : 0.0;
+      theta = moment / -rolling_.stiffness;
+    }
+    torque[j] += moment;
+    torque[i] -= moment;
+  }
+
   Law law_;
   Friction friction_;
+  Rolling rolling_;
   std::vector<Vec<D>> tangential_;   // xi per neighbour pair, aligned with the list
+  std::vector<Spin<D>> rolling_angle_;   // theta_R per neighbour pair, aligned with the list
   long clamped_now_ = 0, clamped_total_ = 0;
 };
 

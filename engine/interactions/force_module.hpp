@@ -4,6 +4,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/contact_network.hpp"
 #include "core/byte_stream.hpp"
 #include "core/system.hpp"
 
@@ -25,6 +26,9 @@ class ForceModule {
   virtual void after_rebuild(const NeighbourList<D>&) {}
   // Scalar observables of this module (name, value), read-only.
   virtual void observe(const System<D>&, std::vector<std::pair<std::string, double>>&) const {}
+  // Pairs this module binds (contacts, distant bonds) with their static normal force; modules that
+  // do not describe a contact network add nothing.
+  virtual void list_interactions(const System<D>&, std::vector<NetworkInteraction>&) const {}
   virtual void save(ByteWriter&) const {}
   virtual void load(ByteReader&) {}
 };

@@ -11,7 +11,10 @@ struct LinearContactLaw {
   double k = 0, c = 0;
   double overlap_limit = 0.1;   // f_max: delta_used <= f_max * min(R_i, R_j)
 
+  static constexpr bool has_tail = false;   // no interaction beyond contact
+  double reach() const { return 0.0; }
   double stiffness(double mi, double mj) const { return PerPair ? k * mi * mj / (mi + mj) : k; }
+  double damping(double mi, double mj) const { return PerPair ? c * mi * mj / (mi + mj) : c; }
 
   // Force on j along n (positive = repulsive). vn: normal relative velocity (negative = approaching),
   // the predicted value at the end of the step; overlap_before: the overlap at the start of the step.

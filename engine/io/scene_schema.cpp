@@ -71,6 +71,31 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"friction.stiffness_ratio", K::real, "1.0", 0, inf, true, false, "", "k_t / k_n."},
       {"friction.damping_ratio", K::real, "0.0", 0, inf, false, false, "", "c_t / c_n."},
 
+      // --- adhesion (consolidation scene) ---
+      {"adhesion.enabled", K::boolean, "false", 0, 0, false, false, "",
+       "Adhesive normal law of physics.md section 6 instead of the restitution-calibrated spring-dashpot: "
+       "F_N = K_N delta - F0 - c_n v_n while overlapping, -F0 (1 - h / D0) for gaps 0 <= h < D0, nothing beyond. "
+       "`contact.restitution`, `duration` and `calibration` are not used; `contact.overlap_limit` still applies. "
+       "Friction is bounded by the elastic part K_N delta. The defaults are the paper's Table I in units a = 1, F0 = 1."},
+      {"adhesion.force", K::real, "1.0", 0, inf, false, false, "",
+       "F0: the constant attraction of contacting grains, the largest tensile force a bond carries. 0 = the cohesionless "
+       "reference (same law, no attraction)."},
+      {"adhesion.range", K::real, "1e-3", 0, inf, false, false, "",
+       "D0 (length): the attraction fades linearly to zero as the gap grows from 0 to D0 (paper: D0 / a = 1e-3)."},
+      {"adhesion.stiffness", K::real, "1e5", 0, inf, true, false, "",
+       "K_N (force / length), the same for every pair (paper: kappa = a K_N / F0 = 1e5). The time step is "
+       "dt = t_c / time.steps_per_contact with t_c = pi sqrt(m*_min / K_N), m*_min the smallest reduced mass."},
+      {"adhesion.restitution", K::real, "0.015", 0, 1, true, false, "",
+       "e_N: sets the normal damping c_n = 2 zeta sqrt(m* K_N) per pair as if F0 = 0, zeta = -ln e / sqrt(pi^2 + ln^2 e); "
+       "the dashpot acts only while grains overlap (paper: 0.015)."},
+
+      // --- rolling resistance ---
+      {"rolling.coefficient", K::real, "0.0", 0, inf, false, false, "",
+       "mu_R (length): the rolling moment is bounded by mu_R K_N delta (physics.md section 5; paper: mu_R / a = 0 or "
+       "0.005). 0 leaves the rolling module out entirely. Needs `adhesion.enabled` (the consolidation law)."},
+      {"rolling.stiffness_ratio", K::real, "1e-4", 0, inf, true, false, "",
+       "K_R / (K_N a^2), a = the largest particle diameter of the scene (paper: 1e-4)."},
+
       // --- self-gravity ---
       {"gravity.enabled", K::boolean, "false", 0, 0, false, false, "",
        "Softened Newtonian self-gravity between all pairs (physics.md section 7). Open boxes only (`box.periodic = false`)."},
@@ -92,6 +117,9 @@ const std::vector<SchemaEntry>& scene_schema() {
        "`aggregation_time` is the first time the largest cluster holds at least this mass fraction."},
       {"analysis.every", K::integer, "100", 1, 9.2e18, false, false, "",
        "Steps between the checks of the largest-cluster fraction that set `aggregation_time` (gravity scenes)."},
+      {"analysis.zero_force", K::real, "1e-5", 0, inf, false, false, "",
+       "Contact-network outputs (adhesion scenes): an interaction whose static normal force is below "
+       "value * max(F0, mean |F_N|) in magnitude counts as carrying no force (z0, rattlers)."},
 
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},

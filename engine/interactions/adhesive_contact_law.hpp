@@ -1,0 +1,58 @@
+// Adhesive normal law of the consolidation scene (physics.md section 6) as a small evaluator:
+// elastic repulsion K_N delta, a constant attraction F0 while overlapping that fades linearly to zero
+// over the gap range D0, and a viscous dashpot only while overlapping.
+//
+// The dashpot coefficient is c_n = 2 zeta sqrt(m* K_N), zeta from e_N as if F0 = 0. Combining a
+// restitution-based damping with the adhesion itself diverges as the overlap goes to zero, so it is
+// never done. The dashpot may pull: the total normal force is not clamped at zero (that is the point).
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+namespace grains {
+
+struct AdhesiveContactLaw {
+  static constexpr bool has_tail = true;
+  double k = 0;                 // K_N (force / length)
+  double attraction = 0;        // F0 (force); 0 = the cohesionless reference law
+  double range = 0;             // D0 (length): attraction reaches zero at gap h = D0
+  double damping_ratio = 0;     // zeta, from e_N
+  double overlap_limit = 0.1;   // f_max: delta_used <= f_max * min(R_i, R_j)
+
+  double reach() const { return range; }
+  double stiffness(double, double) const { return k; }
+  double damping(double mi, double mj) const { return 2 * damping_ratio * std::sqrt(mi * mj / (mi + mj) * k); }
+
+  // Overlapping pair: force on j along n (positive = repulsive), same arguments as LinearContactLaw.
+  // `elastic` is the elastic part K_N delta that bounds friction and rolling.
+  double force(double overlap, double overlap_before, double vn, double mi, double mj, double rmin, double& elastic,
+               bool& clamped) const {
+    const double limit = overlap_limit * rmin;
+    clamped = overlap > limit;
+    elastic = k * (clamped ? limit : overlap);
+    // Sub-step onset weighting of the dashpot, as in LinearContactLaw (the static force is continuous
+    // at h = 0, only the dashpot jumps).
+    double w = 1.0;
+    if (overlap_before <= 0) w = 1.5 + overlap_before / (overlap - overlap_before);
+    return elastic - attraction - damping(mi, mj) * vn * w;
+  }
+
+  // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).
+  double tail(double gap) const { return -attraction * (1 - gap / range); }
+
+  // Static normal force (no dashpot) at gap h: what a contact network at rest carries.
+  double static_force(double gap) const {
+    if (gap < 0) return k * -gap - attraction;
+    return gap < range ? tail(gap) : 0.0;
+  }
+
+  // Potential of the attraction (zero beyond D0): -F0 D0 / 2 (1 - h / D0)^2 in the tail,
+  // -F0 D0 / 2 - F0 delta while overlapping.
+  double adhesion_energy(double gap) const {
+    if (gap >= range) return 0.0;
+    if (gap >= 0) return -0.5 * attraction * range * (1 - gap / range) * (1 - gap / range);
+    return -0.5 * attraction * range + attraction * gap;
+  }
+};
+
+}  // namespace grains

@@ -1,0 +1,116 @@
+// The adhesive contact law (physics.md section 6) against its closed forms: the equilibrium gap of a
+// bonded pair, the pull-off force, and the escape speed V* sqrt(2) of two unit-mass disks.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "adhesive_scene.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+
+namespace {
+// Table I in units a = 1, F0 = 1, m = 1 (unit-mass disks of diameter a).
+constexpr double F0 = 1.0, KN = 1e5, D0 = 1e-3;
+
+// Two unit-mass grains of diameter 1 on the x axis at surface gap `gap`, receding at relative speed `speed`.
+ListedParticles pair(int dim, double gap, double speed) {
+  auto along_x = [dim](double x) {
+    std::vector<double> r(dim, 0.0);
+    r[0] = x;
+    return r;
+  };
+  ListedParticles p;
+  p.positions = {along_x(0), along_x(1 + gap)};
+  p.velocities = {along_x(-speed / 2), along_x(speed / 2)};
+  p.diameters = {1, 1};
+  p.masses = {1, 1};
+  return p;
+}
+
+double gap_of(const Simulation& s) {
+  const auto v = s.particles();
+  const int D = v.dimension;
+  double d2 = 0;
+  for (int a = 0; a < D; ++a) d2 += std::pow(v.position[D + a] - v.position[a], 2);
+  return std::sqrt(d2) - 1.0;
+}
+double receding_speed(const Simulation& s) {
+  const auto v = s.particles();
+  return v.velocity[v.dimension] - v.velocity[0];
+}
+}  // namespace
+
+TEST_CASE("a bonded pair settles at the equilibrium overlap F0 / K_N", "[adhesion]") {
+  for (int dim : {2, 3}) {
+    auto s = Simulation::create(Scene::from_string(adhesive_scene(dim, pair(dim, 0.0, 0.0)), "bond"));
+    const double tc = std::numbers::pi * std::sqrt(0.5 / KN);
+    CHECK(s->dt() == Approx(tc / 50).epsilon(1e-12));
+    s->step(200 * tc);
+    INFO("dimension " << dim);
+    CHECK(-gap_of(*s) == Approx(F0 / KN).epsilon(1e-9));
+    CHECK(std::abs(receding_speed(*s)) < 1e-12);
+    CHECK(s->get("contacts") == 1);
+    // Energy at rest: K_N delta0^2 / 2 in the spring, -F0 D0 / 2 - F0 delta0 in the attraction.
+    CHECK(s->get("elastic_energy") == Approx(0.5 * F0 * F0 / KN).epsilon(1e-8));
+    CHECK(s->get("adhesion_energy") == Approx(-0.5 * F0 * D0 - F0 * F0 / KN).epsilon(1e-10));
+  }
+}
+
+TEST_CASE("the static normal force: the largest tension a bond carries (pull-off force) is F0", "[adhesion]") {
+  const double delta0 = F0 / KN;
+  struct Case { double gap, force; };   // force on j along n, positive = repulsive
+  const Case cases[] = {{-2 * delta0, F0},      {-delta0, 0.0},        {-0.5 * delta0, -0.5 * F0}, {-1e-9, -F0 + 1e-4},
+                        {0.25 * D0, -0.75 * F0}, {0.5 * D0, -0.5 * F0}, {0.999 * D0, -1e-3 * F0},  {1.001 * D0, 0.0},
+                        {0.1, 0.0}};
+  double largest_tension = 0;
+  for (const auto& c : cases) {
+    auto s = Simulation::create(Scene::from_string(adhesive_scene(2, pair(2, c.gap, 0.0)), "static"));
+    const double f = s->particles().force[2];   // x component on the right-hand grain
+    INFO("gap " << c.gap);
+    CHECK(f == Approx(c.force).margin(1e-9));
+    CHECK(s->particles().force[0] == -f);
+    largest_tension = std::max(largest_tension, -f);
+  }
+  CHECK(largest_tension == Approx(F0).epsilon(1e-3));
+}
+
+// Receding from contact at gap 0, the pair must climb the attraction's potential well F0 D0 / 2 with
+// its relative kinetic energy m* V^2 / 2, m* = 1/2: it escapes when V > sqrt(2 F0 D0 / m) = V* sqrt(2).
+TEST_CASE("two unit-mass disks separate only above the receding speed V* sqrt(2)", "[adhesion]") {
+  const double v_star = std::sqrt(F0 * D0 / 1.0);
+  const double escape = v_star * std::sqrt(2.0);
+  const double horizon = 40 * D0 / escape;   // long enough to cross the range or to fall back into contact
+  for (int dim : {2, 3}) {
+    INFO("dimension " << dim);
+    for (double ratio : {0.99, 1.01, 1.1}) {
+      INFO("speed / (V* sqrt 2) = " << ratio);
+      auto s = Simulation::create(Scene::from_string(adhesive_scene(dim, pair(dim, 0.0, ratio * escape)), "escape"));
+      s->step(horizon);
+      if (ratio < 1) {
+        CHECK(gap_of(*s) < D0);   // recaptured: back within the range (it falls into contact and stays)
+        s->step(horizon);
+        CHECK(gap_of(*s) < 0);
+      } else {
+        CHECK(gap_of(*s) > D0);
+        // Energy balance beyond the range: V_final^2 = V^2 - 2 F0 D0 / m.
+        CHECK(receding_speed(*s) == Approx(escape * std::sqrt(ratio * ratio - 1)).epsilon(ratio > 1.05 ? 1e-3 : 2e-2));
+      }
+    }
+  }
+}
+
+TEST_CASE("bad adhesion and rolling input is named", "[adhesion][scene]") {
+  auto p = pair(2, 0.0, 0.0);
+  CHECK_THROWS_WITH(Simulation::create(Scene::from_string(adhesive_scene(2, p, "[rolling]\ncoefficient = -1"), "bad")),
+                    Catch::Contains("rolling.coefficient") && Catch::Contains("-1"));
+  CHECK_THROWS_WITH(Simulation::create(Scene::from_string(adhesive_scene(2, p, "", "") + "\n[contact]\nenabled = false", "bad")),
+                    Catch::Contains("adhesion.enabled") && Catch::Contains("contact.enabled"));
+  auto no_adhesion = adhesive_scene(2, p, "[rolling]\ncoefficient = 0.005");
+  no_adhesion.replace(no_adhesion.find("enabled = true"), 14, "enabled = false");
+  CHECK_THROWS_WITH(Simulation::create(Scene::from_string(no_adhesion + "[contact]\nduration = 1\n", "bad")),
+                    Catch::Contains("rolling.coefficient") && Catch::Contains("adhesion.enabled"));
+  CHECK_THROWS_WITH(Simulation::create(Scene::from_string(adhesive_scene(2, p, "[rolling]\nstiffness_ratio = 0"), "bad")),
+                    Catch::Contains("rolling.stiffness_ratio"));
+}

@@ -1,0 +1,86 @@
+// Contact-network statistics on constructed configurations, directly and through the Simulation outputs.
+#include <catch2/catch.hpp>
+
+#include "adhesive_scene.hpp"
+#include "analysis/contact_network.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+
+TEST_CASE("contact network: coordination split, rattlers, distant bonds and force histogram", "[network]") {
+  // Five grains: a compressive, a tensile and a zero-force contact, one distant bond; grain 4 is alone.
+  const std::vector<NetworkInteraction> list = {
+      {0, 1, -1e-5, 2.0}, {1, 2, -1e-5, -0.5}, {2, 3, 5e-4, -0.5}, {0, 2, -1e-5, 0.0}};
+  ContactNetworkOptions opt;
+  opt.zero_force = 1e-5;
+  const ContactNetwork net = analyse_contact_network(5, list, opt);
+  CHECK(net.contacts == 3);
+  CHECK(net.distant_bonds == 1);
+  CHECK(net.z == Approx(8.0 / 5));
+  CHECK(net.z_plus == Approx(2.0 / 5));
+  CHECK(net.z_minus == Approx(4.0 / 5));
+  CHECK(net.z_zero == Approx(2.0 / 5));
+  CHECK(net.rattler_fraction == Approx(1.0 / 5));   // grain 4 (grain 0 carries the compressive contact)
+  CHECK(net.z_star == Approx(2.0));
+  REQUIRE(net.histogram.size() == 21);
+  CHECK(net.histogram[1] == 0.5);    // F / F0 = -0.5, twice, in [-0.5, 0)
+  CHECK(net.histogram[2] == 0.25);   // 0 in [0, 0.5)
+  CHECK(net.histogram[6] == 0.25);   // 2 in [2, 2.5)
+
+  // Only zero-force interactions: every grain rattles.
+  const auto idle = analyse_contact_network(2, {{0, 1, -1e-5, 1e-7}}, opt);
+  CHECK(idle.rattler_fraction == 1.0);
+  CHECK(idle.z_star == 0.0);
+  CHECK(idle.z_zero == 1.0);
+  // Forces beyond the top edge, and below the bottom one, land in the end bins.
+  const auto wide = analyse_contact_network(2, {{0, 1, -1e-5, 50.0}, {0, 1, -1e-5, -3.0}}, opt);
+  CHECK(wide.histogram[20] == 0.5);
+  CHECK(wide.histogram[0] == 0.5);
+}
+
+TEST_CASE("contacts kept, lost and gained between two states", "[network]") {
+  const auto before = contact_keys({{0, 1, -1e-5, 1}, {2, 1, -1e-5, 1}, {3, 4, 1e-4, -0.9}});   // (3,4) is not a contact
+  const auto now = contact_keys({{1, 2, -1e-5, 1}, {2, 3, -1e-5, 1}, {4, 0, -1e-5, 1}});
+  const auto ch = compare_contacts(before, now);
+  CHECK(ch.kept == 1);
+  CHECK(ch.lost == 1);
+  CHECK(ch.gained == 2);
+}
+
+TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[network][adhesion]") {
+  // Grains 0-1 bonded at rest at the equilibrium overlap (zero force), 1-2 across half the attraction
+  // range (tension F0 / 2), grain 3 far away.
+  const double delta0 = 1e-5, D0 = 1e-3;
+  ListedParticles p;
+  p.positions = {{0, 0}, {1 - delta0, 0}, {2 - delta0 + 0.5 * D0, 0}, {10, 0}};
+  p.velocities = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
+  p.diameters = {1, 1, 1, 1};
+  p.masses = {1, 1, 1, 1};
+  auto s = Simulation::create(Scene::from_string(adhesive_scene(2, p), "network"));
+  CHECK(s->get("coordination") == Approx(1.0));
+  CHECK(s->get("coordination_zero") == Approx(0.5));
+  CHECK(s->get("coordination_tensile") == Approx(0.5));
+  CHECK(s->get("coordination_compressive") == 0);
+  CHECK(s->get("rattler_fraction") == Approx(0.5));
+  CHECK(s->get("backbone_coordination") == Approx(2.0));
+  CHECK(s->get("distant_bonds") == 1);
+  // -0.5 F0 in [-0.5, 0); the zero force sits on the edge at 0, within round-off on either side.
+  CHECK(s->get("force_histogram_01") >= 0.5);
+  CHECK(s->get("force_histogram_01") + s->get("force_histogram_02") == 1.0);
+  CHECK(s->get("force_histogram_00") + s->get("force_histogram_03") == 0.0);
+  CHECK(s->get("contacts_kept") == 1);          // against the initial state
+  // The bond pulls 2 onto 1: a contact is gained; a new mark makes the present the reference.
+  s->step(0.5);
+  CHECK(s->get("contacts_gained") == 1);
+  CHECK(s->get("contacts_kept") == 1);
+  s->set("network.mark", 1);
+  CHECK(s->get("contacts_gained") == 0);
+  CHECK(s->get("contacts_kept") == 2);
+  // The reference is part of the state.
+  const auto saved = s->save_state();
+  auto t = Simulation::create(Scene::from_string(adhesive_scene(2, p), "network"));
+  t->restore_state(saved);
+  CHECK(t->get("contacts_kept") == 2);
+  CHECK(t->get("network.mark") == 1);
+}
