@@ -114,3 +114,33 @@ TEST_CASE("bad adhesion and rolling input is named", "[adhesion][scene]") {
   CHECK_THROWS_WITH(Simulation::create(Scene::from_string(adhesive_scene(2, p, "[rolling]\nstiffness_ratio = 0"), "bad")),
                     Catch::Contains("rolling.stiffness_ratio"));
 }
+
+#include "core/system.hpp"
+#include "interactions/adhesive_contact_law.hpp"
+#include "interactions/contact_forces.hpp"
+
+// The stress of a cohesive packing counts the attraction: a contact pulled at -F0 / 2 across half
+// the range, and one bonded at the equilibrium overlap, contribute F (x) r with F = -F0 / 2 n and 0.
+TEST_CASE("the contact virial includes the adhesive forces", "[adhesion][stress]") {
+  for (int threads : {1, 2}) {
+    System<2> s;
+    const double delta0 = F0 / KN;
+    const std::vector<Vec<2>> x = {{0, 0}, {1 + 0.5 * D0, 0}, {0, 1 - delta0}};
+    s.particles.resize(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) s.particles.position[i] = x[i], s.particles.set_mass_and_radius(i, 1.0, 0.5);
+    s.box.length = Vec<2>(8.0, 8.0);
+    s.box.periodic.fill(true);
+    s.threads = threads;
+    s.thread_force.assign(threads, std::vector<Vec<2>>(x.size(), Vec<2>::Zero()));
+    s.thread_torque.assign(threads, std::vector<Spin<2>>(x.size(), Spin<2>::Zero()));
+    AdhesiveContactLaw law{KN, F0, D0, 0.8, 0.1};
+    s.neighbours.configure(law.reach(), 0.1);
+    s.neighbours.build(s.particles.position, s.particles.radius, s.box, threads);
+    ContactForces<2, AdhesiveContactLaw, CoulombFriction> contacts(law, CoulombFriction{0.5, 1.0, 0.0, true});
+    s.want_virial = true;
+    contacts.add_forces(s);
+    CHECK(s.virial(0, 0) == Approx(-0.5 * F0 * (1 + 0.5 * D0)).epsilon(1e-12));
+    CHECK(std::abs(s.virial(1, 1)) < 1e-9);
+    CHECK(s.virial(0, 1) == 0);
+  }
+}
