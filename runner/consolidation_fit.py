@@ -1,0 +1,211 @@
+"""Consolidation-curve fits of physics.md section 9 and the plot of Phi and 1/Phi against P*.
+
+    python runner/consolidation_fit.py STAGES.csv [-o fit.png] [--p0 P0] [--regime2-max P]
+
+STAGES is the table of equilibrated stages of a compression programme: a CSV file with a header
+naming at least the columns `P_star` and `phi` (others are ignored; an optional `branch` column
+with `loading` / `unloading` keeps the fit on the loading branch), or an HDF5 file with a group
+`stages` holding `P_star` and `phi` (datasets, or H5MD-style groups with a `value` dataset).
+
+Two fits, both on the loading branch:
+  regime II (a straight line in ln P*):   1/Phi = 1/Phi0 - lambda ln(P*/P0*)
+  regimes II-III (the crossover form):     1/Phi = 1/Phi0 - lambda ln{(P*/P0*) [1 - exp(-(P1*/P*)^alpha)]^(1/alpha)}
+      with ln(P1*/P0*) = (1/Phi0 - 1/Phimax) / lambda, so 1/Phi -> 1/Phimax + lambda/(2 alpha) (P1*/P*)^alpha.
+Below P0*, where regime II starts, Phi stays on the plateau Phi0 of regime I. Unless --p0 gives it,
+each fit finds P0* as the kink between plateau and curve (the best of a fine scan). The regime II
+line is fitted to the stages with P* <= --regime2-max (default: 0.1; the paper's regime II ends near
+P* = 0.1-0.3), the regimes II-III form to every loading stage.
+"""
+import argparse
+import csv
+import math
+import pathlib
+import sys
+
+import numpy as np
+from scipy.optimize import curve_fit
+
+
+def inverse_phi_regime_two(p, inv_phi0, lam, p0):
+    return inv_phi0 - lam * np.log(p / p0)
+
+
+def inverse_phi_crossover(p, inv_phi0, lam, phi_max, alpha, p0):
+    """1/Phi of the regimes II-III form; P1* follows from the other parameters."""
+    log_p1_over_p0 = (inv_phi0 - 1.0 / phi_max) / lam
+    x = np.exp(alpha * (log_p1_over_p0 + math.log(p0) - np.log(p)))   # (P1*/P*)^alpha
+    # ln{(P/P0) [1 - exp(-x)]^(1/alpha)}, with -expm1(-x) = 1 - exp(-x) accurate for small x
+    return inv_phi0 - lam * (np.log(p / p0) + np.log(-np.expm1(-x)) / alpha)
+
+
+def plateau_then(p, p0, inv_phi0, rest):
+    """Regime I (1/Phi = 1/Phi0, flat) below P0*, `rest` (a function of P*) from P0* on."""
+    return np.where(p < p0, inv_phi0, rest(np.maximum(p, p0)))
+
+
+def fit_regime_two(p, phi, p0=None, p_max=0.1):
+    """Regime II line through the stages with P* <= p_max. With P0* given, the line is fitted to
+    [P0*, p_max]; without, P0* is found too, as the kink between the plateau 1/Phi = 1/Phi0 below it and
+    the line above it (the best of a fine scan of P0*; given P0* the fit is linear least squares)."""
+    p, phi = np.asarray(p, float), np.asarray(phi, float)
+    keep = p <= p_max * (1 + 1e-12)
+    if p0 is not None:
+        keep &= p >= p0 * (1 - 1e-12)
+    if keep.sum() < 3:
+        raise ValueError(f"regime II fit: {keep.sum()} stages with P* <= {p_max:g} (and >= P0*); need at least 3")
+    x, y = np.log(p[keep]), 1.0 / phi[keep]
+
+    def line_fit(p0_try):   # y = 1/Phi0 - lambda max(0, ln(P/P0)): linear in (1/Phi0, lambda)
+        a = np.column_stack([np.ones_like(x), -np.maximum(0.0, x - math.log(p0_try))])
+        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+        return coef, float(np.sum((a @ coef - y) ** 2)), a
+
+    if p0 is None:
+        candidates = np.geomspace(p[keep].min(), p[keep].max(), 400)[:-2]
+        p0 = min(candidates, key=lambda c: line_fit(c)[1])
+    (inv_phi0, lam), residual, a = line_fit(p0)
+    dof = max(1, len(y) - 3)
+    cov = np.linalg.pinv(a.T @ a) * residual / dof
+    return {"P0": float(p0), "phi0": 1.0 / inv_phi0, "lambda": lam, "lambda_err": math.sqrt(max(cov[1, 1], 0.0)),
+            "stages": int(keep.sum())}
+
+
+def fit_crossover(p, phi, p0=None, guess=None):
+    """The regimes II-III form (with the flat regime I below P0*). P0* is held fixed when given, else
+    found by a scan like fit_regime_two. Returns a dict with Phi0, lambda, Phimax, alpha, the derived
+    P1* and their standard errors (at fixed P0*)."""
+    p, phi = np.asarray(p, float), np.asarray(phi, float)
+    if len(p) < 6:
+        raise ValueError(f"regimes II-III fit: {len(p)} stages; need at least 6")
+    y = 1.0 / phi
+    if guess is None:
+        guess = (y.max(), 0.3, float(phi.max()) * 1.01, 1.0)
+    bounds = ([0.0, 1e-6, 1e-3, 0.05], [np.inf, 10.0, 1.0, 10.0])
+
+    def fit_at(p0_try, start):
+        model = lambda pp, a, b, c, d: plateau_then(pp, p0_try, a, lambda q: inverse_phi_crossover(q, a, b, c, d, p0_try))
+        params, cov = curve_fit(model, p, y, p0=start, bounds=bounds, maxfev=20000)
+        return params, cov, float(np.sum((model(p, *params) - y) ** 2))
+
+    if p0 is None:
+        best = None
+        for c in np.geomspace(p.min(), p.max() / 10, 80):
+            try:
+                params, cov, res = fit_at(c, guess)
+            except RuntimeError:
+                continue
+            if best is None or res < best[0]:
+                best = (res, c, params, cov)
+        if best is None:
+            raise RuntimeError("regimes II-III fit did not converge for any P0*")
+        _, p0, params, cov = best
+    else:
+        params, cov, _ = fit_at(p0, guess)
+    inv_phi0, lam, phi_max, alpha = params
+    finite = np.all(np.isfinite(cov))
+    err = np.sqrt(np.clip(np.diag(cov), 0, None)) if finite else np.full(4, np.nan)
+    p1 = p0 * math.exp((inv_phi0 - 1.0 / phi_max) / lam)
+    # P1* error by linear propagation through ln P1* = ln P0* + (1/Phi0 - 1/Phimax) / lambda.
+    grad = np.array([1.0 / lam, -(inv_phi0 - 1.0 / phi_max) / lam**2, 1.0 / (lam * phi_max**2), 0.0]) * p1
+    p1_err = float(math.sqrt(max(grad @ cov @ grad, 0.0))) if finite else float("nan")
+    return {"P0": float(p0), "phi0": 1.0 / inv_phi0, "phi0_err": err[0] / inv_phi0**2, "lambda": lam,
+            "lambda_err": err[1], "phi_max": phi_max, "phi_max_err": err[2], "alpha": alpha, "alpha_err": err[3],
+            "P1": p1, "P1_err": p1_err, "stages": int(np.sum(p >= p0))}
+
+
+def read_stages(path):
+    """(P*, Phi, branch) arrays from a CSV or HDF5 stage table."""
+    path = pathlib.Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"stage table '{path}' does not exist")
+    if path.suffix in (".h5", ".hdf5"):
+        import h5py
+        with h5py.File(path, "r") as f:
+            if "stages" not in f:
+                raise ValueError(f"'{path}' has no group 'stages'")
+            g = f["stages"]
+            def column(name):
+                node = g[name]
+                return np.asarray(node["value"] if isinstance(node, h5py.Group) else node, float).ravel()
+            p, phi = column("P_star"), column("phi")
+            branch = None
+            if "branch" in g:
+                branch = np.array([b.decode() if isinstance(b, bytes) else str(b) for b in g["branch"][()]])
+    else:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
+        if not rows or "P_star" not in rows[0] or "phi" not in rows[0]:
+            raise ValueError(f"'{path}' needs a header with columns P_star and phi")
+        p = np.array([float(r["P_star"]) for r in rows])
+        phi = np.array([float(r["phi"]) for r in rows])
+        branch = np.array([r["branch"] for r in rows]) if "branch" in rows[0] else None
+    if branch is None:   # loading = the stages up to the largest pressure
+        top = int(np.argmax(p))
+        branch = np.array(["loading"] * (top + 1) + ["unloading"] * (len(p) - top - 1))
+    return p, phi, branch
+
+
+def plot(p, phi, branch, regime2, crossover, out):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.4, 7.2), sharex=True)
+    loading = branch == "loading"
+    curve = np.geomspace(min(p.min(), regime2["P0"]), p.max(), 300)
+    for ax, f in ((top, lambda v: v), (bottom, lambda v: 1.0 / v)):
+        ax.plot(p[loading], f(phi[loading]), "o", mfc="none", label="loading")
+        if (~loading).any():
+            ax.plot(p[~loading], f(phi[~loading]), "s", mfc="none", label="unloading")
+        if crossover:
+            c = crossover
+            inv = plateau_then(curve, c["P0"], 1 / c["phi0"], lambda q: inverse_phi_crossover(
+                q, 1 / c["phi0"], c["lambda"], c["phi_max"], c["alpha"], c["P0"]))
+            ax.plot(curve, f(1.0 / inv), "-", label="regimes II-III fit")
+        line = curve[(curve >= regime2["P0"]) & (curve <= 10 * regime2["P0"])]
+        ax.plot(line, f(1.0 / inverse_phi_regime_two(line, 1 / regime2["phi0"], regime2["lambda"], regime2["P0"])),
+                "--", label="regime II line")
+        ax.set_xscale("log")
+    top.set_ylabel("solid fraction Φ")
+    bottom.set_ylabel("1 / Φ")
+    bottom.set_xlabel("reduced pressure P*")
+    top.legend()
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Fit the consolidation curve Phi(P*) (physics.md section 9).")
+    ap.add_argument("table", help="stage table: CSV with P_star, phi (and optionally branch), or HDF5 with stages/")
+    ap.add_argument("-o", "--out", help="plot file (PNG); default: beside the table")
+    ap.add_argument("--p0", type=float, help="P0*, start of regime II (default: the line meets the initial plateau)")
+    ap.add_argument("--regime2-max", type=float, default=0.1, help="largest P* of the regime II line fit")
+    args = ap.parse_args(argv)
+    try:
+        p, phi, branch = read_stages(args.table)
+        loading = branch == "loading"
+        regime2 = fit_regime_two(p[loading], phi[loading], args.p0, args.regime2_max)
+        try:
+            crossover = fit_crossover(p[loading], phi[loading], args.p0,
+                                      guess=(1 / regime2["phi0"], regime2["lambda"], phi[loading].max() * 1.01, 1.0))
+        except (ValueError, RuntimeError) as e:
+            print(f"regimes II-III fit not done: {e}", file=sys.stderr)
+            crossover = None
+    except (OSError, ValueError) as e:
+        print(f"consolidation_fit: {e}", file=sys.stderr)
+        return 2
+    print(f"regime II ({regime2['stages']} stages): P0* = {regime2['P0']:.4g}, Phi0 = {regime2['phi0']:.4f}, "
+          f"lambda = {regime2['lambda']:.4f} +- {regime2['lambda_err']:.2g}")
+    if crossover:
+        c = crossover
+        print(f"regimes II-III ({c['stages']} stages from P0* = {c['P0']:.4g}): Phi0 = {c['phi0']:.4f} +- {c['phi0_err']:.2g}, "
+              f"lambda = {c['lambda']:.4f} +- {c['lambda_err']:.2g}, Phimax = {c['phi_max']:.4f} +- {c['phi_max_err']:.2g}, "
+              f"alpha = {c['alpha']:.3f} +- {c['alpha_err']:.2g}, P1* = {c['P1']:.4g} +- {c['P1_err']:.2g}")
+    out = args.out or str(pathlib.Path(args.table).with_suffix("")) + "-fit.png"
+    plot(p, phi, branch, regime2, crossover, out)
+    print(f"plot: {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,100 @@
+"""The consolidation-curve fits (physics.md section 9) recover the parameters of synthetic curves
+made from the formulas, and the command writes its plot and names bad input."""
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "runner"))
+import consolidation_fit as cf  # noqa: E402
+
+# The paper's fit without rolling resistance (physics.md section 9 table).
+P0, PHI0, LAM, PHI_MAX, ALPHA = 0.0237, 0.469, 0.349, 0.7808, 0.91
+
+
+def programme():
+    """The loading programme: P* x 10^(1/8) per stage from 0.01 to 13.33."""
+    return 0.01 * 10 ** (np.arange(0, 26) / 8)
+
+
+def synthetic_phi(p):
+    """Regime I plateau below P0*, the regimes II-III form above."""
+    inv = np.where(p < P0, 1 / PHI0, cf.inverse_phi_crossover(np.maximum(p, P0), 1 / PHI0, LAM, PHI_MAX, ALPHA, P0))
+    return 1 / inv
+
+
+def test_crossover_fit_recovers_the_parameters_and_p1():
+    p = programme()
+    fit = cf.fit_crossover(p, synthetic_phi(p), P0)
+    assert fit["lambda"] == pytest.approx(LAM, rel=1e-6)
+    assert fit["phi_max"] == pytest.approx(PHI_MAX, rel=1e-6)
+    assert fit["alpha"] == pytest.approx(ALPHA, rel=1e-5)
+    assert fit["phi0"] == pytest.approx(PHI0, rel=1e-6)
+    # ln(P1*/P0*) = (1/Phi0 - 1/Phimax) / lambda: the paper's P1* = 0.271 +- 0.033.
+    assert fit["P1"] == pytest.approx(P0 * math.exp((1 / PHI0 - 1 / PHI_MAX) / LAM), rel=1e-5)
+    assert abs(fit["P1"] - 0.271) < 0.033
+
+
+def test_crossover_fit_finds_where_regime_two_starts():
+    p = programme()
+    fit = cf.fit_crossover(p, synthetic_phi(p))
+    assert fit["P0"] == pytest.approx(P0, rel=0.03)
+    assert fit["lambda"] == pytest.approx(LAM, rel=0.02)
+    assert fit["phi_max"] == pytest.approx(PHI_MAX, rel=1e-3)
+    assert fit["alpha"] == pytest.approx(ALPHA, rel=0.02)
+
+
+def test_crossover_fit_with_noise_stays_within_its_error_bars():
+    rng = np.random.default_rng(4)
+    p = programme()
+    phi = synthetic_phi(p) * (1 + 1e-3 * rng.standard_normal(p.size))
+    fit = cf.fit_crossover(p, phi, P0)
+    for name, true in (("lambda", LAM), ("phi_max", PHI_MAX), ("alpha", ALPHA)):
+        assert 0 < fit[name + "_err"] < 0.2 * true
+        assert abs(fit[name] - true) < 4 * fit[name + "_err"], name
+
+
+def test_crossover_tends_to_phimax_with_the_power_law_tail():
+    p = np.array([1e3, 1e4])
+    inv = cf.inverse_phi_crossover(p, 1 / PHI0, LAM, PHI_MAX, ALPHA, P0)
+    p1 = P0 * math.exp((1 / PHI0 - 1 / PHI_MAX) / LAM)
+    tail = 1 / PHI_MAX + LAM / (2 * ALPHA) * (p1 / p) ** ALPHA
+    assert inv == pytest.approx(tail, rel=1e-6)
+    # and to the regime II line at small P*
+    assert cf.inverse_phi_crossover(np.array([P0]), 1 / PHI0, LAM, PHI_MAX, ALPHA, P0)[0] == pytest.approx(1 / PHI0, abs=1e-4)
+
+
+def test_regime_two_line_and_its_start():
+    p = programme()
+    phi = 1 / np.where(p < P0, 1 / PHI0, 1 / PHI0 - LAM * np.log(np.maximum(p, P0) / P0))
+    fit = cf.fit_regime_two(p[p >= P0], phi[p >= P0], p_max=1.0)
+    assert fit["lambda"] == pytest.approx(LAM, rel=1e-10)
+    # P0* found as the kink between the regime I plateau and the line, then Phi0 is the plateau.
+    fit = cf.fit_regime_two(p, phi, p_max=1.0)
+    assert fit["P0"] == pytest.approx(P0, rel=0.02)
+    assert fit["phi0"] == pytest.approx(PHI0, rel=1e-3)
+    assert fit["lambda"] == pytest.approx(LAM, rel=0.01)
+
+
+def test_command_fits_a_table_and_writes_the_plot(tmp_path):
+    p = programme()
+    phi = synthetic_phi(p)
+    table = tmp_path / "stages.csv"
+    rows = ["P_star,phi,branch"] + [f"{a:.17g},{b:.17g},loading" for a, b in zip(p, phi)]
+    rows += [f"{a:.17g},{phi[-1]:.17g},unloading" for a in p[::-4][1:]]   # irreversible: Phi stays near its top
+    table.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "fit.png"
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), str(table), "-o", str(out),
+                        "--p0", str(P0)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "lambda = 0.3490" in r.stdout and "Phimax = 0.7808" in r.stdout
+    assert out.stat().st_size > 10000
+    bad = tmp_path / "bad.csv"
+    bad.write_text("pressure,phi\n1,0.5\n")
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), str(bad)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "P_star" in r.stderr
