@@ -1,0 +1,130 @@
+"""Throughput of the consolidation contact law in 2D against LAMMPS, on the same disks.
+
+    python runner/bench_cohesive.py [--steps 20000] [--cells 35] [--peers ../shared/peers]
+
+The peer input ../shared/peers/disks2d.lmp (periodic 2D disks, d = 1, m = 1, on a hexagonal lattice
+of reduced density 1.05, gran/hooke/history with k_n = 1e5, gamma_n = 50, mu = 0.5, dt = 1e-4, skin
+0.1, temperature 0.01) is run with its region cut to --cells x 20 unit cells (35 -> 1400 disks).
+grains runs the same disks (positions, masses, dt, skin, Gaussian velocities of the same temperature)
+with the consolidation law at the paper's Table I values in units a = F0 = 1: adhesion (K_N = 1e5,
+D0 = 1e-3, e_N = 0.015), friction mu = 0.5, K_T = K_N, and rolling resistance mu_R = 0.005, K_R = 1e-4
+K_N a^2; then without rolling, and with the plain frictional spring-dashpot (no adhesion), to show
+what each module costs. LAMMPS has neither adhesion nor rolling in gran/hooke/history, so its pair
+work per contact is smaller. Both codes on one core, then two. Machines here are shared and noisy:
+compare ratios within one run.
+"""
+import argparse
+import math
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import h5py
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+DENSITY = 1.05    # the peer's `lattice hex 1.05`
+TEMPERATURE = 0.01
+
+
+def hex_lattice(cells_x, cells_y):
+    """Centres of LAMMPS' 2D `lattice hex` (two disks per a x a sqrt(3) cell) and the box lengths."""
+    a = math.sqrt(2 / (DENSITY * math.sqrt(3)))
+    basis = [(0.0, 0.0), (0.5, 0.5)]
+    x = [((i + bx) * a, (j + by) * a * math.sqrt(3)) for j in range(cells_y) for i in range(cells_x) for bx, by in basis]
+    return np.array(x), (cells_x * a, cells_y * a * math.sqrt(3))
+
+
+def grains_scene(work, cells_x, variant):
+    centres, lengths = hex_lattice(cells_x, 20)
+    rng = np.random.default_rng(4928459)
+    v = rng.standard_normal(centres.shape) * math.sqrt(TEMPERATURE)   # kT = m <v_x^2>, m = 1
+    v -= v.mean(axis=0)
+    table = work / f"disks-{cells_x}.txt"
+    with open(table, "w") as f:
+        for (x, y), (vx, vy) in zip(centres, v):
+            f.write(f"{x:.17g} {y:.17g} 1 1 {vx:.17g} {vy:.17g}\n")
+    law = {
+        "adhesion+friction+rolling": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n[rolling]\ncoefficient = 0.005\n",
+        "adhesion+friction": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n",
+        "spring-dashpot+friction": "[contact]\nrestitution = 0.5\nduration = 0.007\n[friction]\ncoefficient = 0.5\n",
+    }[variant]
+    scene = work / f"{variant}-{cells_x}.toml"
+    scene.write_text(f"""[scene]
+name = "cohesive-disks"
+dimension = 2
+[particles]
+layout = "file"
+file = "{table}"
+[box]
+lengths = [{lengths[0]!r}, {lengths[1]!r}]
+[time]
+dt = 1e-4
+[neighbours]
+skin = 0.1
+{law}""")
+    return scene, len(centres)
+
+
+def grains_rate(binary, scene, steps, threads, work):
+    out = work / "run.h5"
+    subprocess.run([str(binary), "run", str(scene), "--quiet", "--out", str(out), "--set", f"time.steps={steps}",
+                    "--set", f"run.threads={threads}", "--set", "output.snapshots_every=0",
+                    "--set", f"output.observables_every={steps}", "--set", "output.xdmf=false"],
+                   check=True, stdout=subprocess.DEVNULL)
+    with h5py.File(out, "r") as f:
+        contacts = float(f["observables/contacts/value"][-1])
+        return float(f["grains"].attrs["particle_steps_per_second"]), contacts
+
+
+def lammps_rate(peers, cells_x, steps, threads, work):
+    script = (peers / "disks2d.lmp").read_text()
+    script = re.sub(r"region box block 0 105 0 20", f"region box block 0 {cells_x} 0 20", script)
+    script = re.sub(r"run 20000", f"run {steps}", script)
+    inp = work / "disks2d.lmp"
+    inp.write_text(script)
+    cmd = ["lmp", "-in", str(inp), "-log", "none"]
+    if threads > 1:
+        cmd = ["mpirun", "--allow-run-as-root", "-np", str(threads)] + cmd
+    text = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=work).stdout
+    loops = re.findall(r"Loop time of ([0-9.eE+-]+) on \d+ procs for (\d+) steps with (\d+) atoms", text)
+    if not loops:
+        raise RuntimeError("could not read LAMMPS' loop time:\n" + text[-2000:])
+    seconds, n_steps, atoms = loops[-1]   # the timed run, after the 1000-step warm-up
+    return int(n_steps) * int(atoms) / float(seconds)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--steps", type=int, default=20000)
+    ap.add_argument("--cells", type=int, default=35, help="hexagonal cells along x (x 20 along y, 2 disks each)")
+    ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
+    ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
+    ap.add_argument("--threads", default="1,2")
+    args = ap.parse_args()
+    have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
+    if not have_lammps:
+        print("note: LAMMPS (`lmp`, Debian package lammps) or the peer input is missing: grains only", file=sys.stderr)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = pathlib.Path(tmp)
+        for threads in (int(t) for t in args.threads.split(",")):
+            lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
+            for variant in ("adhesion+friction+rolling", "adhesion+friction", "spring-dashpot+friction"):
+                scene, n = grains_scene(work, args.cells, variant)
+                g, contacts = grains_rate(args.binary, scene, args.steps, threads, work)
+                rows.append((variant, threads, g, lmp, contacts))
+                print(f"{variant:26s} {threads} core(s): grains {g:.3g} (contacts at the end {contacts:.0f})  "
+                      f"LAMMPS gran/hooke/history {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
+    print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps")
+    print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS |")
+    print("|---|---|---|---|---|")
+    for variant, threads, g, lmp, _ in rows:
+        print(f"| {variant} | {threads} | {g:.3g} | {lmp:.3g} | {g / lmp:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
