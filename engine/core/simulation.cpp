@@ -1,6 +1,7 @@
 #include "core/simulation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -13,6 +14,9 @@
 #include "analysis/clusters.hpp"
 #include "analysis/contact_network.hpp"
 #include "analysis/fractal_dimension.hpp"
+#include "analysis/stress.hpp"
+#include "cell/barostat.hpp"
+#include "cell/equilibrium.hpp"
 #include "core/integrator.hpp"
 #include "core/system.hpp"
 #include "interactions/adhesive_contact_law.hpp"
@@ -96,6 +100,7 @@ class SimulationImpl final : public Simulation {
                                               "largest interaction reach (2 R_max + skin = {:.6g})", a, sys_.box.length[a],
                                               2 * rmax + std::max(0.0, range) + skin));
     uses_list_ = range >= 0;
+    if (scene.boolean("cell.enabled")) setup_cell(scene, 2 * rmax + std::max(0.0, range) + skin);
     for (const auto& m : modules_) rotate_ |= m->applies_torques();
     for (const auto& w : sys_.particles.angular_velocity) rotate_ |= !w.isZero(0);
 
@@ -103,6 +108,7 @@ class SimulationImpl final : public Simulation {
     describe_variables(scene);
     sys_.dt = 0;
     compute_forces();
+    if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     for (std::size_t i = 0; i < N; ++i) {
       P.accel[i] = P.accel_prev[i] = P.inv_mass[i] * P.force[i];
       P.angular_accel[i] = P.angular_accel_prev[i] = P.inv_inertia[i] * P.torque[i];
@@ -167,6 +173,7 @@ class SimulationImpl final : public Simulation {
     for (const auto& m : modules_) m->save(w);
     if (analysis_) w.put(aggregation_time_);
     if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
+    if (barostat_) barostat_->save(w), w.put(contact_stress_);
     for (const auto& [index, c] : controls_) w.put(c.get());
     return w.take();
   }
@@ -195,6 +202,11 @@ class SimulationImpl final : public Simulation {
     for (auto& m : modules_) m->load(r);
     if (analysis_) aggregation_time_ = r.get<double>();
     if (network_) r.get_vector(reference_contacts_), network_mark_ = r.get<double>();
+    if (barostat_) {
+      barostat_->load(r);
+      contact_stress_ = r.get<Tensor<D>>();
+      sys_.box.length = barostat_->length();
+    }
     for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     cache_step_ = -1;
@@ -325,6 +337,73 @@ class SimulationImpl final : public Simulation {
     reference_contacts_ = contact_keys(interactions());
   }
 
+  // --- pressure-controlled cell (physics.md section 9) ---
+  void setup_cell(const Scene& scene, double list_reach) {
+    const auto& P = sys_.particles;
+    for (int a = 0; a < D; ++a)
+      if (!sys_.box.periodic[a])
+        scene.fail("cell.enabled", "a pressure-controlled cell must be periodic on every axis: set box.periodic = true");
+    if (kn_ <= 0) scene.fail("cell.enabled", "the barostat needs contacts to carry the stress: set contact.enabled = true");
+    // Reduced units: a = largest diameter, m = mass of a grain of diameter a, F0. Cohesionless (F0 = 0):
+    // P* is P a^(D-2) / k_n.
+    const std::size_t big = std::max_element(P.radius.begin(), P.radius.end()) - P.radius.begin();
+    length_unit_ = 2 * P.radius[big];
+    grain_mass_ = P.mass[big];
+    force_unit_ = scene.has("cell.force_unit")             ? scene.real("cell.force_unit")
+                  : scene.boolean("adhesion.enabled") ? scene.real("adhesion.force")
+                                                      : 1.0;
+    pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
+    inertia_number_ = scene.real("cell.inertia_number");
+    target_reduced_ = scene.real("cell.pressure");
+    if (force_unit_ == 0 && target_reduced_ == 0)
+      scene.fail("cell.pressure", "value 0 is not allowed when cell.force_unit = 0 (cohesionless): a pressure > 0 "
+                                  "sets the force scale of the equilibrium test and the strain-rate cap");
+    double total_mass = 0;
+    for (double m : P.mass) total_mass += m;
+    CellLengthParameters p;
+    p.axes = D;
+    p.mass = scene.has("cell.mass") ? scene.real("cell.mass") : total_mass;
+    const double cell_stiffness = kn_ * std::pow(sys_.box.length.mean() / length_unit_, D - 2);
+    p.damping = scene.real("cell.damping_ratio") * 2 * std::sqrt(p.mass * cell_stiffness);
+    p.rate_cap = rate_cap(target_reduced_);
+    p.rtol = scene.real("cell.rtol");
+    p.atol_length = scene.real("cell.atol") * length_unit_;
+    p.time_unit = std::sqrt(length_unit_ * grain_mass_ / force_scale(target_reduced_));
+    tolerances_ = {scene.real("cell.tolerance_force"), scene.real("cell.tolerance_torque"),
+                   scene.real("cell.tolerance_stress"), scene.real("cell.tolerance_kinetic")};
+    barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
+    cell_list_reach_ = list_reach;
+    sys_.want_virial = true;
+  }
+
+  // F1 = max(F0, P a^(D-1)): the force scale of the equilibrium test and of the time unit.
+  double force_scale(double reduced_pressure) const {
+    return std::max(force_unit_, reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1));
+  }
+  // Strain-rate cap I_a / T, T = sqrt(a m / F1) (= T0 when cohesion dominates).
+  double rate_cap(double reduced_pressure) const {
+    return inertia_number_ / std::sqrt(length_unit_ * grain_mass_ / force_scale(reduced_pressure));
+  }
+
+  // Move the particles with the cell (affinely, about its lower corner); velocities are left as they
+  // are: relative to the affine flow.
+  void follow_cell(const Vec<D>& scale) {
+    auto& P = sys_.particles;
+    const Vec<D> lower = sys_.box.lower;
+#pragma omp parallel for num_threads(sys_.threads) schedule(static)
+    for (std::size_t i = 0; i < P.size(); ++i) P.position[i] = lower + (P.position[i] - lower).cwiseProduct(scale);
+    sys_.box.length = barostat_->length();
+    sys_.neighbours.follow_cell(scale, sys_.box);
+    for (int a = 0; a < D; ++a)
+      if (!(sys_.box.length[a] > 2 * cell_list_reach_))
+        throw SimulationError(fmt::format(
+            "step {}: the cell has shrunk to {:.6g} on axis {}, no longer than twice the interaction reach "
+            "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles",
+            sys_.step + 1, sys_.box.length[a], a, cell_list_reach_));
+  }
+
+  Tensor<D> stress() const { return contact_stress_ + kinetic_stress<D>(sys_.particles, sys_.box.volume()); }
+
   void rebuild() {
     if (!uses_list_) return;
     auto& P = sys_.particles;
@@ -345,12 +424,20 @@ class SimulationImpl final : public Simulation {
 
   void one_step(double h) {
     auto& P = sys_.particles;
+    Vec<D> scale;
+    if (barostat_) {   // the cell moves under the stress of the last force evaluation (operator splitting)
+      const auto start = std::chrono::steady_clock::now();
+      scale = barostat_->advance(sys_.time, h, stress());
+      cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
     if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
     else kick_drift_predict<D, false>(P, h, sys_.threads);
+    if (barostat_) follow_cell(scale);
     if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
     sys_.dt = h;
     compute_forces();
     const double witness = rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
+    if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
     ++sys_.step;
     if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
@@ -442,6 +529,7 @@ class SimulationImpl final : public Simulation {
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) out(name, "", "see the README's observable table");
+    if (barostat_) describe_cell_variables(out);
     if (analysis_) {
       out("cluster_count", "", "N_c: clusters of the contact graph (d < R_i + R_j + tol), isolated particles included");
       out("cluster_index", "", "N_c / N: 1 = all isolated, 1/N = one aggregate");
@@ -475,6 +563,75 @@ class SimulationImpl final : public Simulation {
     }
   }
 
+  template <class Out>
+  void describe_cell_variables(Out& out) {
+    const char* xyz = "xyz";
+    for (int a = 0; a < D; ++a) out(fmt::format("cell_length_{}", xyz[a]), "m", "periodic cell length L");
+    for (int a = 0; a < D; ++a) out(fmt::format("cell_strain_rate_{}", xyz[a]), "1/s", "(dL/dt) / L");
+    for (int a = 0; a < D; ++a)
+      for (int b = a; b < D; ++b)
+        out(fmt::format("stress_{}{}", xyz[a], xyz[b]), "Pa", "stress tensor, contact + kinetic, compressive positive");
+    out("pressure", "Pa", "trace(stress) / D, contact + kinetic");
+    out("pressure_kinetic", "Pa", "kinetic part of the pressure (velocities relative to the affine flow)");
+    out("pressure_reduced", "", "P* of the current stress: a P / F0 (2D), a^2 P / F0 (3D)");
+    out("solid_fraction", "", "Phi: grain area (2D) or volume (3D) over the cell's");
+    out("equilibrium", "", "1 when all four equilibrium criteria hold (physics.md section 9), else 0");
+    out("equilibrium_force", "", "largest net force / (tolerance_force F1): below 1 passes");
+    out("equilibrium_torque", "", "largest net torque / (tolerance_torque F1 a): below 1 passes");
+    out("equilibrium_stress", "", "largest |sigma_aa - P| / (tolerance_stress F1 / a^(D-1)): below 1 passes");
+    out("equilibrium_kinetic", "", "kinetic energy per grain / (tolerance_kinetic F1 a): below 1 passes");
+    out("cvode_steps", "", "CVODE internal steps of the cell-length equations so far");
+    out("cvode_rhs_evaluations", "", "CVODE right-hand-side evaluations so far");
+    out("cvode_reinitialisations", "", "CVODE restarts (new target pressure, saved or restored state)");
+    out("cvode_seconds", "s", "wall time spent in CVODE (this process)");
+    add_control({"cell.pressure", "", Causality::input, Variability::continuous,
+                 "target reduced pressure P* (a P / F0 in 2D, a^2 P / F0 in 3D)", 0, 1e6},
+                [this] { return target_reduced_; },
+                [this](double v) {
+                  if (force_unit_ == 0 && v == 0)
+                    throw SimulationError("cell.pressure = 0 is not allowed when cell.force_unit = 0 (cohesionless): "
+                                          "a finite value > 0");
+                  target_reduced_ = v;
+                  barostat_->set_target_pressure(v * pressure_scale_, rate_cap(v));
+                });
+  }
+
+  // The four criteria as ratios to their tolerances (each below 1 passes).
+  EquilibriumMeasures equilibrium_ratios() const {
+    auto m = measure_equilibrium<D>(sys_.particles, stress(), barostat_->target_pressure(), force_unit_, length_unit_);
+    m.force /= tolerances_.force, m.torque /= tolerances_.torque, m.stress /= tolerances_.stress,
+        m.kinetic /= tolerances_.kinetic;
+    return m;
+  }
+
+  void refresh_cell_observables() const {
+    auto& o = observable_values_;
+    const auto& P = sys_.particles;
+    const char* xyz = "xyz";
+    const Tensor<D> sigma = stress();
+    const double V = sys_.box.volume();
+    for (int a = 0; a < D; ++a) {
+      o[fmt::format("cell_length_{}", xyz[a])] = sys_.box.length[a];
+      o[fmt::format("cell_strain_rate_{}", xyz[a])] = barostat_->rate()[a] / sys_.box.length[a];
+      for (int b = a; b < D; ++b) o[fmt::format("stress_{}{}", xyz[a], xyz[b])] = sigma(a, b);
+    }
+    o["pressure"] = pressure<D>(sigma);
+    o["pressure_kinetic"] = pressure<D>(kinetic_stress<D>(P, V));
+    o["pressure_reduced"] = pressure<D>(sigma) / pressure_scale_;
+    double solid = 0;
+    for (double r : P.radius) solid += D == 3 ? 4.0 / 3 * M_PI * r * r * r : M_PI * r * r;
+    o["solid_fraction"] = solid / V;
+    const auto m = equilibrium_ratios();
+    o["equilibrium"] = m.within({1, 1, 1, 1}) ? 1.0 : 0.0;
+    o["equilibrium_force"] = m.force, o["equilibrium_torque"] = m.torque, o["equilibrium_stress"] = m.stress,
+    o["equilibrium_kinetic"] = m.kinetic;
+    const auto st = barostat_->statistics();
+    o["cvode_steps"] = double(st.internal_steps);
+    o["cvode_rhs_evaluations"] = double(st.rhs_evaluations);
+    o["cvode_reinitialisations"] = double(st.reinitialisations);
+    o["cvode_seconds"] = cvode_seconds_;
+  }
+
   void refresh_observables() const {
     if (cache_step_ == sys_.step && cache_time_ == sys_.time) return;
     const auto& P = sys_.particles;
@@ -505,6 +662,7 @@ class SimulationImpl final : public Simulation {
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) o[name] = value;
+    if (barostat_) refresh_cell_observables();
     if (analysis_) {
       const ClusterStats cs = clusters();
       const double N = double(P.size());
@@ -565,6 +723,15 @@ class SimulationImpl final : public Simulation {
   std::vector<double> parameter_values_;   // fixed parameters: the first entries of vars_
   std::map<std::size_t, Control> controls_;  // inputs and tunable parameters, by index in vars_
   std::vector<std::string> warnings_;
+  // Pressure-controlled cell (absent unless cell.enabled).
+  std::unique_ptr<Barostat<D>> barostat_;
+  Tensor<D> contact_stress_ = Tensor<D>::Zero();   // from the last force evaluation
+  double length_unit_ = 1, force_unit_ = 1, pressure_scale_ = 1;   // a, F0, P / P*
+  double grain_mass_ = 1, inertia_number_ = 0.05;                   // m of a grain of diameter a, I_a
+  double target_reduced_ = 0;                       // P*, the input variable cell.pressure
+  double cell_list_reach_ = 0;
+  EquilibriumTolerances tolerances_;
+  double cvode_seconds_ = 0;
   mutable std::map<std::string, double> observable_values_;
   mutable long cache_step_ = -1;
   mutable double cache_time_ = -1;

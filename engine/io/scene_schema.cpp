@@ -121,6 +121,34 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Contact-network outputs (adhesion scenes): an interaction whose static normal force is below "
        "value * max(F0, mean |F_N|) in magnitude counts as carrying no force (z0, rattlers)."},
 
+      // --- pressure-controlled periodic cell (barostat) ---
+      {"cell.enabled", K::boolean, "false", 0, 0, false, false, "",
+       "Pressure-controlled periodic cell (physics.md section 9): the cell lengths obey M_c d2L/dt2 = (V/L)(sigma_aa - P) "
+       "- eta_c dL/dt, integrated by CVODE; particles follow the cell affinely. Needs `box.periodic = true` and contacts."},
+      {"cell.pressure", K::real, "0.01", 0, 1e6, false, false, "",
+       "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = largest diameter, F0 = `cell.force_unit`. "
+       "Also the input variable `cell.pressure`, which a host or the runner may change between steps."},
+      {"cell.force_unit", K::real, "", 0, inf, false, false, "",
+       "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, else 1. 0 = cohesionless: "
+       "`cell.pressure` is then P a^(D-2) / k_n (P / K_N in 2D) and F1 = P a^(D-1)."},
+      {"cell.mass", K::real, "", 0, inf, true, false, "", "M_c: the cell's inertia; default the total particle mass."},
+      {"cell.damping_ratio", K::real, "0.1", 0, inf, false, false, "",
+       "eta_c = damping_ratio * 2 sqrt(M_c K_cell), K_cell = k_n (L / a)^(D-2), about the cell's stiffness once the "
+       "grains are jammed; 0.1 lets a loose sample compress quickly while the contacts' own damping settles the jammed one."},
+      {"cell.inertia_number", K::real, "0.05", 0, inf, true, false, "",
+       "I_a: the strain rate is capped at |dL/dt| / L <= I_a / T, T = sqrt(a m / F1), m = mass of a grain of diameter "
+       "a, F1 = max(F0, P a^(D-1)) (T = T0 when cohesion dominates)."},
+      {"cell.rtol", K::real, "1e-6", 1e-14, 1e-1, false, false, "", "CVODE relative tolerance on the cell lengths and rates."},
+      {"cell.atol", K::real, "1e-9", 0, inf, true, false, "",
+       "CVODE absolute tolerance on the lengths in units of a (on the rates: a / T0)."},
+      {"cell.tolerance_force", K::real, "1e-5", 0, inf, true, false, "",
+       "Equilibrium: every net force < value * F1, F1 = max(F0, P a^(D-1))."},
+      {"cell.tolerance_torque", K::real, "1e-5", 0, inf, true, false, "", "Equilibrium: every net torque < value * F1 a."},
+      {"cell.tolerance_stress", K::real, "1e-5", 0, inf, true, false, "",
+       "Equilibrium: every |sigma_aa - P| < value * F1 / a^(D-1)."},
+      {"cell.tolerance_kinetic", K::real, "5e-8", 0, inf, true, false, "",
+       "Equilibrium: translational kinetic energy per grain (relative to the affine flow) < value * F1 a."},
+
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},
       {"time.steps_per_contact", K::real, "50", 1, inf, false, false, "", "n_c: steps per contact duration when dt is not given."},

@@ -197,28 +197,44 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     }
   }
   reference_ = x;
+  strain_since_build_.setOnes();
+  list_reach_ = 2 * (radius.empty() ? 0.0 : *std::max_element(radius.begin(), radius.end())) + range_ + skin_;
   ++builds_;
 }
 
 template <int D>
 bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x) const {
   if (reference_.size() != x.size()) return true;
-  const double limit = 0.25 * skin_ * skin_;
+  const double strain = (strain_since_build_.array() - 1).abs().maxCoeff();
+  const double allowance = 0.5 * (skin_ - strain * list_reach_);   // per particle
+  if (allowance <= 0) return true;
+  const double limit = allowance * allowance;
   for (std::size_t i = 0; i < x.size(); ++i)
     if ((x[i] - reference_[i]).squaredNorm() > limit) return true;
   return false;
 }
 
 template <int D>
+void NeighbourList<D>::follow_cell(const Vec<D>& scale, const Box<D>& box) {
+  constexpr int images = D == 3 ? 27 : 9;
+  for (int s = 0; s < images; ++s)
+    for (int a = 0, r = s; a < D; ++a, r /= 3) shift[s][a] = (r % 3 - 1) * box.length[a];
+  for (auto& x : reference_) x = box.lower + (x - box.lower).cwiseProduct(scale);
+  strain_since_build_ = strain_since_build_.cwiseProduct(scale);
+}
+
+template <int D>
 void NeighbourList<D>::save(ByteWriter& w) const {
   w.put(range_), w.put(skin_), w.put(builds_);
   w.put_vector(start), w.put_vector(partner), w.put_vector(image), w.put_vector(shift), w.put_vector(reference_);
+  w.put(strain_since_build_), w.put(list_reach_);
 }
 
 template <int D>
 void NeighbourList<D>::load(ByteReader& r) {
   range_ = r.get<double>(), skin_ = r.get<double>(), builds_ = r.get<long>();
   r.get_vector(start), r.get_vector(partner), r.get_vector(image), r.get_vector(shift), r.get_vector(reference_);
+  strain_since_build_ = r.get<Vec<D>>(), list_reach_ = r.get<double>();
   previous_entry_.assign(partner.size(), -1);
 }
 

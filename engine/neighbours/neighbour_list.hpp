@@ -20,8 +20,14 @@ class NeighbourList {
   // Positions must already be wrapped into the box. Remembers the previous list so per-pair history
   // can be carried over with carry().
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
-  // True once some particle has moved more than skin/2 since the last build.
+  // True once some particle has moved more than skin/2 since the last build (less the part of the skin
+  // that the cell deformation since the build has used up, see follow_cell).
   bool stale(const std::vector<Vec<D>>& position) const;
+  // The periodic cell was rescaled by `scale` per axis about box.lower and the particles followed
+  // affinely: image shifts follow the new lengths and the reference positions the affine map, so
+  // stale() sees only the motion relative to the cell. A pair's separation changes by at most
+  // |scale - 1| times the list reach, which the staleness test charges against the skin.
+  void follow_cell(const Vec<D>& scale, const Box<D>& box);
 
   std::size_t pair_count() const { return partner.size(); }
   long builds() const { return builds_; }
@@ -46,6 +52,8 @@ class NeighbourList {
   double range_ = 0, skin_ = 0.1;
   long builds_ = 0;
   std::vector<Vec<D>> reference_;      // positions at the last build
+  Vec<D> strain_since_build_ = Vec<D>::Ones();   // cell length now / at the last build, per axis
+  double list_reach_ = 0;              // largest centre distance a listed pair may have: 2 R_max + range + skin
   std::vector<std::int64_t> previous_entry_;
 };
 

@@ -1,0 +1,115 @@
+#include "cell/cell_length_ode.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <cvode/cvode.h>
+#include <fmt/format.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
+
+namespace grains {
+
+struct CellLengthOde::Cvode {
+  SUNContext context = nullptr;
+  N_Vector y = nullptr, abstol = nullptr;
+  void* memory = nullptr;
+  SUNNonlinearSolver solver = nullptr;
+  ~Cvode() {
+    if (memory) CVodeFree(&memory);
+    if (solver) SUNNonlinSolFree(solver);
+    if (y) N_VDestroy(y);
+    if (abstol) N_VDestroy(abstol);
+    if (context) SUNContext_Free(&context);
+  }
+};
+
+namespace {
+void check(int flag, const char* what) {
+  if (flag < 0) throw std::runtime_error(fmt::format("barostat: CVODE {} failed (flag {})", what, flag));
+}
+}  // namespace
+
+CellLengthOde::CellLengthOde(const CellLengthParameters& p) : p_(p), cv_(std::make_unique<Cvode>()) {
+  if (p.axes < 1 || p.axes > 3) throw std::invalid_argument("barostat: 1 to 3 cell axes");
+  const int n = 2 * p.axes;   // y = (L_1..L_n, dL_1/dt..dL_n/dt)
+  check(SUNContext_Create(nullptr, &cv_->context), "context");
+  cv_->y = N_VNew_Serial(n, cv_->context);
+  cv_->abstol = N_VNew_Serial(n, cv_->context);
+  double* tol = N_VGetArrayPointer(cv_->abstol);
+  for (int a = 0; a < p.axes; ++a) tol[a] = p.atol_length, tol[p.axes + a] = p.atol_length / p.time_unit;
+  for (int a = 0; a < n; ++a) N_VGetArrayPointer(cv_->y)[a] = 1.0;
+  // Non-stiff (the cell period spans many particle steps): Adams with fixed-point iteration, no Jacobian.
+  cv_->memory = CVodeCreate(CV_ADAMS, cv_->context);
+  if (!cv_->memory) throw std::runtime_error("barostat: CVodeCreate failed");
+  check(CVodeInit(cv_->memory, [](double t, N_Vector y, N_Vector yd, void* self) { return rhs(t, y, yd, self); }, 0.0,
+                  cv_->y),
+        "init");
+  check(CVodeSetUserData(cv_->memory, this), "user data");
+  check(CVodeSVtolerances(cv_->memory, p.rtol, cv_->abstol), "tolerances");
+  cv_->solver = SUNNonlinSol_FixedPoint(cv_->y, 0, cv_->context);
+  check(CVodeSetNonlinearSolver(cv_->memory, cv_->solver), "nonlinear solver");
+  check(CVodeSetMaxNumSteps(cv_->memory, 100000), "max steps");
+}
+
+CellLengthOde::~CellLengthOde() = default;
+
+int CellLengthOde::rhs(double, void* yv, void* ydv, void* self_) {
+  const auto* self = static_cast<const CellLengthOde*>(self_);
+  const auto& p = self->p_;
+  const double* y = N_VGetArrayPointer(static_cast<N_Vector>(yv));
+  double* yd = N_VGetArrayPointer(static_cast<N_Vector>(ydv));
+  const int n = p.axes;
+  for (int a = 0; a < n; ++a) {
+    double area = 1;   // V / L_a: the product of the other lengths
+    for (int b = 0; b < n; ++b)
+      if (b != a) area *= y[b];
+    const double L = y[a], rate = y[n + a];
+    double accel = (area * self->excess_[a] - p.damping * rate) / p.mass;
+    // Strain-rate cap: the length moves at most at cap * L, and the rate variable does not wind up
+    // beyond it (a kink, not a jump, in the right-hand side: CVODE needs no restart).
+    const double limit = p.rate_cap * L;
+    if (std::abs(rate) >= limit && accel * rate > 0) accel = 0;
+    yd[a] = std::clamp(rate, -limit, limit);
+    yd[n + a] = accel;
+  }
+  return 0;
+}
+
+void CellLengthOde::reset(const double* length, const double* rate, double t) {
+  double* y = N_VGetArrayPointer(cv_->y);
+  for (int a = 0; a < p_.axes; ++a) y[a] = length[a], y[p_.axes + a] = rate[a];
+  t_ = t;
+  const auto so_far = statistics();
+  steps_before_ = so_far.internal_steps, rhs_before_ = so_far.rhs_evaluations;
+  check(CVodeReInit(cv_->memory, t, cv_->y), "re-initialisation");
+  ++reinitialisations_;
+}
+
+void CellLengthOde::advance(double t_end, const double* stress_excess) {
+  for (int a = 0; a < p_.axes; ++a) excess_[a] = stress_excess[a];
+  if (!(t_end > t_)) return;
+  // The forcing changes after t_end: CVODE must not step past it.
+  check(CVodeSetStopTime(cv_->memory, t_end), "stop time");
+  double reached = t_;
+  check(CVode(cv_->memory, t_end, cv_->y, &reached, CV_NORMAL), fmt::format("integration to t = {}", t_end).c_str());
+  t_ = t_end;
+}
+
+double CellLengthOde::length(int a) const { return N_VGetArrayPointer(cv_->y)[a]; }
+double CellLengthOde::state_rate(int a) const { return N_VGetArrayPointer(cv_->y)[p_.axes + a]; }
+double CellLengthOde::rate(int a) const {
+  const double limit = p_.rate_cap * length(a);
+  return std::clamp(state_rate(a), -limit, limit);
+}
+
+CellLengthStatistics CellLengthOde::statistics() const {
+  long steps = 0, rhs_evals = 0;
+  CVodeGetNumSteps(cv_->memory, &steps);
+  CVodeGetNumRhsEvals(cv_->memory, &rhs_evals);
+  return {steps_before_ + steps, rhs_before_ + rhs_evals, reinitialisations_};
+}
+
+}  // namespace grains

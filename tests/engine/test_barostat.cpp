@@ -1,0 +1,196 @@
+// The pressure-controlled cell: CVODE against analytic solutions, the strain-rate cap, packings
+// driven to their target pressure in 2D and 3D, bad parameters, and save/restore.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "cell/cell_length_ode.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+
+TEST_CASE("cell ODE: a constant stress excess drives a damped mass to its analytic motion", "[barostat]") {
+  // M L'' = ds - eta L' (one axis: V / L = 1): L' relaxes to ds / eta with time M / eta.
+  CellLengthParameters p;
+  p.axes = 1, p.mass = 2.0, p.damping = 3.0, p.rtol = 1e-10, p.atol_length = 1e-12;
+  CellLengthOde ode(p);
+  const double L0 = 10, v0 = 0.5, ds = 1.5, dt = 0.01;
+  ode.reset(&L0, &v0, 0.0);
+  const double vinf = ds / p.damping, tau = p.mass / p.damping;
+  double worst = 0;
+  for (int k = 1; k <= 1000; ++k) {   // one call per "particle step", CVODE's history kept throughout
+    ode.advance(k * dt, &ds);
+    const double t = k * dt;
+    const double L = L0 + vinf * t + (v0 - vinf) * tau * (1 - std::exp(-t / tau));
+    const double v = vinf + (v0 - vinf) * std::exp(-t / tau);
+    worst = std::max({worst, std::abs(ode.length(0) - L) / L, std::abs(ode.rate(0) - v) / std::abs(v)});
+  }
+  CHECK(worst < 1e-8);
+  CHECK(ode.statistics().reinitialisations == 1);
+  // History kept: about one internal step and two right-hand sides per call, no start-up sequence.
+  CHECK(ode.statistics().internal_steps < 1100);
+  CHECK(ode.statistics().rhs_evaluations < 2500);
+}
+
+TEST_CASE("cell ODE: two equal axes follow the linear law M L'' = L ds - eta L'", "[barostat]") {
+  // With L_x = L_y = L, V / L_x = L: a linear ODE with exponents r = (-eta/M +- sqrt(eta^2/M^2 + 4 ds/M)) / 2.
+  CellLengthParameters p;
+  p.axes = 2, p.mass = 4.0, p.damping = 4.0, p.rtol = 1e-10, p.atol_length = 1e-12;
+  CellLengthOde ode(p);
+  const double L0[2] = {3, 3}, v0[2] = {0, 0}, ds[2] = {-0.25, -0.25};
+  ode.reset(L0, v0, 0.0);
+  const double b = p.damping / p.mass, c = ds[0] / p.mass;
+  const double r1 = 0.5 * (-b + std::sqrt(b * b + 4 * c)), r2 = 0.5 * (-b - std::sqrt(b * b + 4 * c));
+  // L(0) = L0, L'(0) = 0: L = A e^{r1 t} + B e^{r2 t}.
+  const double A = L0[0] * r2 / (r2 - r1), B = -L0[0] * r1 / (r2 - r1);
+  for (int k = 1; k <= 500; ++k) ode.advance(0.02 * k, ds);
+  const double t = 10.0;
+  const double L = A * std::exp(r1 * t) + B * std::exp(r2 * t);
+  CHECK(ode.length(0) == Approx(L).epsilon(1e-8));
+  CHECK(ode.length(1) == Approx(L).epsilon(1e-8));
+  CHECK(L < 0.7 * L0[0]);   // the case does move: the cell has shrunk by more than 30 %
+}
+
+TEST_CASE("cell ODE: the strain rate stays at its cap under a large stress excess", "[barostat]") {
+  CellLengthParameters p;
+  p.axes = 2, p.mass = 1.0, p.damping = 0.0, p.rate_cap = 0.05, p.rtol = 1e-8, p.atol_length = 1e-10;
+  CellLengthOde ode(p);
+  const double L0[2] = {5, 5}, v0[2] = {0, 0}, ds[2] = {-100, -100};
+  ode.reset(L0, v0, 0.0);
+  double worst = 0;
+  for (int k = 1; k <= 400; ++k) {
+    ode.advance(0.01 * k, ds);
+    worst = std::max(worst, std::abs(ode.rate(0)) / ode.length(0));
+  }
+  CHECK(worst < 0.05 * (1 + 1e-3));
+  CHECK(worst > 0.05 * (1 - 1e-3));   // it got there
+  // At the cap L' = -cap L: L decays exponentially after the short acceleration.
+  CHECK(ode.length(0) == Approx(L0[0] * std::exp(-0.05 * 4.0)).epsilon(2e-3));
+}
+
+namespace {
+
+// A cohesionless polydisperse packing (diameters uniform in [a/2, a]) under pressure control.
+std::string packed_cell_scene(int dimension, int count, double pressure, const std::string& extra = "") {
+  return fmt::format(R"(
+[scene]
+dimension = {}
+[particles]
+layout = "random"
+count = {}
+size_distribution = "uniform"
+diameter_min = 0.5
+diameter_max = 1.0
+solid_fraction = {}
+seed = 3
+[contact]
+restitution = 0.1
+duration = 0.05
+[friction]
+coefficient = 0.3
+[cell]
+enabled = true
+force_unit = 0
+pressure = {}
+{}
+[run]
+threads = 1
+)", dimension, count, dimension == 2 ? 0.4 : 0.25, pressure, extra);
+}
+
+// Steps in chunks until the equilibrium test passes; returns the steps taken (or -1 past the budget).
+long run_to_equilibrium(Simulation& s, long budget, long chunk = 200) {
+  for (long done = 0; done < budget; done += chunk) {
+    s.step_n(chunk);
+    if (s.get("equilibrium") == 1.0) return done + chunk;
+  }
+  return -1;
+}
+
+}  // namespace
+
+TEST_CASE("barostat: a cohesionless 2D packing reaches its target pressure and equilibrium", "[barostat]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
+  const double phi0 = s->get("solid_fraction");
+  const long steps = run_to_equilibrium(*s, 300000);
+  REQUIRE(steps > 0);
+  INFO("steps " << steps << ", phi " << phi0 << " -> " << s->get("solid_fraction"));
+  // Within the equilibrium tolerance: |sigma_aa - P| < 1e-5 F1 / a, F1 = P a  =>  |P* - target| < 1e-5 target.
+  CHECK(std::abs(s->get("pressure_reduced") - 1e-3) < 1e-5 * 1e-3);
+  CHECK(s->get("solid_fraction") > phi0);   // compressed from the loose start
+  CHECK(s->get("solid_fraction") > 0.75);   // a jammed 2D packing, not a gas
+}
+
+TEST_CASE("barostat: a cohesionless 3D packing reaches its target pressure and equilibrium", "[barostat]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(3, 125, 1e-3), "cell3d"));
+  const long steps = run_to_equilibrium(*s, 200000);
+  REQUIRE(steps > 0);
+  INFO("steps " << steps << ", phi " << s->get("solid_fraction"));
+  CHECK(std::abs(s->get("pressure_reduced") - 1e-3) < 1e-5 * 1e-3);
+  CHECK(s->get("solid_fraction") > 0.55);   // a jammed 3D packing
+  for (int a = 0; a < 3; ++a)   // isotropic target: every axis at P
+    CHECK(std::abs(s->get(fmt::format("stress_{}{}", "xyz"[a], "xyz"[a])) / s->get("pressure") - 1) < 1e-4);
+}
+
+TEST_CASE("barostat: the equilibrium detector agrees with a twice longer relaxation", "[barostat]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
+  const long steps = run_to_equilibrium(*s, 300000);
+  REQUIRE(steps > 0);
+  const double phi = s->get("solid_fraction"), length = s->get("cell_length_x");
+  s->step_n(2 * steps);
+  // Nothing that the detector called settled moves on afterwards: the packing keeps its density and
+  // pressure (the stress criterion bounds |P - P_target| by 1e-5 P).
+  CHECK(std::abs(s->get("solid_fraction") / phi - 1) < 1e-5);
+  CHECK(std::abs(s->get("cell_length_x") / length - 1) < 1e-5);
+  CHECK(std::abs(s->get("pressure_reduced") / 1e-3 - 1) < 1e-4);
+}
+
+TEST_CASE("barostat: a new target pressure moves the packing to it", "[barostat]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
+  REQUIRE(run_to_equilibrium(*s, 300000) > 0);
+  const double phi = s->get("solid_fraction");
+  s->set("cell.pressure", 4e-3);
+  CHECK(s->get("cell.pressure") == 4e-3);
+  REQUIRE(run_to_equilibrium(*s, 300000) > 0);
+  CHECK(std::abs(s->get("pressure_reduced") / 4e-3 - 1) < 1e-5);
+  CHECK(s->get("solid_fraction") > phi);   // higher pressure, denser
+  CHECK(s->get("cvode_reinitialisations") >= 2);   // the start and the new target
+}
+
+TEST_CASE("barostat: save / restore continues bit-identically, CVODE restarted on both paths", "[barostat]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
+  s->step_n(30000);   // mid-compression: the cell is moving
+  REQUIRE(std::abs(s->get("cell_strain_rate_x")) > 0);
+  const auto saved = s->save_state();
+  s->step_n(3000);
+  const auto reference = s->particles();
+  const double length = s->get("cell_length_x");
+  s->restore_state(saved);
+  s->step_n(3000);
+  CHECK(s->particles().position == reference.position);
+  CHECK(s->particles().velocity == reference.velocity);
+  CHECK(s->get("cell_length_x") == length);
+}
+
+TEST_CASE("barostat: bad pressure and cell parameters get errors naming the field", "[barostat]") {
+  auto fails = [](const std::string& text, const std::string& field) {
+    INFO(field);
+    CHECK_THROWS_WITH(Simulation::create(Scene::from_string(text, "bad")), Catch::Contains(field));
+  };
+  fails(packed_cell_scene(2, 100, -1), "cell.pressure");
+  fails(packed_cell_scene(2, 100, 0), "cell.pressure");   // cohesionless: no pressure scale at P = 0
+  fails(packed_cell_scene(2, 100, 1e-3, "mass = 0"), "cell.mass");
+  fails(packed_cell_scene(2, 100, 1e-3, "inertia_number = -0.1"), "cell.inertia_number");
+  fails(packed_cell_scene(2, 100, 1e-3, "rtol = 2.0"), "cell.rtol");
+  fails(packed_cell_scene(2, 100, 1e-3, "[box]\nperiodic = false"), "periodic");
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
+  CHECK_THROWS_WITH(s->set("cell.pressure", -1.0), Catch::Contains("cell.pressure") && Catch::Contains("[0,"));
+  CHECK_THROWS_WITH(s->set("cell.pressure", std::nan("")), Catch::Contains("cell.pressure"));
+  CHECK_THROWS_WITH(s->set("cell.pressure", 0.0), Catch::Contains("cell.pressure"));
+  // Too few grains: the cell shrinks below twice the interaction reach and the run stops, saying why.
+  auto tiny = Simulation::create(Scene::from_string(packed_cell_scene(2, 6, 1e-3), "tiny"));
+  CHECK_THROWS_WITH(tiny->step_n(300000), Catch::Contains("shrunk") && Catch::Contains("more particles"));
+}
