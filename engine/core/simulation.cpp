@@ -75,9 +75,11 @@ class SimulationImpl final : public Simulation {
       if (sys_.box.any_periodic())
         scene.fail("gravity.enabled", "self-gravity needs an open box, but box.periodic = true (there are no periodic "
                                       "images of gravity): set box.periodic = false or gravity.enabled = false");
-      modules_.push_back(std::make_unique<SoftenedGravity<D>>(scene.real("gravity.G"), scene.real("gravity.softening") * rmin,
-                                                              gravity_solver_from_string(scene.text("gravity.solver")),
-                                                              scene.real("gravity.opening_angle")));
+      auto gravity = std::make_unique<SoftenedGravity<D>>(scene.real("gravity.G"), scene.real("gravity.softening") * rmin,
+                                                          gravity_solver_from_string(scene.text("gravity.solver")),
+                                                          scene.real("gravity.opening_angle"));
+      gravity_ = gravity.get();
+      modules_.push_back(std::move(gravity));
       setup_aggregation_analysis(scene, rmin);
     }
 
@@ -106,6 +108,10 @@ class SimulationImpl final : public Simulation {
 
     rebuild();
     describe_variables(scene);
+    if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
+      add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
+                   "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off)", 0.0},
+                  [g = gravity_] { return g->G(); }, [g = gravity_](double G) { g->set_G(G); });
     sys_.dt = 0;
     compute_forces();
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
@@ -124,9 +130,13 @@ class SimulationImpl final : public Simulation {
     const double target = sys_.time + duration;
     const long whole = long(std::floor(duration / dt_ * (1 + 1e-12)));
     for (long k = 0; k < whole; ++k) one_step(dt_);
-    const double rest = target - sys_.time;
-    if (rest > 1e-12 * dt_) one_step(rest);
-    sys_.time = target;
+    // The remainder is judged on the duration itself, not on the accumulated time (whose rounding
+    // grows with t): a duration that is a whole number of dt takes exactly those steps, the same as
+    // step_n, and keeps the same time values; otherwise one shorter step lands on t + duration.
+    if (duration - double(whole) * dt_ > 1e-9 * dt_) {
+      one_step(target - sys_.time);
+      sys_.time = target;
+    }
   }
   void step_n(long n) override {
     for (long k = 0; k < n; ++k) one_step(dt_);
@@ -709,6 +719,7 @@ class SimulationImpl final : public Simulation {
 
   System<D> sys_;
   std::vector<std::unique_ptr<ForceModule<D>>> modules_;
+  SoftenedGravity<D>* gravity_ = nullptr;   // in modules_, when the scene has self-gravity
   bool uses_list_ = false, rotate_ = false;
   double dt_ = 0, kn_ = 0, cn_ = 0;
   bool analysis_ = false;   // gravity scenes only

@@ -38,6 +38,8 @@ class SoftenedGravity final : public ForceModule<D> {
   // W by the given solver.
   double potential_energy(const Particles<D>& P, GravitySolver solver, int threads) const;
 
+  double G() const { return G_; }
+  void set_G(double G) { G_ = G; }   // a tunable parameter: the next force evaluation uses it
   double softening_length() const { return eps_; }
   double opening_angle() const { return theta_; }
   GravitySolver solver() const { return solver_; }

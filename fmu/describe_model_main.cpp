@@ -1,0 +1,88 @@
+// Build-time generator: loads a packaged scene, builds its Simulation, and writes from the one
+// variable table everything an FMU carries besides the binary:
+//   OUT/fmi2/modelDescription.xml, OUT/fmi3/modelDescription.xml, OUT/documentation/index.html,
+//   OUT/extra/org.fmi-standard.fmi-ls-ref/ (reference results: <name>_ref.csv, <name>_ref.opt, manifest).
+// Usage: grains_fmu_describe SCENE.toml MODEL_IDENTIFIER OUT_DIR VERSION
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "model_description.hpp"
+#include "model_variables.hpp"
+
+namespace fs = std::filesystem;
+using namespace grains;
+using namespace grains::fmu;
+
+namespace {
+
+void write(const fs::path& file, const std::string& text) {
+  fs::create_directories(file.parent_path());
+  std::ofstream out(file, std::ios::binary);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + file.string());
+}
+
+// Reference results in the FMI cross-check shape: the packaged scene with default parameters,
+// driven exactly as a host does (Simulation::step per communication step), every scalar output.
+void write_reference(const Scene& scene, const ModelTable& table, const ModelInfo& info, const fs::path& dir) {
+  auto sim = Simulation::create(scene);
+  const double step = 10 * sim->dt();
+  const int points = int(std::min(50.0, std::floor(info.stop_time / step + 1e-9)));
+  std::string csv = "\"time\"";
+  std::vector<std::size_t> columns;
+  for (const auto& v : table.variables)
+    if (v.role == Role::output) csv += fmt::format(",\"{}\"", v.name), columns.push_back(v.sim_index);
+  csv += "\n";
+  for (int k = 0; k <= points; ++k) {
+    if (k > 0) sim->step(step);
+    csv += fmt::format("{}", sim->time());
+    for (auto c : columns) csv += fmt::format(",{}", sim->get(c));
+    csv += "\n";
+  }
+  write(dir / (info.name + "_ref.csv"), csv);
+  write(dir / (info.name + "_ref.opt"),
+        fmt::format("StartTime, 0.0\nStopTime, {}\nStepSize, {}\nRelTol, 1e-12\n", points * step, step));
+  write(dir / "fmi-ls-manifest.xml",
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+        "<fmiLayeredStandardManifest xmlns:fmi-ls=\"http://fmi-standard.org/fmi-ls-manifest\"\n"
+        "  fmi-ls:fmi-ls-name=\"org.fmi-standard.fmi-ls-ref\" fmi-ls:fmi-ls-version=\"1.0.0\"\n"
+        "  fmi-ls:fmi-ls-description=\"Reference results of this FMU (cross-check layout: CSV of every output and the run options)\"/>\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 5) {
+    std::cerr << "usage: grains_fmu_describe SCENE.toml MODEL_IDENTIFIER OUT_DIR VERSION\n";
+    return 2;
+  }
+  try {
+    const Scene scene = Scene::from_file(argv[1]);
+    auto sim = Simulation::create(scene);
+    const ModelTable table = describe_model(scene, *sim);
+    ModelInfo info;
+    info.name = scene.text("scene.name");
+    info.identifier = argv[2];
+    info.description = scene.text("scene.description");
+    info.version = argv[4];
+    info.step_size = 100 * sim->dt();
+    info.stop_time = scene.has("time.duration") ? scene.real("time.duration")
+                     : scene.has("time.steps")  ? double(scene.integer("time.steps")) * sim->dt()
+                                                : 100 * info.step_size;
+    const fs::path out = argv[3];
+    write(out / "fmi2" / "modelDescription.xml", fmi2_model_description(table, info));
+    write(out / "fmi3" / "modelDescription.xml", fmi3_model_description(table, info));
+    write(out / "documentation" / "index.html", documentation_html(table, info));
+    write_reference(scene, table, info, out / "extra" / "org.fmi-standard.fmi-ls-ref");
+  } catch (const std::exception& e) {
+    std::cerr << "grains_fmu_describe: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

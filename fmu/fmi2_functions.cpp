@@ -1,0 +1,294 @@
+// The FMI 2.0 API (co-simulation; the model-exchange functions exist and refuse with a message).
+// Each function checks its instance, forwards to Instance, and turns any exception into fmi2Error:
+// nothing thrown ever crosses into the host.
+#include <omp.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "fmi2_api.hpp"
+#include "instance.hpp"
+#include "resource_location.hpp"
+
+#define GRAINS_FMI2_EXPORT extern "C" __attribute__((visibility("default")))
+
+using grains::fmu::Instance;
+using grains::fmu::Status;
+using grains::fmu::ValueType;
+
+namespace {
+
+fmi2Status to_fmi2(Status s) { return static_cast<fmi2Status>(s); }
+
+// FMI 2 loggers take a printf format: the message is already formatted, so every '%' is doubled.
+std::string escape_percent(const std::string& text) {
+  std::string out;
+  for (char c : text) out += c == '%' ? std::string("%%") : std::string(1, c);
+  return out;
+}
+
+template <class F>
+fmi2Status guarded(fmi2Component c, const char* function, F&& body) {
+  if (!c) return fmi2Error;   // no instance: nothing to log through
+  auto* in = static_cast<Instance*>(c);
+  try {
+    in->log_call(function);
+    return to_fmi2(body(*in));
+  } catch (const std::exception& e) {
+    in->error(fmt::format("{}: {}", function, e.what()));
+  } catch (...) {
+    in->error(fmt::format("{}: unexpected internal error", function));
+  }
+  return fmi2Error;
+}
+
+template <class T>
+fmi2Status get_values(fmi2Component c, const char* function, const fmi2ValueReference vr[], size_t nvr, T value[], ValueType type) {
+  return guarded(c, function, [&](Instance& in) {
+    if (nvr > 0 && (!vr || !value)) return in.error(fmt::format("{}: null array", function));
+    for (size_t i = 0; i < nvr; ++i)
+      if (in.element_count(vr[i]).value_or(1) != 1)
+        return in.error(fmt::format("{}: reference {} is an array, which FMI 2 cannot read", function, vr[i]));
+    std::vector<double> v(nvr);
+    Status s = in.get(std::span<const std::uint32_t>(vr, nvr), type, v);
+    if (s == Status::ok)
+      for (size_t i = 0; i < nvr; ++i) value[i] = static_cast<T>(v[i]);
+    return s;
+  });
+}
+
+template <class T>
+fmi2Status set_values(fmi2Component c, const char* function, const fmi2ValueReference vr[], size_t nvr, const T value[], ValueType type) {
+  return guarded(c, function, [&](Instance& in) {
+    if (nvr > 0 && (!vr || !value)) return in.error(fmt::format("{}: null array", function));
+    std::vector<double> v(value, value + nvr);
+    return in.set(std::span<const std::uint32_t>(vr, nvr), type, v);
+  });
+}
+
+fmi2Status refuse(fmi2Component c, const char* function, const char* why) {
+  return guarded(c, function, [&](Instance& in) { return in.unsupported(function, why); });
+}
+constexpr const char* not_me = "this FMU is for co-simulation only (no model exchange)";
+
+}  // namespace
+
+GRAINS_FMI2_EXPORT const char* fmi2GetTypesPlatform(void) { return "default"; }
+GRAINS_FMI2_EXPORT const char* fmi2GetVersion(void) { return "2.0"; }
+
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                                                  const fmi2String categories[]) {
+  return guarded(c, "fmi2SetDebugLogging", [&](Instance& in) {
+    return in.set_debug_logging(loggingOn != 0, std::span<const char* const>(categories, categories ? nCategories : 0));
+  });
+}
+
+GRAINS_FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                                                 fmi2String fmuResourceLocation, const fmi2CallbackFunctions* functions,
+                                                 fmi2Boolean visible, fmi2Boolean loggingOn) {
+  (void)visible;
+  const std::string name = instanceName ? instanceName : "grains";
+  fmi2CallbackLogger host_logger = functions ? functions->logger : nullptr;
+  fmi2ComponentEnvironment env = functions ? functions->componentEnvironment : nullptr;
+  Instance::Logger logger = [host_logger, env, name](Status s, const char* category, const std::string& message) {
+    if (host_logger) host_logger(env, name.c_str(), static_cast<fmi2Status>(s), category, escape_percent(message).c_str());
+  };
+  try {
+    if (fmuType != fmi2CoSimulation) {
+      logger(Status::error, grains::fmu::log_error, "fmi2Instantiate: this FMU supports co-simulation only (fmuType = fmi2CoSimulation)");
+      return nullptr;
+    }
+    std::filesystem::path resources = fmuResourceLocation && *fmuResourceLocation
+                                          ? grains::fmu::decode_resource_location(fmuResourceLocation)
+                                          : grains::fmu::resources_beside_binary();
+    return Instance::create(name, fmuGUID ? fmuGUID : "", resources, logger, loggingOn != 0).release();
+  } catch (const std::exception& e) {
+    logger(Status::error, grains::fmu::log_error, fmt::format("fmi2Instantiate: {}", e.what()));
+  }
+  return nullptr;
+}
+
+GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) {
+  delete static_cast<Instance*>(c);
+  // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
+  // thread outlives the instance. Another instance's next step simply starts a new pool.
+  omp_pause_resource_all(omp_pause_soft);
+}
+
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                                                  fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+  (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
+  return guarded(c, "fmi2SetupExperiment", [&](Instance& in) {
+    if (in.phase() != grains::fmu::Phase::instantiated)
+      return in.error("fmi2SetupExperiment is only allowed before fmi2EnterInitializationMode");
+    in.experiment_start = startTime;
+    return Status::ok;
+  });
+}
+
+GRAINS_FMI2_EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+  return guarded(c, "fmi2EnterInitializationMode", [&](Instance& in) { return in.enter_initialization(in.experiment_start); });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+  return guarded(c, "fmi2ExitInitializationMode", [&](Instance& in) { return in.exit_initialization(); });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
+  return guarded(c, "fmi2Terminate", [&](Instance& in) { return in.terminate(); });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2Reset(fmi2Component c) {
+  return guarded(c, "fmi2Reset", [&](Instance& in) {
+    in.experiment_start = 0;
+    return in.reset();
+  });
+}
+
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
+  return get_values(c, "fmi2GetReal", vr, nvr, value, ValueType::real);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[]) {
+  return get_values(c, "fmi2GetInteger", vr, nvr, value, ValueType::integer);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[]) {
+  return get_values(c, "fmi2GetBoolean", vr, nvr, value, ValueType::boolean);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
+  (void)vr, (void)value;
+  return guarded(c, "fmi2GetString", [&](Instance& in) {
+    return nvr == 0 ? Status::ok : in.error("fmi2GetString: this FMU has no String variables");
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
+  return set_values(c, "fmi2SetReal", vr, nvr, value, ValueType::real);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[]) {
+  return set_values(c, "fmi2SetInteger", vr, nvr, value, ValueType::integer);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[]) {
+  return set_values(c, "fmi2SetBoolean", vr, nvr, value, ValueType::boolean);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
+  (void)vr, (void)value;
+  return guarded(c, "fmi2SetString", [&](Instance& in) {
+    return nvr == 0 ? Status::ok : in.error("fmi2SetString: this FMU has no String variables");
+  });
+}
+
+// --- FMU state ---
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
+  return guarded(c, "fmi2GetFMUstate", [&](Instance& in) {
+    if (!FMUstate) return in.error("fmi2GetFMUstate: null FMUstate pointer");
+    auto* state = *FMUstate ? static_cast<grains::fmu::SavedState*>(*FMUstate) : new grains::fmu::SavedState;
+    *FMUstate = state;
+    return in.save(*state);
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
+  return guarded(c, "fmi2SetFMUstate", [&](Instance& in) {
+    if (!FMUstate) return in.error("fmi2SetFMUstate: null FMUstate");
+    return in.restore(*static_cast<grains::fmu::SavedState*>(FMUstate));
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
+  return guarded(c, "fmi2FreeFMUstate", [&](Instance&) {
+    if (FMUstate) {
+      delete static_cast<grains::fmu::SavedState*>(*FMUstate);
+      *FMUstate = nullptr;
+    }
+    return Status::ok;
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t* size) {
+  return guarded(c, "fmi2SerializedFMUstateSize", [&](Instance& in) {
+    if (!FMUstate || !size) return in.error("fmi2SerializedFMUstateSize: null argument");
+    *size = static_cast<grains::fmu::SavedState*>(FMUstate)->bytes.size();
+    return Status::ok;
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size) {
+  return guarded(c, "fmi2SerializeFMUstate", [&](Instance& in) {
+    if (!FMUstate || !serializedState) return in.error("fmi2SerializeFMUstate: null argument");
+    const auto bytes = in.serialize(*static_cast<grains::fmu::SavedState*>(FMUstate));
+    if (size != bytes.size())
+      return in.error(fmt::format("fmi2SerializeFMUstate: size {} given, the state has {} bytes", size, bytes.size()));
+    std::memcpy(serializedState, bytes.data(), size);
+    return Status::ok;
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                                      fmi2FMUstate* FMUstate) {
+  return guarded(c, "fmi2DeSerializeFMUstate", [&](Instance& in) {
+    if (!serializedState || !FMUstate) return in.error("fmi2DeSerializeFMUstate: null argument");
+    auto* state = *FMUstate ? static_cast<grains::fmu::SavedState*>(*FMUstate) : new grains::fmu::SavedState;
+    *FMUstate = state;
+    return in.deserialize(std::span(reinterpret_cast<const std::byte*>(serializedState), size), *state);
+  });
+}
+
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference[], size_t,
+                                                           const fmi2ValueReference[], size_t, const fmi2Real[], fmi2Real[]) {
+  return refuse(c, "fmi2GetDirectionalDerivative", "a DEM step has no useful derivative (providesDirectionalDerivative = false)");
+}
+
+// --- model exchange: not provided ---
+GRAINS_FMI2_EXPORT fmi2Status fmi2EnterEventMode(fmi2Component c) { return refuse(c, "fmi2EnterEventMode", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo*) { return refuse(c, "fmi2NewDiscreteStates", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { return refuse(c, "fmi2EnterContinuousTimeMode", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean, fmi2Boolean*, fmi2Boolean*) {
+  return refuse(c, "fmi2CompletedIntegratorStep", not_me);
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetTime(fmi2Component c, fmi2Real) { return refuse(c, "fmi2SetTime", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real[], size_t) { return refuse(c, "fmi2SetContinuousStates", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real[], size_t) { return refuse(c, "fmi2GetDerivatives", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real[], size_t) { return refuse(c, "fmi2GetEventIndicators", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real[], size_t) { return refuse(c, "fmi2GetContinuousStates", not_me); }
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real[], size_t) {
+  return refuse(c, "fmi2GetNominalsOfContinuousStates", not_me);
+}
+
+// --- co-simulation ---
+GRAINS_FMI2_EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference[], size_t,
+                                                          const fmi2Integer[], const fmi2Real[]) {
+  return refuse(c, "fmi2SetRealInputDerivatives", "inputs are held constant over a communication step (canInterpolateInputs = false)");
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference[], size_t,
+                                                           const fmi2Integer[], fmi2Real[]) {
+  return refuse(c, "fmi2GetRealOutputDerivatives", "output derivatives are not provided (maxOutputDerivativeOrder = 0)");
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                                         fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+  (void)noSetFMUStatePriorToCurrentPoint;
+  return guarded(c, "fmi2DoStep", [&](Instance& in) { return in.do_step(currentCommunicationPoint, communicationStepSize, nullptr); });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2CancelStep(fmi2Component c) {
+  return refuse(c, "fmi2CancelStep", "fmi2DoStep always completes before returning (no asynchronous steps)");
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status* value) {
+  return guarded(c, "fmi2GetStatus", [&](Instance& in) {
+    if (s != fmi2DoStepStatus || !value) return in.error("fmi2GetStatus: only fmi2DoStepStatus is available");
+    *value = fmi2OK;   // steps are synchronous: a returned fmi2DoStep is complete
+    return Status::ok;
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real* value) {
+  return guarded(c, "fmi2GetRealStatus", [&](Instance& in) {
+    if (s != fmi2LastSuccessfulTime || !value) return in.error("fmi2GetRealStatus: only fmi2LastSuccessfulTime is available");
+    *value = in.time();
+    return Status::ok;
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind, fmi2Integer*) {
+  return refuse(c, "fmi2GetIntegerStatus", "there is no integer status");
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean* value) {
+  return guarded(c, "fmi2GetBooleanStatus", [&](Instance& in) {
+    if (s != fmi2Terminated || !value) return in.error("fmi2GetBooleanStatus: only fmi2Terminated is available");
+    *value = 0;   // the FMU never asks the host to stop
+    return Status::ok;
+  });
+}
+GRAINS_FMI2_EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind, fmi2String*) {
+  return refuse(c, "fmi2GetStringStatus", "there is no string status (steps are never pending)");
+}

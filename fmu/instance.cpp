@@ -1,0 +1,358 @@
+#include "instance.hpp"
+
+#include <cmath>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "core/byte_stream.hpp"
+
+namespace grains::fmu {
+namespace {
+
+const char* phase_name(Phase p) {
+  switch (p) {
+    case Phase::instantiated: return "the instantiated state (before initialization)";
+    case Phase::configuration: return "configuration mode";
+    case Phase::initialization: return "initialization mode";
+    case Phase::stepping: return "step mode (after initialization)";
+    case Phase::terminated: return "the terminated state";
+    default: return "the error state (after a failed call; only get, reset and free are allowed)";
+  }
+}
+const char* type_name(ValueType t) {
+  return t == ValueType::real ? "Real/Float64" : t == ValueType::integer ? "Integer/Int64" : "Boolean";
+}
+const char* role_name(Role r) {
+  switch (r) {
+    case Role::calculated_parameter: return "a calculated parameter (derived by the engine)";
+    case Role::independent: return "the independent variable (time)";
+    case Role::output: return "an output";
+    case Role::particle_array: return "an output array";
+    default: return "a parameter";
+  }
+}
+
+// The value as TOML text of the scene key's kind, so the scene checks it like any --set.
+std::string toml_value(ValueType type, double value) {
+  if (type == ValueType::boolean) return value != 0 ? "true" : "false";
+  if (type == ValueType::integer) return fmt::format("{}", static_cast<long long>(value));
+  std::string s = fmt::format("{}", value);
+  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  return s;
+}
+
+constexpr std::uint64_t state_magic = 0x31534d4649524721ull;   // "!GRIFMS1"
+
+std::uint64_t fnv1a(std::string_view text, std::uint64_t h = 1469598103934665603ull) {
+  for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+}  // namespace
+
+std::unique_ptr<Instance> Instance::create(std::string name, std::string_view token, const std::filesystem::path& resources,
+                                           Logger logger, bool logging_on) {
+  std::unique_ptr<Instance> in(new Instance(std::move(name), std::move(logger), logging_on));
+  const auto file = resources / "scene.toml";
+  try {
+    if (!std::filesystem::is_regular_file(file))
+      throw SceneError(fmt::format("the FMU's scene '{}' does not exist: the resource location passed by the host must be "
+                                   "the FMU's extracted resources/ directory", file.string()));
+    in->packaged_ = Scene::from_file(file);
+    in->scene_ = in->packaged_;
+    in->sim_ = Simulation::create(in->scene_);
+    in->table_ = describe_model(in->scene_, *in->sim_);
+  } catch (const std::exception& e) {
+    in->error(fmt::format("instantiation failed: {}", e.what()));
+    return nullptr;
+  }
+  in->dirty_ = false;
+  const std::string expected = instantiation_token(in->table_);
+  if (!token.empty() && token != expected) {
+    in->error(fmt::format("instantiation token '{}' does not match this binary and scene ('{}'): the modelDescription.xml "
+                          "and the resources come from different builds", token, expected));
+    return nullptr;
+  }
+  for (const auto& w : in->sim_->warnings())
+    if (in->enabled(log_warning)) in->logger_(Status::warning, log_warning, w);
+  return in;
+}
+
+bool Instance::enabled(const char* category) const {
+  if (std::strcmp(category, log_error) == 0) return true;   // errors always reach the host
+  if (!logging_on_) return false;
+  if (categories_.empty()) return true;
+  auto it = categories_.find(category);
+  return it != categories_.end() && it->second;
+}
+
+Status Instance::set_debug_logging(bool on, std::span<const char* const> categories) {
+  logging_on_ = on;
+  categories_.clear();
+  for (const char* c : categories) {
+    bool known = false;
+    for (const auto& [name, doc] : log_categories()) known |= std::strcmp(c, name) == 0;
+    if (!known) {
+      std::string list;
+      for (const auto& [name, doc] : log_categories()) list += fmt::format("{}{}", list.empty() ? "" : ", ", name);
+      return error(fmt::format("unknown log category '{}': this FMU declares {}", c, list));
+    }
+    categories_[c] = on;
+  }
+  return Status::ok;
+}
+
+Status Instance::error(const std::string& message) {
+  logger_(Status::error, log_error, message);
+  return Status::error;
+}
+
+Status Instance::unsupported(const char* function, const char* why) {
+  return error(fmt::format("{} is not supported by this FMU: {}", function, why));
+}
+
+void Instance::log_call(const std::string& call) {
+  if (enabled(log_calls)) logger_(Status::ok, log_calls, call);
+}
+
+Status Instance::check_phase(const char* function, std::initializer_list<Phase> allowed) {
+  for (Phase p : allowed)
+    if (p == phase_) return Status::ok;
+  return error(fmt::format("{} is not allowed in {}", function, phase_name(phase_)));
+}
+
+Status Instance::ensure_built() {
+  if (sim_ && !dirty_) return Status::ok;
+  try {
+    auto sim = Simulation::create(scene_);
+    if (!same_structure(describe_model(scene_, *sim), table_))
+      return error("these parameter values change the FMU's set of variables (e.g. a module switched on or off); "
+                   "only values that keep the packaged scene's variables are allowed");
+    for (const auto& [index, value] : pending_controls_) sim->set(index, value);
+    for (const auto& w : sim->warnings())
+      if (enabled(log_warning)) logger_(Status::warning, log_warning, w);
+    sim_ = std::move(sim);
+    dirty_ = false;
+  } catch (const std::exception& e) {
+    return error(fmt::format("cannot build the simulation from the parameters: {}", e.what()));
+  }
+  return Status::ok;
+}
+
+Status Instance::enter_configuration() {
+  if (Status s = check_phase("EnterConfigurationMode", {Phase::instantiated}); s != Status::ok) return s;
+  phase_ = Phase::configuration;
+  return Status::ok;
+}
+Status Instance::exit_configuration() {
+  if (Status s = check_phase("ExitConfigurationMode", {Phase::configuration}); s != Status::ok) return s;
+  phase_ = Phase::instantiated;
+  return Status::ok;
+}
+
+Status Instance::enter_initialization(double start_time) {
+  if (Status s = check_phase("EnterInitializationMode", {Phase::instantiated}); s != Status::ok) return s;
+  if (!std::isfinite(start_time)) return error(fmt::format("start time {} is not allowed: a finite number", start_time));
+  if (Status s = ensure_built(); s != Status::ok) return s;
+  start_time_ = start_time;
+  phase_ = Phase::initialization;
+  return Status::ok;
+}
+
+Status Instance::exit_initialization() {
+  if (Status s = check_phase("ExitInitializationMode", {Phase::initialization}); s != Status::ok) return s;
+  if (Status s = ensure_built(); s != Status::ok) return s;
+  phase_ = Phase::stepping;
+  return Status::ok;
+}
+
+double Instance::time() const { return start_time_ + (sim_ ? sim_->time() : 0.0); }
+
+Status Instance::do_step(double current_time, double step, double* reached_time) {
+  if (reached_time) *reached_time = time();
+  if (Status s = check_phase("DoStep", {Phase::stepping}); s != Status::ok) return s;
+  if (!std::isfinite(step) || step < 0)
+    return error(fmt::format("DoStep: communication step size {} is not allowed: a finite value >= 0", step));
+  const double now = time();
+  if (!std::isfinite(current_time) || std::abs(current_time - now) > 1e-6 * sim_->dt() + 1e-12 * std::abs(now))
+    return error(fmt::format("DoStep: current communication point {:.17g} is not the FMU's time {:.17g}", current_time, now));
+  const std::size_t warnings_before = sim_->warnings().size();
+  try {
+    sim_->step(step);
+  } catch (const std::exception& e) {
+    phase_ = Phase::failed;
+    return error(fmt::format("DoStep from t = {:.9g} by {:.9g} failed: {}", now, step, e.what()));
+  }
+  const auto& w = sim_->warnings();
+  for (std::size_t i = warnings_before; i < w.size(); ++i)
+    if (enabled(log_warning)) logger_(Status::warning, log_warning, w[i]);
+  if (reached_time) *reached_time = time();
+  return Status::ok;
+}
+
+Status Instance::terminate() {
+  if (Status s = check_phase("Terminate", {Phase::stepping, Phase::initialization, Phase::failed}); s != Status::ok) return s;
+  phase_ = Phase::terminated;
+  return Status::ok;
+}
+
+Status Instance::reset() {
+  scene_ = packaged_;
+  overrides_.clear();
+  pending_controls_.clear();
+  dirty_ = true;
+  start_time_ = 0;
+  phase_ = Phase::instantiated;
+  return ensure_built();
+}
+
+std::optional<std::size_t> Instance::element_count(std::uint32_t ref) const {
+  if (ref >= table_.variables.size()) return std::nullopt;
+  const FmuVariable& v = table_.variables[ref];
+  if (v.role != Role::particle_array) return 1;
+  const std::size_t n = sim_ ? sim_->particle_count() : table_.particle_count;
+  return v.field == ParticleField::position ? n * std::size_t(table_.dimension) : n;
+}
+
+Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::span<double> values) {
+  std::size_t k = 0;
+  for (std::uint32_t ref : refs) {
+    if (ref >= table_.variables.size())
+      return error(fmt::format("unknown value reference {}: this FMU's references are 0 to {}", ref, table_.variables.size() - 1));
+    const FmuVariable& v = table_.variables[ref];
+    if (v.type != type && v.role != Role::particle_array)
+      return error(fmt::format("variable '{}' (reference {}) has type {}; it was read as {}", v.name, ref, type_name(v.type),
+                               type_name(type)));
+    if (v.role == Role::scene_parameter) {
+      if (k >= values.size()) break;
+      values[k++] = v.type == ValueType::real ? scene_.real(v.scene_key)
+                    : v.type == ValueType::integer ? double(scene_.integer(v.scene_key))
+                                                   : double(scene_.boolean(v.scene_key));
+      continue;
+    }
+    if (Status s = ensure_built(); s != Status::ok) return s;
+    if (v.role == Role::particle_array) {
+      const ParticleView p = sim_->particles();
+      const auto& data = v.field == ParticleField::position ? p.position : p.radius;
+      if (k + data.size() > values.size())
+        return error(fmt::format("'{}' has {} elements; the call provides room for {}", v.name, data.size(), values.size() - k));
+      for (double x : data) values[k++] = x;
+      continue;
+    }
+    if (k >= values.size()) break;
+    values[k++] = v.role == Role::independent ? time() : sim_->get(v.sim_index);
+  }
+  if (k != values.size())
+    return error(fmt::format("the call passes {} values for variables holding {}", values.size(), k));
+  return Status::ok;
+}
+
+Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::span<const double> values) {
+  if (refs.size() != values.size())
+    return error(fmt::format("the call passes {} values for {} scalar variables", values.size(), refs.size()));
+  for (std::size_t i = 0; i < refs.size(); ++i) {
+    const std::uint32_t ref = refs[i];
+    if (ref >= table_.variables.size())
+      return error(fmt::format("unknown value reference {}: this FMU's references are 0 to {}", ref, table_.variables.size() - 1));
+    const FmuVariable& v = table_.variables[ref];
+    if (v.type != type)
+      return error(fmt::format("variable '{}' (reference {}) has type {}; it was set as {}", v.name, ref, type_name(v.type),
+                               type_name(type)));
+    if (Status s = set_one(v, ref, values[i]); s != Status::ok) return s;
+  }
+  return Status::ok;
+}
+
+Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
+  const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
+  if (v.role != Role::scene_parameter && v.role != Role::control)
+    return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", v.name, ref, role_name(v.role)));
+  if (!std::isfinite(value))
+    return error(fmt::format("{} = {} is not allowed: a finite value{}", v.name, value,
+                             std::isfinite(v.min) || std::isfinite(v.max) ? fmt::format(" in [{}, {}]", v.min, v.max) : ""));
+  if (v.type == ValueType::integer && value != std::floor(value))
+    return error(fmt::format("{} = {} is not allowed: an integer", v.name, value));
+  if (v.role == Role::scene_parameter && !before_steps)
+    return error(fmt::format("'{}' is a fixed parameter: it can only be set before the end of initialization, not in {} "
+                             "(reset the FMU to change it)", v.name, phase_name(phase_)));
+  if (phase_ == Phase::terminated || phase_ == Phase::failed)
+    return error(fmt::format("setting '{}' is not allowed in {}", v.name, phase_name(phase_)));
+  if (value < v.min || value > v.max)
+    return error(fmt::format("{} = {} is out of range: allowed [{}, {}]", v.name, value, v.min, v.max));
+
+  if (!v.scene_key.empty() && before_steps) {   // goes into the scene, checked by the scene's schema
+    const std::string text = toml_value(v.type, value);
+    Scene changed = scene_;
+    try {
+      changed.set_value(v.scene_key, text);
+      changed.validate();
+    } catch (const SceneError& e) {
+      return error(e.what());
+    }
+    scene_ = std::move(changed);
+    overrides_[v.scene_key] = text;
+    dirty_ = true;
+    return Status::ok;
+  }
+  // A control (input or tunable parameter) of the Simulation.
+  if (before_steps) pending_controls_[v.sim_index] = value;
+  if (sim_ && !dirty_) {
+    try {
+      sim_->set(v.sim_index, value);
+    } catch (const std::exception& e) {
+      return error(e.what());
+    }
+  }
+  return Status::ok;
+}
+
+std::uint64_t Instance::parameter_fingerprint() const {
+  std::uint64_t h = fnv1a(instantiation_token(table_));
+  for (const auto& [key, value] : overrides_) h = fnv1a(fmt::format("{}={};", key, value), h);
+  return h;
+}
+
+Status Instance::save(SavedState& state) {
+  if (phase_ == Phase::failed) return error("GetFMUState is not allowed in the error state: the simulation is not valid");
+  if (Status s = ensure_built(); s != Status::ok) return s;
+  ByteWriter w;
+  w.put(state_magic), w.put(parameter_fingerprint()), w.put(start_time_);
+  auto header = w.take();
+  auto body = sim_->save_state();
+  header.insert(header.end(), body.begin(), body.end());
+  state.bytes = std::move(header);
+  return Status::ok;
+}
+
+Status Instance::restore(const SavedState& state) {
+  if (phase_ == Phase::failed) return error("SetFMUState is not allowed in the error state; reset the FMU first");
+  if (Status s = ensure_built(); s != Status::ok) return s;
+  constexpr std::size_t header = 3 * 8;
+  if (state.bytes.size() < header) return error("SetFMUState: the state is empty or truncated");
+  ByteReader r(std::span(state.bytes).first(header));
+  if (r.get<std::uint64_t>() != state_magic) return error("SetFMUState: this is not a state of a grains FMU");
+  if (r.get<std::uint64_t>() != parameter_fingerprint())
+    return error("SetFMUState: the state was saved with other parameter values or by another FMU; it cannot be restored here");
+  const double start = r.get<double>();
+  try {
+    sim_->restore_state(std::span(state.bytes).subspan(header));
+  } catch (const std::exception& e) {
+    return error(fmt::format("SetFMUState: {}", e.what()));
+  }
+  start_time_ = start;
+  return Status::ok;
+}
+
+std::vector<std::byte> Instance::serialize(const SavedState& state) const { return state.bytes; }
+
+Status Instance::deserialize(std::span<const std::byte> bytes, SavedState& state) {
+  if (bytes.size() < 8) return error("DeserializeFMUState: the byte string is too short to be a state");
+  std::uint64_t magic;
+  std::memcpy(&magic, bytes.data(), 8);
+  if (magic != state_magic) return error("DeserializeFMUState: these bytes are not a serialized grains FMU state");
+  state.bytes.assign(bytes.begin(), bytes.end());
+  return Status::ok;
+}
+
+}  // namespace grains::fmu

@@ -1,0 +1,110 @@
+// One FMU instance, independent of the FMI version: the packaged scene plus the host's parameter
+// overrides, the Simulation built from them, the FMI state machine, and logging through the host.
+// fmi2_functions.cpp and fmi3_functions.cpp translate the C calls into these methods. Nothing here
+// is global: every instance owns all its state, so many instances can live in one process.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "model_variables.hpp"
+
+namespace grains::fmu {
+
+enum class Status { ok, warning, discard, error, fatal };   // same order as fmi2Status / fmi3Status
+
+// The states of the co-simulation state machine shared by FMI 2 and 3 (configuration is FMI 3 only).
+enum class Phase { instantiated, configuration, initialization, stepping, terminated, failed };
+
+// Log categories declared in modelDescription.xml.
+inline constexpr const char* log_error = "logStatusError";
+inline constexpr const char* log_warning = "logStatusWarning";
+inline constexpr const char* log_calls = "logCalls";
+inline const std::vector<std::pair<const char*, const char*>>& log_categories() {
+  static const std::vector<std::pair<const char*, const char*>> c = {
+      {log_error, "errors: illegal calls, bad values, a simulation that cannot continue"},
+      {log_warning, "warnings raised by the engine (time step rule, clamped overlaps)"},
+      {log_calls, "every FMI call (verbose)"}};
+  return c;
+}
+
+// A saved FMU state: the engine's bytes plus what identifies the scene they belong to.
+struct SavedState {
+  std::vector<std::byte> bytes;
+};
+
+class Instance {
+ public:
+  // Receives pre-formatted messages; the FMI layer adds the instance name and escapes as needed.
+  using Logger = std::function<void(Status, const char* category, const std::string& message)>;
+
+  // Returns nullptr (after logging why) when the resources or the token do not fit.
+  static std::unique_ptr<Instance> create(std::string name, std::string_view token, const std::filesystem::path& resources,
+                                          Logger logger, bool logging_on);
+
+  const std::string& name() const { return name_; }
+  const ModelTable& table() const { return table_; }
+  Phase phase() const { return phase_; }
+
+  Status set_debug_logging(bool on, std::span<const char* const> categories);
+
+  Status enter_configuration();
+  Status exit_configuration();
+  Status enter_initialization(double start_time);
+  Status exit_initialization();
+  Status do_step(double current_time, double step, double* reached_time);
+  Status terminate();
+  Status reset();
+
+  // Values travel as doubles; `type` is the type of the calling FMI function, checked against the variable.
+  // `values` receives or holds every element of the listed variables in order (arrays flattened).
+  Status get(std::span<const std::uint32_t> refs, ValueType type, std::span<double> values);
+  Status set(std::span<const std::uint32_t> refs, ValueType type, std::span<const double> values);
+  // Element count of a variable (1 for scalars) for sizing array calls; nullopt for an unknown reference.
+  std::optional<std::size_t> element_count(std::uint32_t ref) const;
+
+  Status save(SavedState& state);
+  Status restore(const SavedState& state);
+  std::vector<std::byte> serialize(const SavedState& state) const;
+  Status deserialize(std::span<const std::byte> bytes, SavedState& state);
+
+  double time() const;
+  double experiment_start = 0;   // FMI 2: the start time given to fmi2SetupExperiment
+  // Errors for FMI functions this FMU does not support, with the reason.
+  Status unsupported(const char* function, const char* why);
+  Status error(const std::string& message);
+  void log_call(const std::string& call);
+
+ private:
+  Instance(std::string name, Logger logger, bool logging_on) : name_(std::move(name)), logger_(std::move(logger)), logging_on_(logging_on) {}
+  Status ensure_built();
+  Status check_phase(const char* function, std::initializer_list<Phase> allowed);
+  Status set_one(const FmuVariable& v, std::size_t ref, double value);
+  std::uint64_t parameter_fingerprint() const;
+  bool enabled(const char* category) const;
+
+  std::string name_;
+  Logger logger_;
+  bool logging_on_ = false;
+  std::map<std::string, bool> categories_;   // empty = all categories on
+  Scene packaged_;            // the scene in resources/, as shipped
+  Scene scene_;               // packaged_ plus the host's overrides
+  std::map<std::string, std::string> overrides_;   // scene key -> TOML value, for the state fingerprint
+  std::map<std::size_t, double> pending_controls_;   // control values set before the Simulation exists
+  std::unique_ptr<Simulation> sim_;
+  bool dirty_ = true;         // scene_ changed since sim_ was built
+  ModelTable table_;          // of the packaged scene: references and types never change
+  Phase phase_ = Phase::instantiated;
+  double start_time_ = 0;     // host time = start_time_ + simulation time
+};
+
+}  // namespace grains::fmu

@@ -1,0 +1,28 @@
+# Assembles and zips one model's FMUs (run by the build: cmake -D... -P package_fmu.cmake).
+# Layout: modelDescription.xml, binaries/<platform>/<identifier>.so, resources/scene.toml,
+# documentation/index.html, extra/org.fmi-standard.fmi-ls-ref/ (reference results).
+file(REMOVE_RECURSE ${STAGE})
+execute_process(COMMAND ${DESCRIBE} ${SCENE} ${IDENTIFIER} ${STAGE}/generated ${VERSION} RESULT_VARIABLE failed)
+if(failed)
+  message(FATAL_ERROR "grains_fmu_describe failed for ${SCENE}")
+endif()
+foreach(version 2 3)
+  if(version EQUAL 2)
+    set(platform linux64)
+  else()
+    set(platform x86_64-linux)
+  endif()
+  set(root ${STAGE}/fmi${version})
+  file(MAKE_DIRECTORY ${root}/binaries/${platform} ${root}/resources)
+  file(COPY_FILE ${STAGE}/generated/fmi${version}/modelDescription.xml ${root}/modelDescription.xml)
+  file(COPY_FILE ${BINARY} ${root}/binaries/${platform}/${IDENTIFIER}.so)
+  file(COPY_FILE ${SCENE} ${root}/resources/scene.toml)
+  file(COPY ${STAGE}/generated/documentation ${STAGE}/generated/extra DESTINATION ${root})
+  file(MAKE_DIRECTORY ${OUT}/fmi${version})
+  execute_process(COMMAND ${CMAKE_COMMAND} -E tar cf ${OUT}/fmi${version}/${MODEL}.fmu --format=zip
+                          modelDescription.xml binaries resources documentation extra
+                  WORKING_DIRECTORY ${root} RESULT_VARIABLE failed)
+  if(failed)
+    message(FATAL_ERROR "zipping ${OUT}/fmi${version}/${MODEL}.fmu failed")
+  endif()
+endforeach()

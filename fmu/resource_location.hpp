@@ -1,0 +1,16 @@
+// Where the FMU's resources/ directory is: from the URI (FMI 2) or path (FMI 3) the host passes,
+// percent-decoded, or else found next to this shared library (binaries/<platform>/ -> resources/).
+#pragma once
+#include <filesystem>
+#include <string>
+
+namespace grains::fmu {
+
+// "file:///a/b%20c/resources" (also file:/..., file://localhost/...) or a plain path -> /a/b c/resources.
+// Throws std::invalid_argument naming the location when it is not a local file URI or path.
+std::filesystem::path decode_resource_location(const std::string& location);
+
+// resources/ of the extracted FMU that contains this binary.
+std::filesystem::path resources_beside_binary();
+
+}  // namespace grains::fmu
