@@ -278,7 +278,7 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
                              "(reset the FMU to change it)", v.name, phase_name(phase_)));
   if (phase_ == Phase::terminated || phase_ == Phase::failed)
     return error(fmt::format("setting '{}' is not allowed in {}", v.name, phase_name(phase_)));
-  if (value < v.min || value > v.max)
+  if (v.role == Role::control && (value < v.min || value > v.max))   // scene keys: the scene schema checks below
     return error(fmt::format("{} = {} is out of range: allowed [{}, {}]", v.name, value, v.min, v.max));
 
   if (!v.scene_key.empty() && before_steps) {   // goes into the scene, checked by the scene's schema

@@ -19,6 +19,8 @@ std::filesystem::path decode_resource_location(const std::string& location) {
     }
   } else if (path.find("://") != std::string::npos) {
     throw std::invalid_argument("resource location '" + location + "' is not a file URI or a path");
+  } else {
+    return std::filesystem::path(path);   // a plain path (FMI 3): taken literally, '%' included
   }
   std::string decoded;
   for (std::size_t i = 0; i < path.size(); ++i) {

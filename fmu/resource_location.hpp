@@ -6,7 +6,8 @@
 
 namespace grains::fmu {
 
-// "file:///a/b%20c/resources" (also file:/..., file://localhost/...) or a plain path -> /a/b c/resources.
+// "file:///a/b%20c/resources" (also file:/..., file://localhost/...) -> /a/b c/resources (URIs are
+// percent-decoded); a plain path is taken as it is.
 // Throws std::invalid_argument naming the location when it is not a local file URI or path.
 std::filesystem::path decode_resource_location(const std::string& location);
 

@@ -1,0 +1,126 @@
+"""A small FMI host over fmpy's low-level classes, the same for FMI 2 and 3, that keeps every log
+message the FMU sends. Used by the tests/python/test_fmu_*.py files and runner/bench_fmu.py."""
+import ctypes
+import os
+import pathlib
+
+import fmpy
+from fmpy import read_model_description
+from fmpy.fmi1 import FMICallException  # noqa: F401  (re-exported for the tests)
+
+
+def fmu_dir():
+    """build/fmus next to the runner binary (GRAINS_BIN), or GRAINS_FMU_DIR."""
+    if os.environ.get("GRAINS_FMU_DIR"):
+        return pathlib.Path(os.environ["GRAINS_FMU_DIR"])
+    return pathlib.Path(os.environ["GRAINS_BIN"]).resolve().parents[1] / "fmus"
+
+
+def fmu_path(model, version):
+    return fmu_dir() / f"fmi{version}" / f"{model}.fmu"
+
+
+_extracted = {}
+
+
+def extracted(path):
+    path = str(path)
+    if path not in _extracted:
+        _extracted[path] = fmpy.extract(path)
+    return _extracted[path]
+
+
+class Unit:
+    """One instance of an FMU. Values are read and set by variable name; types come from the model description."""
+
+    def __init__(self, path, name="unit", logging=False):
+        self.md = read_model_description(str(path))
+        self.version = int(self.md.fmiVersion[0])
+        self.variables = {v.name: v for v in self.md.modelVariables}
+        self.by_reference = {v.valueReference: v for v in self.md.modelVariables}
+        self.messages = []
+        kw = dict(guid=self.md.guid, unzipDirectory=extracted(path),
+                  modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        if self.version == 2:
+            from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+            from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE
+            from fmpy.logging import addLoggerProxy
+            libc = ctypes.CDLL(None)
+            libc.calloc.restype = ctypes.c_void_p
+            self._callbacks = fmi2CallbackFunctions()
+            self._callbacks.logger = fmi2CallbackLoggerTYPE(
+                lambda env, inst, status, cat, msg: self.messages.append((status, cat.decode(), msg.decode())))
+            self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(libc.calloc)
+            self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(libc.free)
+            addLoggerProxy(ctypes.byref(self._callbacks))
+            self.fmu = FMU2Slave(**kw)
+            self.fmu.instantiate(callbacks=self._callbacks, loggingOn=logging)
+        else:
+            from fmpy.fmi3 import FMU3Slave
+            self.fmu = FMU3Slave(**kw)
+            self.fmu.instantiate(loggingOn=logging, logMessage=lambda env, status, cat, msg: self.messages.append(
+                (status, cat.decode(), msg.decode())))
+        self.time = 0.0
+
+    # --- life cycle ---
+    def initialize(self, start_values=None, start_time=0.0):
+        for name, value in (start_values or {}).items():
+            self.set(name, value)
+        if self.version == 2:
+            self.fmu.setupExperiment(startTime=start_time)
+        self.fmu.enterInitializationMode() if self.version == 2 else self.fmu.enterInitializationMode(startTime=start_time)
+        self.fmu.exitInitializationMode()
+        self.time = start_time
+        return self
+
+    def step(self, h):
+        self.fmu.doStep(self.time, h)
+        self.time += h
+
+    def reset(self):
+        self.fmu.reset()
+        self.time = 0.0
+
+    def free(self):
+        self.fmu.freeInstance()
+
+    # --- values ---
+    def _call(self, prefix, var):
+        kind = var.type
+        name = {"Real": "Real", "Integer": "Integer", "Boolean": "Boolean"}.get(kind, kind) if self.version == 2 else kind
+        return getattr(self.fmu, prefix + name)
+
+    def set(self, name, value):
+        var = self.variables[name]
+        self._call("set", var)([var.valueReference], [value])
+
+    def get(self, name):
+        var = self.variables[name]
+        if not var.dimensions:
+            return self._call("get", var)([var.valueReference])[0]
+        size = 1
+        for d in var.dimensions:   # a fixed size, or the value of a structural parameter
+            size *= int(d.start) if d.start else int(self.get(self.by_reference[d.valueReference].name))
+        return self._call("get", var)([var.valueReference], nValues=size)
+
+    def scalar_outputs(self):
+        return [v.name for v in self.md.modelVariables if v.causality == "output" and not v.dimensions]
+
+    def outputs(self):
+        return {name: self.get(name) for name in self.scalar_outputs()}
+
+    # --- state ---
+    def get_state(self):
+        return self.fmu.getFMUState() if self.version == 3 else self.fmu.getFMUstate()
+
+    def set_state(self, state):
+        self.fmu.setFMUState(state) if self.version == 3 else self.fmu.setFMUstate(state)
+
+    def serialize(self, state):
+        return bytes(self.fmu.serializeFMUState(state) if self.version == 3 else self.fmu.serializeFMUstate(state))
+
+    def deserialize(self, data):
+        return self.fmu.deserializeFMUState(data) if self.version == 3 else self.fmu.deSerializeFMUstate(data)
+
+    def errors(self):
+        return [m for s, c, m in self.messages if s >= 3]

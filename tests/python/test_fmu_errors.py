@@ -1,0 +1,98 @@
+"""Illegal calls and bad values: each returns an error status with a clear message through the host's
+logger, and the host process (this one) carries on; the instance can be reset and used again."""
+import shutil
+
+import pytest
+
+from fmu_host import FMICallException, Unit, extracted, fmu_path
+
+
+@pytest.fixture(params=[2, 3], ids=["fmi2", "fmi3"])
+def unit(request):
+    u = Unit(fmu_path("aggregation", request.param))
+    yield u
+    u.free()
+
+
+def fails(unit, call, *words):
+    """The call raises (error status) and one logged error message holds every word."""
+    before = len(unit.errors())
+    with pytest.raises(FMICallException):
+        call()
+    new = unit.errors()[before:]
+    assert new, "no message was logged"
+    assert any(all(w in m for w in words) for m in new), new
+    return new
+
+
+def test_do_step_before_initialization(unit):
+    fails(unit, lambda: unit.fmu.doStep(0.0, 0.1), "DoStep", "not allowed", "instantiated")
+
+
+def test_fixed_parameter_after_initialization(unit):
+    unit.initialize({"particles.count": 100})
+    fails(unit, lambda: unit.set("contact.restitution", 0.7), "contact.restitution", "fixed parameter")
+    unit.step(5 * unit.get("time.dt"))   # the instance still works
+
+
+def test_unknown_value_reference(unit):
+    get = unit.fmu.getReal if unit.version == 2 else unit.fmu.getFloat64
+    fails(unit, lambda: get([9999]), "unknown value reference 9999")
+
+
+def test_nan_input(unit):
+    unit.initialize({"particles.count": 100})
+    fails(unit, lambda: unit.set("gravity.G", float("nan")), "gravity.G", "nan", "not allowed")
+    assert unit.get("gravity.G") == 1.0
+
+
+def test_out_of_range_parameter_gets_the_scene_schema_message(unit):
+    fails(unit, lambda: unit.set("contact.restitution", 1.5), "contact.restitution", "1.5", "(0, 1]")
+    fails(unit, lambda: unit.set("particles.count", 0), "particles.count", "0")
+    unit.initialize({"particles.count": 100})   # the rejected values were not kept
+    assert unit.get("contact.restitution") == 0.5
+
+
+def test_wrong_type(unit):
+    set_int = unit.fmu.setInteger if unit.version == 2 else unit.fmu.setInt64
+    fails(unit, lambda: set_int([unit.variables["contact.restitution"].valueReference], [1]), "contact.restitution", "type")
+
+
+def test_simulation_going_non_finite_is_an_error_then_reset_recovers(unit):
+    unit.initialize({"particles.count": 100, "particles.mass": 100.0})
+    dt = unit.get("time.dt")
+    unit.step(dt)
+    unit.set("gravity.G", 1e308)   # allowed, but the next forces overflow
+    fails(unit, lambda: unit.step(dt), "non-finite", "particle", "step 2")
+    fails(unit, lambda: unit.step(dt), "DoStep", "error state")
+    unit.reset()
+    unit.initialize({"particles.count": 100})
+    unit.step(3 * dt)
+    assert unit.get("step") == 3
+
+
+def test_wrong_instantiation_token_is_refused(tmp_path):
+    from fmpy.fmi2 import FMU2Slave
+    path = fmu_path("collision", 2)
+    unit = Unit(path)
+    unit.free()
+    fmu = FMU2Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=extracted(path),
+                    modelIdentifier=unit.md.coSimulation.modelIdentifier, instanceName="bad")
+    with pytest.raises(Exception):
+        fmu.instantiate()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_resources_found_through_a_percent_encoded_location(tmp_path, version):
+    """fmpy passes file URIs (FMI 2, spaces become %20) and paths (FMI 3): both must reach resources/."""
+    path = fmu_path("collision", version)
+    odd = tmp_path / "dir with space%25"
+    shutil.copytree(extracted(path), odd)
+    from fmu_host import _extracted
+    _extracted[str(odd) + ".fmu"] = str(odd)
+    shutil.copy(path, str(odd) + ".fmu")
+    unit = Unit(str(odd) + ".fmu")
+    unit.initialize()
+    unit.step(0.5)
+    assert unit.get("step") == 25
+    unit.free()

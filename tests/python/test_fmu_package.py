@@ -1,0 +1,110 @@
+"""The .fmu archives as files: fmpy's validation, the standard layout, a self-contained binary that
+exports only FMI functions, and reference results that the FMU reproduces."""
+import csv
+import subprocess
+import zipfile
+
+import fmpy
+import fmpy.validation
+import numpy as np
+import pytest
+
+from fmu_host import extracted, fmu_path
+
+MODELS = ["aggregation", "collision"]
+VERSIONS = [2, 3]
+PLATFORM = {2: "linux64", 3: "x86_64-linux"}
+
+# What the FMU binary may load: the C library and the C++/GCC runtimes (libgomp is GCC's OpenMP
+# runtime, installed with libstdc++ and libgcc wherever GCC-built C++ runs).
+ALLOWED_LIBRARIES = {"libc.so.6", "libm.so.6", "libstdc++.so.6", "libgcc_s.so.1", "libgomp.so.1",
+                     "ld-linux-x86-64.so.2", "libpthread.so.0", "libdl.so.2", "librt.so.1"}
+
+FMI2_FUNCTIONS = """GetTypesPlatform GetVersion SetDebugLogging Instantiate FreeInstance SetupExperiment
+EnterInitializationMode ExitInitializationMode Terminate Reset GetReal GetInteger GetBoolean GetString SetReal
+SetInteger SetBoolean SetString GetFMUstate SetFMUstate FreeFMUstate SerializedFMUstateSize SerializeFMUstate
+DeSerializeFMUstate GetDirectionalDerivative EnterEventMode NewDiscreteStates EnterContinuousTimeMode
+CompletedIntegratorStep SetTime SetContinuousStates GetDerivatives GetEventIndicators GetContinuousStates
+GetNominalsOfContinuousStates SetRealInputDerivatives GetRealOutputDerivatives DoStep CancelStep GetStatus
+GetRealStatus GetIntegerStatus GetBooleanStatus GetStringStatus""".split()
+FMI3_TYPES = "Float32 Float64 Int8 UInt8 Int16 UInt16 Int32 UInt32 Int64 UInt64 Boolean String Binary Clock".split()
+FMI3_FUNCTIONS = """GetVersion SetDebugLogging InstantiateModelExchange InstantiateCoSimulation
+InstantiateScheduledExecution FreeInstance EnterInitializationMode ExitInitializationMode EnterEventMode Terminate
+Reset GetNumberOfVariableDependencies GetVariableDependencies GetFMUState SetFMUState FreeFMUState
+SerializedFMUStateSize SerializeFMUState DeserializeFMUState GetDirectionalDerivative GetAdjointDerivative
+EnterConfigurationMode ExitConfigurationMode GetIntervalDecimal GetIntervalFraction GetShiftDecimal GetShiftFraction
+SetIntervalDecimal SetIntervalFraction SetShiftDecimal SetShiftFraction EvaluateDiscreteStates UpdateDiscreteStates
+EnterContinuousTimeMode CompletedIntegratorStep SetTime SetContinuousStates GetContinuousStateDerivatives
+GetEventIndicators GetContinuousStates GetNominalsOfContinuousStates GetNumberOfEventIndicators
+GetNumberOfContinuousStates EnterStepMode GetOutputDerivatives DoStep ActivateModelPartition""".split() + \
+    [f"{op}{t}" for t in FMI3_TYPES for op in ("Get", "Set")]
+
+
+@pytest.fixture(scope="module", params=[(m, v) for m in MODELS for v in VERSIONS], ids=lambda p: f"{p[0]}-fmi{p[1]}")
+def fmu(request, grains_bin):
+    model, version = request.param
+    path = fmu_path(model, version)
+    assert path.exists(), f"{path} is missing: the build makes it (target `fmus`)"
+    return model, version, path
+
+
+def test_fmpy_validation_finds_no_problem(fmu):
+    _, _, path = fmu
+    assert fmpy.validation.validate_fmu(str(path)) == []
+
+
+def test_archive_has_the_standard_layout(fmu):
+    model, version, path = fmu
+    names = set(zipfile.ZipFile(path).namelist())
+    md = fmpy.read_model_description(str(path))
+    assert md.fmiVersion == f"{version}.0"
+    binary = f"binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
+    for required in ["modelDescription.xml", binary, "resources/scene.toml", "documentation/index.html",
+                     f"extra/org.fmi-standard.fmi-ls-ref/{model}_ref.csv",
+                     f"extra/org.fmi-standard.fmi-ls-ref/{model}_ref.opt",
+                     "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml"]:
+        assert required in names
+    assert (zipfile.ZipFile(path).read("resources/scene.toml").decode()
+            == (fmu_path(model, version).parents[2].parent / "models" / f"{model}.toml").read_text()
+            if (fmu_path(model, version).parents[2].parent / "models").exists() else True)
+
+
+def binary_of(path, version):
+    md = fmpy.read_model_description(str(path))
+    return f"{extracted(path)}/binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
+
+
+def test_binary_needs_only_the_c_and_cxx_runtimes(fmu):
+    _, version, path = fmu
+    dynamic = subprocess.run(["readelf", "-d", binary_of(path, version)], capture_output=True, text=True, check=True).stdout
+    needed = {line.split("[")[1].split("]")[0] for line in dynamic.splitlines() if "(NEEDED)" in line}
+    assert needed, "readelf found no dependencies at all (not a dynamic library?)"
+    assert needed <= ALLOWED_LIBRARIES, f"not allowed: {needed - ALLOWED_LIBRARIES}"
+    assert not any(bad in " ".join(needed) for bad in ("hdf5", "sundials", "fmt", "curl", "ssl"))
+
+
+def test_binary_exports_every_fmi_function_and_nothing_else(fmu):
+    _, version, path = fmu
+    symbols = subprocess.run(["nm", "-D", "--defined-only", binary_of(path, version)], capture_output=True, text=True,
+                             check=True).stdout
+    exported = {line.split()[-1] for line in symbols.splitlines() if line.split()[1] in "TtWiu"}
+    expected = {f"fmi2{f}" for f in FMI2_FUNCTIONS} | {f"fmi3{f}" for f in FMI3_FUNCTIONS}
+    assert expected <= exported, f"missing: {sorted(expected - exported)}"
+    assert all(s.startswith(("fmi2", "fmi3")) for s in exported), sorted(s for s in exported if not s.startswith("fmi"))
+
+
+def test_reference_results_are_reproduced_exactly(fmu):
+    model, version, path = fmu
+    archive = zipfile.ZipFile(path)
+    options = dict(line.split(", ") for line in archive.read(
+        f"extra/org.fmi-standard.fmi-ls-ref/{model}_ref.opt").decode().splitlines())
+    rows = list(csv.reader(archive.read(f"extra/org.fmi-standard.fmi-ls-ref/{model}_ref.csv").decode().splitlines()))
+    names, reference = rows[0], np.array(rows[1:], dtype=float)
+    md_outputs = [v.name for v in fmpy.read_model_description(str(path)).modelVariables
+                  if v.causality == "output" and not v.dimensions]
+    assert names == ["time"] + md_outputs
+    result = fmpy.simulate_fmu(str(path), start_time=float(options["StartTime"]), stop_time=float(options["StopTime"]),
+                               output_interval=float(options["StepSize"]), output=md_outputs)
+    assert len(result) == len(reference)
+    for j, name in enumerate(md_outputs, start=1):
+        np.testing.assert_array_equal(result[name], reference[:, j], err_msg=name)
