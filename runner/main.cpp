@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "consolidate_command.hpp"
 #include "io/scene.hpp"
 #include "run_command.hpp"
 
@@ -18,6 +19,16 @@ int main(int argc, char** argv) {
   cmd_run->add_option("--out", run.output, "Output HDF5 file (default: output.file or <scene.name>.h5)");
   cmd_run->add_flag("--quiet", run.quiet, "No progress line");
 
+  grains::ConsolidateOptions cons;
+  auto* cmd_cons = app.add_subcommand("consolidate", "Run a scene's consolidation programme (physics.md section 9): "
+                                                     "preparation, stepwise loading and unloading, each stage to equilibrium; "
+                                                     "one table row, H5MD observable record and snapshot per stage");
+  cmd_cons->add_option("scene", cons.scene, "Scene file (.toml) with cell.enabled = true")->required()->check(CLI::ExistingFile);
+  cmd_cons->add_option("--set", cons.overrides, "Override a scene key: --set section.key=value (repeatable)");
+  cmd_cons->add_option("--out", cons.output, "Output HDF5 file (default <scene.name>-stages.h5)");
+  cmd_cons->add_option("--table", cons.table, "Stage table, CSV (default <scene.name>-stages.csv)");
+  cmd_cons->add_flag("--quiet", cons.quiet, "No line per stage");
+
   std::string check_scene;
   std::vector<std::string> check_overrides;
   auto* cmd_check = app.add_subcommand("check", "Validate a scene without running it; prints the resolved scene");
@@ -33,6 +44,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (*cmd_run) return grains::run_scene(run);
+    if (*cmd_cons) return grains::consolidate_scene(cons);
     if (*cmd_check) {
       auto scene = grains::Scene::from_file(check_scene, check_overrides);
       scene.validate();

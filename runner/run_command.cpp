@@ -16,6 +16,7 @@ namespace {
 
 volatile std::sig_atomic_t interrupted = 0;
 void on_signal(int) { interrupted = 1; }
+}  // namespace
 
 void write_frame(H5mdWriter& out, const Simulation& sim) {
   const ParticleView p = sim.particles();
@@ -44,8 +45,6 @@ void write_observables(H5mdWriter& out, const Simulation& sim) {
     if (vars[i].causality == Causality::output && vars[i].name != "time" && vars[i].name != "step")
       out.write_observable(vars[i].name, sim.step_count(), sim.time(), sim.get(i));
 }
-
-}  // namespace
 
 int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.

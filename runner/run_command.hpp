@@ -4,6 +4,12 @@
 
 namespace grains {
 
+class H5mdWriter;
+class Simulation;
+// One particle snapshot / every output variable, at the simulation's current step.
+void write_frame(H5mdWriter& out, const Simulation& sim);
+void write_observables(H5mdWriter& out, const Simulation& sim);
+
 struct RunOptions {
   std::string scene, output;
   std::vector<std::string> overrides;

@@ -7,7 +7,7 @@
 // the next step, and restoring does the same: both paths restart CVODE from the same (L, dL/dt), and a
 // run restored from a state continues bit-identically with the run that saved it.
 #pragma once
-#include <optional>
+#include <algorithm>
 
 #include "analysis/stress.hpp"
 #include "cell/cell_length_ode.hpp"
@@ -31,14 +31,22 @@ class Barostat {
     target_ = p;
     ode_.set_rate_cap(rate_cap);
   }
+  // Held: the cell stops and stays at rest (the caller stops advancing it); released: CVODE restarts
+  // from rest at the next advance.
+  void hold() { rate_.setZero(), reset_pending_ = true; }
+  void release() { reset_pending_ = true; }
   const Vec<D>& length() const { return length_; }
   // dL/dt (within the strain-rate cap).
   Vec<D> rate() const {
     Vec<D> r;
-    for (int a = 0; a < D; ++a) r[a] = ode_.rate(a);
+    const double cap = ode_.parameters().rate_cap;
+    for (int a = 0; a < D; ++a) r[a] = std::clamp(rate_[a], -cap * length_[a], cap * length_[a]);
     return r;
   }
   CellLengthStatistics statistics() const { return ode_.statistics(); }
+
+  // The contacts' damping of the cell's strain rate (see affine_contact_damping), per axis.
+  void set_contact_damping(const Vec<D>& eta) { ode_.set_extra_damping(eta.data()); }
 
   // Advance the lengths over [t, t + h] under `stress` (frozen); returns L(t + h) / L(t) per axis.
   Vec<D> advance(double t, double h, const Tensor<D>& stress) {

@@ -67,7 +67,7 @@ int CellLengthOde::rhs(double, void* yv, void* ydv, void* self_) {
     for (int b = 0; b < n; ++b)
       if (b != a) area *= y[b];
     const double L = y[a], rate = y[n + a];
-    double accel = (area * self->excess_[a] - p.damping * rate) / p.mass;
+    double accel = (area * self->excess_[a] - (p.damping + self->extra_damping_[a]) * rate) / p.mass;
     // Strain-rate cap: the length moves at most at cap * L, and the rate variable does not wind up
     // beyond it (a kink, not a jump, in the right-hand side: CVODE needs no restart).
     const double limit = p.rate_cap * L;

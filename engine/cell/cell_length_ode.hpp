@@ -38,6 +38,11 @@ class CellLengthOde {
   void reset(const double* length, const double* rate, double t);
   // Integrate from the current time to t_end with the stress excess (sigma_aa - P_a) held fixed.
   void advance(double t_end, const double* stress_excess);
+  // Extra damping per axis on top of `damping` (the contacts' resistance to the affine strain rate),
+  // held like the stress excess until changed.
+  void set_extra_damping(const double* extra) {
+    for (int a = 0; a < p_.axes; ++a) extra_damping_[a] = extra[a];
+  }
 
   // The cap is part of the right-hand side: change it together with a reset().
   void set_rate_cap(double cap) { p_.rate_cap = cap; }
@@ -51,7 +56,7 @@ class CellLengthOde {
  private:
   static int rhs(double t, void* y, void* ydot, void* self);
   CellLengthParameters p_;
-  std::array<double, 3> excess_{};
+  std::array<double, 3> excess_{}, extra_damping_{};
   double t_ = 0;
   long reinitialisations_ = 0;
   long steps_before_ = 0, rhs_before_ = 0;   // CVODE's counters restart at each re-initialisation

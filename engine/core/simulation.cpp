@@ -12,9 +12,11 @@
 #include <omp.h>
 
 #include "analysis/clusters.hpp"
+#include "analysis/bonded_clusters.hpp"
 #include "analysis/contact_network.hpp"
 #include "analysis/fractal_dimension.hpp"
 #include "analysis/stress.hpp"
+#include "cell/affine_contact_damping.hpp"
 #include "cell/barostat.hpp"
 #include "cell/equilibrium.hpp"
 #include "core/integrator.hpp"
@@ -365,14 +367,17 @@ class SimulationImpl final : public Simulation {
     pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
     inertia_number_ = scene.real("cell.inertia_number");
     target_reduced_ = scene.real("cell.pressure");
+    cell_active_ = scene.boolean("cell.active");
+    contact_damping_ = scene.real("cell.contact_damping");
     if (force_unit_ == 0 && target_reduced_ == 0)
       scene.fail("cell.pressure", "value 0 is not allowed when cell.force_unit = 0 (cohesionless): a pressure > 0 "
                                   "sets the force scale of the equilibrium test and the strain-rate cap");
-    double total_mass = 0;
-    for (double m : P.mass) total_mass += m;
     CellLengthParameters p;
     p.axes = D;
-    p.mass = scene.has("cell.mass") ? scene.real("cell.mass") : total_mass;
+    // Default M_c = m (L / a)^(D-2): the contacts' damping of the cell (affine_contact_damping) and its
+    // stiffness both grow like (L / a)^(D-2), so the cell's breathing mode stays about critically damped.
+    p.mass = scene.has("cell.mass") ? scene.real("cell.mass")
+                                    : grain_mass_ * std::pow(sys_.box.length.mean() / length_unit_, D - 2);
     const double cell_stiffness = kn_ * std::pow(sys_.box.length.mean() / length_unit_, D - 2);
     p.damping = scene.real("cell.damping_ratio") * 2 * std::sqrt(p.mass * cell_stiffness);
     p.rate_cap = rate_cap(target_reduced_);
@@ -382,6 +387,7 @@ class SimulationImpl final : public Simulation {
     tolerances_ = {scene.real("cell.tolerance_force"), scene.real("cell.tolerance_torque"),
                    scene.real("cell.tolerance_stress"), scene.real("cell.tolerance_kinetic")};
     barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
+    if (!cell_active_) barostat_->hold();
     cell_list_reach_ = list_reach;
     sys_.want_virial = true;
   }
@@ -435,14 +441,17 @@ class SimulationImpl final : public Simulation {
   void one_step(double h) {
     auto& P = sys_.particles;
     Vec<D> scale;
-    if (barostat_) {   // the cell moves under the stress of the last force evaluation (operator splitting)
+    const bool cell_moves = barostat_ && cell_active_;
+    if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
+      if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0)
+        barostat_->set_contact_damping(contact_damping_ * affine_contact_damping<D>(sys_, cn_));
       const auto start = std::chrono::steady_clock::now();
       scale = barostat_->advance(sys_.time, h, stress());
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
     if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
     else kick_drift_predict<D, false>(P, h, sys_.threads);
-    if (barostat_) follow_cell(scale);
+    if (cell_moves) follow_cell(scale);
     if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
     sys_.dt = h;
     compute_forces();
@@ -558,6 +567,7 @@ class SimulationImpl final : public Simulation {
       out("rattler_fraction", "", "x0: fraction of grains none of whose interactions carries a force");
       out("backbone_coordination", "", "z* = z / (1 - x0)");
       out("distant_bonds", "", "pairs attracting across a gap 0 <= h < D0");
+      out("bonded_clusters", "", "connected components of the contact + distant-bond graph (1: one aggregate holds every grain)");
       out("contacts_kept", "", "contacts (h < 0) present both now and at the last network.mark");
       out("contacts_lost", "", "contacts at the last network.mark that are open now");
       out("contacts_gained", "", "contacts now that were open at the last network.mark");
@@ -603,6 +613,17 @@ class SimulationImpl final : public Simulation {
                                           "a finite value > 0");
                   target_reduced_ = v;
                   barostat_->set_target_pressure(v * pressure_scale_, rate_cap(v));
+                });
+    VariableInfo active{"cell.active", "", Causality::input, Variability::continuous,
+                        "1: the barostat moves the cell; 0: the cell is held fixed at rest (e.g. while a type-2 sample "
+                        "aggregates)", 0, 1};
+    active.is_integer = true;
+    add_control(active, [this] { return cell_active_ ? 1.0 : 0.0; },
+                [this](double v) {
+                  if (v != 0 && v != 1) throw SimulationError(fmt::format("cell.active = {} is not allowed: 0 or 1", v));
+                  cell_active_ = v == 1;
+                  if (cell_active_) barostat_->release();
+                  else barostat_->hold();
                 });
   }
 
@@ -707,6 +728,7 @@ class SimulationImpl final : public Simulation {
       o["rattler_fraction"] = net.rattler_fraction;
       o["backbone_coordination"] = net.z_star;
       o["distant_bonds"] = double(net.distant_bonds);
+      o["bonded_clusters"] = double(count_bonded_clusters(P.size(), list));
       const ContactChanges ch = compare_contacts(reference_contacts_, contact_keys(list));
       o["contacts_kept"] = double(ch.kept);
       o["contacts_lost"] = double(ch.lost);
@@ -742,6 +764,9 @@ class SimulationImpl final : public Simulation {
   double target_reduced_ = 0;                       // P*, the input variable cell.pressure
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
+  bool cell_active_ = true;
+  double contact_damping_ = 1;                       // multiplies the contacts' affine damping of the cell
+  static constexpr long contact_damping_every_ = 10;  // steps between its updates (one pass over the list)
   double cvode_seconds_ = 0;
   mutable std::map<std::string, double> observable_values_;
   mutable long cache_step_ = -1;

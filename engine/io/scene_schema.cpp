@@ -125,16 +125,27 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"cell.enabled", K::boolean, "false", 0, 0, false, false, "",
        "Pressure-controlled periodic cell (physics.md section 9): the cell lengths obey M_c d2L/dt2 = (V/L)(sigma_aa - P) "
        "- eta_c dL/dt, integrated by CVODE; particles follow the cell affinely. Needs `box.periodic = true` and contacts."},
+      {"cell.active", K::boolean, "true", 0, 0, false, false, "",
+       "Whether the barostat moves the cell from the start; also the input variable `cell.active` (0 holds the cell "
+       "fixed at rest, as while a type-2 sample aggregates)."},
       {"cell.pressure", K::real, "0.01", 0, 1e6, false, false, "",
        "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = largest diameter, F0 = `cell.force_unit`. "
        "Also the input variable `cell.pressure`, which a host or the runner may change between steps."},
       {"cell.force_unit", K::real, "", 0, inf, false, false, "",
        "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, else 1. 0 = cohesionless: "
        "`cell.pressure` is then P a^(D-2) / k_n (P / K_N in 2D) and F1 = P a^(D-1)."},
-      {"cell.mass", K::real, "", 0, inf, true, false, "", "M_c: the cell's inertia; default the total particle mass."},
-      {"cell.damping_ratio", K::real, "0.1", 0, inf, false, false, "",
+      {"cell.mass", K::real, "", 0, inf, true, false, "",
+       "M_c: the cell's inertia; default m (L / a)^(D-2), m the mass of a grain of diameter a (in 2D: m). The cell then "
+       "breathes about as fast as a contact and is damped by the contacts; a much heavier cell (say the total mass) "
+       "oscillates for long after jamming."},
+      {"cell.damping_ratio", K::real, "0.0", 0, inf, false, false, "",
        "eta_c = damping_ratio * 2 sqrt(M_c K_cell), K_cell = k_n (L / a)^(D-2), about the cell's stiffness once the "
-       "grains are jammed; 0.1 lets a loose sample compress quickly while the contacts' own damping settles the jammed one."},
+       "grains are jammed. Default 0: any cell damping large enough to matter for the jammed sample (say 0.1) also "
+       "throttles the compression of a loose one far below the strain-rate cap; the contacts' damping settles the cell."},
+      {"cell.contact_damping", K::real, "1.0", 0, inf, false, false, "",
+       "Factor on the damping the contacts' dashpots give the cell's strain rate, eta_a = c_n sum_contacts (r^a n^a)^2 / "
+       "L_a^2 with the global c_n, refreshed every 10 steps. Particle velocities are relative to the affine flow, so "
+       "the pair loop does not see it; 0 leaves a jammed cell breathing undamped."},
       {"cell.inertia_number", K::real, "0.05", 0, inf, true, false, "",
        "I_a: the strain rate is capped at |dL/dt| / L <= I_a / T, T = sqrt(a m / F1), m = mass of a grain of diameter "
        "a, F1 = max(F0, P a^(D-1)) (T = T0 when cohesion dominates)."},
@@ -148,6 +159,25 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Equilibrium: every |sigma_aa - P| < value * F1 / a^(D-1)."},
       {"cell.tolerance_kinetic", K::real, "5e-8", 0, inf, true, false, "",
        "Equilibrium: translational kinetic energy per grain (relative to the affine flow) < value * F1 a."},
+
+      // --- consolidation programme (`grains consolidate`) ---
+      {"programme.preparation", K::text, "\"none\"", 0, 0, false, false, "none|type1|type2",
+       "Sample preparation before loading (physics.md section 9): `type1` equilibrates the initial gas (give it zero "
+       "velocities) at `cell.pressure`; `type2` first holds the cell fixed until the grains form one bonded cluster "
+       "(give them Maxwell velocities V0 / V* = 9.5), equilibrates at P* = 0, then at `cell.pressure`; `none` only "
+       "equilibrates at `cell.pressure` (the cohesionless reference)."},
+      {"programme.top_pressure", K::real, "13.33", 0, inf, true, false, "", "P* of the last loading stage."},
+      {"programme.stages_per_decade", K::integer, "8", 1, 1000, false, false, "",
+       "Loading: P* is multiplied by 10^(1/value) per stage (8: the paper's factor 1.334)."},
+      {"programme.unload_stages_per_decade", K::integer, "2", 1, 1000, false, false, "",
+       "Unloading: P* is divided by 10^(1/value) per stage, down to `cell.pressure`."},
+      {"programme.load", K::boolean, "true", 0, 0, false, false, "", "Run the loading stages."},
+      {"programme.unload", K::boolean, "true", 0, 0, false, false, "", "Run the unloading stages after loading."},
+      {"programme.check_every", K::integer, "100", 1, 9.2e18, false, false, "", "Steps between equilibrium checks."},
+      {"programme.stage_budget", K::integer, "2000000", 1, 9.2e18, false, false, "",
+       "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
+      {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",
+       "Steps the type-2 aggregation may take to form one bonded cluster."},
 
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},

@@ -1,0 +1,47 @@
+// The consolidation programme of physics.md section 9, driven through the Simulation seam only (the
+// inputs cell.pressure, cell.active and network.mark): sample preparation (type 1, type 2 or none),
+// then the stepwise compression, P* multiplied by 10^(1/stages_per_decade) per stage up to the top
+// pressure, then unloading back to the start in larger steps. Every stage runs until the four
+// equilibrium criteria hold or its step budget is spent; a stage that runs out is recorded with
+// reached = false and the programme goes on, so the caller can report it.
+#pragma once
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace grains {
+
+class Scene;
+class Simulation;
+
+struct ProgrammeSettings {
+  std::string preparation = "none";   // none | type1 | type2
+  double start_pressure = 0.01;       // P* of the prepared state, where unloading ends
+  double top_pressure = 13.33;
+  int stages_per_decade = 8, unload_stages_per_decade = 2;
+  bool load = true, unload = true;
+  long check_every = 100;             // steps between equilibrium checks
+  long stage_budget = 2'000'000;      // steps per stage
+  long aggregation_budget = 20'000'000;
+
+  static ProgrammeSettings from_scene(const Scene& scene);
+};
+
+struct StageRecord {
+  int index = 0;
+  std::string phase;        // aggregation | equilibrate | loading | unloading
+  double target = 0;        // P* the stage was run at (NaN for aggregation)
+  bool reached = false;     // equilibrium (or, aggregating, one cluster) within the budget
+  long steps = 0;
+  double time = 0;          // simulated time at the end of the stage
+  std::vector<std::pair<std::string, double>> values;   // outputs at the end of the stage
+};
+
+// The P* of every stage after the prepared state: loading, then unloading.
+std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeSettings& p);
+
+std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
+                                       const std::function<void(const StageRecord&)>& on_stage = {});
+
+}  // namespace grains

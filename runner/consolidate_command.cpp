@@ -1,0 +1,90 @@
+#include "consolidate_command.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "io/h5md_writer.hpp"
+#include "io/scene.hpp"
+#include "protocols/consolidation_programme.hpp"
+#include "run_command.hpp"
+
+namespace grains {
+
+int consolidate_scene(const ConsolidateOptions& opt) {
+  Scene scene = Scene::from_file(opt.scene, opt.overrides);
+  scene.validate();
+  const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
+  auto sim = Simulation::create(scene);
+  const std::string name = scene.text("scene.name");
+  std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
+  std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
+  for (const auto& file : {path, table})
+    if (auto dir = std::filesystem::path(file).parent_path(); !dir.empty() && !std::filesystem::is_directory(dir))
+      throw SceneError(fmt::format("output directory '{}' does not exist (output file '{}')", dir.string(), file));
+
+  H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
+                 scene.boolean("output.xdmf"));
+  for (const auto& w : sim->warnings()) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
+  write_frame(out, *sim);
+  write_observables(out, *sim);
+  std::ofstream csv(table);
+  if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
+
+  fmt::print("grains {}: consolidation programme of '{}' ({}D, {} particles, preparation {})\n", GRAINS_VERSION, name,
+             sim->dimension(), sim->particle_count(), settings.preparation);
+  const auto start = std::chrono::steady_clock::now();
+  long unreached = 0;
+  auto on_stage = [&](const StageRecord& r) {
+    if (r.index == 0) {
+      csv << "stage,phase,target_pressure,reached,steps,time";
+      for (const auto& [n, v] : r.values) csv << ',' << n;
+      csv << '\n';
+    }
+    csv << fmt::format("{},{},{:.9g},{},{},{:.9g}", r.index, r.phase, r.target, int(r.reached), r.steps, r.time);
+    for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
+    csv << '\n' << std::flush;
+    write_observables(out, *sim);
+    write_frame(out, *sim);
+    auto value = [&](const std::string& n) {
+      for (const auto& [k, v] : r.values)
+        if (k == n) return v;
+      return std::nan("");
+    };
+    if (!r.reached) {
+      ++unreached;
+      fmt::print(stderr, "warning: stage {} ({} at P* = {:.4g}) did not reach {} within its budget of {} steps\n",
+                 r.index, r.phase, r.target, r.phase == "aggregation" ? "one cluster" : "equilibrium", r.steps);
+      out.write_warning(fmt::format("stage {} ({}, P* = {:.6g}) not reached within {} steps", r.index, r.phase, r.target, r.steps));
+    }
+    if (!opt.quiet)
+      fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}\n", r.index, r.phase,
+                 r.target, r.reached ? "equilibrium" : "NOT REACHED", r.steps, value("solid_fraction"),
+                 value("coordination"));
+    std::fflush(stdout);
+  };
+  const auto records = run_programme(*sim, settings, on_stage);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double cvode = sim->get("cvode_seconds");
+  const double rate = seconds > 0 ? double(sim->step_count()) * double(sim->particle_count()) / seconds : 0.0;
+  out.set_attribute("status", unreached ? fmt::format("complete; {} stage(s) did not reach equilibrium", unreached)
+                                        : std::string("complete"));
+  out.set_scalar("wall_seconds", seconds);
+  out.set_scalar("particle_steps_per_second", rate);
+  out.set_scalar("cvode_share", seconds > 0 ? cvode / seconds : 0.0);
+  out.flush();
+  fmt::print("  stages       {} ({} not reached)\n", records.size(), unreached);
+  fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g})\n", sim->step_count(), sim->dt(), sim->time());
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
+  fmt::print("  CVODE        {:.3f} s = {:.2f} % of the wall time ({} internal steps, {} restarts)\n", cvode,
+             seconds > 0 ? 100 * cvode / seconds : 0.0, sim->get("cvode_steps"), sim->get("cvode_reinitialisations"));
+  fmt::print("  table        {}\n  output       {}\n", table, path);
+  return 0;
+}
+
+}  // namespace grains
