@@ -42,11 +42,22 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   long unreached = 0;
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
-      csv << "stage,phase,target_pressure,reached,steps,time";
+      // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
+      csv << "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time";
       for (const auto& [n, v] : r.values) csv << ',' << n;
       csv << '\n';
     }
-    csv << fmt::format("{},{},{:.9g},{},{},{:.9g}", r.index, r.phase, r.target, int(r.reached), r.steps, r.time);
+    auto value_of = [&](const std::string& n) {
+      for (const auto& [k, v] : r.values)
+        if (k == n) return v;
+      return std::nan("");
+    };
+    const std::string branch = r.phase == "unloading"                      ? "unloading"
+                               : r.phase == "loading" || (r.phase == "equilibrate" && r.target == settings.start_pressure)
+                                   ? "loading"
+                                   : "preparation";
+    csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{},{},{:.9g}", r.index, r.phase, branch, r.target,
+                       value_of("pressure_reduced"), value_of("solid_fraction"), int(r.reached), r.steps, r.time);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
     write_observables(out, *sim);

@@ -23,6 +23,8 @@ class Barostat {
     ode_.reset(length_.data(), rate_.data(), t);
   }
 
+  // Restart CVODE at every particle step (for measuring what its kept history saves).
+  void restart_every_step(bool on) { restart_every_step_ = on; }
   double target_pressure() const { return target_; }
   // A new target (and the strain-rate cap that goes with it) is a discontinuity of the forcing:
   // CVODE restarts at the next step.
@@ -50,7 +52,7 @@ class Barostat {
 
   // Advance the lengths over [t, t + h] under `stress` (frozen); returns L(t + h) / L(t) per axis.
   Vec<D> advance(double t, double h, const Tensor<D>& stress) {
-    if (reset_pending_ || ode_.time() != t) ode_.reset(length_.data(), rate_.data(), t);
+    if (reset_pending_ || restart_every_step_ || ode_.time() != t) ode_.reset(length_.data(), rate_.data(), t);
     reset_pending_ = false;
     Vec<D> excess;
     for (int a = 0; a < D; ++a) excess[a] = stress(a, a) - target_;
@@ -74,6 +76,7 @@ class Barostat {
   Vec<D> length_, rate_;   // rate_: CVODE's rate variable, what a restart starts from
   double target_;
   mutable bool reset_pending_ = false;
+  bool restart_every_step_ = false;
 };
 
 }  // namespace grains

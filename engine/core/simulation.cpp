@@ -388,6 +388,7 @@ class SimulationImpl final : public Simulation {
                    scene.real("cell.tolerance_stress"), scene.real("cell.tolerance_kinetic")};
     barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
     if (!cell_active_) barostat_->hold();
+    barostat_->restart_every_step(scene.boolean("cell.restart_cvode_every_step"));
     cell_list_reach_ = list_reach;
     sys_.want_virial = true;
   }

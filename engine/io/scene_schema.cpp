@@ -152,6 +152,9 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"cell.rtol", K::real, "1e-6", 1e-14, 1e-1, false, false, "", "CVODE relative tolerance on the cell lengths and rates."},
       {"cell.atol", K::real, "1e-9", 0, inf, true, false, "",
        "CVODE absolute tolerance on the lengths in units of a (on the rates: a / T0)."},
+      {"cell.restart_cvode_every_step", K::boolean, "false", 0, 0, false, false, "",
+       "Re-initialise CVODE at every particle step instead of keeping its history across steps (for the benchmark "
+       "that measures what the kept history saves)."},
       {"cell.tolerance_force", K::real, "1e-5", 0, inf, true, false, "",
        "Equilibrium: every net force < value * F1, F1 = max(F0, P a^(D-1))."},
       {"cell.tolerance_torque", K::real, "1e-5", 0, inf, true, false, "", "Equilibrium: every net torque < value * F1 a."},
