@@ -1,0 +1,77 @@
+"""FMU overhead benchmark (not a test): the default aggregation scene run by the runner and by fmpy
+driving the FMI 2 and FMI 3 FMUs with a communication step of 100 internal steps (all outputs read at
+every communication point), wall time ratio measured in one session, runs alternated; then the cost
+of an empty fmi2DoStep / fmi3DoStep (step size 0) through fmpy.
+
+    python runner/bench_fmu.py [--build build] [--duration 11.6] [--repeat 2]
+"""
+import argparse
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default=str(ROOT / "build"))
+    ap.add_argument("--duration", type=float, default=None, help="simulated time (default: the scene's, 11.6 = 3 t_ff)")
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--calls", type=int, default=20000, help="empty doStep calls timed")
+    args = ap.parse_args()
+    build = pathlib.Path(args.build)
+    os.environ["GRAINS_FMU_DIR"] = str(build / "fmus")
+    sys.path.insert(0, str(ROOT / "tests" / "python"))
+    import fmpy
+    from fmu_host import Unit, fmu_path
+
+    scene = ROOT / "models" / "aggregation.toml"
+    probe = Unit(fmu_path("aggregation", 2))
+    dt = probe.get("time.dt")
+    probe.free()
+    steps = round((args.duration if args.duration else 11.6) / dt)
+    steps -= steps % 100
+    stop = steps * dt
+    print(f"aggregation scene: {steps} steps of dt = {dt:.6g} (t = {stop:.6g}), communication step 100 dt")
+
+    def runner():
+        with tempfile.TemporaryDirectory() as tmp:
+            t = time.perf_counter()
+            subprocess.run([str(build / "runner" / "grains"), "run", str(scene), "--set", f"time.steps={steps}",
+                            "--out", f"{tmp}/a.h5", "--quiet"], check=True, capture_output=True)
+            return time.perf_counter() - t
+
+    def fmu(version):
+        path = str(fmu_path("aggregation", version))
+        t = time.perf_counter()
+        fmpy.simulate_fmu(path, stop_time=stop, output_interval=100 * dt)
+        return time.perf_counter() - t
+
+    times = {"runner": [], "fmi2": [], "fmi3": []}
+    for _ in range(args.repeat):
+        times["runner"].append(runner())
+        times["fmi2"].append(fmu(2))
+        times["fmi3"].append(fmu(3))
+    best = {k: min(v) for k, v in times.items()}
+    for k, v in times.items():
+        print(f"  {k:7s} wall {', '.join(f'{x:.2f}' for x in v)} s   best {best[k]:.2f} s   "
+              f"ratio to runner {best[k] / best['runner']:.3f}")
+
+    for version in (2, 3):
+        unit = Unit(fmu_path("collision", version)).initialize()
+        for _ in range(1000):
+            unit.fmu.doStep(0.0, 0.0)
+        t = time.perf_counter()
+        for _ in range(args.calls):
+            unit.fmu.doStep(0.0, 0.0)
+        per_call = (time.perf_counter() - t) / args.calls
+        unit.free()
+        print(f"  empty doStep (FMI {version}, through fmpy/ctypes): {per_call * 1e6:.2f} us per call")
+
+
+if __name__ == "__main__":
+    main()
