@@ -8,6 +8,7 @@ of an empty fmi2DoStep / fmi3DoStep (step size 0) through fmpy.
 import argparse
 import os
 import pathlib
+import resource
 import subprocess
 import sys
 import tempfile
@@ -22,6 +23,7 @@ def main():
     ap.add_argument("--duration", type=float, default=None, help="simulated time (default: the scene's, 11.6 = 3 t_ff)")
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--calls", type=int, default=20000, help="empty doStep calls timed")
+    ap.add_argument("--threads", type=int, default=None, help="run.threads for both (default: the scene's, 2)")
     args = ap.parse_args()
     build = pathlib.Path(args.build)
     os.environ["GRAINS_FMU_DIR"] = str(build / "fmus")
@@ -38,28 +40,32 @@ def main():
     stop = steps * dt
     print(f"aggregation scene: {steps} steps of dt = {dt:.6g} (t = {stop:.6g}), communication step 100 dt")
 
-    def runner():
-        with tempfile.TemporaryDirectory() as tmp:
-            t = time.perf_counter()
-            subprocess.run([str(build / "runner" / "grains"), "run", str(scene), "--set", f"time.steps={steps}",
-                            "--out", f"{tmp}/a.h5", "--quiet"], check=True, capture_output=True)
-            return time.perf_counter() - t
+    threads = [] if args.threads is None else ["--set", f"run.threads={args.threads}"]
+    start_values = {} if args.threads is None else {"run.threads": args.threads}
 
-    def fmu(version):
+    def runner():   # (wall, CPU) seconds of the whole command
+        with tempfile.TemporaryDirectory() as tmp:
+            c, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+            subprocess.run([str(build / "runner" / "grains"), "run", str(scene), "--set", f"time.steps={steps}", *threads,
+                            "--out", f"{tmp}/a.h5", "--quiet"], check=True, capture_output=True)
+            c2 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            return time.perf_counter() - t, c2.ru_utime + c2.ru_stime - c.ru_utime - c.ru_stime
+
+    def fmu(version):   # (wall, CPU) seconds of simulate_fmu: extraction, instantiation, steps, output reads
         path = str(fmu_path("aggregation", version))
-        t = time.perf_counter()
-        fmpy.simulate_fmu(path, stop_time=stop, output_interval=100 * dt)
-        return time.perf_counter() - t
+        c, t = time.process_time(), time.perf_counter()
+        fmpy.simulate_fmu(path, stop_time=stop, output_interval=100 * dt, start_values=start_values)
+        return time.perf_counter() - t, time.process_time() - c
 
     times = {"runner": [], "fmi2": [], "fmi3": []}
     for _ in range(args.repeat):
         times["runner"].append(runner())
         times["fmi2"].append(fmu(2))
         times["fmi3"].append(fmu(3))
-    best = {k: min(v) for k, v in times.items()}
+    best = {k: (min(w for w, _ in v), min(c for _, c in v)) for k, v in times.items()}
     for k, v in times.items():
-        print(f"  {k:7s} wall {', '.join(f'{x:.2f}' for x in v)} s   best {best[k]:.2f} s   "
-              f"ratio to runner {best[k] / best['runner']:.3f}")
+        print(f"  {k:7s} wall {', '.join(f'{w:.2f}' for w, _ in v)} s (best/runner {best[k][0] / best['runner'][0]:.3f})   "
+              f"CPU {', '.join(f'{c:.2f}' for _, c in v)} s (best/runner {best[k][1] / best['runner'][1]:.3f})")
 
     for version in (2, 3):
         unit = Unit(fmu_path("collision", version)).initialize()
