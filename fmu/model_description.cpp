@@ -38,7 +38,8 @@ std::string causality_name(const FmuVariable& v, int fmi) {
 }
 std::string variability_name(const FmuVariable& v) {
   if (v.role == Role::scene_parameter || v.role == Role::calculated_parameter) return "fixed";
-  if (v.role == Role::control) return v.causality == Causality::input ? "continuous" : "tunable";
+  if (v.role == Role::control && v.causality != Causality::input) return "tunable";
+  if (v.role == Role::control) return v.type == ValueType::real ? "continuous" : "discrete";   // FMI: integers are never continuous
   return "continuous";
 }
 bool has_start(const FmuVariable& v) { return v.role == Role::scene_parameter || v.role == Role::control; }

@@ -1,0 +1,34 @@
+"""A host drives the consolidation FMU's target pressure P* (input cell.pressure) through a loading ramp
+and an unloading, and the solid fraction output Phi traces the consolidation curve: Phi grows with P*
+on loading, and the compaction is kept on unloading (cohesive grains: almost no elastic rebound)."""
+import math
+
+import pytest
+
+from fmu_host import Unit, fmu_path
+
+LOADING = [0.01, 0.1, 1.0, 10.0]
+UNLOADING = [1.0, 0.1, 0.01]
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_pressure_ramp_traces_the_consolidation_curve(version):
+    unit = Unit(fmu_path("consolidation", version)).initialize({"particles.count": 200})
+    h = 3000 * unit.get("time.dt")
+    phi = {}
+    trace = []
+    for stage, p in enumerate(LOADING + UNLOADING):
+        unit.set("cell.pressure", p)
+        assert unit.get("cell.pressure") == p
+        for _ in range(8):
+            unit.step(h)
+            trace.append(unit.get("solid_fraction"))
+        phi[(stage < len(LOADING), p)] = trace[-1]
+    assert all(math.isfinite(x) and 0 < x < 1 for x in trace)
+    loading = [phi[(True, p)] for p in LOADING]
+    assert loading[1:] == sorted(loading[1:]) and loading[-1] > loading[0] + 0.2, loading   # compaction under load
+    for p in UNLOADING:   # unloading keeps the compaction (no rebound beyond 0.01 as P* falls a thousandfold)
+        assert phi[(False, p)] > phi[(True, 10.0)] - 0.01, (p, phi)
+        assert phi[(False, p)] > phi[(True, p)] + 0.2, (p, phi)   # hysteresis: far denser than on loading
+    assert unit.errors() == []
+    unit.free()
