@@ -2,10 +2,12 @@
 
     python runner/consolidation_fit.py STAGES.csv [-o fit.png] [--p0 P0] [--regime2-max P]
 
-STAGES is the table of equilibrated stages of a compression programme: a CSV file with a header
-naming at least the columns `P_star` and `phi` (others are ignored; an optional `branch` column
-with `loading` / `unloading` keeps the fit on the loading branch), or an HDF5 file with a group
-`stages` holding `P_star` and `phi` (datasets, or H5MD-style groups with a `value` dataset).
+STAGES is the table of equilibrated stages of a compression programme: the CSV that `grains
+consolidate` writes (columns pressure_reduced, solid_fraction, phase, reached), or any CSV with a
+header naming at least `P_star` and `phi` (an optional `branch` column with `loading` / `unloading`
+keeps the fit on the loading branch), or an HDF5 file with a group `stages` holding `P_star` and
+`phi` (datasets, or H5MD-style groups with a `value` dataset). Stages that did not reach equilibrium
+are left out.
 
 Two fits, both on the loading branch:
   regime II (a straight line in ln P*):   1/Phi = 1/Phi0 - lambda ln(P*/P0*)
@@ -113,8 +115,14 @@ def fit_crossover(p, phi, p0=None, guess=None):
             "P1": p1, "P1_err": p1_err, "stages": int(np.sum(p >= p0))}
 
 
+# Column names accepted for each quantity: this tool's own, and those of `grains consolidate`'s table.
+COLUMNS = {"P_star": ("P_star", "pressure_reduced"), "phi": ("phi", "solid_fraction"), "branch": ("branch", "phase")}
+
+
 def read_stages(path):
-    """(P*, Phi, branch) arrays from a CSV or HDF5 stage table."""
+    """(P*, Phi, branch) arrays from a CSV or HDF5 stage table. Rows of `grains consolidate` that did
+    not reach equilibrium (reached = 0), the aggregation stage and the relaxation at target P* = 0 are left out (and
+    counted on stderr); its `equilibrate` stage at the start pressure is the first loading point."""
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
@@ -131,18 +139,31 @@ def read_stages(path):
             branch = None
             if "branch" in g:
                 branch = np.array([b.decode() if isinstance(b, bytes) else str(b) for b in g["branch"][()]])
+            reached = np.ones(len(p), bool)
+            prepared = np.ones(len(p), bool)
     else:
         with open(path, newline="") as f:
             rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
-        if not rows or "P_star" not in rows[0] or "phi" not in rows[0]:
-            raise ValueError(f"'{path}' needs a header with columns P_star and phi")
-        p = np.array([float(r["P_star"]) for r in rows])
-        phi = np.array([float(r["phi"]) for r in rows])
-        branch = np.array([r["branch"] for r in rows]) if "branch" in rows[0] else None
+        header = rows[0].keys() if rows else []
+        pick = {k: next((c for c in names if c in header), None) for k, names in COLUMNS.items()}
+        if pick["P_star"] is None or pick["phi"] is None:
+            raise ValueError(f"'{path}' needs a header with columns P_star (or pressure_reduced) and phi "
+                             f"(or solid_fraction); it has {', '.join(header) or 'none'}")
+        p = np.array([float(r[pick["P_star"]]) for r in rows])
+        phi = np.array([float(r[pick["phi"]]) for r in rows])
+        branch = np.array([r[pick["branch"]] for r in rows]) if pick["branch"] else None
+        reached = np.array([r.get("reached", "1") != "0" for r in rows])
+        # grains consolidate: the aggregation stage (no target) and the relaxation at P* = 0 are preparation
+        prepared = np.array([float(r.get("target_pressure", "1")) > 0 for r in rows])
     if branch is None:   # loading = the stages up to the largest pressure
         top = int(np.argmax(p))
         branch = np.array(["loading"] * (top + 1) + ["unloading"] * (len(p) - top - 1))
-    return p, phi, branch
+    branch = np.where(branch == "equilibrate", "loading", branch)
+    keep = reached & prepared & np.isfinite(p) & (p > 0) & np.isfinite(phi) & np.isin(branch, ["loading", "unloading"])
+    if (~keep).any():
+        print(f"{int((~reached).sum())} stage(s) without equilibrium and {int((~keep & reached).sum())} preparation "
+              f"stage(s) left out", file=sys.stderr)
+    return p[keep], phi[keep], branch[keep]
 
 
 def plot(p, phi, branch, regime2, crossover, out):

@@ -98,3 +98,23 @@ def test_command_fits_a_table_and_writes_the_plot(tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), str(bad)],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "P_star" in r.stderr
+
+
+def test_reads_the_table_of_grains_consolidate(tmp_path):
+    """Columns of `grains consolidate`: the aggregation, P* = 0 and unreached stages are left out, the
+    prepared state (phase equilibrate) starts the loading branch."""
+    p = programme()
+    phi = synthetic_phi(p)
+    rows = ["stage,phase,target_pressure,reached,steps,time,pressure_reduced,solid_fraction,coordination",
+            "0,aggregation,nan,1,100,1,0,0.36,2.9", "1,equilibrate,0,1,100,2,1e-9,0.40,3.0"]
+    rows.append(f"2,equilibrate,0.01,1,100,3,{p[0]:.17g},{phi[0]:.17g},3.0")
+    rows += [f"{k + 3},loading,{a:.17g},1,100,4,{a:.17g},{b:.17g},3.0" for k, (a, b) in enumerate(zip(p[1:], phi[1:]))]
+    rows.append("99,unloading,1,0,100,5,0.9,0.5,3.0")   # not reached: out
+    rows.append(f"100,unloading,0.01,1,100,6,0.01,{phi[-1]:.17g},3.0")
+    table = tmp_path / "consolidation-stages.csv"
+    table.write_text("\n".join(rows) + "\n")
+    got_p, got_phi, branch = cf.read_stages(table)
+    assert list(branch).count("loading") == len(p) and list(branch).count("unloading") == 1
+    assert got_p[0] == p[0] and got_phi[-1] == phi[-1]
+    fit = cf.fit_crossover(got_p[branch == "loading"], got_phi[branch == "loading"], P0)
+    assert fit["lambda"] == pytest.approx(LAM, rel=1e-6)
