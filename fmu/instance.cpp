@@ -163,7 +163,28 @@ Status Instance::enter_initialization(double start_time) {
 Status Instance::exit_initialization() {
   if (Status s = check_phase("ExitInitializationMode", {Phase::initialization}); s != Status::ok) return s;
   if (Status s = ensure_built(); s != Status::ok) return s;
+  if (snapshots_every_ > 0) {
+    try {
+      snapshots_ = std::make_unique<SnapshotOutput>(name_ + ".h5", *sim_, GRAINS_VERSION, scene_.resolved_toml());
+    } catch (const std::exception& e) {
+      return error(e.what());
+    }
+    next_snapshot_ = sim_->step_count();
+    if (Status s = write_snapshot_if_due(); s != Status::ok) return s;
+  }
   phase_ = Phase::stepping;
+  return Status::ok;
+}
+
+// A frame at the first communication point at or after each multiple of fmu.snapshots_every steps.
+Status Instance::write_snapshot_if_due() {
+  if (!snapshots_ || sim_->step_count() < next_snapshot_) return Status::ok;
+  try {
+    snapshots_->write(*sim_);
+  } catch (const std::exception& e) {
+    return error(e.what());
+  }
+  next_snapshot_ = (sim_->step_count() / snapshots_every_ + 1) * snapshots_every_;
   return Status::ok;
 }
 
@@ -188,7 +209,7 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
   for (std::size_t i = warnings_before; i < w.size(); ++i)
     if (enabled(log_warning)) logger_(Status::warning, log_warning, w[i]);
   if (reached_time) *reached_time = time();
-  return Status::ok;
+  return write_snapshot_if_due();
 }
 
 Status Instance::terminate() {
@@ -203,6 +224,8 @@ Status Instance::reset() {
   pending_controls_.clear();
   dirty_ = true;
   start_time_ = 0;
+  snapshots_.reset();
+  snapshots_every_ = 0;
   phase_ = Phase::instantiated;
   return ensure_built();
 }
@@ -224,6 +247,11 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
     if (v.type != type && v.role != Role::particle_array)
       return error(fmt::format("variable '{}' (reference {}) has type {}; it was read as {}", v.name, ref, type_name(v.type),
                                type_name(type)));
+    if (v.role == Role::snapshot_option) {
+      if (k >= values.size()) break;
+      values[k++] = double(snapshots_every_);
+      continue;
+    }
     if (v.role == Role::scene_parameter) {
       if (k >= values.size()) break;
       values[k++] = v.type == ValueType::real ? scene_.real(v.scene_key)
@@ -266,18 +294,23 @@ Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::s
 
 Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
   const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
-  if (v.role != Role::scene_parameter && v.role != Role::control)
+  if (v.role != Role::scene_parameter && v.role != Role::control && v.role != Role::snapshot_option)
     return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", v.name, ref, role_name(v.role)));
   if (!std::isfinite(value))
     return error(fmt::format("{} = {} is not allowed: a finite value{}", v.name, value,
                              std::isfinite(v.min) || std::isfinite(v.max) ? fmt::format(" in [{}, {}]", v.min, v.max) : ""));
   if (v.type == ValueType::integer && value != std::floor(value))
     return error(fmt::format("{} = {} is not allowed: an integer", v.name, value));
-  if (v.role == Role::scene_parameter && !before_steps)
+  if ((v.role == Role::scene_parameter || v.role == Role::snapshot_option) && !before_steps)
     return error(fmt::format("'{}' is a fixed parameter: it can only be set before the end of initialization, not in {} "
                              "(reset the FMU to change it)", v.name, phase_name(phase_)));
   if (phase_ == Phase::terminated || phase_ == Phase::failed)
     return error(fmt::format("setting '{}' is not allowed in {}", v.name, phase_name(phase_)));
+  if (v.role == Role::snapshot_option) {
+    if (value < 0) return error(fmt::format("{} = {} is not allowed: an integer >= 0 (0 = no snapshots)", v.name, value));
+    snapshots_every_ = static_cast<long>(value);
+    return Status::ok;
+  }
   if (v.role == Role::control && (value < v.min || value > v.max))   // scene keys: the scene schema checks below
     return error(fmt::format("{} = {} is out of range: allowed [{}, {}]", v.name, value, v.min, v.max));
 

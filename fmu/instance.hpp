@@ -17,6 +17,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "model_variables.hpp"
+#include "snapshot_output.hpp"
 
 namespace grains::fmu {
 
@@ -105,6 +106,10 @@ class Instance {
   ModelTable table_;          // of the packaged scene: references and types never change
   Phase phase_ = Phase::instantiated;
   double start_time_ = 0;     // host time = start_time_ + simulation time
+  long snapshots_every_ = 0;  // fmu.snapshots_every
+  long next_snapshot_ = 0;
+  std::unique_ptr<SnapshotOutput> snapshots_;
+  Status write_snapshot_if_due();
 };
 
 }  // namespace grains::fmu

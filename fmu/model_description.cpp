@@ -30,6 +30,7 @@ std::string number(double x) { return fmt::format("{}", x); }
 std::string causality_name(const FmuVariable& v, int fmi) {
   switch (v.role) {
     case Role::scene_parameter: return fmi == 3 && v.structural ? "structuralParameter" : "parameter";
+    case Role::snapshot_option: return "parameter";
     case Role::calculated_parameter: return "calculatedParameter";
     case Role::independent: return "independent";
     case Role::control: return v.causality == Causality::input ? "input" : "parameter";
@@ -37,12 +38,14 @@ std::string causality_name(const FmuVariable& v, int fmi) {
   }
 }
 std::string variability_name(const FmuVariable& v) {
-  if (v.role == Role::scene_parameter || v.role == Role::calculated_parameter) return "fixed";
+  if (v.role == Role::scene_parameter || v.role == Role::calculated_parameter || v.role == Role::snapshot_option) return "fixed";
   if (v.role == Role::control && v.causality != Causality::input) return "tunable";
   if (v.role == Role::control) return v.type == ValueType::real ? "continuous" : "discrete";   // FMI: integers are never continuous
   return "continuous";
 }
-bool has_start(const FmuVariable& v) { return v.role == Role::scene_parameter || v.role == Role::control; }
+bool has_start(const FmuVariable& v) {
+  return v.role == Role::scene_parameter || v.role == Role::control || v.role == Role::snapshot_option;
+}
 
 std::string start_text(const FmuVariable& v) {
   if (v.type == ValueType::boolean) return v.start != 0 ? "true" : "false";

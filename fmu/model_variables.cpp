@@ -64,6 +64,18 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
     }
     t.variables.push_back(std::move(v));
   }
+  // The FMU's own option: HDF5 snapshots through the optional plugin.
+  FmuVariable snapshots;
+  snapshots.name = "fmu.snapshots_every";
+  snapshots.role = Role::snapshot_option;
+  snapshots.type = ValueType::integer;
+  snapshots.causality = Causality::parameter;
+  snapshots.variability = Variability::fixed;
+  snapshots.min = 0;
+  snapshots.description = "Steps between particle snapshots written to <instance name>.h5 in the working directory "
+                          "(the runner's H5MD layout, XDMF beside it), via the HDF5 plugin grains_snapshots.so; 0 = none";
+  t.variables.push_back(snapshots);
+
   auto is_scene_parameter = [&](const std::string& name) {
     for (const auto& v : t.variables)
       if (v.name == name) return true;

@@ -20,6 +20,7 @@ enum class Role {
   scene_parameter,       // a scene key, set before initialization (the Simulation is built from the scene)
   calculated_parameter,  // derived by the engine from the scene (k_n, dt...)
   control,               // input or tunable parameter: Simulation::set while stepping
+  snapshot_option,       // fmu.snapshots_every: the FMU's own HDF5 snapshot output (0 = off)
   independent,           // time
   output,                // an observable: Simulation::get
   particle_array,        // FMI 3 only: per-particle values (positions, radii)

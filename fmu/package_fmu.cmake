@@ -16,6 +16,7 @@ foreach(version 2 3)
   file(MAKE_DIRECTORY ${root}/binaries/${platform} ${root}/resources)
   file(COPY_FILE ${STAGE}/generated/fmi${version}/modelDescription.xml ${root}/modelDescription.xml)
   file(COPY_FILE ${BINARY} ${root}/binaries/${platform}/${IDENTIFIER}.so)
+  file(COPY_FILE ${PLUGIN} ${root}/binaries/${platform}/grains_snapshots.so)   # optional HDF5 snapshots
   file(COPY_FILE ${SCENE} ${root}/resources/scene.toml)
   file(COPY ${STAGE}/generated/documentation ${STAGE}/generated/extra DESTINATION ${root})
   file(MAKE_DIRECTORY ${OUT}/fmi${version})

@@ -1,0 +1,50 @@
+"""Optional HDF5 snapshots from inside the FMU (fmu.snapshots_every), through the plugin library that is
+loaded only when asked for: the runner's H5MD layout and numbers; a clear error when the plugin is absent."""
+import os
+import shutil
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+from fmu_host import Unit, _extracted, extracted, fmu_path
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_snapshots_equal_the_runner_frames(grains_bin, root, tmp_path, monkeypatch, version):
+    monkeypatch.chdir(tmp_path)
+    subprocess.run([grains_bin, "run", root / "models" / "collision.toml", "--set", "time.steps=30", "--set",
+                    "output.snapshots_every=10", "--out", tmp_path / "runner.h5", "--quiet"], check=True, capture_output=True)
+    unit = Unit(fmu_path("collision", version), name="snap")
+    unit.initialize({"fmu.snapshots_every": 10})
+    for _ in range(6):
+        unit.step(5 * unit.get("time.dt"))
+    unit.free()
+    with h5py.File(tmp_path / "snap.h5") as fmu, h5py.File(tmp_path / "runner.h5") as runner:
+        for field in ("position", "velocity"):
+            np.testing.assert_array_equal(fmu[f"particles/all/{field}/value"][()], runner[f"particles/all/{field}/value"][()])
+        np.testing.assert_array_equal(fmu["particles/all/position/step"][()], [0, 10, 20, 30])
+    assert (tmp_path / "snap.xdmf").exists()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_missing_plugin_is_a_clear_error(tmp_path, monkeypatch, version):
+    monkeypatch.chdir(tmp_path)
+    path = fmu_path("collision", version)
+    copy = tmp_path / "no-plugin"
+    shutil.copytree(extracted(path), copy)
+    for platform in ("linux64", "x86_64-linux"):
+        plugin = copy / "binaries" / platform / "grains_snapshots.so"
+        if plugin.exists():
+            os.remove(plugin)
+    shutil.copy(path, str(copy) + ".fmu")
+    _extracted[str(copy) + ".fmu"] = str(copy)
+    unit = Unit(str(copy) + ".fmu")
+    with pytest.raises(Exception):
+        unit.initialize({"fmu.snapshots_every": 5})
+    assert any("grains_snapshots.so" in m and "HDF5" in m for m in unit.errors()), unit.errors()
+    unit.reset()
+    unit.initialize()   # without snapshots the FMU runs
+    unit.step(0.1)
+    unit.free()
