@@ -75,7 +75,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     }
     if (!opt.quiet)
       fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}\n", r.index, r.phase,
-                 r.target, r.reached ? "equilibrium" : "NOT REACHED", r.steps, value("solid_fraction"),
+                 r.target, r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
                  value("coordination"));
     std::fflush(stdout);
   };

@@ -145,7 +145,9 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"cell.contact_damping", K::real, "1.0", 0, inf, false, false, "",
        "Factor on the damping the contacts' dashpots give the cell's strain rate, eta_a = c_n sum_contacts (r^a n^a)^2 / "
        "L_a^2 with the global c_n, refreshed every 10 steps. Particle velocities are relative to the affine flow, so "
-       "the pair loop does not see it; 0 leaves a jammed cell breathing undamped."},
+       "the pair loop does not see it; 0 leaves a jammed cell breathing undamped. It assumes every contact is "
+       "strained affinely, which overestimates the drag of a tenuous cohesive network many times (such networks "
+       "buckle instead): the cohesive scenes set 0."},
       {"cell.inertia_number", K::real, "0.05", 0, inf, true, false, "",
        "I_a: the strain rate is capped at |dL/dt| / L <= I_a / T, T = sqrt(a m / F1), m = mass of a grain of diameter "
        "a, F1 = max(F0, P a^(D-1)) (T = T0 when cohesion dominates)."},

@@ -194,3 +194,18 @@ TEST_CASE("barostat: bad pressure and cell parameters get errors naming the fiel
   auto tiny = Simulation::create(Scene::from_string(packed_cell_scene(2, 6, 1e-3), "tiny"));
   CHECK_THROWS_WITH(tiny->step_n(300000), Catch::Contains("shrunk") && Catch::Contains("more particles"));
 }
+
+TEST_CASE("barostat: cell.active = 0 holds the cell fixed at rest, 1 lets it move again", "[barostat]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
+  s->step_n(2000);
+  REQUIRE(s->get("cell_strain_rate_x") < 0);   // compressing
+  s->set("cell.active", 0);
+  const double held = s->get("cell_length_x");
+  s->step_n(2000);
+  CHECK(s->get("cell_length_x") == held);
+  CHECK(s->get("cell_strain_rate_x") == 0);
+  CHECK_THROWS_WITH(s->set("cell.active", 0.5), Catch::Contains("cell.active"));
+  s->set("cell.active", 1);
+  s->step_n(2000);
+  CHECK(s->get("cell_length_x") < held);
+}

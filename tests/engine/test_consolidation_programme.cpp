@@ -8,6 +8,7 @@
 
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "analysis/bonded_clusters.hpp"
 #include "protocols/consolidation_programme.hpp"
 
 using namespace grains;
@@ -114,4 +115,13 @@ preparation = "type1"
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(type2), Catch::Contains("programme.preparation") && Catch::Contains("adhesion"));
   auto low_top = Scene::from_string(small_programme(10), "bad", {"programme.top_pressure=1e-4"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(low_top), Catch::Contains("programme.top_pressure"));
+}
+
+TEST_CASE("bonded clusters: connected components of the contact and bond graph", "[programme]") {
+  std::vector<NetworkInteraction> links{{0, 1, -1e-4, 1.0}, {2, 3, 5e-4, -0.5}};
+  CHECK(count_bonded_clusters(5, links) == 3);   // {0,1}, {2,3}, {4}
+  links.push_back({1, 2, -1e-4, 0.0});
+  links.push_back({3, 4, 1e-4, -0.1});
+  CHECK(count_bonded_clusters(5, links) == 1);
+  CHECK(count_bonded_clusters(3, {}) == 3);
 }
