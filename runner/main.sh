@@ -4,10 +4,16 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 grains_setup
-scene="${1:-$GRAINS_ROOT/models/gas.toml}"
+scene="${1:-$GRAINS_ROOT/models/aggregation.toml}"
 shift || true
 mkdir -p "$GRAINS_ROOT/out"
 name="$(basename "$scene" .toml)"
 "$GRAINS_BUILD/runner/grains" run "$scene" --out "$GRAINS_ROOT/out/$name.h5" "$@"
-"$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$GRAINS_ROOT/out/$name.h5" -o "$GRAINS_ROOT/out/$name.png" \
-  --observables kinetic_energy,elastic_energy,contacts,max_overlap_ratio
+# Gravity scenes: f_max, N_c / N and Q against t / t_ff; others: the energies and contacts against time.
+if h5="$GRAINS_ROOT/out/$name.h5" "$GRAINS_VENV/bin/python" -c \
+    'import h5py, os, sys; sys.exit("time_over_free_fall" not in h5py.File(os.environ["h5"])["observables"])'; then
+  plot_args=(--observables largest_cluster_fraction,cluster_index,virial_ratio --x time_over_free_fall)
+else
+  plot_args=(--observables kinetic_energy,elastic_energy,contacts,max_overlap_ratio)
+fi
+"$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$GRAINS_ROOT/out/$name.h5" -o "$GRAINS_ROOT/out/$name.png" "${plot_args[@]}"

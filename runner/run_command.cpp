@@ -94,6 +94,12 @@ int run_scene(const RunOptions& opt) {
   } else {
     out.set_attribute("status", "complete");
   }
+  if (scene.boolean("analysis.collision_log")) {   // the full event log beside the counts
+    std::vector<double> table;
+    for (const CollisionEvent& e : sim->collision_events())
+      table.insert(table.end(), {double(e.i), double(e.j), e.start, e.end, e.impact_speed, e.rebound_speed, double(e.adhesive)});
+    out.write_table("collisions", {"i", "j", "start", "end", "impact_speed", "rebound_speed", "adhesive"}, table);
+  }
   const double seconds = progress.elapsed_seconds();
   const double rate = seconds > 0 ? double(done) * double(sim->particle_count()) / seconds : 0.0;
   out.set_scalar("wall_seconds", seconds);
@@ -110,11 +116,17 @@ int run_scene(const RunOptions& opt) {
   // Whatever of these the scene's modules provide.
   for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds",
                            "gravity_potential_energy", "virial_ratio", "time_over_free_fall", "cluster_count",
-                           "largest_cluster_fraction", "aggregation_time", "fractal_dimension"}) {
+                           "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension",
+                           "collision_count", "adhesive_collision_count", "adhesive_collision_fraction",
+                           "open_collision_count"}) {
     try {
-      fmt::print("  {:<25} {:.6g}\n", name, sim->get(name));
+      fmt::print("  {:<27} {:.6g}\n", name, sim->get(name));
     } catch (const SimulationError&) {
     }
+  }
+  try {   // the aggregation time in free-fall times (NaN when the threshold was never reached)
+    fmt::print("  {:<27} {:.6g}\n", "aggregation_time / t_ff", sim->get("aggregation_time") / sim->get("free_fall_time"));
+  } catch (const SimulationError&) {
   }
   fmt::print("  warnings     {}\n", sim->warnings().size());
   fmt::print("  output       {}\n", path);

@@ -14,6 +14,7 @@
 #include "analysis/clusters.hpp"
 #include "analysis/bonded_clusters.hpp"
 #include "analysis/contact_network.hpp"
+#include "analysis/collision_events.hpp"
 #include "analysis/fractal_dimension.hpp"
 #include "analysis/stress.hpp"
 #include "cell/affine_contact_damping.hpp"
@@ -72,6 +73,9 @@ class SimulationImpl final : public Simulation {
         tc = scene.real("contact.duration");
         add_contact_module(scene, tc);
       }
+      if (scene.boolean("analysis.collision_log")) collisions_ = std::make_unique<CollisionLog<D>>();
+    } else if (scene.boolean("analysis.collision_log")) {
+      scene.fail("analysis.collision_log", "the collision log needs contacts: set contact.enabled = true or collision_log = false");
     }
     if (scene.boolean("gravity.enabled")) {
       if (sys_.box.any_periodic())
@@ -93,6 +97,7 @@ class SimulationImpl final : public Simulation {
     if (tc > 0 && dt_ > tc / 20)
       warn(fmt::format("time.dt = {:.6g} exceeds t_c / 20 = {:.6g} (contact duration {:.6g}): contacts are resolved by "
                        "fewer than 20 steps and restitution will be inaccurate", dt_, tc / 20, tc));
+    if (scene.boolean("gravity.enabled")) warn_gravity_step(scene, rmin, tc > 0);
 
     double range = -1;
     for (const auto& m : modules_) range = std::max(range, m->pair_range());
@@ -124,6 +129,7 @@ class SimulationImpl final : public Simulation {
     check_finite("the initial state");
     track_aggregation();
     if (network_) reference_contacts_ = contact_keys(interactions());
+    if (collisions_) collisions_->after_step(sys_, 0.0);   // pairs touching now start no event
   }
 
   void step(double duration) override {
@@ -152,6 +158,9 @@ class SimulationImpl final : public Simulation {
   std::size_t particle_count() const override { return sys_.particles.size(); }
   const std::vector<VariableInfo>& variables() const override { return vars_; }
   const std::vector<std::string>& warnings() const override { return warnings_; }
+  std::vector<CollisionEvent> collision_events() const override {
+    return collisions_ ? collisions_->events() : std::vector<CollisionEvent>{};
+  }
 
   double get(std::size_t index) const override {
     if (index >= vars_.size()) throw SimulationError(fmt::format("unknown variable index {}", index));
@@ -186,6 +195,7 @@ class SimulationImpl final : public Simulation {
     if (analysis_) w.put(aggregation_time_);
     if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
     if (barostat_) barostat_->save(w), w.put(contact_stress_);
+    if (collisions_) collisions_->save(w);
     for (const auto& [index, c] : controls_) w.put(c.get());
     return w.take();
   }
@@ -219,6 +229,7 @@ class SimulationImpl final : public Simulation {
       contact_stress_ = r.get<Tensor<D>>();
       sys_.box.length = barostat_->length();
     }
+    if (collisions_) collisions_->load(r);
     for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     cache_step_ = -1;
@@ -429,6 +440,7 @@ class SimulationImpl final : public Simulation {
     for (auto& x : P.position) x = sys_.box.wrap(x);
     sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
     for (auto& m : modules_) m->after_rebuild(sys_.neighbours);
+    if (collisions_) collisions_->after_rebuild(sys_.neighbours);
   }
 
   void compute_forces() {
@@ -462,6 +474,23 @@ class SimulationImpl final : public Simulation {
     ++sys_.step;
     if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
     if (analysis_ && sys_.step % analysis_every_ == 0) track_aggregation();
+    if (collisions_) collisions_->after_step(sys_, h);
+  }
+
+  // Gravity time-step rule (physics.md section 3): the fastest orbit the softened potential allows is
+  // the circular one of the two heaviest particles at their closest approach d (contact distance
+  // 2 R_min with contacts, 0 without): T_orb = 2 pi sqrt((d^2 + eps^2)^(3/2) / (G (m_1 + m_2))).
+  // A step above T_orb / 20 resolves that orbit with fewer than 20 steps.
+  void warn_gravity_step(const Scene& scene, double rmin, bool contacts) {
+    std::vector<double> m = sys_.particles.mass;
+    if (m.size() < 2) return;
+    std::partial_sort(m.begin(), m.begin() + 2, m.end(), std::greater<>());
+    const double eps = scene.real("gravity.softening") * rmin, d = contacts ? 2 * rmin : 0.0;
+    const double orbit = 2 * std::acos(-1.0) * std::sqrt(std::pow(d * d + eps * eps, 1.5) / (scene.real("gravity.G") * (m[0] + m[1])));
+    if (orbit > 0 && dt_ > orbit / 20)   // orbit = 0: unsoftened point masses, no bound to check against
+      warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} (T_orb = {:.6g}: the circular orbit of the two heaviest "
+                       "particles at their closest approach d = {:.6g} with softening eps = {:.6g}): close gravitational "
+                       "encounters are resolved by fewer than 20 steps", dt_, orbit / 20, orbit, d, eps));
   }
 
   // --- aggregation analysis (gravity scenes, physics.md section 8) ---
@@ -581,6 +610,12 @@ class SimulationImpl final : public Simulation {
                         "setting a new value makes the current contacts the reference of contacts_kept / lost / gained "
                         "(e.g. the stage number of a compression programme)"};
       add_control(mark, [this] { return network_mark_; }, [this](double v) { mark_network(v); });
+    }
+    if (collisions_) {
+      out("collision_count", "", "completed contact events (analysis.collision_log)");
+      out("adhesive_collision_count", "", "completed events that ended with the pair still touching (no rebound)");
+      out("adhesive_collision_fraction", "", "adhesive_collision_count / collision_count (NaN before the first)");
+      out("open_collision_count", "", "contact events still in progress");
     }
   }
 
@@ -736,6 +771,13 @@ class SimulationImpl final : public Simulation {
       o["contacts_gained"] = double(ch.gained);
       for (int b = 0; b <= network_bins_; ++b) o[fmt::format("force_histogram_{:02}", b)] = net.histogram[b];
     }
+    if (collisions_) {
+      const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
+      o["collision_count"] = n;
+      o["adhesive_collision_count"] = a;
+      o["adhesive_collision_fraction"] = n > 0 ? a / n : std::numeric_limits<double>::quiet_NaN();
+      o["open_collision_count"] = double(collisions_->open());
+    }
     cache_step_ = sys_.step;
     cache_time_ = sys_.time;
   }
@@ -753,6 +795,7 @@ class SimulationImpl final : public Simulation {
   static constexpr int network_bins_ = 20;   // histogram of F_N / F0: width 0.5 from -1, plus one open bin
   std::vector<std::uint64_t> reference_contacts_;
   double aggregation_time_ = std::numeric_limits<double>::quiet_NaN();
+  std::unique_ptr<CollisionLog<D>> collisions_;   // analysis.collision_log only
   std::vector<VariableInfo> vars_;
   std::vector<double> parameter_values_;   // fixed parameters: the first entries of vars_
   std::map<std::size_t, Control> controls_;  // inputs and tunable parameters, by index in vars_

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/collision_event.hpp"
 #include "core/variables.hpp"
 
 namespace grains {
@@ -70,6 +71,10 @@ class Simulation {
 
   virtual ParticleView particles() const = 0;
   virtual BoxView box() const = 0;
+
+  // The collision log (scene key analysis.collision_log): every contact event so far, in the order
+  // they started (open ones have end = NaN); empty when the log is off.
+  virtual std::vector<CollisionEvent> collision_events() const { return {}; }
 
   // Warnings raised while building or running (time step too large, clamped overlaps...).
   virtual const std::vector<std::string>& warnings() const = 0;

@@ -239,6 +239,23 @@ void H5mdWriter::set_scalar(const std::string& name, double value) {
   h5::attr_double(impl_->grains.get(), name, value, impl_->path);
 }
 
+void H5mdWriter::write_table(const std::string& name, const std::vector<std::string>& columns,
+                             const std::vector<double>& values) {
+  Impl& m = *impl_;
+  const std::string what = "/grains/" + name;
+  if (H5Lexists(m.grains.get(), name.c_str(), H5P_DEFAULT) > 0)
+    h5::check(H5Ldelete(m.grains.get(), name.c_str(), H5P_DEFAULT), m.path, "replacing " + what);
+  const hsize_t dims[2] = {columns.empty() ? 0 : values.size() / columns.size(), columns.size()};
+  h5::Handle space(h5::check(H5Screate_simple(2, dims, nullptr), m.path, what), H5Sclose);
+  h5::Handle set(h5::check(H5Dcreate2(m.grains.get(), name.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT,
+                                      H5P_DEFAULT), m.path, "creating " + what),
+                 H5Dclose);
+  if (!values.empty())
+    h5::check(H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), m.path, "writing " + what);
+  h5::attr_strings(set.get(), "columns", columns, m.path);
+  m.flush();
+}
+
 void H5mdWriter::flush() {
   impl_->update_xdmf(true);
   impl_->flush();

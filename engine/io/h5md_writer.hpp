@@ -38,6 +38,9 @@ class H5mdWriter {
   void write_warning(const std::string& text);                        // appends to /grains/warnings
   void set_attribute(const std::string& name, const std::string& value);  // string attribute on /grains
   void set_scalar(const std::string& name, double value);                 // double attribute on /grains
+  // /grains/<name>: a [rows, columns] table of doubles (row-major `values`), its column names in the
+  // attribute `columns`; written once (a second call replaces it).
+  void write_table(const std::string& name, const std::vector<std::string>& columns, const std::vector<double>& values);
   void flush();                             // the file stays readable if the process dies afterwards
 
   const std::string& path() const;

@@ -120,6 +120,10 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"analysis.zero_force", K::real, "1e-5", 0, inf, false, false, "",
        "Contact-network outputs (adhesion scenes): an interaction whose static normal force is below "
        "value * max(F0, mean |F_N|) in magnitude counts as carrying no force (z0, rattlers)."},
+      {"analysis.collision_log", K::boolean, "false", 0, 0, false, false, "",
+       "Log every contact event (start, end, impact and rebound normal speeds; physics.md section 8) and report "
+       "`collision_count`, `adhesive_collision_count`, `adhesive_collision_fraction`, `open_collision_count`. An event "
+       "is adhesive when the pair, still touching, stops separating (see the README). Needs contacts."},
 
       // --- pressure-controlled periodic cell (barostat) ---
       {"cell.enabled", K::boolean, "false", 0, 0, false, false, "",

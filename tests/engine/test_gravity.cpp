@@ -313,25 +313,147 @@ solver = "{}"
   CHECK(std::isfinite(sim->get("gravity_potential_energy")));
 }
 
+// The benchmark command (`./build/tests/grains_tests "[.gravity-bench]"`): prints the tables the README
+// quotes. Uniform balls of N equal masses, eps = 1e-3 (radius 1). All numbers from one run, so the ratios
+// compare like with like on a shared machine.
+namespace {
+template <class F> double seconds_per_call(F&& f, double min_seconds = 0.3) {
+  f();   // warm-up (first touch of the memory, thread start-up)
+  int reps = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  double s = 0;
+  do {
+    f(), ++reps;
+    s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  } while (s < min_seconds);
+  return s / reps;
+}
+// Median and 99th percentile of |a - ref| / |ref|.
+std::pair<double, double> force_errors(const std::vector<Vec<3>>& a, const std::vector<Vec<3>>& ref) {
+  std::vector<double> e(a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) e[i] = (a[i] - ref[i]).norm() / ref[i].norm();
+  std::sort(e.begin(), e.end());
+  return {e[e.size() / 2], e[std::size_t(0.99 * double(e.size() - 1))]};
+}
+}  // namespace
+
 TEST_CASE("gravity: direct kernel and tree throughput", "[.gravity-bench]") {
-  for (int n : {4000, 16000}) {
+  const double eps = 1e-3;
+  // 1. Direct summation: softened pair interactions per second (FP64 forces), 1 and 2 threads.
+  WARN("direct summation, FP64 (exact sqrt and division), pair interactions N (N - 1) per second:");
+  for (int n : {1000, 4000, 16000}) {
     const auto P = particles_from<3>(uniform_ball(n, 1.0, 1), 1.0 / n);
-    SoftenedGravity<3> g(1.0, 1e-3, GravitySolver::direct);
-    g.accelerations(P, GravitySolver::direct, 2);
-    const int reps = n <= 4000 ? 20 : 3;
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int r = 0; r < reps; ++r) g.accelerations(P, GravitySolver::direct, 2);
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
-    WARN(fmt::format("direct N = {}: {:.4f} s per call, {:.3g} pair interactions / s on 2 threads", n, s, double(n) * (n - 1) / s));
+    SoftenedGravity<3> g(1.0, eps, GravitySolver::direct);
+    const double s1 = seconds_per_call([&] { g.accelerations(P, GravitySolver::direct, 1); });
+    const double s2 = seconds_per_call([&] { g.accelerations(P, GravitySolver::direct, 2); });
+    const double pairs = double(n) * (n - 1);
+    WARN(fmt::format("  N = {:6}: 1 thread {:.3g} /s, 2 threads {:.3g} /s (x{:.2f})", n, pairs / s1, pairs / s2, s1 / s2));
   }
-  const int n = 100000;
-  const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
-  SoftenedGravity<3> g(1.0, 1e-3, GravitySolver::tree, 0.5);
-  auto t0 = std::chrono::steady_clock::now();
-  g.accelerations(P, GravitySolver::tree, 2);
-  const double st = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  t0 = std::chrono::steady_clock::now();
-  g.accelerations(P, GravitySolver::direct, 2);
-  const double sd = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  WARN(fmt::format("N = 1e5: tree (theta 0.5) {:.3f} s, direct {:.3f} s, speed-up {:.1f}", st, sd, sd / st));
+  // 2. Tree (theta = 0.5) against direct, 2 threads: the crossover N.
+  WARN("tree (theta 0.5) against direct, 2 threads: seconds per force evaluation");
+  int crossover = -1;
+  for (int n : {250, 500, 1000, 2000, 4000, 8000, 16000}) {
+    const auto P = particles_from<3>(uniform_ball(n, 1.0, 3), 1.0 / n);
+    SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
+    const double sd = seconds_per_call([&] { g.accelerations(P, GravitySolver::direct, 2); });
+    const double st = seconds_per_call([&] { g.accelerations(P, GravitySolver::tree, 2); });
+    if (crossover < 0 && st < sd) crossover = n;
+    WARN(fmt::format("  N = {:6}: direct {:.3g} s, tree {:.3g} s, direct / tree {:.2f}", n, sd, st, sd / st));
+  }
+  WARN(fmt::format("  crossover: the tree is faster from N = {} (first N of the list where it wins)", crossover));
+  // 3. N = 1e5: speed-up and force error at the default theta.
+  {
+    const int n = 100000;
+    const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
+    SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
+    std::vector<Vec<3>> direct, tree;
+    const double sd = seconds_per_call([&] { direct = g.accelerations(P, GravitySolver::direct, 2); }, 0.0);
+    const double st = seconds_per_call([&] { tree = g.accelerations(P, GravitySolver::tree, 2); });
+    const auto [median, p99] = force_errors(tree, direct);
+    WARN(fmt::format("N = 1e5, 2 threads: direct {:.3f} s, tree (theta 0.5) {:.3f} s, speed-up {:.1f}; tree force error "
+                     "median {:.2g}, 99th percentile {:.2g}", sd, st, sd / st, median, p99));
+  }
+  // 4. Speed/accuracy of theta, N = 20000, against direct summation (theta -> 0).
+  {
+    const int n = 20000;
+    const auto P = particles_from<3>(uniform_ball(n, 1.0, 4), 1.0 / n);
+    SoftenedGravity<3> g0(1.0, eps, GravitySolver::direct);
+    std::vector<Vec<3>> direct;
+    const double sd = seconds_per_call([&] { direct = g0.accelerations(P, GravitySolver::direct, 2); });
+    WARN(fmt::format("theta table, N = {}, 2 threads (direct: {:.3g} s): theta | s per evaluation | cost / direct | "
+                     "median error | 99th percentile error", n, sd));
+    for (double theta : {0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0}) {
+      SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, theta);
+      std::vector<Vec<3>> tree;
+      const double st = seconds_per_call([&] { tree = g.accelerations(P, GravitySolver::tree, 2); });
+      const auto [median, p99] = force_errors(tree, direct);
+      WARN(fmt::format("  {:.1f} | {:.3g} | {:.3f} | {:.2g} | {:.2g}", theta, st, st / sd, median, p99));
+    }
+  }
+}
+
+// n_c (steps per contact duration): cost and accuracy against the finest setting. Cost: wall time of
+// a fixed stretch (0.05 time units, from the start) of a 500-grain self-gravitating cloud with contacts
+// on (the aggregation scene's set-up; the cost per step is gravity's, so cost follows n_c); accuracy: realised restitution of a head-on collision (e = 0.5) against n_c = 1600,
+// and the kinetic energy an elastic (e = 1) collision fails to return.
+TEST_CASE("contact resolution: n_c cost and accuracy table", "[.gravity-bench]") {
+  auto head_on = [](double e, double nc) {
+    auto sim = Simulation::create(Scene::from_string(fmt::format(R"(
+[particles]
+layout = "list"
+positions = [[0, 0, 0], [1.0137, 0, 0]]
+velocity = "list"
+velocities = [[0.5, 0, 0], [-0.5, 0, 0]]
+diameter = 1.0
+mass = 1.0
+[box]
+periodic = false
+[contact]
+restitution = {}
+duration = 1.0
+overlap_limit = 1.0
+[time]
+steps_per_contact = {}
+[run]
+threads = 1
+)", e, nc), "head-on"));
+    const double k0 = sim->get("kinetic_energy");
+    sim->step(3.0);
+    const auto p = sim->particles();
+    return std::pair{p.velocity[3] - p.velocity[0], sim->get("kinetic_energy") / k0};
+  };
+  const double e_ref = head_on(0.5, 1600).first;
+  auto cloud_seconds = [](double nc) {
+    auto sim = Simulation::create(Scene::from_string(fmt::format(R"(
+[particles]
+layout = "random"
+count = 500
+diameter = 1.0
+mass = 1.0
+solid_fraction = 0.05
+seed = 5
+[box]
+periodic = false
+[contact]
+restitution = 0.5
+duration = 0.02
+[gravity]
+enabled = true
+[time]
+steps_per_contact = {}
+[run]
+threads = 2
+)", nc), "cloud"));
+    const auto t0 = std::chrono::steady_clock::now();
+    sim->step(0.05);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  const double cost_ref = cloud_seconds(1600);
+  WARN(fmt::format("n_c table (reference n_c = 1600: e = {:.8f}, cloud {:.3g} s): n_c | cloud s | cost / finest | "
+                   "|e - e_ref| / e_ref | 1 - K_out / K_in (e = 1)", e_ref, cost_ref));
+  for (double nc : {10, 20, 30, 50, 100, 200, 400}) {
+    const double e = head_on(0.5, nc).first, energy = head_on(1.0, nc).second;
+    const double s = cloud_seconds(nc);
+    WARN(fmt::format("  {:4} | {:.3g} | {:.3f} | {:.2g} | {:.2g}", nc, s, s / cost_ref, std::abs(e / e_ref - 1), 1 - energy));
+  }
 }

@@ -1,7 +1,9 @@
 """The command-line runner as a user meets it: help, errors, output safety, the scene reference."""
 import subprocess
+import sys
 
 import h5py
+import pytest
 
 
 def run(grains_bin, *args, cwd=None):
@@ -53,3 +55,45 @@ def test_run_writes_summary_and_complete_file(grains_bin, root, tmp_path):
         assert f["grains"].attrs["status"] in ("complete", b"complete")
         ke = f["observables/kinetic_energy/value"][:]
         assert ke[-1] < ke[0]   # e = 0.5: the collision dissipates
+
+
+def test_collision_log_is_written_as_table_and_observables(grains_bin, root, tmp_path):
+    out = tmp_path / "log.h5"
+    r = run(grains_bin, "run", root / "models" / "collision.toml", "--out", out, "--quiet",
+            "--set", "analysis.collision_log=true", "--set", "time.duration=3.0")
+    assert r.returncode == 0, r.stderr
+    assert "adhesive_collision_fraction" in r.stdout
+    with h5py.File(out) as f:
+        table = f["grains/collisions"]
+        columns = [c.decode() if isinstance(c, bytes) else c for c in table.attrs["columns"]]
+        assert columns == ["i", "j", "start", "end", "impact_speed", "rebound_speed", "adhesive"]
+        rows = table[()]
+        assert rows.shape == (1, 7)   # one head-on collision, a rebound
+        row = dict(zip(columns, rows[0]))
+        assert row["adhesive"] == 0 and row["impact_speed"] == 1.0
+        v = f["particles/all/velocity/value"][-1]   # after the collision: the rebound speed itself
+        assert abs(row["rebound_speed"] - (v[1][0] - v[0][0])) < 1e-12
+        assert row["start"] < row["end"]
+        assert f["observables/collision_count/value"][-1] == 1
+        assert f["observables/adhesive_collision_fraction/value"][-1] == 0
+    summary = subprocess.run([sys.executable, str(root / "runner" / "collisions.py"), str(out)], capture_output=True,
+                             text=True)
+    assert summary.returncode == 0, summary.stderr
+    assert "completed collisions   1" in summary.stdout and "adhesive               0" in summary.stdout
+
+
+def test_aggregation_plot_against_free_fall_time(grains_bin, root, tmp_path):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "agg.h5"
+    r = run(grains_bin, "run", root / "models" / "aggregation.toml", "--out", out, "--quiet",
+            "--set", "particles.count=60", "--set", "time.duration=2.0", "--set", "output.observables_every=50")
+    assert r.returncode == 0, r.stderr
+    for name in ("aggregation_time / t_ff", "cluster_index", "largest_cluster_fraction", "virial_ratio",
+                 "fractal_dimension"):
+        assert name in r.stdout
+    png = tmp_path / "agg.png"
+    p = subprocess.run([sys.executable, str(root / "runner" / "plot.py"), str(out), "-o", str(png), "--observables",
+                        "largest_cluster_fraction,cluster_index,virial_ratio", "--x", "time_over_free_fall"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert png.stat().st_size > 1000

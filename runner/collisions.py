@@ -1,0 +1,54 @@
+"""Summarise the collision event log of a grains run (scenes with analysis.collision_log = true).
+
+    python runner/collisions.py RUN.h5
+
+Reads /grains/collisions (columns i, j, start, end, impact_speed, rebound_speed, adhesive) and prints
+the completed and open events, the adhesive count and fraction, and the realised normal restitution
+(rebound / impact speed) and impact speeds as mean and quartiles. Exits with code 2 and a message
+when the file or the table is missing.
+"""
+import argparse
+import sys
+
+import numpy as np
+
+
+def fail(message):
+    print(f"collisions.py: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def summary(table):
+    done = table[~np.isnan(table[:, 3])]
+    n, adhesive = len(done), int(done[:, 6].sum()) if len(done) else 0
+    lines = [f"completed collisions   {n}", f"open at the end        {len(table) - n}",
+             f"adhesive               {adhesive}" + (f"  ({100 * adhesive / n:.2f} %)" if n else "")]
+    hit = done[done[:, 4] > 0]
+    if len(hit):
+        e = hit[:, 5] / hit[:, 4]
+        q = np.percentile(e, [25, 50, 75])
+        v = np.percentile(hit[:, 4], [25, 50, 75])
+        lines.append(f"realised restitution   mean {e.mean():.3f}, quartiles {q[0]:.3f} {q[1]:.3f} {q[2]:.3f}")
+        lines.append(f"impact speed           mean {hit[:, 4].mean():.4g}, quartiles {v[0]:.4g} {v[1]:.4g} {v[2]:.4g}")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description="Summarise the collision event log of a grains run.")
+    parser.add_argument("run", help="the run's .h5 file")
+    args = parser.parse_args(argv)
+    import h5py
+
+    try:
+        f = h5py.File(args.run, "r")
+    except OSError as e:
+        fail(f"cannot open '{args.run}' as HDF5: {e}")
+    with f:
+        if "grains/collisions" not in f:
+            fail(f"'{args.run}' has no /grains/collisions table (run the scene with analysis.collision_log = true)")
+        print(summary(f["grains/collisions"][()]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,99 @@
+// Oblique binary collision with Coulomb friction (physics.md section 4) against the analytic
+// impulse results, spheres (I = 2/5 m R^2) and disks (I = 1/2 m R^2).
+//
+// Two equal particles (mass m = 1, radius R = 1/2, m* = m/2) meet with relative normal speed |v_n| = 1
+// and relative tangential speed v_t0 = 1/2, no spin. A tangential impulse J_t on j (and -J_t on i)
+// changes the relative centre velocity by -J_t / m* and each spin by R J_t / I, so the contact-point
+// slip changes by -J_t / m_t with m_t = m* / (1 + m* 2 R^2 / I): m_t = 2/7 m* (spheres), m* / 3 (disks).
+//  - Sliding throughout (small mu): J_t = mu J_n = mu m* (1 + e) |v_n|, e the realised restitution.
+//  - Sticking throughout (large mu, undamped normal law e = 1): the slip xi obeys m_t xi'' = -k_t xi, a
+//    harmonic oscillation of frequency sqrt(k_t / m_t), during the normal half period pi sqrt(m* / k_n).
+//    With k_t / k_n = m_t / m* (2/7 for spheres, 1/3 for disks) both frequencies agree: the slip
+//    reverses exactly (tangential restitution beta = -1), J_t = 2 m_t v_t0, and |F_t| / F_n stays
+//    (k_t / k_n) v_t0 / |v_n| throughout, below mu = 0.5.
+// The contact is short (t_c = 1e-4) so the line of centres turns by only ~1e-4 during it.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "head_on_scene.hpp"
+
+using namespace grains;
+
+namespace {
+
+struct Outcome {
+  double restitution;       // -(v_n after) / (v_n before)
+  double tangential_change; // change of the relative centre velocity along the tangent (y)
+  double slip_before, slip_after;   // contact-point slip along y
+  double spin_i, spin_j;    // z spins after
+};
+
+Outcome collide(int dim, double e, double mu, double stiffness_ratio, double nc) {
+  const double tc = 1e-4, R = 0.5;
+  ListedParticles parts;
+  parts.positions = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
+  parts.positions[1][0] = 1 + 0.3 * tc;   // touching after 0.3 t_c
+  parts.velocities = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
+  parts.velocities[0][0] = 0.5, parts.velocities[1][0] = -0.5;
+  parts.velocities[0][1] = 0.25, parts.velocities[1][1] = -0.25;
+  parts.diameters = {1.0, 1.0};
+  parts.masses = {1.0, 1.0};
+  const std::string text = listed_scene(dim, parts, {e, tc, nc}) +
+                           fmt::format("[friction]\ncoefficient = {}\nstiffness_ratio = {:.17g}\n", mu, stiffness_ratio);
+  auto sim = Simulation::create(Scene::from_string(text, "oblique"));
+  sim->step(3 * tc);   // through the contact and away
+  REQUIRE(sim->get("contacts") == 0.0);
+  const auto p = sim->particles();
+  const int S = dim == 3 ? 3 : 1;
+  const double wi = p.angular_velocity[S - 1], wj = p.angular_velocity[S + S - 1];   // z components
+  Outcome o;
+  o.restitution = (p.velocity[dim] - p.velocity[0]) / 1.0;
+  o.tangential_change = (p.velocity[dim + 1] - p.velocity[1]) - (-0.5);
+  o.slip_before = -0.5;
+  // v_c = (v_j - w_j x R n) - (v_i + w_i x R n) with n = x: w x x = w_z y.
+  o.slip_after = (p.velocity[dim + 1] - R * wj) - (p.velocity[1] + R * wi);
+  o.spin_i = wi, o.spin_j = wj;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("frictional collision: sliding throughout gives J_t = mu (1 + e) m* |v_n| and the matching spin-up",
+          "[friction][analytic]") {
+  for (int dim : {2, 3})
+    for (double e : {1.0, 0.5}) {
+      const double mu = 0.05, mstar = 0.5, R = 0.5, I = (dim == 3 ? 0.4 : 0.5) * R * R;
+      // Slip change (7/2 or 3) mu (1 + e) |v_n| / ... stays below v_t0 = 0.5: sliding all along.
+      const Outcome o = collide(dim, e, mu, 2.0 / 7.0, 100);
+      const double Jt = mu * mstar * (1 + o.restitution);
+      INFO("dim " << dim << ", e = " << e << ": realised e " << o.restitution << ", tangential change "
+                  << o.tangential_change << ", spins " << o.spin_i << " " << o.spin_j);
+      CHECK(o.slip_after < 0);   // still slipping the same way: the sliding premise holds
+      CHECK(o.tangential_change == Approx(Jt / mstar).epsilon(1e-3));
+      CHECK(o.spin_i == Approx(-R * Jt / I).epsilon(1e-3));
+      CHECK(o.spin_j == Approx(-R * Jt / I).epsilon(1e-3));
+    }
+}
+
+TEST_CASE("frictional collision: sticking throughout reverses the slip (beta = -1) when k_t / k_n = m_t / m*",
+          "[friction][analytic]") {
+  for (int dim : {2, 3}) {
+    const double ratio = dim == 3 ? 2.0 / 7.0 : 1.0 / 3.0;   // m_t / m*
+    const double mstar = 0.5, mt = ratio * mstar, R = 0.5, I = (dim == 3 ? 0.4 : 0.5) * R * R;
+    const Outcome o = collide(dim, 1.0, 0.5, ratio, 100);
+    const double beta = o.slip_after / o.slip_before;
+    const double Jt = mt * (o.slip_after - o.slip_before);   // the tangential impulse on j (along +y)
+    INFO("dim " << dim << ": beta " << beta << ", spins " << o.spin_i << " " << o.spin_j);
+    CHECK(beta == Approx(-1.0).epsilon(2e-3));
+    // J_t = m_t (1 - beta) v_t0 = 2 m_t * 0.5 along +y on j: spins -R J_t / I each.
+    CHECK(Jt == Approx(2 * mt * 0.5).epsilon(2e-3));
+    CHECK(o.spin_i == Approx(-R * 2 * mt * 0.5 / I).epsilon(2e-3));
+    CHECK(o.spin_j == Approx(o.spin_i).epsilon(1e-12));
+    CHECK(o.tangential_change == Approx(2 * mt * 0.5 / mstar).epsilon(2e-3));
+  }
+}
