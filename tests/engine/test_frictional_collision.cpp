@@ -5,7 +5,7 @@
 // and relative tangential speed v_t0 = 1/2, no spin. A tangential impulse J_t on j (and -J_t on i)
 // changes the relative centre velocity by -J_t / m* and each spin by R J_t / I, so the contact-point
 // slip changes by -J_t / m_t with m_t = m* / (1 + m* 2 R^2 / I): m_t = 2/7 m* (spheres), m* / 3 (disks).
-//  - Sliding throughout (small mu): J_t = mu J_n = mu m* (1 + e) |v_n|, e the realised restitution.
+//  - Sliding throughout (small mu, stiff spring): J_t = mu J_n = mu m* (1 + e) |v_n|, e the realised restitution.
 //  - Sticking throughout (large mu, undamped normal law e = 1): the slip xi obeys m_t xi'' = -k_t xi, a
 //    harmonic oscillation of frequency sqrt(k_t / m_t), during the normal half period pi sqrt(m* / k_n).
 //    With k_t / k_n = m_t / m* (2/7 for spheres, 1/3 for disks) both frequencies agree: the slip
@@ -68,11 +68,16 @@ TEST_CASE("frictional collision: sliding throughout gives J_t = mu (1 + e) m* |v
   for (int dim : {2, 3})
     for (double e : {1.0, 0.5}) {
       const double mu = 0.05, mstar = 0.5, R = 0.5, I = (dim == 3 ? 0.4 : 0.5) * R * R;
-      // Slip change (7/2 or 3) mu (1 + e) |v_n| / ... stays below v_t0 = 0.5: sliding all along.
-      const Outcome o = collide(dim, e, mu, 2.0 / 7.0, 100);
+      // The slip changes by (7/2 or 3) mu (1 + e) |v_n| <= 0.35 < v_t0 = 0.5: it never stops. A stiff
+      // tangential spring (k_t = 10 k_n) reaches the Coulomb bound in the first step of the contact
+      // (with k_t = 2/7 k_n and e = 0.5 the spring needs ~5 steps to load against the dashpot-driven
+      // bound, and J_t falls 3 % short of mu J_n).
+      const Outcome o = collide(dim, e, mu, 10.0, 100);
       const double Jt = mu * mstar * (1 + o.restitution);
       INFO("dim " << dim << ", e = " << e << ": realised e " << o.restitution << ", tangential change "
                   << o.tangential_change << ", spins " << o.spin_i << " " << o.spin_j);
+      WARN(fmt::format("sliding, {}D, e = {}: tangential change rel. error {:.2g}, spin rel. error {:.2g}", dim, e,
+                       o.tangential_change / (Jt / mstar) - 1, o.spin_i / (-R * Jt / I) - 1));
       CHECK(o.slip_after < 0);   // still slipping the same way: the sliding premise holds
       CHECK(o.tangential_change == Approx(Jt / mstar).epsilon(1e-3));
       CHECK(o.spin_i == Approx(-R * Jt / I).epsilon(1e-3));
@@ -89,6 +94,7 @@ TEST_CASE("frictional collision: sticking throughout reverses the slip (beta = -
     const double beta = o.slip_after / o.slip_before;
     const double Jt = mt * (o.slip_after - o.slip_before);   // the tangential impulse on j (along +y)
     INFO("dim " << dim << ": beta " << beta << ", spins " << o.spin_i << " " << o.spin_j);
+    WARN(fmt::format("sticking, {}D: beta = {:.6f}, spin rel. error {:.2g}", dim, beta, o.spin_i / (-R * 2 * mt * 0.5 / I) - 1));
     CHECK(beta == Approx(-1.0).epsilon(2e-3));
     // J_t = m_t (1 - beta) v_t0 = 2 m_t * 0.5 along +y on j: spins -R J_t / I each.
     CHECK(Jt == Approx(2 * mt * 0.5).epsilon(2e-3));
