@@ -464,7 +464,12 @@ class SimulationImpl final : public Simulation {
     }
     if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
     else kick_drift_predict<D, false>(P, h, sys_.threads);
-    if (cell_moves) follow_cell(scale);
+    sys_.affine_flow = cell_moves;
+    if (cell_moves) {
+      follow_cell(scale);
+      sys_.cell_scale = scale;
+      sys_.strain_rate = barostat_->rate().cwiseQuotient(sys_.box.length);
+    }
     if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
     sys_.dt = h;
     compute_forces();
@@ -809,7 +814,7 @@ class SimulationImpl final : public Simulation {
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;
-  double contact_damping_ = 1;                       // multiplies the contacts' affine damping of the cell
+  double contact_damping_ = 0;                       // multiplies the contacts' affine damping of the cell
   static constexpr long contact_damping_every_ = 10;  // steps between its updates (one pass over the list)
   double cvode_seconds_ = 0;
   mutable std::map<std::string, double> observable_values_;

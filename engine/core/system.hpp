@@ -21,6 +21,12 @@ struct System {
   // stress is W / V. Pair loops accumulate it only while want_virial is set (the barostat, stress
   // observables), so scenes that never read it pay nothing.
   bool want_virial = false;
+  // While the cell deforms, particles ride the affine flow x_a -> lower_a + (x_a - lower_a) * cell_scale_a
+  // over the step, and their stored velocities are relative to it. A pair's dashpots must still see
+  // the relative velocity the flow imposes, strain_rate (*) r_ij (per axis, (dL/dt) / L at step end).
+  bool affine_flow = false;
+  Vec<D> strain_rate = Vec<D>::Zero();
+  Vec<D> cell_scale = Vec<D>::Ones();   // L(t + dt) / L(t) of the step being taken
   Eigen::Matrix<double, D, D> virial = Eigen::Matrix<double, D, D>::Zero();
 };
 

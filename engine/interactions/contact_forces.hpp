@@ -188,9 +188,18 @@ class ContactForces final : public ForceModule<D> {
         const double d = std::sqrt(d2);
         const Vec<D> n = r / d;
         const double mj = P.mass[j], Rj = P.radius[j];
-        const double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
-        // The step moved the positions by dt * v(t + dt/2) exactly: the pair's overlap before the step.
-        const double before = Rsum - (r - dt * (P.velocity[j] - P.velocity[i])).norm();
+        // The step moved the positions by dt * v(t + dt/2) exactly (then, in a deforming cell, scaled
+        // them with the cell): the pair's overlap before the step.
+        double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
+        double before;
+        Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
+        if (s.affine_flow) {
+          flow = s.strain_rate.cwiseProduct(r);
+          vn += flow.dot(n);
+          before = Rsum - (r.cwiseQuotient(s.cell_scale) - dt * (P.velocity[j] - P.velocity[i])).norm();
+        } else {
+          before = Rsum - (r - dt * (P.velocity[j] - P.velocity[i])).norm();
+        }
         double elastic;
         bool was_clamped;
         const double fn = law_.force(Rsum - d, before, vn, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
@@ -200,7 +209,8 @@ class ContactForces final : public ForceModule<D> {
           // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
           // torques of F_t balance its moment and total angular momentum is conserved exactly.
           const double half_overlap = 0.5 * (Rsum - d);
-          f += tangential_force(P, i, j, k, n, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt, torque);
+          f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt,
+                                torque);
         }
         if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, dt, torque);
         force[j] += f;
@@ -215,11 +225,12 @@ class ContactForces final : public ForceModule<D> {
   // Tangential force on j; adds both torques. Ri, Rj: distances from the centres to the contact point.
   // xi accumulates the half-step (position-consistent)
   // tangential velocity; the dashpot uses the predicted end-of-step velocity.
+  // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell).
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                          double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
+                          const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
                           Spin<D>* torque) {
     auto contact_velocity = [&](const std::vector<Vec<D>>& v, const std::vector<Spin<D>>& w) {
-      Vec<D> vc = (v[j] - cross<D>(w[j], Rj * n)) - (v[i] + cross<D>(w[i], Ri * n));
+      Vec<D> vc = (v[j] - cross<D>(w[j], Rj * n)) - (v[i] + cross<D>(w[i], Ri * n)) + flow;
       return Vec<D>(vc - vc.dot(n) * n);
     };
     Vec<D>& xi = tangential_[k];

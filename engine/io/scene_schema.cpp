@@ -146,12 +146,12 @@ const std::vector<SchemaEntry>& scene_schema() {
        "eta_c = damping_ratio * 2 sqrt(M_c K_cell), K_cell = k_n (L / a)^(D-2), about the cell's stiffness once the "
        "grains are jammed. Default 0: any cell damping large enough to matter for the jammed sample (say 0.1) also "
        "throttles the compression of a loose one far below the strain-rate cap; the contacts' damping settles the cell."},
-      {"cell.contact_damping", K::real, "1.0", 0, inf, false, false, "",
-       "Factor on the damping the contacts' dashpots give the cell's strain rate, eta_a = c_n sum_contacts (r^a n^a)^2 / "
-       "L_a^2 with the global c_n, refreshed every 10 steps. Particle velocities are relative to the affine flow, so "
-       "the pair loop does not see it; 0 leaves a jammed cell breathing undamped. It assumes every contact is "
-       "strained affinely, which overestimates the drag of a tenuous cohesive network many times (such networks "
-       "buckle instead): the cohesive scenes set 0."},
+      {"cell.contact_damping", K::real, "0.0", 0, inf, false, false, "",
+       "Optional extra drag on the cell's strain rate, eta_a = factor * c_n sum_contacts (r^a n^a)^2 / L_a^2 (global c_n, "
+       "refreshed every 10 steps), as if every contact were strained affinely. The contacts' dashpots already see "
+       "the affine flow's relative velocity in the pair loop and damp the cell through the stress, so the default 0 "
+       "adds nothing; a positive factor over-damps tenuous cohesive networks (they buckle rather than strain "
+       "affinely)."},
       {"cell.inertia_number", K::real, "0.05", 0, inf, true, false, "",
        "I_a: the strain rate is capped at |dL/dt| / L <= I_a / T, T = sqrt(a m / F1), m = mass of a grain of diameter "
        "a, F1 = max(F0, P a^(D-1)) (T = T0 when cohesion dominates)."},
