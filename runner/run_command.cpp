@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
 #include "progress.hpp"
@@ -21,21 +22,7 @@ void on_signal(int) { interrupted = 1; }
 void write_frame(H5mdWriter& out, const Simulation& sim) {
   const ParticleView p = sim.particles();
   const BoxView b = sim.box();
-  H5mdFrame f{};
-  f.step = sim.step_count();
-  f.time = sim.time();
-  f.dimension = p.dimension;
-  f.count = p.count;
-  f.position = p.position.data();
-  f.velocity = p.velocity.data();
-  f.radius = p.radius.data();
-  f.mass = p.mass.data();
-  f.angular_velocity = p.angular_velocity.data();
-  f.angular_components = p.dimension == 3 ? 3 : 1;
-  f.orientation = p.orientation.data();
-  f.orientation_components = p.dimension == 3 ? 4 : 1;
-  f.box_lower = b.lower.data();
-  f.box_length = b.length.data();
+  const H5mdFrame f = frame_view(sim.step_count(), sim.time(), p, b);
   out.write_frame(f);
 }
 
