@@ -8,29 +8,5 @@
 // `extra`: further TOML sections; `particle_keys`: further keys of [particles] (e.g. angular_velocities).
 inline std::string adhesive_scene(int dimension, const ListedParticles& p, const std::string& extra = "",
                                   const std::string& particle_keys = "") {
-  auto rows = [](const std::vector<std::vector<double>>& m) {
-    std::vector<std::string> r;
-    for (const auto& row : m) r.push_back(fmt::format("[{}]", fmt::join(row, ", ")));
-    return fmt::format("[{}]", fmt::join(r, ", "));
-  };
-  return fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "list"
-positions = {}
-velocity = "list"
-velocities = {}
-diameters = [{}]
-{}
-{}
-[box]
-periodic = false
-[adhesion]
-enabled = true
-[run]
-threads = 1
-{}
-)", dimension, rows(p.positions), rows(p.velocities), fmt::join(p.diameters, ", "),
-                     p.masses.empty() ? "" : fmt::format("masses = [{}]", fmt::join(p.masses, ", ")), particle_keys, extra);
+  return listed_particles_toml(dimension, p, particle_keys) + "[adhesion]\nenabled = true\n" + extra + "\n";
 }

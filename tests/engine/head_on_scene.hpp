@@ -17,7 +17,22 @@ struct ContactUnderTest {
   std::string calibration = "global";
 };
 
-inline std::string listed_scene(int dimension, const ListedParticles& p, const ContactUnderTest& c) {
+// Two unit-mass particles of diameter 1 on the x axis approaching head-on at relative speed 1;
+// their surfaces touch after `gap` time units.
+inline ListedParticles head_on_pair(int dimension, double gap) {
+  ListedParticles p;
+  p.positions = {std::vector<double>(dimension, 0.0), std::vector<double>(dimension, 0.0)};
+  p.positions[1][0] = 1 + gap;
+  p.velocities = {std::vector<double>(dimension, 0.0), std::vector<double>(dimension, 0.0)};
+  p.velocities[0][0] = 0.5, p.velocities[1][0] = -0.5;
+  p.diameters = {1.0, 1.0};
+  p.masses = {1.0, 1.0};
+  return p;
+}
+
+// The [scene], [particles] and [box] sections of listed particles in an open box, single-threaded.
+// `particle_keys`: further keys of [particles] (e.g. angular_velocities).
+inline std::string listed_particles_toml(int dimension, const ListedParticles& p, const std::string& particle_keys = "") {
   auto rows = [](const std::vector<std::vector<double>>& m) {
     std::vector<std::string> r;
     for (const auto& row : m) r.push_back(fmt::format("[{}]", fmt::join(row, ", ")));
@@ -33,8 +48,17 @@ velocity = "list"
 velocities = {}
 diameters = [{}]
 {}
+{}
 [box]
 periodic = false
+[run]
+threads = 1
+)", dimension, rows(p.positions), rows(p.velocities), fmt::join(p.diameters, ", "),
+                     p.masses.empty() ? "" : fmt::format("masses = [{}]", fmt::join(p.masses, ", ")), particle_keys);
+}
+
+inline std::string listed_scene(int dimension, const ListedParticles& p, const ContactUnderTest& c) {
+  return listed_particles_toml(dimension, p) + fmt::format(R"(
 [contact]
 restitution = {}
 duration = {}
@@ -42,9 +66,5 @@ calibration = "{}"
 overlap_limit = 1.0
 [time]
 steps_per_contact = {}
-[run]
-threads = 1
-)", dimension, rows(p.positions), rows(p.velocities), fmt::join(p.diameters, ", "),
-                     p.masses.empty() ? "" : fmt::format("masses = [{}]", fmt::join(p.masses, ", ")), c.restitution,
-                     c.duration, c.calibration, c.steps_per_contact);
+)", c.restitution, c.duration, c.calibration, c.steps_per_contact);
 }

@@ -20,13 +20,7 @@ struct Outcome { double restitution, contact_time, momentum_error, energy_in, en
 Outcome collide(int dim, double e, double nc, double phase, const std::string& calibration = "global") {
   const double tc = 1.0, dt = tc / nc;
   const double gap = 0.05 + phase * dt;   // surfaces touch after gap / 1 time units
-  ListedParticles parts;
-  parts.positions = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
-  parts.positions[1][0] = 1 + gap;
-  parts.velocities = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
-  parts.velocities[0][0] = 0.5, parts.velocities[1][0] = -0.5;
-  parts.diameters = {1.0, 1.0};
-  parts.masses = {1.0, 1.0};
+  ListedParticles parts = head_on_pair(dim, gap);
   const std::string text = listed_scene(dim, parts, {e, tc, nc, calibration});
   auto sim = Simulation::create(Scene::from_string(text, "collision-test"));
   Outcome o{};

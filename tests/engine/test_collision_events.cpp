@@ -19,13 +19,7 @@ std::unique_ptr<Simulation> make(const std::string& text) { return Simulation::c
 
 // Two unit spheres (or disks) approaching head-on at relative speed 1; the surfaces touch at t = gap.
 std::string head_on(int dim, double e, double gap) {
-  ListedParticles parts;
-  parts.positions = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
-  parts.positions[1][0] = 1 + gap;
-  parts.velocities = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
-  parts.velocities[0][0] = 0.5, parts.velocities[1][0] = -0.5;
-  parts.diameters = {1.0, 1.0};
-  parts.masses = {1.0, 1.0};
+  ListedParticles parts = head_on_pair(dim, gap);
   return listed_scene(dim, parts, {e, 1.0, 50}) + "[analysis]\ncollision_log = true\n";
 }
 

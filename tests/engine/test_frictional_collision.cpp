@@ -35,14 +35,8 @@ struct Outcome {
 
 Outcome collide(int dim, double e, double mu, double stiffness_ratio, double nc) {
   const double tc = 1e-4, R = 0.5;
-  ListedParticles parts;
-  parts.positions = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
-  parts.positions[1][0] = 1 + 0.3 * tc;   // touching after 0.3 t_c
-  parts.velocities = {std::vector<double>(dim, 0.0), std::vector<double>(dim, 0.0)};
-  parts.velocities[0][0] = 0.5, parts.velocities[1][0] = -0.5;
+  ListedParticles parts = head_on_pair(dim, 0.3 * tc);   // touching after 0.3 t_c
   parts.velocities[0][1] = 0.25, parts.velocities[1][1] = -0.25;
-  parts.diameters = {1.0, 1.0};
-  parts.masses = {1.0, 1.0};
   const std::string text = listed_scene(dim, parts, {e, tc, nc}) +
                            fmt::format("[friction]\ncoefficient = {}\nstiffness_ratio = {:.17g}\n", mu, stiffness_ratio);
   auto sim = Simulation::create(Scene::from_string(text, "oblique"));
