@@ -7,23 +7,10 @@
 #include <fmt/format.h>
 
 #include "instance.hpp"
+#include "io/xml_escape.hpp"
 
 namespace grains::fmu {
 namespace {
-
-std::string xml(std::string_view text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 std::string number(double x) { return fmt::format("{}", x); }
 
@@ -71,13 +58,13 @@ std::string unit_definitions(const ModelTable& t) {
     if (!v.unit.empty()) units.insert(v.unit);
   if (units.empty()) return "";
   std::string out = "  <UnitDefinitions>\n";
-  for (const auto& u : units) out += fmt::format("    <Unit name=\"{}\"/>\n", xml(u));
+  for (const auto& u : units) out += fmt::format("    <Unit name=\"{}\"/>\n", xml_escape(u));
   return out + "  </UnitDefinitions>\n";
 }
 
 std::string log_categories_xml() {
   std::string out = "  <LogCategories>\n";
-  for (const auto& [name, doc] : log_categories()) out += fmt::format("    <Category name=\"{}\" description=\"{}\"/>\n", name, xml(doc));
+  for (const auto& [name, doc] : log_categories()) out += fmt::format("    <Category name=\"{}\" description=\"{}\"/>\n", name, xml_escape(doc));
   return out + "  </LogCategories>\n";
 }
 
@@ -101,7 +88,7 @@ std::string fmi2_model_description(const ModelTable& t, const ModelInfo& info) {
       "    maxOutputDerivativeOrder=\"0\" canRunAsynchronuously=\"false\" canBeInstantiatedOnlyOncePerProcess=\"false\"\n"
       "    canNotUseMemoryManagementFunctions=\"true\" canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\"\n"
       "    providesDirectionalDerivative=\"false\"/>\n",
-      xml(info.name), instantiation_token(t), xml(info.description), xml(info.version), xml(info.identifier));
+      xml_escape(info.name), instantiation_token(t), xml_escape(info.description), xml_escape(info.version), xml_escape(info.identifier));
   out += unit_definitions(t) + log_categories_xml() + default_experiment(info);
   out += "  <ModelVariables>\n";
   std::vector<std::size_t> outputs, initial_unknowns;
@@ -113,11 +100,11 @@ std::string fmi2_model_description(const ModelTable& t, const ModelInfo& info) {
     if (v.role == Role::output) outputs.push_back(index);
     if (is_initial_unknown(v)) initial_unknowns.push_back(index);
     std::string attributes = fmt::format("name=\"{}\" valueReference=\"{}\" description=\"{}\" causality=\"{}\" variability=\"{}\"",
-                                         xml(v.name), ref, xml(v.description), causality_name(v, 2), variability_name(v));
+                                         xml_escape(v.name), ref, xml_escape(v.description), causality_name(v, 2), variability_name(v));
     if (v.role == Role::calculated_parameter) attributes += " initial=\"calculated\"";
     if (has_start(v) && v.causality != Causality::input) attributes += " initial=\"exact\"";
     std::string element;
-    const std::string unit = v.unit.empty() ? "" : fmt::format(" unit=\"{}\"", xml(v.unit));
+    const std::string unit = v.unit.empty() ? "" : fmt::format(" unit=\"{}\"", xml_escape(v.unit));
     const std::string start = has_start(v) ? fmt::format(" start=\"{}\"", start_text(v)) : "";
     if (v.type == ValueType::real) element = fmt::format("<Real{}{}{}/>", start, range_attributes(v, -INFINITY, INFINITY), unit);
     else if (v.type == ValueType::integer) element = fmt::format("<Integer{}{}/>", start, range_attributes(v, INT_MIN, INT_MAX));
@@ -141,7 +128,7 @@ std::string fmi3_model_description(const ModelTable& t, const ModelInfo& info) {
       "    canSerializeFMUState=\"true\" canBeInstantiatedOnlyOncePerProcess=\"false\" providesDirectionalDerivatives=\"false\"\n"
       "    providesAdjointDerivatives=\"false\" hasEventMode=\"false\" providesIntermediateUpdate=\"false\"\n"
       "    canReturnEarlyAfterIntermediateUpdate=\"false\" providesEvaluateDiscreteStates=\"false\" maxOutputDerivativeOrder=\"0\"/>\n",
-      xml(info.name), instantiation_token(t), xml(info.description), xml(info.version), xml(info.identifier));
+      xml_escape(info.name), instantiation_token(t), xml_escape(info.description), xml_escape(info.version), xml_escape(info.identifier));
   out += unit_definitions(t) + log_categories_xml() + default_experiment(info);
   out += "  <ModelVariables>\n";
   std::vector<std::size_t> outputs, initial_unknowns;
@@ -151,12 +138,12 @@ std::string fmi3_model_description(const ModelTable& t, const ModelInfo& info) {
     if (is_initial_unknown(v)) initial_unknowns.push_back(ref);
     const char* type = v.type == ValueType::boolean ? "Boolean" : v.type == ValueType::real ? "Float64" : v.structural ? "UInt64" : "Int64";
     std::string attributes = fmt::format("name=\"{}\" valueReference=\"{}\" description=\"{}\" causality=\"{}\" variability=\"{}\"",
-                                         xml(v.name), ref, xml(v.description), causality_name(v, 3), variability_name(v));
+                                         xml_escape(v.name), ref, xml_escape(v.description), causality_name(v, 3), variability_name(v));
     if (v.role == Role::calculated_parameter) attributes += " initial=\"calculated\"";
     if (has_start(v)) attributes += fmt::format(" start=\"{}\"", start_text(v));
     if (v.type == ValueType::real) {
       attributes += range_attributes(v, -INFINITY, INFINITY);
-      if (!v.unit.empty()) attributes += fmt::format(" unit=\"{}\"", xml(v.unit));
+      if (!v.unit.empty()) attributes += fmt::format(" unit=\"{}\"", xml_escape(v.unit));
     } else if (v.type == ValueType::integer) {
       attributes += range_attributes(v, v.structural ? 0.0 : double(LLONG_MIN), v.structural ? 1.8e19 : 9.2e18);
     }
@@ -185,12 +172,12 @@ std::string documentation_html(const ModelTable& t, const ModelInfo& info) {
       "communication step that is not a whole number of dt ends with one shorter step.</p>\n"
       "<table border=\"1\"><tr><th>reference</th><th>name</th><th>causality</th><th>variability</th><th>start</th><th>unit</th>"
       "<th>meaning</th></tr>\n",
-      xml(info.name), xml(info.description));
+      xml_escape(info.name), xml_escape(info.description));
   for (std::size_t ref = 0; ref < t.variables.size(); ++ref) {
     const FmuVariable& v = t.variables[ref];
-    out += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", ref, xml(v.name),
+    out += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", ref, xml_escape(v.name),
                        causality_name(v, 3) + (v.role == Role::particle_array ? " (FMI 3 array)" : ""), variability_name(v),
-                       has_start(v) ? start_text(v) : "", xml(v.unit), xml(v.description));
+                       has_start(v) ? start_text(v) : "", xml_escape(v.unit), xml_escape(v.description));
   }
   return out + "</table>\n</body></html>\n";
 }

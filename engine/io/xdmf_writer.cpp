@@ -9,25 +9,9 @@
 
 #include <fmt/format.h>
 
+#include "io/xml_escape.hpp"
+
 namespace grains {
-
-namespace {
-
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-}  // namespace
 
 XdmfWriter::XdmfWriter(std::string xdmf_path, std::string h5_name, int dimension)
     : path_(std::move(xdmf_path)), h5_name_(std::move(h5_name)), dimension_(dimension) {}
