@@ -11,6 +11,7 @@
 #include "core/simulation.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
+#include "progress.hpp"
 #include "protocols/consolidation_programme.hpp"
 #include "run_command.hpp"
 
@@ -38,8 +39,10 @@ int consolidate_scene(const ConsolidateOptions& opt) {
 
   fmt::print("grains {}: consolidation programme of '{}' ({}D, {} particles, preparation {})\n", GRAINS_VERSION, name,
              sim->dimension(), sim->particle_count(), settings.preparation);
+  std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
   long unreached = 0;
+  StatusLine status;
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
       // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
@@ -47,7 +50,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
       for (const auto& [n, v] : r.values) csv << ',' << n;
       csv << '\n';
     }
-    auto value_of = [&](const std::string& n) {
+    auto value = [&](const std::string& n) {
       for (const auto& [k, v] : r.values)
         if (k == n) return v;
       return std::nan("");
@@ -57,16 +60,12 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                                    ? "loading"
                                    : "preparation";
     csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{},{},{:.9g}", r.index, r.phase, branch, r.target,
-                       value_of("pressure_reduced"), value_of("solid_fraction"), int(r.reached), r.steps, r.time);
+                       value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
     write_observables(out, *sim);
     write_frame(out, *sim);
-    auto value = [&](const std::string& n) {
-      for (const auto& [k, v] : r.values)
-        if (k == n) return v;
-      return std::nan("");
-    };
+    status.finish();
     if (!r.reached) {
       ++unreached;
       fmt::print(stderr, "warning: stage {} ({} at P* = {:.4g}) did not reach {} within its budget of {} steps\n",
@@ -79,7 +78,20 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                  value("coordination"));
     std::fflush(stdout);
   };
-  const auto records = run_programme(*sim, settings, on_stage);
+  // Within a stage: what it waits for (one bonded cluster, or the four equilibrium ratios falling below 1).
+  auto on_check = [&](const StageRecord& r, long budget) {
+    if (opt.quiet || !status.due()) return;
+    const double rate = double(sim->step_count()) * double(sim->particle_count()) / status.elapsed_seconds();
+    const std::string waiting =
+        r.phase == "aggregation"
+            ? fmt::format("clusters {:.0f}", sim->get("bonded_clusters"))
+            : fmt::format("P* {:.4g}  equilibrium ratios force {:.3g} torque {:.3g} stress {:.3g} kinetic {:.3g}",
+                          sim->get("pressure_reduced"), sim->get("equilibrium_force"), sim->get("equilibrium_torque"),
+                          sim->get("equilibrium_stress"), sim->get("equilibrium_kinetic"));
+    status.show(fmt::format("  stage {} {} step {}/{}  Phi {:.4f}  {}  {:.3g} particle-steps/s", r.index, r.phase,
+                            r.steps, budget, sim->get("solid_fraction"), waiting, rate));
+  };
+  const auto records = run_programme(*sim, settings, on_stage, on_check);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cvode = sim->get("cvode_seconds");
   const double rate = seconds > 0 ? double(sim->step_count()) * double(sim->particle_count()) / seconds : 0.0;

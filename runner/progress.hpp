@@ -1,24 +1,38 @@
-// Progress line for long runs: fraction done, rate in particle-steps per second, ETA.
-// On a terminal it redraws one line; otherwise (CI, logs) it prints a line every 10 s.
+// Progress for long runs. A status line on stderr: on a terminal it redraws one line at most twice a
+// second; otherwise (CI, logs) it prints a line every 10 s. Progress adds the fraction done, the rate in
+// particle-steps per second and the ETA for a run of known length.
 #pragma once
 #include <chrono>
 #include <cstdio>
+#include <string>
 
 namespace grains {
+
+class StatusLine {
+ public:
+  StatusLine();
+  bool due() const;                     // time for another line
+  void show(const std::string& line);   // print it (and restart the interval)
+  void finish();                        // end a redrawn line
+  double elapsed_seconds() const;
+
+ private:
+  using clock = std::chrono::steady_clock;
+  clock::time_point start_, last_;
+  bool tty_, shown_ = false;
+};
 
 class Progress {
  public:
   Progress(long total_steps, std::size_t particles);
   void update(long steps_done);
-  void finish();
-  double elapsed_seconds() const;
+  void finish() { line_.finish(); }
+  double elapsed_seconds() const { return line_.elapsed_seconds(); }
 
  private:
-  using clock = std::chrono::steady_clock;
   long total_;
   std::size_t particles_;
-  clock::time_point start_, last_;
-  bool tty_, shown_ = false;
+  StatusLine line_;
 };
 
 }  // namespace grains

@@ -70,8 +70,9 @@ bool has(const Simulation& s, const std::string& name) {
 
 class Runner {
  public:
-  Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage)
-      : s_(s), p_(p), on_stage_(on_stage), network_(has(s, "network.mark")) {
+  Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage,
+         const std::function<void(const StageRecord&, long)>& on_check)
+      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), network_(has(s, "network.mark")) {
     for (const char* name : recorded)
       if (has(s, name)) names_.emplace_back(name);
     for (const auto& v : s.variables())
@@ -93,6 +94,7 @@ class Runner {
         r.reached = true;
         break;
       }
+      if (on_check_) on_check_(r, budget);
     }
     r.time = s_.time();
     for (const auto& name : names_) r.values.emplace_back(name, s_.get(name));
@@ -126,6 +128,7 @@ class Runner {
   Simulation& s_;
   const ProgrammeSettings& p_;
   const std::function<void(const StageRecord&)>& on_stage_;
+  const std::function<void(const StageRecord&, long)>& on_check_;
   bool network_;
   std::vector<std::string> names_;
   std::vector<StageRecord> records_;
@@ -134,8 +137,9 @@ class Runner {
 }  // namespace
 
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
-                                       const std::function<void(const StageRecord&)>& on_stage) {
-  return Runner(s, p, on_stage).run();
+                                       const std::function<void(const StageRecord&)>& on_stage,
+                                       const std::function<void(const StageRecord&, long)>& on_check) {
+  return Runner(s, p, on_stage, on_check).run();
 }
 
 }  // namespace grains

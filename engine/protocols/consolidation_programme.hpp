@@ -41,7 +41,10 @@ struct StageRecord {
 // The P* of every stage after the prepared state: loading, then unloading.
 std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeSettings& p);
 
+// on_stage: after every stage. on_check: after every equilibrium check that did not end the stage, with the
+// stage so far (steps, no values) and its budget -- for progress reports.
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
-                                       const std::function<void(const StageRecord&)>& on_stage = {});
+                                       const std::function<void(const StageRecord&)>& on_stage = {},
+                                       const std::function<void(const StageRecord&, long)>& on_check = {});
 
 }  // namespace grains
