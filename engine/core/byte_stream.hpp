@@ -35,7 +35,9 @@ class ByteReader {
   template <class T> T get() {
     T x;
     need(sizeof(T));
-    std::memcpy(&x, bytes_.data() + pos_, sizeof(T));
+    // Eigen fixed-size types are plain scalars whose copy assignment is user-provided, so not "trivially
+    // copyable" by the letter: copy through void* (their standard layout is asserted when writing).
+    std::memcpy(static_cast<void*>(&x), bytes_.data() + pos_, sizeof(T));
     pos_ += sizeof(T);
     return x;
   }
@@ -43,7 +45,7 @@ class ByteReader {
     auto n = get<std::uint64_t>();
     need(n * sizeof(T));
     v.resize(n);
-    std::memcpy(v.data(), bytes_.data() + pos_, n * sizeof(T));
+    std::memcpy(static_cast<void*>(v.data()), bytes_.data() + pos_, n * sizeof(T));
     pos_ += n * sizeof(T);
   }
   bool done() const { return pos_ == bytes_.size(); }

@@ -528,12 +528,17 @@ class SimulationImpl final : public Simulation {
     for (std::size_t i = 0; i < P.size(); ++i) {
       const bool bad = !P.position[i].allFinite() || !P.velocity[i].allFinite() || !P.force[i].allFinite() ||
                        !P.angular_velocity[i].allFinite();
-      if (bad)
-        throw SimulationError(fmt::format(
-            "non-finite value at {}: particle {} has position ({}), velocity ({}), force ({}). With dt = {:.6g}, a "
-            "contact stiffness k_n = {:.6g} and mass {:.6g}, the step rule asks for dt well below t_c / 20.",
-            when, i, fmt::join(P.position[i], ", "), fmt::join(P.velocity[i], ", "), fmt::join(P.force[i], ", "), dt_,
-            kn_, P.mass[i]));
+      if (!bad) continue;
+      // Blame the step rules only when the start-up checks found them broken.
+      const std::string hint =
+          warnings_.empty()
+              ? fmt::format("dt = {:.6g} passed the time-step checks at start-up, so look at the initial state "
+                            "(coincident or deeply overlapping particles) and the scene's parameters", dt_)
+              : fmt::format("the start-up checks warned: {}", fmt::join(warnings_, "; "));
+      throw SimulationError(fmt::format("non-finite value at {}: particle {} (mass {:.6g}) has position ({}), velocity "
+                                        "({}), force ({}); {}",
+                                        when, i, P.mass[i], fmt::join(P.position[i], ", "), fmt::join(P.velocity[i], ", "),
+                                        fmt::join(P.force[i], ", "), hint));
     }
   }
 
