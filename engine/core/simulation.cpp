@@ -458,8 +458,9 @@ class SimulationImpl final : public Simulation {
     if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
       if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0)
         barostat_->set_contact_damping(contact_damping_ * affine_contact_damping<D>(sys_, cn_));
+      const Tensor<D> sigma = stress();   // outside the clock: cvode_seconds is the integrator's own time
       const auto start = std::chrono::steady_clock::now();
-      scale = barostat_->advance(sys_.time, h, stress());
+      scale = barostat_->advance(sys_.time, h, sigma);
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
     if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
