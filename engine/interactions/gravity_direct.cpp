@@ -159,7 +159,7 @@ void accelerations(Isa isa, const Columns& c, double eps2, int threads, std::vec
       tile(c, eps2, I, J, own, Sums{s, s + S, s + 2 * S, J * S});
     }
   }
-#pragma omp parallel for num_threads(threads) schedule(static)
+  // Serial: n (blocks - 1) / 2 additions per axis, and no second parallel region to start.
   for (std::size_t J = 1; J < blocks; ++J)
     for (std::size_t I = 0; I < J; ++I) {
       const double* s = &spill[slot(I, J)];
