@@ -1,11 +1,11 @@
 #include "interactions/gravity.hpp"
+#include "interactions/gravity_direct.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
 
-#include <omp.h>
 
 namespace grains {
 
@@ -17,140 +17,17 @@ GravitySolver gravity_solver_from_string(const std::string& s) {
 
 namespace {
 
-// ---------------------------------------------------------------------------------------------
-// Direct summation kernels. Plain loops over contiguous double arrays with an `omp simd` reduction,
-// compiled once per ISA (AVX-512, AVX2, baseline) and picked at run time: the build stays portable.
-// The self term is skipped by splitting the j range, so eps = 0 is allowed.
-// ---------------------------------------------------------------------------------------------
-#define GRAINS_GRAVITY_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-
-// Acceleration (without G) of particles [i0, i1) from all others.
-GRAINS_GRAVITY_CLONES
-void direct_acc_3d(std::size_t n, const double* __restrict x, const double* __restrict y, const double* __restrict z,
-                   const double* __restrict m, double eps2, std::size_t i0, std::size_t i1, double* __restrict ax,
-                   double* __restrict ay, double* __restrict az) {
-  for (std::size_t i = i0; i < i1; ++i) {
-    const double xi = x[i], yi = y[i], zi = z[i];
-    double sx = 0, sy = 0, sz = 0;
-#pragma omp simd reduction(+ : sx, sy, sz)
-    for (std::size_t j = 0; j < i; ++j) {
-      const double dx = x[j] - xi, dy = y[j] - yi, dz = z[j] - zi;
-      const double r2 = dx * dx + dy * dy + dz * dz + eps2;
-      const double inv = 1.0 / std::sqrt(r2);
-      const double w = m[j] * inv * inv * inv;
-      sx += w * dx, sy += w * dy, sz += w * dz;
-    }
-#pragma omp simd reduction(+ : sx, sy, sz)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const double dx = x[j] - xi, dy = y[j] - yi, dz = z[j] - zi;
-      const double r2 = dx * dx + dy * dy + dz * dz + eps2;
-      const double inv = 1.0 / std::sqrt(r2);
-      const double w = m[j] * inv * inv * inv;
-      sx += w * dx, sy += w * dy, sz += w * dz;
-    }
-    ax[i] = sx, ay[i] = sy, az[i] = sz;
-  }
-}
-
-GRAINS_GRAVITY_CLONES
-void direct_acc_2d(std::size_t n, const double* __restrict x, const double* __restrict y, const double* __restrict m,
-                   double eps2, std::size_t i0, std::size_t i1, double* __restrict ax, double* __restrict ay) {
-  for (std::size_t i = i0; i < i1; ++i) {
-    const double xi = x[i], yi = y[i];
-    double sx = 0, sy = 0;
-#pragma omp simd reduction(+ : sx, sy)
-    for (std::size_t j = 0; j < i; ++j) {
-      const double dx = x[j] - xi, dy = y[j] - yi;
-      const double r2 = dx * dx + dy * dy + eps2;
-      const double inv = 1.0 / std::sqrt(r2);
-      const double w = m[j] * inv * inv * inv;
-      sx += w * dx, sy += w * dy;
-    }
-#pragma omp simd reduction(+ : sx, sy)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const double dx = x[j] - xi, dy = y[j] - yi;
-      const double r2 = dx * dx + dy * dy + eps2;
-      const double inv = 1.0 / std::sqrt(r2);
-      const double w = m[j] * inv * inv * inv;
-      sx += w * dx, sy += w * dy;
-    }
-    ax[i] = sx, ay[i] = sy;
-  }
-}
-
-// sum_{j > i} m_j / sqrt(d^2 + eps^2) for one i (z may be null in 2D).
-GRAINS_GRAVITY_CLONES
-double direct_pot_row(std::size_t n, const double* __restrict x, const double* __restrict y, const double* __restrict z,
-                      const double* __restrict m, double eps2, std::size_t i) {
-  const double xi = x[i], yi = y[i], zi = z ? z[i] : 0.0;
-  double s = 0;
-  if (z) {
-#pragma omp simd reduction(+ : s)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const double dx = x[j] - xi, dy = y[j] - yi, dz = z[j] - zi;
-      s += m[j] / std::sqrt(dx * dx + dy * dy + dz * dz + eps2);
-    }
-  } else {
-#pragma omp simd reduction(+ : s)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const double dx = x[j] - xi, dy = y[j] - yi;
-      s += m[j] / std::sqrt(dx * dx + dy * dy + eps2);
-    }
-  }
-  return s;
-}
-
-// Positions and masses as separate contiguous arrays (copied once per call).
-template <int D>
-struct Columns {
-  std::array<std::vector<double>, D> x;
-  std::vector<double> m;
-  explicit Columns(const Particles<D>& P) {
-    const std::size_t n = P.size();
-    for (auto& c : x) c.resize(n);
-    m = P.mass;
-    for (std::size_t i = 0; i < n; ++i)
-      for (int a = 0; a < D; ++a) x[a][i] = P.position[i][a];
-  }
-};
-
+// Direct summation (gravity_direct.hpp) with the run-time chosen kernel.
 template <int D>
 std::vector<Vec<D>> direct_accelerations(const Particles<D>& P, double eps2, int threads) {
-  const std::size_t n = P.size();
-  Columns<D> c(P);
-  std::array<std::vector<double>, D> acc;
-  for (auto& a : acc) a.assign(n, 0.0);
-  // Every i costs the same (a full loop over j): equal static blocks balance the threads.
-#pragma omp parallel num_threads(threads)
-  {
-    const std::size_t t = omp_get_thread_num(), T = omp_get_num_threads();
-    const std::size_t i0 = n * t / T, i1 = n * (t + 1) / T;
-    if constexpr (D == 3)
-      direct_acc_3d(n, c.x[0].data(), c.x[1].data(), c.x[2].data(), c.m.data(), eps2, i0, i1, acc[0].data(),
-                    acc[1].data(), acc[2].data());
-    else
-      direct_acc_2d(n, c.x[0].data(), c.x[1].data(), c.m.data(), eps2, i0, i1, acc[0].data(), acc[1].data());
+  std::vector<double> ax, ay, az;
+  gravity_direct::accelerations(gravity_direct::fastest_isa(), gravity_direct::Columns(P), eps2, threads, ax, ay, az);
+  std::vector<Vec<D>> out(P.size());
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    out[i][0] = ax[i], out[i][1] = ay[i];
+    if constexpr (D == 3) out[i][2] = az[i];
   }
-  std::vector<Vec<D>> out(n);
-  for (std::size_t i = 0; i < n; ++i)
-    for (int a = 0; a < D; ++a) out[i][a] = acc[a][i];
   return out;
-}
-
-// -sum_{i<j} m_i m_j / sqrt(d^2 + eps^2) (without G). Rows into an array, then a serial sum: the
-// result does not depend on the thread count.
-template <int D>
-double direct_potential(const Particles<D>& P, double eps2, int threads) {
-  const std::size_t n = P.size();
-  Columns<D> c(P);
-  std::vector<double> row(n, 0.0);
-  const double* z = D == 3 ? c.x[D - 1].data() : nullptr;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
-  for (std::size_t i = 0; i < n; ++i)
-    row[i] = c.m[i] * direct_pot_row(n, c.x[0].data(), c.x[1].data(), z, c.m.data(), eps2, i);
-  double W = 0;
-  for (double r : row) W -= r;
-  return W;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -331,7 +208,8 @@ template <int D>
 double SoftenedGravity<D>::potential_energy(const Particles<D>& P, GravitySolver solver, int threads) const {
   const double eps2 = eps_ * eps_;
   if (P.size() < 2) return 0;
-  if (solver == GravitySolver::direct) return G_ * direct_potential<D>(P, eps2, threads);
+  if (solver == GravitySolver::direct)
+    return G_ * gravity_direct::potential(gravity_direct::fastest_isa(), gravity_direct::Columns(P), eps2, threads);
   BarnesHut<D> tree(P, theta_);
   std::vector<double> phi;
   tree.evaluate(eps2, threads, nullptr, &phi);
