@@ -194,22 +194,23 @@ class ContactForces final : public ForceModule<D> {
         const double d = std::sqrt(d2);
         const Vec<D> n = r / d;
         const double mj = P.mass[j], Rj = P.radius[j];
-        // The step moved the positions by dt * v(t + dt/2) exactly (then, in a deforming cell, scaled
-        // them with the cell): the pair's overlap before the step.
         double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
-        double before;
         Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
         if (s.affine_flow) {
           flow = s.strain_rate.cwiseProduct(r);
           vn += flow.dot(n);
-          before = Rsum - (r.cwiseQuotient(s.cell_scale) - dt * (P.velocity[j] - P.velocity[i])).norm();
-        } else {
-          before = Rsum - (r - dt * (P.velocity[j] - P.velocity[i])).norm();
         }
         // The contact's first step: the pair did not overlap at the previous evaluation (a per-pair
-        // stamp, robust where the sign of `before` is a matter of rounding).
+        // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
         const bool first = touched_[k] + 1 != evaluation_;
         touched_[k] = evaluation_;
+        // Its overlap before the step, for the sub-step onset: the step moved the positions by
+        // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
+        double before = 0;
+        if (first) {
+          const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
+          before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
+        }
         double elastic;
         bool was_clamped;
         const double fn = law_.force({Rsum - d, before, vn, dt, first}, mi, mj, std::min(Ri, Rj), elastic, was_clamped);

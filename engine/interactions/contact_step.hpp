@@ -35,16 +35,14 @@ inline Onset onset(const ContactStep& p) {
   return {1.5 - s, growth * (1 - 2 * s) * (1 - 2 * s) / 8};
 }
 
-// Clamp release of the non-pulling law: the force f = k delta - c v_n falls to zero with slope
-// f' < 0 and stays clamped at zero after, a kink the kicks would miss f' h^2 (2 sigma - 1)^2 / 8 of
-// (the release at sigma steps after the last positive sample). From this step's f and f' the release
-// is predicted sigma = f / (-f' h) steps ahead; the missed impulse is spread over the two steps
+// Clamp release of the non-pulling law: the force f = k delta - c v_n falls to zero and stays clamped
+// at zero after, a kink the kicks would miss f' h^2 (2 sigma - 1)^2 / 8 of (the release at sigma
+// steps after the last positive sample). With `drop` = -f' h, the force's fall over one step, the
+// release is predicted sigma = f / drop steps ahead; the missed impulse is spread over the two steps
 // before it, with weights sigma and 2 - sigma that go to zero where a step enters or leaves the
 // two-step band, so a slightly wrong prediction never charges it twice or not at all. Returns the
-// extra force for this step (0 unless the release is less than two steps ahead).
-inline double release_force(double f, double slope, double dt) {
-  const double drop = -slope * dt;   // the force's fall over one step
-  if (!(f > 0 && drop > 0 && f < 2 * drop)) return 0.0;
+// extra force for this step; the caller has checked 0 < f < 2 drop (release less than two steps ahead).
+inline double release_force(double f, double drop) {
   const double sigma = f / drop;
   const double r = sigma <= 1 ? sigma : sigma - 1, weight = sigma <= 1 ? sigma : 2 - sigma;
   return drop * (2 * r - 1) * (2 * r - 1) / 8 * weight;

@@ -28,9 +28,13 @@ struct LinearContactLaw {
     elastic = kn * used;
     const Onset on = onset(p);
     double f = elastic + kn * on.extra_overlap - cn * p.vn * on.dashpot_weight;
-    // Released within two steps? f' = k delta' - c v_n' with delta' = -v_n and, for the pair alone,
-    // v_n' = f / m*.
-    if (!p.first && !clamped && p.dt > 0) f += release_force(f, -kn * p.vn - cn * (1 / mi + 1 / mj) * f, p.dt);
+    // Released within two steps? Only a separating pair (v_n > 0) can be: k delta = c v_n at release.
+    // The fall over a step is -f' h, f' = k delta' - c v_n' with delta' = -v_n and, for the pair alone,
+    // v_n' = f / m*; tested times mi mj, without a division.
+    if (!p.first && !clamped && f > 0 && p.vn > 0) {
+      const double mm = mi * mj, fall = p.dt * (kn * p.vn * mm + cn * f * (mi + mj));
+      if (f * mm < 2 * fall) f += release_force(f, fall / mm);
+    }
     return std::max(0.0, f);
   }
 };
