@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "interactions/contact_step.hpp"
+
 namespace grains {
 
 struct AdhesiveContactLaw {
@@ -23,18 +25,15 @@ struct AdhesiveContactLaw {
   double stiffness(double, double) const { return k; }
   double damping(double mi, double mj) const { return 2 * damping_ratio * std::sqrt(mi * mj / (mi + mj) * k); }
 
-  // Overlapping pair: force on j along n (positive = repulsive), same arguments as LinearContactLaw.
-  // `elastic` is the elastic part K_N delta that bounds friction and rolling.
-  double force(double overlap, double overlap_before, double vn, double mi, double mj, double rmin, double& elastic,
-               bool& clamped) const {
+  // Overlapping pair: force on j along n (positive = repulsive), with the sub-step treatment of
+  // touching (contact_step.hpp; the attraction is continuous at h = 0, the elastic force has a kink
+  // and the dashpot jumps). `elastic` is the elastic part K_N delta that bounds friction and rolling.
+  double force(const ContactStep& p, double mi, double mj, double rmin, double& elastic, bool& clamped) const {
     const double limit = overlap_limit * rmin;
-    clamped = overlap > limit;
-    elastic = k * (clamped ? limit : overlap);
-    // Sub-step onset weighting of the dashpot, as in LinearContactLaw (the static force is continuous
-    // at h = 0, only the dashpot jumps).
-    double w = 1.0;
-    if (overlap_before <= 0) w = 1.5 + overlap_before / (overlap - overlap_before);
-    return elastic - attraction - damping(mi, mj) * vn * w;
+    clamped = p.overlap > limit;
+    elastic = k * (clamped ? limit : p.overlap);
+    const Onset on = onset(p);
+    return elastic + k * on.extra_overlap - attraction - damping(mi, mj) * p.vn * on.dashpot_weight;
   }
 
   // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).

@@ -5,6 +5,7 @@
 #pragma once
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include <fmt/format.h>
@@ -43,11 +44,14 @@ class ContactForces final : public ForceModule<D> {
   const Law& law() const { return law_; }
 
   void after_rebuild(const NeighbourList<D>& list) override {
+    list.carry(touched_, std::uint32_t(0));
     if constexpr (Friction::enabled) list.carry(tangential_, Vec<D>(Vec<D>::Zero()));
     if constexpr (Rolling::enabled) list.carry(rolling_angle_, Spin<D>(Spin<D>::Zero()));
   }
 
   void add_forces(System<D>& s) override {
+    if (++evaluation_ < 2) evaluation_ = 2;   // on wrap-around: stamps 0 (never) and 1 must never look recent
+    touched_.resize(s.neighbours.pair_count(), 0);
     if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
     if constexpr (Rolling::enabled) rolling_angle_.resize(s.neighbours.pair_count(), Spin<D>::Zero());
     if (s.want_virial) clamped_now_ = add_forces_and<true>(s);
@@ -127,11 +131,13 @@ class ContactForces final : public ForceModule<D> {
 
   void save(ByteWriter& w) const override {
     w.put(clamped_now_), w.put(clamped_total_);
+    w.put(evaluation_), w.put_vector(touched_);
     w.put_vector(tangential_);
     if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
   }
   void load(ByteReader& r) override {
     clamped_now_ = r.get<long>(), clamped_total_ = r.get<long>();
+    evaluation_ = r.get<std::uint32_t>(), r.get_vector(touched_);
     r.get_vector(tangential_);
     if constexpr (Rolling::enabled) r.get_vector(rolling_angle_);
   }
@@ -188,21 +194,26 @@ class ContactForces final : public ForceModule<D> {
         const double d = std::sqrt(d2);
         const Vec<D> n = r / d;
         const double mj = P.mass[j], Rj = P.radius[j];
-        // The step moved the positions by dt * v(t + dt/2) exactly (then, in a deforming cell, scaled
-        // them with the cell): the pair's overlap before the step.
         double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
-        double before;
         Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
         if (s.affine_flow) {
           flow = s.strain_rate.cwiseProduct(r);
           vn += flow.dot(n);
-          before = Rsum - (r.cwiseQuotient(s.cell_scale) - dt * (P.velocity[j] - P.velocity[i])).norm();
-        } else {
-          before = Rsum - (r - dt * (P.velocity[j] - P.velocity[i])).norm();
+        }
+        // The contact's first step: the pair did not overlap at the previous evaluation (a per-pair
+        // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
+        const bool first = touched_[k] + 1 != evaluation_;
+        touched_[k] = evaluation_;
+        // Its overlap before the step, for the sub-step onset: the step moved the positions by
+        // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
+        double before = 0;
+        if (first) {
+          const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
+          before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
         }
         double elastic;
         bool was_clamped;
-        const double fn = law_.force(Rsum - d, before, vn, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
+        const double fn = law_.force({Rsum - d, before, vn, dt, first}, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
         clamped += was_clamped;
         Vec<D> f = fn * n;   // on j
         if constexpr (Friction::enabled) {
@@ -284,6 +295,8 @@ class ContactForces final : public ForceModule<D> {
   Rolling rolling_;
   std::vector<Vec<D>> tangential_;   // xi per neighbour pair, aligned with the list
   std::vector<Spin<D>> rolling_angle_;   // theta_R per neighbour pair, aligned with the list
+  std::vector<std::uint32_t> touched_;   // per neighbour pair: the last evaluation at which it overlapped (0: never)
+  std::uint32_t evaluation_ = 1;          // force evaluations so far, + 1
   long clamped_now_ = 0, clamped_total_ = 0;
 };
 

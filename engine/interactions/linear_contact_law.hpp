@@ -1,7 +1,9 @@
 // Linear spring-dashpot normal law (physics.md section 2) as a small evaluator: parameters + one
-// function of the pair's overlap and normal velocity. The dashpot may not pull; overlaps are clamped.
+// function of the pair's step. The dashpot may not pull; overlaps are clamped.
 #pragma once
 #include <algorithm>
+
+#include "interactions/contact_step.hpp"
 
 namespace grains {
 
@@ -16,24 +18,24 @@ struct LinearContactLaw {
   double stiffness(double mi, double mj) const { return PerPair ? k * mi * mj / (mi + mj) : k; }
   double damping(double mi, double mj) const { return PerPair ? c * mi * mj / (mi + mj) : c; }
 
-  // Force on j along n (positive = repulsive). vn: normal relative velocity (negative = approaching),
-  // the predicted value at the end of the step; overlap_before: the overlap at the start of the step.
-  //
-  // Sub-step onset: the dashpot force jumps from 0 to -c vn when the surfaces touch, so a plain
-  // step would charge it for the whole step or not at all (a first-order error in e). In a contact's
-  // first step the dashpot is weighted by the share of its kick window [t - h/2, t + h/2] (plus the
-  // half window the previous kick missed) that lies after the touching time, found by linear
-  // interpolation of the overlap: w = 3/2 - s, s = share of the step before touching.
-  double force(double overlap, double overlap_before, double vn, double mi, double mj, double rmin,
-               double& elastic, bool& clamped) const {
-    const double mstar = PerPair ? mi * mj / (mi + mj) : 1.0;
+  // Force on j along n (positive = repulsive), with the sub-step treatment of touching and of the
+  // clamp release (contact_step.hpp). `elastic`: k delta_used, which bounds friction.
+  double force(const ContactStep& p, double mi, double mj, double rmin, double& elastic, bool& clamped) const {
+    const double kn = stiffness(mi, mj), cn = damping(mi, mj);
     const double limit = overlap_limit * rmin;
-    clamped = overlap > limit;
-    const double used = clamped ? limit : overlap;
-    elastic = k * mstar * used;
-    double w = 1.0;
-    if (overlap_before <= 0) w = 1.5 + overlap_before / (overlap - overlap_before);
-    return std::max(0.0, elastic - c * mstar * vn * w);
+    clamped = p.overlap > limit;
+    const double used = clamped ? limit : p.overlap;
+    elastic = kn * used;
+    const Onset on = onset(p);
+    double f = elastic + kn * on.extra_overlap - cn * p.vn * on.dashpot_weight;
+    // Released within two steps? Only a separating pair (v_n > 0) can be: k delta = c v_n at release.
+    // The fall over a step is -f' h, f' = k delta' - c v_n' with delta' = -v_n and, for the pair alone,
+    // v_n' = f / m*; tested times mi mj, without a division.
+    if (!p.first && !clamped && f > 0 && p.vn > 0) {
+      const double mm = mi * mj, fall = p.dt * (kn * p.vn * mm + cn * f * (mi + mj));
+      if (f * mm < 2 * fall) f += release_force(f, fall / mm);
+    }
+    return std::max(0.0, f);
   }
 };
 

@@ -19,13 +19,15 @@ inline double damping_ratio(double e) {
 }
 
 // Exact head-on collision of the clamped (non-pulling) damped oscillator, zeta < 1, natural
-// frequency w0: the force k delta - c v_n reaches zero at w_d t_r = pi - atan2(2 zeta sqrt(1 - zeta^2), 1 - 2 zeta^2).
-struct ClampedCollision { double restitution, contact_time; };
+// frequency w0: the force k delta - c v_n reaches zero at w_d t_r = pi - atan2(2 zeta sqrt(1 - zeta^2), 1 - 2 zeta^2)
+// (contact_time, counted from touching); the pair then coasts out of the overlap k delta_r / c = v_r,
+// so the surfaces part c / k = 2 zeta / w0 later (separation_time).
+struct ClampedCollision { double restitution, contact_time, separation_time; };
 inline ClampedCollision clamped_collision(double zeta, double w0) {
   const double s = std::sqrt(1 - zeta * zeta), wd = w0 * s;
   const double tr = (std::numbers::pi - std::atan2(2 * zeta * s, 1 - 2 * zeta * zeta)) / wd;
   const double v = std::exp(-zeta * w0 * tr) * (std::cos(wd * tr) - zeta / s * std::sin(wd * tr));
-  return {-v, tr};
+  return {-v, tr, tr + 2 * zeta / w0};
 }
 
 // "exact" calibration: the damping ratio whose clamped collision realises e, and the k that keeps

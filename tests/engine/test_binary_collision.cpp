@@ -1,6 +1,8 @@
-// Head-on binary collisions against the exact solution of the clamped damped oscillator.
+// Head-on binary collisions against the exact solution of the clamped damped oscillator, and that
+// exact solution against a fine numerical integration.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -13,69 +15,168 @@ using namespace grains;
 
 namespace {
 
-struct Outcome { double restitution, contact_time, momentum_error, energy_in, energy_out; };
+struct Outcome { double restitution, duration, momentum_error; };
 
-// Two equal particles (mass 1, diameter 1) approach at relative speed 1; `phase` in [0, 1) shifts
-// the touching time within a step, so every sub-step position of the contact onset is exercised.
-Outcome collide(int dim, double e, double nc, double phase, const std::string& calibration = "global") {
-  const double tc = 1.0, dt = tc / nc;
-  const double gap = 0.05 + phase * dt;   // surfaces touch after gap / 1 time units
-  ListedParticles parts = head_on_pair(dim, gap);
-  const std::string text = listed_scene(dim, parts, {e, tc, nc, calibration});
-  auto sim = Simulation::create(Scene::from_string(text, "collision-test"));
+// Two equal particles (mass 1, diameter 1) approach at relative speed 1; their surfaces touch `phase`
+// of a step after a step boundary (phase 0: on the boundary, where rounding decides the sign of the
+// first overlap).
+std::unique_ptr<Simulation> head_on(int dim, double e, double nc, double phase) {
+  const double dt = 1.0 / nc;
+  const double gap = (std::round(0.05 * nc) + phase) * dt;   // surfaces touch after gap / 1 time units
+  const std::string text = listed_scene(dim, head_on_pair(dim, gap), {e, 1.0, nc});
+  return Simulation::create(Scene::from_string(text, "collision-test"));
+}
+
+// Runs the collision to its end. The duration runs from touching to parting: both fall in free flight,
+// where the gap is linear in time, so linear interpolation of the sampled gap finds them exactly.
+Outcome collide(int dim, double e, double nc, double phase) {
+  auto sim = head_on(dim, e, nc, phase);
   Outcome o{};
-  o.energy_in = sim->get("kinetic_energy");
-  // Track the gap and the normal force. Touching: linear interpolation of the gap. Release: the
-  // clamped force is zero after it, so extrapolate the last three positive force samples to zero.
   auto gap_now = [&] {
     auto p = sim->particles();
     return p.position[dim] - p.position[0] - 1.0;
   };
-  auto force_now = [&] { return sim->particles().force[dim]; };   // on particle 1 along +x: repulsive > 0
-  double t_touch = -1, t_release = -1, g_prev = gap_now(), f_prev = 0, f_prev2 = 0, f_prev3 = 0, t_prev = 0;
-  for (int k = 0; k < int(20 * nc) && t_release < 0; ++k) {
+  double t_touch = -1, t_part = -1, g_prev = gap_now(), t_prev = 0;
+  while (t_part < 0 && sim->time() < 5.0) {
     sim->step_n(1);
-    const double g = gap_now(), f = force_now(), t = sim->time();
-    if (t_touch < 0 && g < 0) t_touch = t_prev + dt * g_prev / (g_prev - g);
-    if (t_touch >= 0 && f_prev > 0 && f <= 0) {   // quadratic through the last three samples, Newton to its root
-      const double d1 = (3 * f_prev - 4 * f_prev2 + f_prev3) / (2 * dt), d2 = (f_prev - 2 * f_prev2 + f_prev3) / (dt * dt);
-      double tau = -f_prev / d1;
-      for (int it = 0; it < 20; ++it) tau -= (f_prev + tau * d1 + 0.5 * tau * tau * d2) / (d1 + tau * d2);
-      t_release = t_prev + tau;
-    }
-    g_prev = g, f_prev3 = f_prev2, f_prev2 = f_prev, f_prev = f, t_prev = t;
+    const double g = gap_now(), t = sim->time();
+    if (t_touch < 0 && g < 0) t_touch = t_prev + (t - t_prev) * g_prev / (g_prev - g);
+    if (t_touch >= 0 && g_prev < 0 && g >= 0) t_part = t_prev + (t - t_prev) * -g_prev / (g - g_prev);
+    g_prev = g, t_prev = t;
   }
-  sim->step(1.0);   // coast away
+  REQUIRE(t_part > 0);
   auto p = sim->particles();
   const double v0 = p.velocity[0], v1 = p.velocity[dim];
   o.restitution = (v1 - v0) / 1.0;
-  o.contact_time = t_release - t_touch;
+  o.duration = t_part - t_touch;
   o.momentum_error = std::abs(v0 + v1);
-  o.energy_out = sim->get("kinetic_energy");
   return o;
+}
+
+// Onset phases: 0 (on a step boundary), 1e-9 and 1 - 1e-9 (rounding-level neighbours), and a grid.
+std::vector<double> onset_phases() {
+  std::vector<double> ph = {0.0, 1e-9, 1 - 1e-9};
+  for (int k = 1; k < 24; ++k) ph.push_back(k / 24.0);
+  return ph;
 }
 
 }  // namespace
 
-// At n_c = 50 the worst onset phase gives <= 1e-3 for e >= 0.05 and e = 0.01, but up to 1.7e-3 for
-// e = 0.02-0.03 (issue 2 asks for 1e-3 everywhere: recorded as a shortfall); the bound below is
-// the measured one, so any regression fails.
+// Issue 2: at n_c = 50 the realised restitution is within 1e-3 of the exact clamped value for every
+// e and onset phase. The duration (touching to parting) meets 1e-3 for e >= 0.1; below, the first
+// contact step's drift, made with the pre-contact velocity, leaves the pair up to c |v| dt^2 / 2
+// deeper than the exact solution, a one-off second-order shift of the timing that reaches 2.7e-3
+// at e = 0.01 (falling as dt^2, see the convergence test).
 TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50", "[contact][analytic]") {
   for (int dim : {2, 3})
     for (double e : {1.0, 0.9, 0.7, 0.5, 0.3, 0.1, 0.05, 0.03, 0.02, 0.01}) {
-      const double zeta = damping_ratio(e);
-      const auto tc = calibrate_linear(e, 1.0, 0.5);
-      const auto exact = clamped_collision(zeta, std::sqrt(tc.k / 0.5));
-      double worst = 0;
-      for (double phase : {0.0, 0.13, 0.37, 0.5, 0.71, 0.93}) {
+      const auto kc = calibrate_linear(e, 1.0, 0.5);
+      const auto exact = clamped_collision(damping_ratio(e), std::sqrt(kc.k / 0.5));
+      double worst = 0, worst_duration = 0;
+      for (double phase : onset_phases()) {
         auto o = collide(dim, e, 50, phase);
         worst = std::max(worst, std::abs(o.restitution / exact.restitution - 1));
+        worst_duration = std::max(worst_duration, std::abs(o.duration / exact.separation_time - 1));
         CHECK(o.momentum_error < 1e-14);
-        // The release time is read off sampled forces (quadratic extrapolation), itself good to ~dt^2.
-        if (e < 1) CHECK(std::abs(o.contact_time / exact.contact_time - 1) < 5e-3);
       }
-      INFO("D = " << dim << ", e = " << e << ": worst relative error of e " << worst);
-      CHECK(worst < (e >= 0.05 || e <= 0.01 ? 1e-3 : 2e-3));
+      WARN(fmt::format("D = {}, e = {}: worst relative error over {} onset phases at n_c = 50: restitution {:.2e}, "
+                       "duration {:.2e}", dim, e, onset_phases().size(), worst, worst_duration));
+      CHECK(worst < 1e-3);
+      CHECK(worst_duration < (e >= 0.1 ? 1e-3 : 3e-3));
     }
 }
 
+// The contact's first step is recognised from a per-pair record of the previous evaluation, carried
+// across neighbour-list rebuilds and saved with the state: a list rebuilt at every step while another
+// pair enters it (which moves the colliding pair's place in the list), or a save/restore in the middle
+// of the contact, must give the same collision bit for bit.
+TEST_CASE("binary collision: the per-pair contact record survives list rebuilds and save/restore", "[contact]") {
+  for (int dim : {2, 3})
+    for (double phase : {0.0, 0.3}) {
+      const double nc = 50, dt = 1 / nc;
+      // Particles 1 and 2 collide head-on (touching after 2 + phase steps); far away, 3 runs into 0,
+      // so that the pair (0, 3) enters the list (under row 0, before the colliding pair's row) during
+      // that collision.
+      ListedParticles parts = head_on_pair(dim, (2 + phase) * dt);
+      std::vector<double> at_rest(dim, 0.0), spectator(dim, 0.0), running(dim, 0.0);
+      spectator[1] = 10;
+      parts.positions.insert(parts.positions.begin(), spectator);
+      parts.velocities.insert(parts.velocities.begin(), at_rest);
+      spectator[0] = 1.2, running[0] = -1;
+      parts.positions.push_back(spectator), parts.velocities.push_back(running);
+      parts.diameters = {1, 1, 1, 1}, parts.masses = {1, 1, 1, 1};
+      auto run = [&](const std::string& extra) {
+        return Simulation::create(Scene::from_string(listed_scene(dim, parts, {0.3, 1.0, nc}) + extra, "record"));
+      };
+      auto reference = run("");
+      reference->step_n(long(4 * nc));
+      const auto v_ref = reference->particles().velocity;
+      // Rebuilds: a skin of 1e-4 is used up by 2 steps of a particle moving at 0.5 with dt = 0.02.
+      auto rebuilt = run("[neighbours]\nskin = 1e-4\n");
+      rebuilt->step_n(long(4 * nc));
+      CHECK(rebuilt->particles().velocity == v_ref);
+      // Save in the contact's second step, restore into a fresh run.
+      auto first = run("");
+      first->step_n(4);
+      REQUIRE(first->get("contacts") == 1.0);
+      const auto state = first->save_state();
+      auto second = run("");
+      second->restore_state(state);
+      second->step_n(long(4 * nc) - 4);
+      CHECK(second->particles().velocity == v_ref);
+    }
+}
+
+// The reference itself: clamped_collision() against a fourth-order Runge-Kutta integration of the
+// clamped oscillator delta'' = -max(0, w0^2 delta + 2 zeta w0 delta') with 1e5 steps per contact.
+TEST_CASE("the exact clamped collision agrees with a fine numerical integration", "[contact][analytic]") {
+  for (double e : {0.95, 0.7, 0.5, 0.3, 0.1, 0.03, 0.01}) {
+    const double zeta = damping_ratio(e), w0 = 1.0;
+    const auto exact = clamped_collision(zeta, w0);
+    const double h = exact.separation_time / 1e5;
+    auto accel = [&](double x, double v) { return -std::max(0.0, w0 * w0 * x + 2 * zeta * w0 * v); };
+    double x = 0, v = 1, t = 0, t_release = -1, t_part = -1;
+    while (t_part < 0) {
+      const double f_before = accel(x, v);
+      const double k1x = v, k1v = accel(x, v);
+      const double k2x = v + 0.5 * h * k1v, k2v = accel(x + 0.5 * h * k1x, v + 0.5 * h * k1v);
+      const double k3x = v + 0.5 * h * k2v, k3v = accel(x + 0.5 * h * k2x, v + 0.5 * h * k2v);
+      const double k4x = v + h * k3v, k4v = accel(x + h * k3x, v + h * k3v);
+      const double x_new = x + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x), v_new = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+      const double f_after = accel(x_new, v_new);
+      // Release: the (negative) acceleration reaches zero; linear interpolation, good to h^2.
+      if (t_release < 0 && f_before < 0 && f_after == 0) {
+        const double unclamped = -(w0 * w0 * x_new + 2 * zeta * w0 * v_new);
+        t_release = t + h * f_before / (f_before - unclamped);
+      }
+      if (x_new < 0) t_part = t + h * x / (x - x_new);   // free flight by then: linear
+      x = x_new, v = v_new, t += h;
+    }
+    const double de = std::abs(-v / exact.restitution - 1), dr = std::abs(t_release / exact.contact_time - 1),
+                 dp = std::abs(t_part / exact.separation_time - 1);
+    INFO(fmt::format("e = {}: relative deviation of the restitution {:.1e}, release time {:.1e}, parting time {:.1e}",
+                     e, de, dr, dp));
+    CHECK(de < 1e-10);
+    CHECK(dr < 1e-10);
+    CHECK(dp < 1e-10);
+  }
+}
+
+// The duration's error (touching to parting) is second order in dt, also where it is largest (low e).
+TEST_CASE("binary collision: the contact duration converges at second order", "[contact][convergence]") {
+  for (double e : {0.5, 0.1, 0.01}) {
+    const auto kc = calibrate_linear(e, 1.0, 0.5);
+    const auto exact = clamped_collision(damping_ratio(e), std::sqrt(kc.k / 0.5));
+    std::vector<double> worst;
+    for (double nc : {50.0, 100.0, 200.0}) {
+      double w = 0;
+      for (double phase : onset_phases()) w = std::max(w, std::abs(collide(3, e, nc, phase).duration / exact.separation_time - 1));
+      worst.push_back(w);
+    }
+    const double order1 = std::log2(worst[0] / worst[1]), order2 = std::log2(worst[1] / worst[2]);
+    WARN(fmt::format("e = {}: worst relative error of the duration at n_c = 50, 100, 200: {:.2e} {:.2e} {:.2e}; "
+                     "observed orders {:.2f} {:.2f}", e, worst[0], worst[1], worst[2], order1, order2));
+    CHECK(order1 >= 1.8);
+    CHECK(order2 >= 1.8);
+  }
+}

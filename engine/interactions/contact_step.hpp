@@ -1,0 +1,51 @@
+// What a normal law sees of one pair in one step, and the sub-step treatment of the instants where
+// its force is not smooth (touching, and for the non-pulling law the clamp release), shared by the
+// normal laws. Velocity Verlet charges the force at t over the kick window [t - h/2, t + h/2]: exact
+// to second order for a smooth force, but a jump costs a first-order error and a kink (a force that
+// starts or stops growing linearly) a second-order one whose coefficient, relative to a small
+// rebound speed, dominates at low e.
+#pragma once
+#include <algorithm>
+
+namespace grains {
+
+struct ContactStep {
+  double overlap;          // at the end of the step (now), > 0
+  double overlap_before;   // at the start of the step (exact: x - h v(t + h/2))
+  double vn;               // predicted normal relative velocity at the end of the step (negative = approaching)
+  double dt;               // length of the step (0 for the initial force evaluation)
+  bool first;              // the pair did not overlap at the previous force evaluation
+};
+
+// A contact's first step. Touching at share s of the step (linear interpolation of the overlap, exact
+// before contact), the dashpot force -c v_n switches on: it is weighted by the part of the kick
+// window after touching plus the half window the previous kick missed, w = 3/2 - s. The elastic
+// force k delta starts growing linearly: the kicks miss k |v_n| h^2 (1 - 2s)^2 / 8 of its impulse
+// (the midpoint rule on a kink), charged here as an extra overlap (delta - delta_before)(1 - 2s)^2 / 8.
+// Not a first step, or the initial evaluation (no window before it): w = 1, nothing extra.
+struct Onset {
+  double dashpot_weight = 1.0;
+  double extra_overlap = 0.0;
+};
+inline Onset onset(const ContactStep& p) {
+  if (!p.first || p.dt <= 0) return {};
+  const double growth = std::max(0.0, p.overlap - p.overlap_before);
+  // Touching within rounding of the step's start can leave overlap_before a hair above 0: s = 0.
+  const double s = growth > 0 ? std::clamp(-p.overlap_before / growth, 0.0, 1.0) : 0.0;
+  return {1.5 - s, growth * (1 - 2 * s) * (1 - 2 * s) / 8};
+}
+
+// Clamp release of the non-pulling law: the force f = k delta - c v_n falls to zero and stays clamped
+// at zero after, a kink the kicks would miss f' h^2 (2 sigma - 1)^2 / 8 of (the release at sigma
+// steps after the last positive sample). With `drop` = -f' h, the force's fall over one step, the
+// release is predicted sigma = f / drop steps ahead; the missed impulse is spread over the two steps
+// before it, with weights sigma and 2 - sigma that go to zero where a step enters or leaves the
+// two-step band, so a slightly wrong prediction never charges it twice or not at all. Returns the
+// extra force for this step; the caller has checked 0 < f < 2 drop (release less than two steps ahead).
+inline double release_force(double f, double drop) {
+  const double sigma = f / drop;
+  const double r = sigma <= 1 ? sigma : sigma - 1, weight = sigma <= 1 ? sigma : 2 - sigma;
+  return drop * (2 * r - 1) * (2 * r - 1) / 8 * weight;
+}
+
+}  // namespace grains
