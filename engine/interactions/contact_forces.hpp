@@ -42,6 +42,7 @@ class ContactForces final : public ForceModule<D> {
   bool applies_torques() const override { return torques_; }
   const Law& law() const { return law_; }
 
+  bool keeps_pair_history() const override { return Friction::enabled || Rolling::enabled; }
   void after_rebuild(const NeighbourList<D>& list) override {
     if constexpr (Friction::enabled) list.carry(tangential_, Vec<D>(Vec<D>::Zero()));
     if constexpr (Rolling::enabled) list.carry(rolling_angle_, Spin<D>(Spin<D>::Zero()));

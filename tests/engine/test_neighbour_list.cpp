@@ -199,7 +199,7 @@ void carry_case(Sizes sizes, unsigned seed) {
   auto c = make_config<D>(D == 3 ? 600 : 300, sizes, true, D == 3 ? 9.0 : 13.0, seed);
   const double skin = 0.2;
   NeighbourList<D> nl;
-  nl.configure(0.0, skin);
+  nl.configure(0.0, skin, true);
   nl.build(c.x, c.radius, c.box, 1);
   std::vector<double> value(nl.pair_count());
   std::map<std::pair<std::size_t, std::size_t>, double> by_pair;
