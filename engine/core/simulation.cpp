@@ -448,7 +448,7 @@ class SimulationImpl final : public Simulation {
   void compute_forces() {
     auto& P = sys_.particles;
     std::fill(P.force.begin(), P.force.end(), Vec<D>::Zero());
-    std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());
+    if (rotate_) std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());   // else nothing ever sets a torque
     sys_.virial.setZero();
     for (auto& m : modules_) m->add_forces(sys_);
   }
@@ -464,8 +464,7 @@ class SimulationImpl final : public Simulation {
       scale = barostat_->advance(sys_.time, h, stress());
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
-    if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
-    else kick_drift_predict<D, false>(P, h, sys_.threads);
+    double witness = rotate_ ? kick_drift_predict<D, true>(P, h, sys_.threads) : kick_drift_predict<D, false>(P, h, sys_.threads);
     sys_.affine_flow = cell_moves;
     if (cell_moves) {
       follow_cell(scale);
@@ -475,7 +474,7 @@ class SimulationImpl final : public Simulation {
     if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
     sys_.dt = h;
     compute_forces();
-    const double witness = rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
+    witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
     ++sys_.step;

@@ -5,6 +5,7 @@
 #pragma once
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include <fmt/format.h>
@@ -160,22 +161,34 @@ class ContactForces final : public ForceModule<D> {
     const auto& nl = s.neighbours;
     const double dt = s.dt;
     long clamped = 0;
+    // Plain pointers and local copies: stores into the force arrays cannot then make the compiler
+    // reload vector bounds or law parameters in the open-pair loop, which most pairs take.
+    const Vec<D>* const position = P.position.data();
+    const double* const radius = P.radius.data();
+    const std::uint32_t* const start = nl.start.data();
+    const std::uint32_t* const partner = nl.partner.data();
+    const std::uint8_t* const image = nl.image.data();
+    const Vec<D>* const shift = nl.shift.data();
+    [[maybe_unused]] Vec<D>* const spring = Friction::enabled ? tangential_.data() : nullptr;
+    [[maybe_unused]] Spin<D>* const rolling_spring = Rolling::enabled ? rolling_angle_.data() : nullptr;
+    [[maybe_unused]] const double tail_reach = law_.reach();
     for (std::size_t i = row_begin; i < row_end; ++i) {
-      const Vec<D> xi = P.position[i];
-      const double Ri = P.radius[i], mi = P.mass[i];
+      const Vec<D> xi = position[i];
+      const double Ri = radius[i], mi = P.mass[i];
       Vec<D> fi = Vec<D>::Zero();
-      for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-        const auto j = nl.partner[k];
-        const Vec<D> r = P.position[j] + nl.shift[nl.image[k]] - xi;
-        const double Rsum = Ri + P.radius[j];
+      const std::uint32_t row_end_k = start[i + 1];
+      for (std::uint32_t k = start[i]; k < row_end_k; ++k) {
+        const std::uint32_t j = partner[k];
+        const Vec<D> r = position[j] + shift[image[k]] - xi;
+        const double Rsum = Ri + radius[j];
         const double d2 = r.squaredNorm();
         if (d2 >= Rsum * Rsum) {
           if constexpr (Friction::enabled)   // contact open: history deleted (read first: most are zero already)
-            if (!tangential_[k].isZero(0)) tangential_[k].setZero();
+            if (!spring[k].isZero(0)) spring[k].setZero();
           if constexpr (Rolling::enabled)
-            if (!rolling_angle_[k].isZero(0)) rolling_angle_[k].setZero();
+            if (!rolling_spring[k].isZero(0)) rolling_spring[k].setZero();
           if constexpr (Law::has_tail) {   // open pair within the attraction range: central force only
-            const double reach = Rsum + law_.reach();
+            const double reach = Rsum + tail_reach;
             if (d2 < reach * reach) {
               const double d = std::sqrt(d2);
               const Vec<D> f = law_.tail(d - Rsum) / d * r;
@@ -188,7 +201,7 @@ class ContactForces final : public ForceModule<D> {
         }
         const double d = std::sqrt(d2);
         const Vec<D> n = r / d;
-        const double mj = P.mass[j], Rj = P.radius[j];
+        const double mj = P.mass[j], Rj = radius[j];
         // The step moved the positions by dt * v(t + dt/2) exactly (then, in a deforming cell, scaled
         // them with the cell): the pair's overlap before the step.
         double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);

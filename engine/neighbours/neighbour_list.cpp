@@ -19,8 +19,8 @@ int NeighbourList<D>::Grid::flat(const std::array<int, D>& c) const {
 
 template <int D>
 std::array<int, D> NeighbourList<D>::Grid::coords(const Vec<D>& x) const {
-  std::array<int, D> c;
-  for (int a = 0; a < D; ++a) c[a] = std::clamp(int(std::floor((x[a] - origin[a]) * inverse_cell[a])), 0, n[a] - 1);
+  std::array<int, D> c;   // clamped first, so truncation is the floor (and needs no libm call)
+  for (int a = 0; a < D; ++a) c[a] = int(std::clamp((x[a] - origin[a]) * inverse_cell[a], 0.0, double(n[a] - 1)));
   return c;
 }
 
@@ -30,16 +30,20 @@ std::array<int, D> NeighbourList<D>::Grid::coords(const Vec<D>& x) const {
 // own grid a particle only looks at the slots after its own, so each pair is found once.
 template <int D>
 void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp,
-                              const Box<D>& box, std::vector<Found>& out) const {
+                              const Box<D>& box, std::vector<Found>& out, std::size_t& used) const {
   constexpr int images = D == 3 ? 27 : 9;
   const auto home = g.coords(xp);
   std::array<std::array<int, 3>, D> cells;
   std::array<int, D> count;
+  bool wraps = false;   // some neighbour cell lies across a periodic boundary
   for (int a = 0; a < D; ++a) {
     int k = 0;
     for (int o = -1; o <= 1; ++o) {
       int v = home[a] + o;
-      if (box.periodic[a]) v = v < 0 ? v + g.n[a] : (v >= g.n[a] ? v - g.n[a] : v);
+      if (box.periodic[a]) {
+        wraps |= v < 0 || v >= g.n[a];
+        v = v < 0 ? v + g.n[a] : (v >= g.n[a] ? v - g.n[a] : v);
+      }
       else if (v < 0 || v >= g.n[a]) continue;
       bool repeat = false;
       for (int q = 0; q < k; ++q) repeat |= cells[a][q] == v;
@@ -76,23 +80,34 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
       cc[0] = run_lo[u];
       const int f = g.flat(cc);
       const std::uint32_t b = std::max(g.cell_start[f], first), e = g.cell_start[f + run_hi[u] - run_lo[u] + 1];
-      for (std::uint32_t s = b; s < e; ++s) {
-        double d2 = 0;
-        for (int a = 0; a < D; ++a) {   // positions are wrapped, so |r_a| < L_a
-          double r = position[s][a] - xp[a];
-          r = r > half[a] ? r - period[a] : (r < -half[a] ? r + period[a] : r);
-          d2 += r * r;
-        }
-        const double cut = rp + radius[s] + reach_extra;
-        if (d2 < cut * cut) {
-          int img = 0;   // which image was taken, as an index into `shift`
-          for (int a = D - 1; a >= 0; --a) {
-            const double r = position[s][a] - xp[a];
-            img = img * 3 + (r > half[a] ? 0 : (r < -half[a] ? 2 : 1));
+      if (b >= e) continue;
+      // Branch-free: every candidate is written at the end of `out`, which only advances on a hit.
+      if (used + (e - b) > out.size()) out.resize(std::max(2 * out.size(), used + (e - b)));
+      Found* const slot = out.data();
+      if (wraps) {
+        for (std::uint32_t s = b; s < e; ++s) {
+          double d2 = 0;
+          int img = 0;   // which image is taken, as an index into `shift`
+          for (int a = D - 1; a >= 0; --a) {   // positions are wrapped, so |r_a| < L_a
+            const double raw = position[s][a] - xp[a];
+            const bool below = raw < -half[a], above = raw > half[a];
+            const double r = raw + (below ? period[a] : 0.0) - (above ? period[a] : 0.0);
+            img = img * 3 + 1 + below - above;
+            d2 += r * r;
           }
+          const double cut = rp + radius[s] + reach_extra;
           const std::uint32_t q = member[s];
-          if (p < q) out.push_back({p, q, std::uint8_t(img)});
-          else out.push_back({q, p, std::uint8_t(images - 1 - img)});   // reversed pair, negated shift
+          const bool reversed = q < p;   // stored under the lower index, with the negated shift
+          slot[used] = {reversed ? q : p, reversed ? p : q, std::uint8_t(reversed ? images - 1 - img : img)};
+          used += d2 < cut * cut;
+        }
+      } else {   // no cell wrapped: every pair in reach is its own nearest image (the box is over 2 reach long)
+        for (std::uint32_t s = b; s < e; ++s) {
+          const double d2 = (position[s] - xp).squaredNorm();
+          const double cut = rp + radius[s] + reach_extra;
+          const std::uint32_t q = member[s];
+          slot[used] = {std::min(p, q), std::max(p, q), std::uint8_t(images / 2)};
+          used += d2 < cut * cut;
         }
       }
     }
@@ -179,10 +194,11 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   // order gives the same sequence for any thread count.
   const int nthreads = std::max(1, threads);
   found_.resize(nthreads);
+  found_count_.assign(nthreads, 0);
 #pragma omp parallel num_threads(nthreads)
   {
     auto& mine = found_[omp_get_thread_num()];
-    mine.clear();
+    std::size_t used = 0;
 #pragma omp for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
       int c = 0;
@@ -192,22 +208,24 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       const std::uint32_t p = g.members[m];
       const Vec<D> xp = g.member_position[m];
       const double rp = g.member_radius[m];
-      search(g, m + 1, p, xp, rp, box, mine);   // own class: the slots after p's
-      for (int larger = c - 1; larger >= 0; --larger) search(grids_[larger], 0, p, xp, rp, box, mine);
+      search(g, m + 1, p, xp, rp, box, mine, used);   // own class: the slots after p's
+      for (int larger = c - 1; larger >= 0; --larger) search(grids_[larger], 0, p, xp, rp, box, mine, used);
     }
+    found_count_[omp_get_thread_num()] = used;
   }
 
   // CSR by counting sort on the lower index.
   if (history_) previous_start_.swap(start), previous_partner_.swap(partner);
   start.assign(N + 1, 0);
-  for (const auto& f : found_)
-    for (const auto& pr : f) ++start[pr.i + 1];
+  for (int t = 0; t < nthreads; ++t)
+    for (std::size_t n = 0; n < found_count_[t]; ++n) ++start[found_[t][n].i + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
   partner.resize(start[N]);
   image.resize(start[N]);
   fill_.assign(start.begin(), start.end() - 1);
-  for (const auto& f : found_)
-    for (const auto& pr : f) {
+  for (int t = 0; t < nthreads; ++t)
+    for (std::size_t n = 0; n < found_count_[t]; ++n) {
+      const Found& pr = found_[t][n];
       const auto k = fill_[pr.i]++;
       partner[k] = pr.j, image[k] = pr.image;
     }

@@ -69,7 +69,7 @@ class NeighbourList {
   };
   struct Found { std::uint32_t i, j; std::uint8_t image; };
   void search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp, const Box<D>& box,
-              std::vector<Found>& out) const;
+              std::vector<Found>& out, std::size_t& used) const;
 
   double range_ = 0, skin_ = 0.1;
   bool history_ = false;
@@ -83,7 +83,8 @@ class NeighbourList {
   std::vector<Grid> grids_;
   std::vector<std::uint8_t> class_of_;
   std::vector<std::uint32_t> cell_of_, fill_;
-  std::vector<std::vector<Found>> found_;   // per thread
+  std::vector<std::vector<Found>> found_;   // per thread: the first found_count_[t] entries are pairs
+  std::vector<std::size_t> found_count_;
 };
 
 }  // namespace grains
