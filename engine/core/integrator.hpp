@@ -13,23 +13,6 @@
 
 namespace grains {
 
-// The rotation by angle |w| h about w, as a quaternion. Per-step angles are tiny, where the series
-// in t^2 (exact to double precision below t = 1e-2) needs neither a square root nor a sine and cosine.
-inline Eigen::Quaterniond rotation_quaternion(const Eigen::Vector3d& w, double h) {
-  const double t2 = w.squaredNorm() * (h * h);
-  double c, s_over_t;   // cos(t/2) and sin(t/2) / t
-  if (t2 < 1e-4) {
-    c = 1 - t2 * (1.0 / 8) + t2 * t2 * (1.0 / 384);
-    s_over_t = 0.5 - t2 * (1.0 / 48) + t2 * t2 * (1.0 / 3840);
-  } else {
-    const double t = std::sqrt(t2);
-    c = std::cos(0.5 * t);
-    s_over_t = std::sin(0.5 * t) / t;
-  }
-  const Eigen::Vector3d v = (s_over_t * h) * w;
-  return Eigen::Quaterniond(c, v.x(), v.y(), v.z());
-}
-
 namespace integrator_detail {
 
 // Thread t's share of n items: contiguous, in thread order.
@@ -63,30 +46,19 @@ inline double drift(std::size_t n, double h, double* __restrict x, double* __res
   return witness;
 }
 
-// The rotational first half in 3D over n particles: w kicked and predicted as v above, then the
-// orientation q (stored x, y, z, w) turned by the rotation of angle |w| h about w, written out as
-// a Hamilton product, and brought back to unit length by one Newton step (the drift is O(eps)).
-inline void spin_drift(std::size_t n, double h, double* __restrict w, double* __restrict wp, const double* __restrict alpha,
-                       const double* __restrict alpha_prev, double* __restrict q) {
-  for (std::size_t i = 0; i < n; ++i) {
-    double* const wi = w + 3 * i;
-    for (int c = 0; c < 3; ++c) {
-      const std::size_t k = 3 * i + c;
-      wi[c] += 0.5 * h * alpha[k];
-      wp[k] = wi[c] + 0.5 * h * (1.75 * alpha[k] - 0.75 * alpha_prev[k]);
-    }
-    const Eigen::Quaterniond r = rotation_quaternion(Eigen::Vector3d(wi[0], wi[1], wi[2]), h);
-    const double rw = r.w(), rx = r.x(), ry = r.y(), rz = r.z();
-    double* const qi = q + 4 * i;
-    const double qx = qi[0], qy = qi[1], qz = qi[2], qw = qi[3];
-    const double nx = rw * qx + qw * rx + (ry * qz - rz * qy);
-    const double ny = rw * qy + qw * ry + (rz * qx - rx * qz);
-    const double nz = rw * qz + qw * rz + (rx * qy - ry * qx);
-    const double nw = rw * qw - (rx * qx + ry * qy + rz * qz);
-    const double unit = 1.5 - 0.5 * (nx * nx + ny * ny + nz * nz + nw * nw);
-    qi[0] = nx * unit, qi[1] = ny * unit, qi[2] = nz * unit, qi[3] = nw * unit;
+// First half for angular velocities over n components: w += h/2 alpha; wp = w + h/2 (7/4 alpha - 3/4 alpha_prev).
+inline void kick_predict(std::size_t n, double h, double* __restrict w, double* __restrict wp, const double* __restrict alpha,
+                         const double* __restrict alpha_prev) {
+#pragma omp simd
+  for (std::size_t k = 0; k < n; ++k) {
+    w[k] += 0.5 * h * alpha[k];
+    wp[k] = w[k] + 0.5 * h * (1.75 * alpha[k] - 0.75 * alpha_prev[k]);
   }
 }
+
+// Turn n orientations q (quaternions stored x, y, z, w) by the rotations of angle |w| h about w
+// (integrator.cpp).
+void turn(std::size_t n, double h, const double* w, double* q);
 
 // Second half over n particles of C components: a = f / m; v += h/2 a. Returns the sum of the new v.
 template <int C>
@@ -121,9 +93,9 @@ double kick_drift_predict(Particles<D>& P, double h, int threads) {
                      flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
     if constexpr (Rotate && D == 3) {
       static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
-      spin_drift(e - b, h, flat(P.angular_velocity) + 3 * b, flat(P.angular_velocity_predicted) + 3 * b,
-                 flat(P.angular_accel) + 3 * b, flat(P.angular_accel_prev) + 3 * b,
-                 reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
+      kick_predict(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_velocity_predicted) + 3 * b,
+                   flat(P.angular_accel) + 3 * b, flat(P.angular_accel_prev) + 3 * b);
+      turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
     } else if constexpr (Rotate) {   // 2D: the angle simply advances
       for (std::size_t i = b; i < e; ++i) {
         P.angular_velocity[i] += 0.5 * h * P.angular_accel[i];

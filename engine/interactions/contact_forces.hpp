@@ -218,7 +218,7 @@ class ContactForces final : public ForceModule<D> {
           if constexpr (Rolling::enabled) rolling_spring[stale[q]].setZero();
         }
       std::size_t i = row_end;   // no row yet
-      Vec<D> xi, fi;
+      Vec<D> xi = Vec<D>::Zero(), fi = Vec<D>::Zero();
       double Ri = 0;
       for (std::size_t q = 0; q < n; ++q) {
         if (gathered_row[q] != i) {
