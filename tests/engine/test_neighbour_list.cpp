@@ -249,3 +249,17 @@ TEST_CASE("neighbour list: carry() maps per-pair values across a rebuild, new pa
     carry_case<2>(Sizes::bimodal, seed);
   }
 }
+
+// Without history the build neither sorts rows nor keeps the previous list, so carrying values
+// across it would silently scramble them: carry() refuses.
+TEST_CASE("neighbour list: carry() needs a list configured with history", "[neighbours]") {
+  auto c = make_config<3>(200, Sizes::uniform, true, 6.0, 9);
+  NeighbourList<3> nl;
+  nl.configure(0.0, 0.2);
+  nl.build(c.x, c.radius, c.box, 1);
+  std::vector<double> value(nl.pair_count(), 1.0);
+  CHECK_THROWS_AS(nl.carry(value, 0.0), std::logic_error);
+  nl.configure(0.0, 0.2, true);
+  nl.build(c.x, c.radius, c.box, 1);
+  CHECK_NOTHROW(nl.carry(value, 0.0));
+}
