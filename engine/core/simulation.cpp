@@ -102,7 +102,9 @@ class SimulationImpl final : public Simulation {
     double range = -1;
     for (const auto& m : modules_) range = std::max(range, m->pair_range());
     const double skin = scene.has("neighbours.skin") ? scene.real("neighbours.skin") : 0.4 * rmin;
-    sys_.neighbours.configure(std::max(0.0, range), skin);
+    bool history = bool(collisions_);
+    for (const auto& m : modules_) history |= m->keeps_pair_history();
+    sys_.neighbours.configure(std::max(0.0, range), skin, history);
     for (int a = 0; a < D; ++a)
       if (sys_.box.periodic[a] && 2 * rmax + std::max(0.0, range) + skin > 0.5 * sys_.box.length[a])
         scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than twice the "
@@ -446,7 +448,7 @@ class SimulationImpl final : public Simulation {
   void compute_forces() {
     auto& P = sys_.particles;
     std::fill(P.force.begin(), P.force.end(), Vec<D>::Zero());
-    std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());
+    if (rotate_) std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());   // else nothing ever sets a torque
     sys_.virial.setZero();
     for (auto& m : modules_) m->add_forces(sys_);
   }
@@ -463,8 +465,7 @@ class SimulationImpl final : public Simulation {
       scale = barostat_->advance(sys_.time, h, sigma);
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
-    if (rotate_) kick_drift_predict<D, true>(P, h, sys_.threads);
-    else kick_drift_predict<D, false>(P, h, sys_.threads);
+    double witness = rotate_ ? kick_drift_predict<D, true>(P, h, sys_.threads) : kick_drift_predict<D, false>(P, h, sys_.threads);
     sys_.affine_flow = cell_moves;
     if (cell_moves) {
       follow_cell(scale);
@@ -474,7 +475,7 @@ class SimulationImpl final : public Simulation {
     if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
     sys_.dt = h;
     compute_forces();
-    const double witness = rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
+    witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
     ++sys_.step;

@@ -43,6 +43,8 @@ class ContactForces final : public ForceModule<D> {
   bool applies_torques() const override { return torques_; }
   const Law& law() const { return law_; }
 
+  // Always: the first-step stamps (touched_) follow the pairs, besides the friction and rolling springs.
+  bool keeps_pair_history() const override { return true; }
   void after_rebuild(const NeighbourList<D>& list) override {
     list.carry(touched_, std::uint32_t(0));
     if constexpr (Friction::enabled) list.carry(tangential_, Vec<D>(Vec<D>::Zero()));
@@ -67,8 +69,9 @@ class ContactForces final : public ForceModule<D> {
     const std::size_t N = P.size();
     long clamped_now = 0;
     const int T = s.threads;
+    gathered_.resize(T);
     if (T == 1) {
-      clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial);
+      clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial, gathered_[0]);
     } else {
       // One virial per thread, summed in thread order afterwards: deterministic for a thread count.
       std::vector<Mat> thread_virial(Virial ? T : 0, Mat::Zero());
@@ -80,9 +83,12 @@ class ContactForces final : public ForceModule<D> {
         auto& q = s.thread_torque[t];
         std::fill(f.begin(), f.end(), Vec<D>::Zero());
         if constexpr (torques_) std::fill(q.begin(), q.end(), Spin<D>::Zero());
-        // Rows have uneven lengths; interleaved chunks balance them while staying deterministic.
-#pragma omp for schedule(static, 256)
-        for (std::size_t i = 0; i < N; ++i) clamped_now += loop<Virial>(s, i, i + 1, f.data(), q.data(), local);
+        // Rows have uneven lengths; interleaved blocks balance them while staying deterministic.
+        const std::size_t blocks = (N + block_rows_ - 1) / block_rows_;
+#pragma omp for schedule(static, 1)
+        for (std::size_t c = 0; c < blocks; ++c)
+          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f.data(), q.data(), local,
+                                      gathered_[t]);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < N; ++i) {
@@ -158,79 +164,142 @@ class ContactForces final : public ForceModule<D> {
   }
 
  private:
+  // Rows are handled in blocks of this many, in two passes: the first gathers the pairs that
+  // interact (touching, or within an attraction tail) without a branch, the second evaluates them.
+  // Most listed pairs are open, so the first pass is the hot one and stays small and tight; the
+  // second runs the costly arithmetic of consecutive contacts back to back. Pairs are evaluated in
+  // list order, as a single pass would.
+  static constexpr std::size_t block_rows_ = 256;
+  struct Gathered {
+    std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
+    std::vector<std::uint32_t> stale;       // open pairs that still hold history
+  };
+
   template <bool Virial>
   long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
-            Eigen::Matrix<double, D, D>& virial) {
+            Eigen::Matrix<double, D, D>& virial, Gathered& g) {
     auto& P = s.particles;
     const auto& nl = s.neighbours;
-    const double dt = s.dt;
     long clamped = 0;
-    for (std::size_t i = row_begin; i < row_end; ++i) {
-      const Vec<D> xi = P.position[i];
-      const double Ri = P.radius[i], mi = P.mass[i];
-      Vec<D> fi = Vec<D>::Zero();
-      for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-        const auto j = nl.partner[k];
-        const Vec<D> r = P.position[j] + nl.shift[nl.image[k]] - xi;
-        const double Rsum = Ri + P.radius[j];
-        const double d2 = r.squaredNorm();
-        if (d2 >= Rsum * Rsum) {
-          if constexpr (Friction::enabled)   // contact open: history deleted (read first: most are zero already)
-            if (!tangential_[k].isZero(0)) tangential_[k].setZero();
-          if constexpr (Rolling::enabled)
-            if (!rolling_angle_[k].isZero(0)) rolling_angle_[k].setZero();
-          if constexpr (Law::has_tail) {   // open pair within the attraction range: central force only
-            const double reach = Rsum + law_.reach();
-            if (d2 < reach * reach) {
-              const double d = std::sqrt(d2);
-              const Vec<D> f = law_.tail(d - Rsum) / d * r;
-              force[j] += f;
-              fi -= f;
-              if constexpr (Virial) virial.noalias() += f * r.transpose();   // attraction counts too
-            }
+    // Plain pointers: stores into the force arrays cannot then make the compiler reload them.
+    const Vec<D>* const position = P.position.data();
+    const double* const radius = P.radius.data();
+    const std::uint32_t* const start = nl.start.data();
+    const std::uint32_t* const partner = nl.partner.data();
+    const std::uint8_t* const image = nl.image.data();
+    const Vec<D>* const shift = nl.shift.data();
+    [[maybe_unused]] Vec<D>* const spring = Friction::enabled ? tangential_.data() : nullptr;
+    [[maybe_unused]] Spin<D>* const rolling_spring = Rolling::enabled ? rolling_angle_.data() : nullptr;
+    const double tail_reach = law_.reach();   // 0 without an attractive tail: then exactly Rsum below
+    for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
+      const std::size_t e = std::min(row_end, b + block_rows_);
+      const std::size_t pairs = start[e] - start[b];
+      if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs), g.stale.resize(Friction::enabled || Rolling::enabled ? pairs : 0);
+      std::uint32_t* const gathered_row = g.row.data();
+      std::uint32_t* const gathered_pair = g.pair.data();
+      [[maybe_unused]] std::uint32_t* const stale = g.stale.data();
+      std::size_t n = 0, n_stale = 0;
+      for (std::size_t i = b; i < e; ++i) {
+        const Vec<D> xi = position[i];
+        const double Ri = radius[i];
+        const std::uint32_t row_end_k = start[i + 1];
+        for (std::uint32_t k = start[i]; k < row_end_k; ++k) {
+          const Vec<D> r = position[partner[k]] + shift[image[k]] - xi;
+          const double reach = Ri + radius[partner[k]] + tail_reach;
+          const bool interacts = r.squaredNorm() < reach * reach;
+          gathered_row[n] = std::uint32_t(i), gathered_pair[n] = k;
+          n += interacts;
+          if constexpr (Friction::enabled || Rolling::enabled) {   // an open contact loses its history
+            bool held = false;
+            if constexpr (Friction::enabled) held |= !spring[k].isZero(0);
+            if constexpr (Rolling::enabled) held |= !rolling_spring[k].isZero(0);
+            stale[n_stale] = k;
+            n_stale += held && !interacts;
           }
-          continue;
         }
-        const double d = std::sqrt(d2);
-        const Vec<D> n = r / d;
-        const double mj = P.mass[j], Rj = P.radius[j];
-        double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
-        Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
-        if (s.affine_flow) {
-          flow = s.strain_rate.cwiseProduct(r);
-          vn += flow.dot(n);
+      }
+      if constexpr (Friction::enabled || Rolling::enabled)
+        for (std::size_t q = 0; q < n_stale; ++q) {
+          if constexpr (Friction::enabled) spring[stale[q]].setZero();
+          if constexpr (Rolling::enabled) rolling_spring[stale[q]].setZero();
         }
-        // The contact's first step: the pair did not overlap at the previous evaluation (a per-pair
-        // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
-        const bool first = touched_[k] + 1 != evaluation_;
-        touched_[k] = evaluation_;
-        // Its overlap before the step, for the sub-step onset: the step moved the positions by
-        // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
-        double before = 0;
-        if (first) {
-          const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
-          before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
+      std::size_t i = row_end;   // no row yet
+      Vec<D> xi = Vec<D>::Zero(), fi = Vec<D>::Zero();
+      double Ri = 0;
+      for (std::size_t q = 0; q < n; ++q) {
+        if (gathered_row[q] != i) {
+          if (i != row_end) force[i] += fi;
+          i = gathered_row[q], xi = position[i], Ri = radius[i], fi.setZero();
         }
-        double elastic;
-        bool was_clamped;
-        const double fn = law_.force({Rsum - d, before, vn, dt, first}, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
-        clamped += was_clamped;
-        Vec<D> f = fn * n;   // on j
-        if constexpr (Friction::enabled) {
-          // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
-          // torques of F_t balance its moment and total angular momentum is conserved exactly.
-          const double half_overlap = 0.5 * (Rsum - d);
-          f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt,
-                                torque);
+        const std::uint32_t k = gathered_pair[q], j = partner[k];
+        const Vec<D> r = position[j] + shift[image[k]] - xi;
+        const double Rsum = Ri + radius[j];
+        const double d2 = r.squaredNorm();
+        if constexpr (Law::has_tail) {
+          if (d2 >= Rsum * Rsum) {   // open pair within the attraction range: central force only
+            if constexpr (Friction::enabled)
+              if (!spring[k].isZero(0)) spring[k].setZero();
+            if constexpr (Rolling::enabled)
+              if (!rolling_spring[k].isZero(0)) rolling_spring[k].setZero();
+            const double d = std::sqrt(d2);
+            const Vec<D> f = law_.tail(d - Rsum) / d * r;
+            force[j] += f;
+            fi -= f;
+            if constexpr (Virial) virial.noalias() += f * r.transpose();   // attraction counts too
+            continue;
+          }
         }
-        if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, dt, torque);
+        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque, clamped);   // on j
         force[j] += f;
         fi -= f;
         if constexpr (Virial) virial.noalias() += f * r.transpose();
       }
-      force[i] += fi;
+      if (i != row_end) force[i] += fi;
     }
     return clamped;
+  }
+
+  // A touching pair: the normal law, friction and rolling resistance; returns the force on j and adds
+  // the torques.
+  Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
+                                         double d2, double Rsum, Spin<D>* torque, long& clamped) {
+    const auto& P = s.particles;
+    const double dt = s.dt;
+    const double Ri = P.radius[i], mi = P.mass[i];
+    const double d = std::sqrt(d2);
+    const Vec<D> n = r / d;
+    const double mj = P.mass[j], Rj = P.radius[j];
+    double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
+    Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
+    if (s.affine_flow) {
+      flow = s.strain_rate.cwiseProduct(r);
+      vn += flow.dot(n);
+    }
+    // The contact's first step: the pair did not overlap at the previous evaluation (a per-pair
+    // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
+    const bool first = touched_[k] + 1 != evaluation_;
+    touched_[k] = evaluation_;
+    // Its overlap before the step, for the sub-step onset: the step moved the positions by
+    // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
+    double before = 0;
+    if (first) {
+      const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
+      before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
+    }
+    double elastic;
+    bool was_clamped;
+    const double fn = law_.force({Rsum - d, before, vn, dt, first}, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
+    clamped += was_clamped;
+    Vec<D> f = fn * n;   // on j
+    if constexpr (Friction::enabled) {
+      // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
+      // torques of F_t balance its moment and total angular momentum is conserved exactly.
+      const double half_overlap = 0.5 * (Rsum - d);
+      f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt,
+                            torque);
+    }
+    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, dt, torque);
+    return f;
   }
 
   // Tangential force on j; adds both torques. Ri, Rj: distances from the centres to the contact point.
@@ -297,6 +366,7 @@ class ContactForces final : public ForceModule<D> {
   std::vector<Spin<D>> rolling_angle_;   // theta_R per neighbour pair, aligned with the list
   std::vector<std::uint32_t> touched_;   // per neighbour pair: the last evaluation at which it overlapped (0: never)
   std::uint32_t evaluation_ = 1;          // force evaluations so far, + 1
+  std::vector<Gathered> gathered_;       // per thread, reused
   long clamped_now_ = 0, clamped_total_ = 0;
 };
 

@@ -22,6 +22,8 @@ class ForceModule {
   virtual bool applies_torques() const { return false; }
   // Add this module's forces and torques into particles.force / particles.torque.
   virtual void add_forces(System<D>& s) = 0;
+  // Whether this module keeps per-pair values that must follow the pairs across list rebuilds.
+  virtual bool keeps_pair_history() const { return false; }
   // The neighbour list was rebuilt: re-index per-pair history.
   virtual void after_rebuild(const NeighbourList<D>&) {}
   // Scalar observables of this module (name, value), read-only.

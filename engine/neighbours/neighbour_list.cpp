@@ -3,36 +3,119 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include <omp.h>
 
 namespace grains {
-namespace {
 
-// One uniform grid of cells holding the particles of one size class.
 template <int D>
-struct Grid {
-  Vec<D> origin, cell;
-  std::array<int, D> n{};
-  std::vector<std::uint32_t> cell_start, members;   // counting-sorted particle indices per cell
-  std::vector<Vec<D>> member_position;               // positions and radii in cell order: the
-  std::vector<double> member_radius;                 // candidate loop then reads memory in sequence
-  double max_radius = 0;
+int NeighbourList<D>::Grid::flat(const std::array<int, D>& c) const {
+  int f = 0;
+  for (int a = D - 1; a >= 0; --a) f = f * n[a] + c[a];
+  return f;
+}
 
-  int flat(const std::array<int, D>& c) const {
-    int f = 0;
-    for (int a = D - 1; a >= 0; --a) f = f * n[a] + c[a];
-    return f;
-  }
-  std::array<int, D> coords(const Vec<D>& x) const {
-    std::array<int, D> c;
-    for (int a = 0; a < D; ++a) c[a] = std::clamp(int(std::floor((x[a] - origin[a]) / cell[a])), 0, n[a] - 1);
-    return c;
-  }
-};
+template <int D>
+std::array<int, D> NeighbourList<D>::Grid::coords(const Vec<D>& x) const {
+  std::array<int, D> c;   // clamped first, so truncation is the floor (and needs no libm call)
+  for (int a = 0; a < D; ++a) c[a] = int(std::clamp((x[a] - origin[a]) * inverse_cell[a], 0.0, double(n[a] - 1)));
+  return c;
+}
 
-}  // namespace
+// Candidates of particle p (position xp, radius rp) in grid g: the 3^D cells around its own, each
+// visited once (a periodic axis of fewer than three cells has repeats), read as runs of cells that
+// are consecutive along x (consecutive in memory too). Slots below `first` are skipped: within its
+// own grid a particle only looks at the slots after its own, so each pair is found once.
+template <int D>
+void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp,
+                              const Box<D>& box, std::vector<Found>& out, std::size_t& used) const {
+  constexpr int images = D == 3 ? 27 : 9;
+  const auto home = g.coords(xp);
+  std::array<std::array<int, 3>, D> cells;
+  std::array<int, D> count;
+  bool wraps = false;   // some neighbour cell lies across a periodic boundary
+  for (int a = 0; a < D; ++a) {
+    int k = 0;
+    for (int o = -1; o <= 1; ++o) {
+      int v = home[a] + o;
+      if (box.periodic[a]) {
+        wraps |= v < 0 || v >= g.n[a];
+        v = v < 0 ? v + g.n[a] : (v >= g.n[a] ? v - g.n[a] : v);
+      }
+      else if (v < 0 || v >= g.n[a]) continue;
+      bool repeat = false;
+      for (int q = 0; q < k; ++q) repeat |= cells[a][q] == v;
+      if (!repeat) cells[a][k++] = v;
+    }
+    count[a] = k;
+  }
+  // Runs along x: sort the (at most three) cells, then merge neighbours.
+  std::array<int, 3> run_lo, run_hi;
+  int runs = 0;
+  {
+    auto& c = cells[0];
+    for (int q = 1; q < count[0]; ++q)
+      for (int h = q; h > 0 && c[h - 1] > c[h]; --h) std::swap(c[h - 1], c[h]);
+    for (int q = 0; q < count[0]; ++q)
+      if (runs > 0 && c[q] == run_hi[runs - 1] + 1) run_hi[runs - 1] = c[q];
+      else run_lo[runs] = run_hi[runs] = c[q], ++runs;
+  }
+  // Minimum image without a branch on the axis kind: open axes never shift.
+  Vec<D> half, period;
+  for (int a = 0; a < D; ++a) {
+    half[a] = box.periodic[a] ? 0.5 * box.length[a] : std::numeric_limits<double>::infinity();
+    period[a] = box.periodic[a] ? box.length[a] : 0.0;
+  }
+  const double reach_extra = range_ + skin_;
+  // Raw pointers and scalar arithmetic: the loop then keeps everything in registers.
+  const Vec<D>* position = g.member_position.data();
+  const double* radius = g.member_radius.data();
+  const std::uint32_t* member = g.members.data();
+  std::array<int, D> idx{}, cc{};
+  for (;;) {
+    for (int a = 1; a < D; ++a) cc[a] = cells[a][idx[a]];
+    for (int u = 0; u < runs; ++u) {
+      cc[0] = run_lo[u];
+      const int f = g.flat(cc);
+      const std::uint32_t b = std::max(g.cell_start[f], first), e = g.cell_start[f + run_hi[u] - run_lo[u] + 1];
+      if (b >= e) continue;
+      // Branch-free: every candidate is written at the end of `out`, which only advances on a hit.
+      if (used + (e - b) > out.size()) out.resize(std::max(2 * out.size(), used + (e - b)));
+      Found* const slot = out.data();
+      if (wraps) {
+        for (std::uint32_t s = b; s < e; ++s) {
+          double d2 = 0;
+          int img = 0;   // which image is taken, as an index into `shift`
+          for (int a = D - 1; a >= 0; --a) {   // positions are wrapped, so |r_a| < L_a
+            const double raw = position[s][a] - xp[a];
+            const bool below = raw < -half[a], above = raw > half[a];
+            const double r = raw + (below ? period[a] : 0.0) - (above ? period[a] : 0.0);
+            img = img * 3 + 1 + below - above;
+            d2 += r * r;
+          }
+          const double cut = rp + radius[s] + reach_extra;
+          const std::uint32_t q = member[s];
+          const bool reversed = q < p;   // stored under the lower index, with the negated shift
+          slot[used] = {reversed ? q : p, reversed ? p : q, std::uint8_t(reversed ? images - 1 - img : img)};
+          used += d2 < cut * cut;
+        }
+      } else {   // no cell wrapped: every pair in reach is its own nearest image (the box is over 2 reach long)
+        for (std::uint32_t s = b; s < e; ++s) {
+          const double d2 = (position[s] - xp).squaredNorm();
+          const double cut = rp + radius[s] + reach_extra;
+          const std::uint32_t q = member[s];
+          slot[used] = {std::min(p, q), std::max(p, q), std::uint8_t(images / 2)};
+          used += d2 < cut * cut;
+        }
+      }
+    }
+    int a = 1;
+    while (a < D && ++idx[a] == count[a]) idx[a++] = 0;
+    if (a == D) break;
+  }
+}
 
 template <int D>
 void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<double>& radius, const Box<D>& box, int threads) {
@@ -42,9 +125,10 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   double rmin = N ? *std::min_element(radius.begin(), radius.end()) : 1.0;
   int classes = std::max(1, int(std::ceil(std::log2(rmax / rmin) - 1e-12)));
   classes = std::min(classes, 8);
-  std::vector<int> klass(N);
-  for (std::size_t i = 0; i < N; ++i)
-    klass[i] = std::min(classes - 1, std::max(0, int(std::floor(std::log2(rmax / radius[i])))));
+  class_of_.assign(N, 0);
+  if (classes > 1)
+    for (std::size_t i = 0; i < N; ++i)
+      class_of_[i] = std::uint8_t(std::min(classes - 1, std::max(0, int(std::floor(std::log2(rmax / radius[i]))))));
 
   Vec<D> lo = box.lower, hi = box.lower + box.length;
   for (int a = 0; a < D; ++a)
@@ -54,11 +138,12 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       hi[a] += 1e-9 * (1 + std::abs(hi[a]));
     }
 
-  std::vector<Grid<D>> grids(classes);
-  for (std::size_t i = 0; i < N; ++i) grids[klass[i]].max_radius = std::max(grids[klass[i]].max_radius, radius[i]);
-  for (int c = 0; c < classes; ++c) {
-    auto& g = grids[c];
-    double want = 2 * g.max_radius + range_ + skin_;
+  grids_.resize(classes);
+  for (auto& g : grids_) g.max_radius = 0;
+  for (std::size_t i = 0; i < N; ++i) grids_[class_of_[i]].max_radius = std::max(grids_[class_of_[i]].max_radius, radius[i]);
+  for (auto& g : grids_) {
+    // Cells no smaller than the largest reach in the class (with a margin for the rounding of coords()).
+    const double want = (2 * g.max_radius + range_ + skin_) * (1 + 1e-9);
     double cells = 1;
     for (int a = 0; a < D; ++a) {
       double extent = hi[a] - lo[a];
@@ -70,29 +155,33 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       cells = 1;
       for (int a = 0; a < D; ++a) g.n[a] = std::max(1, g.n[a] / 2), cells *= g.n[a];
     }
-    for (int a = 0; a < D; ++a) g.origin[a] = lo[a], g.cell[a] = std::max((hi[a] - lo[a]) / g.n[a], 1e-300);
+    for (int a = 0; a < D; ++a) g.origin[a] = lo[a], g.inverse_cell[a] = g.n[a] / std::max(hi[a] - lo[a], 1e-300);
     g.cell_start.assign(std::size_t(cells) + 1, 0);
   }
-  std::vector<int> cell_of(N);
+  cell_of_.resize(N);
   for (std::size_t i = 0; i < N; ++i) {
-    auto& g = grids[klass[i]];
-    cell_of[i] = g.flat(g.coords(x[i]));
-    ++g.cell_start[cell_of[i] + 1];
+    auto& g = grids_[class_of_[i]];
+    cell_of_[i] = std::uint32_t(g.flat(g.coords(x[i])));
+    ++g.cell_start[cell_of_[i] + 1];
   }
-  for (auto& g : grids) {
+  // Visiting order: class 0's members in cell order, then class 1's, ... (visit_start[c] = first visit of class c).
+  std::array<std::size_t, 9> visit_start{};
+  for (int c = 0; c < classes; ++c) {
+    auto& g = grids_[c];
     std::partial_sum(g.cell_start.begin(), g.cell_start.end(), g.cell_start.begin());
     g.members.resize(g.cell_start.back());
+    g.member_position.resize(g.members.size());
+    g.member_radius.resize(g.members.size());
+    visit_start[c + 1] = visit_start[c] + g.members.size();
   }
-  {
-    std::vector<std::vector<std::uint32_t>> fill(classes);
-    for (int c = 0; c < classes; ++c) fill[c].assign(grids[c].cell_start.begin(), grids[c].cell_start.end() - 1);
-    for (std::size_t i = 0; i < N; ++i) grids[klass[i]].members[fill[klass[i]][cell_of[i]]++] = std::uint32_t(i);
-    for (auto& g : grids) {
-      g.member_position.resize(g.members.size());
-      g.member_radius.resize(g.members.size());
-      for (std::size_t m = 0; m < g.members.size(); ++m)
-        g.member_position[m] = x[g.members[m]], g.member_radius[m] = radius[g.members[m]];
-    }
+  for (int c = 0; c < classes; ++c) {
+    auto& g = grids_[c];
+    fill_.assign(g.cell_start.begin(), g.cell_start.end() - 1);
+    for (std::size_t i = 0; i < N; ++i)
+      if (class_of_[i] == c) {
+        const auto m = fill_[cell_of_[i]]++;
+        g.members[m] = std::uint32_t(i), g.member_position[m] = x[i], g.member_radius[m] = radius[i];
+      }
   }
 
   // Periodic image shifts, indexed by sum (k_a + 1) 3^a with k_a in {-1, 0, 1}.
@@ -101,104 +190,69 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   for (int s = 0; s < images; ++s)
     for (int a = 0, r = s; a < D; ++a, r /= 3) shift[s][a] = (r % 3 - 1) * box.length[a];
 
-  struct Pair { std::uint32_t i, j; std::uint8_t img; };
-  int nthreads = std::max(1, threads);
-  std::vector<std::vector<Pair>> found(nthreads);
-  const double reach_extra = range_ + skin_;
-
+  // Each thread takes a contiguous block of visits, so concatenating the threads' finds in thread
+  // order gives the same sequence for any thread count.
+  const int nthreads = std::max(1, threads);
+  found_.resize(nthreads);
+  found_count_.assign(nthreads, 0);
 #pragma omp parallel num_threads(nthreads)
   {
-    auto& mine = found[omp_get_thread_num()];
-    mine.reserve(std::size_t(8 * N / nthreads) + 16);
+    auto& mine = found_[omp_get_thread_num()];
+    std::size_t used = 0;
 #pragma omp for schedule(static)
-    for (std::size_t p = 0; p < N; ++p) {
-      const int cp = klass[p];
-      const Vec<D> xp = x[p];
-      const double rp = radius[p];
-      for (int c = cp; c >= 0; --c) {   // own class and every larger class
-        const auto& g = grids[c];
-        auto home = g.coords(x[p]);
-        std::array<std::array<int, 3>, D> axis_cells;
-        std::array<int, D> axis_count;
-        for (int a = 0; a < D; ++a) {   // neighbouring cells per axis, without duplicates
-          int k = 0;
-          for (int o = -1; o <= 1; ++o) {
-            int v = home[a] + o;
-            if (box.periodic[a]) v = (v % g.n[a] + g.n[a]) % g.n[a];
-            else if (v < 0 || v >= g.n[a]) continue;
-            bool dup = false;
-            for (int q = 0; q < k; ++q) dup |= axis_cells[a][q] == v;
-            if (!dup) axis_cells[a][k++] = v;
-          }
-          axis_count[a] = k;
-        }
-        std::array<int, D> idx{};
-        for (;;) {
-          std::array<int, D> cc;
-          for (int a = 0; a < D; ++a) cc[a] = axis_cells[a][idx[a]];
-          int f = g.flat(cc);
-          for (std::uint32_t m = g.cell_start[f]; m < g.cell_start[f + 1]; ++m) {
-            std::uint32_t q = g.members[m];
-            if (c == cp && q <= p) continue;   // same class: each pair once
-            Vec<D> r = g.member_position[m] - xp;
-            int img = 0;
-            for (int a = D - 1; a >= 0; --a) {   // positions are wrapped, so |r_a| < L_a
-              int k = 0;
-              if (box.periodic[a]) k = r[a] > 0.5 * box.length[a] ? -1 : (r[a] < -0.5 * box.length[a] ? 1 : 0);
-              img = img * 3 + (k + 1);
-              r[a] += k * box.length[a];
-            }
-            double cut = rp + g.member_radius[m] + reach_extra;
-            if (r.squaredNorm() < cut * cut) {
-              if (p < q) mine.push_back({std::uint32_t(p), q, std::uint8_t(img)});
-              else mine.push_back({q, std::uint32_t(p), std::uint8_t(images - 1 - img)});   // reversed pair, negated shift
-            }
-          }
-          int a = 0;
-          while (a < D && ++idx[a] == axis_count[a]) idx[a++] = 0;
-          if (a == D) break;
-        }
-      }
+    for (std::size_t v = 0; v < N; ++v) {
+      int c = 0;
+      while (v >= visit_start[c + 1]) ++c;
+      const auto& g = grids_[c];
+      const auto m = std::uint32_t(v - visit_start[c]);
+      const std::uint32_t p = g.members[m];
+      const Vec<D> xp = g.member_position[m];
+      const double rp = g.member_radius[m];
+      search(g, m + 1, p, xp, rp, box, mine, used);   // own class: the slots after p's
+      for (int larger = c - 1; larger >= 0; --larger) search(grids_[larger], 0, p, xp, rp, box, mine, used);
     }
+    found_count_[omp_get_thread_num()] = used;
   }
 
-  // Keep the old rows to map history, then assemble CSR with rows sorted by partner.
-  std::vector<std::uint32_t> old_start = std::move(start), old_partner = std::move(partner);
+  // CSR by counting sort on the lower index.
+  if (history_) previous_start_.swap(start), previous_partner_.swap(partner);
   start.assign(N + 1, 0);
-  for (const auto& f : found)
-    for (const auto& pr : f) ++start[pr.i + 1];
+  for (int t = 0; t < nthreads; ++t)
+    for (std::size_t n = 0; n < found_count_[t]; ++n) ++start[found_[t][n].i + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
   partner.resize(start[N]);
   image.resize(start[N]);
-  {
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (const auto& f : found)
-      for (const auto& pr : f) {
-        auto k = fill[pr.i]++;
-        partner[k] = pr.j;
-        image[k] = pr.img;
-      }
-  }
-  previous_entry_.assign(partner.size(), -1);
-  // Rows sorted by partner: pack (partner, image) into one integer and sort each row in place.
-  std::vector<std::uint64_t> packed(partner.size());
-  for (std::size_t k = 0; k < partner.size(); ++k) packed[k] = (std::uint64_t(partner[k]) << 8) | image[k];
+  fill_.assign(start.begin(), start.end() - 1);
+  for (int t = 0; t < nthreads; ++t)
+    for (std::size_t n = 0; n < found_count_[t]; ++n) {
+      const Found& pr = found_[t][n];
+      const auto k = fill_[pr.i]++;
+      partner[k] = pr.j, image[k] = pr.image;
+    }
+  if (history_) {   // rows sorted by partner (insertion sort: rows are short), then a merge walk against the old rows
+    previous_entry_.assign(partner.size(), -1);
 #pragma omp parallel for num_threads(nthreads) schedule(static)
-  for (std::size_t i = 0; i < N; ++i) {
-    std::size_t b = start[i], e = start[i + 1];
-    std::sort(packed.begin() + b, packed.begin() + e);
-    for (std::size_t k = b; k < e; ++k) partner[k] = std::uint32_t(packed[k] >> 8), image[k] = std::uint8_t(packed[k] & 0xff);
-    if (i + 1 < old_start.size()) {   // merge-walk against the previous row
-      std::size_t o = old_start[i], oe = old_start[i + 1];
-      for (std::size_t k = b; k < e; ++k) {
-        while (o < oe && old_partner[o] < partner[k]) ++o;
-        if (o < oe && old_partner[o] == partner[k]) previous_entry_[k] = std::int64_t(o);
+    for (std::size_t i = 0; i < N; ++i) {
+      const std::size_t b = start[i], e = start[i + 1];
+      for (std::size_t k = b + 1; k < e; ++k) {
+        const std::uint32_t j = partner[k];
+        const std::uint8_t img = image[k];
+        std::size_t h = k;
+        for (; h > b && partner[h - 1] > j; --h) partner[h] = partner[h - 1], image[h] = image[h - 1];
+        partner[h] = j, image[h] = img;
+      }
+      if (i + 1 < previous_start_.size()) {
+        std::size_t o = previous_start_[i], oe = previous_start_[i + 1];
+        for (std::size_t k = b; k < e; ++k) {
+          while (o < oe && previous_partner_[o] < partner[k]) ++o;
+          if (o < oe && previous_partner_[o] == partner[k]) previous_entry_[k] = std::int64_t(o);
+        }
       }
     }
   }
   reference_ = x;
   strain_since_build_.setOnes();
-  list_reach_ = 2 * (radius.empty() ? 0.0 : *std::max_element(radius.begin(), radius.end())) + range_ + skin_;
+  list_reach_ = 2 * (N ? rmax : 0.0) + range_ + skin_;
   ++builds_;
 }
 

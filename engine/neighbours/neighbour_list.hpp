@@ -1,8 +1,12 @@
 // Verlet neighbour list: every pair whose surfaces are closer than `reach` (interaction range + skin),
-// stored once, under the lower index, rows sorted by partner (CSR). Built from a hierarchy of cell grids
-// (one per factor-two size class) so that a size ratio of 10 costs about as much as monodisperse.
+// stored once, under the lower index (CSR). Built from a hierarchy of cell grids (one per factor-two
+// size class) so that a size ratio of 10 costs about as much as monodisperse. When some module carries
+// per-pair history across rebuilds (configure(..., history = true)), rows are sorted by partner and
+// matched against the previous list; otherwise their order is the (deterministic) order of discovery.
 #pragma once
+#include <array>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "core/box.hpp"
@@ -13,12 +17,13 @@ namespace grains {
 template <int D>
 class NeighbourList {
  public:
-  // `range`: surface gap up to which a pair interacts (0 for plain contact); `skin`: extra margin.
-  void configure(double range, double skin) { range_ = range, skin_ = skin; }
+  // `range`: surface gap up to which a pair interacts (0 for plain contact); `skin`: extra margin;
+  // `history`: carry() will be used (costs a sort and a merge walk per build).
+  void configure(double range, double skin, bool history = false) { range_ = range, skin_ = skin, history_ = history; }
   double skin() const { return skin_; }
 
-  // Positions must already be wrapped into the box. Remembers the previous list so per-pair history
-  // can be carried over with carry().
+  // Positions must already be wrapped into the box. With history, remembers the previous list so
+  // per-pair values can be carried over with carry().
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
   // True once some particle has moved more than skin/2 since the last build (less the part of the skin
   // that the cell deformation since the build has used up, see follow_cell).
@@ -34,6 +39,7 @@ class NeighbourList {
 
   // Move per-pair values from the previous list to the current one; new pairs get `fresh`.
   template <class T> void carry(std::vector<T>& values, const T& fresh) const {
+    if (!history_) throw std::logic_error("NeighbourList::carry() needs configure(range, skin, history = true)");
     std::vector<T> next(partner.size(), fresh);
     for (std::size_t k = 0; k < partner.size(); ++k)
       if (previous_entry_[k] >= 0 && std::size_t(previous_entry_[k]) < values.size()) next[k] = values[previous_entry_[k]];
@@ -49,12 +55,36 @@ class NeighbourList {
   std::vector<Vec<D>> shift;           // 3^D periodic image shifts
 
  private:
+  // One uniform grid of cells holding the particles of one size class, counting-sorted by cell, with
+  // positions and radii copied in cell order so that the candidate loop reads memory in sequence.
+  struct Grid {
+    Vec<D> origin, inverse_cell;
+    std::array<int, D> n{};
+    std::vector<std::uint32_t> cell_start, members;
+    std::vector<Vec<D>> member_position;
+    std::vector<double> member_radius;
+    double max_radius = 0;
+    int flat(const std::array<int, D>& c) const;
+    std::array<int, D> coords(const Vec<D>& x) const;
+  };
+  struct Found { std::uint32_t i, j; std::uint8_t image; };
+  void search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp, const Box<D>& box,
+              std::vector<Found>& out, std::size_t& used) const;
+
   double range_ = 0, skin_ = 0.1;
+  bool history_ = false;
   long builds_ = 0;
   std::vector<Vec<D>> reference_;      // positions at the last build
   Vec<D> strain_since_build_ = Vec<D>::Ones();   // cell length now / at the last build, per axis
   double list_reach_ = 0;              // largest centre distance a listed pair may have: 2 R_max + range + skin
-  std::vector<std::int64_t> previous_entry_;
+  std::vector<std::int64_t> previous_entry_;   // with history: index of each pair in the previous list, or -1
+  std::vector<std::uint32_t> previous_start_, previous_partner_;
+  // Scratch kept between builds (no reallocation per build).
+  std::vector<Grid> grids_;
+  std::vector<std::uint8_t> class_of_;
+  std::vector<std::uint32_t> cell_of_, fill_;
+  std::vector<std::vector<Found>> found_;   // per thread: the first found_count_[t] entries are pairs
+  std::vector<std::size_t> found_count_;
 };
 
 }  // namespace grains

@@ -199,7 +199,7 @@ void carry_case(Sizes sizes, unsigned seed) {
   auto c = make_config<D>(D == 3 ? 600 : 300, sizes, true, D == 3 ? 9.0 : 13.0, seed);
   const double skin = 0.2;
   NeighbourList<D> nl;
-  nl.configure(0.0, skin);
+  nl.configure(0.0, skin, true);
   nl.build(c.x, c.radius, c.box, 1);
   std::vector<double> value(nl.pair_count());
   std::map<std::pair<std::size_t, std::size_t>, double> by_pair;
@@ -248,4 +248,18 @@ TEST_CASE("neighbour list: carry() maps per-pair values across a rebuild, new pa
     carry_case<2>(Sizes::uniform, seed);
     carry_case<2>(Sizes::bimodal, seed);
   }
+}
+
+// Without history the build neither sorts rows nor keeps the previous list, so carrying values
+// across it would silently scramble them: carry() refuses.
+TEST_CASE("neighbour list: carry() needs a list configured with history", "[neighbours]") {
+  auto c = make_config<3>(200, Sizes::uniform, true, 6.0, 9);
+  NeighbourList<3> nl;
+  nl.configure(0.0, 0.2);
+  nl.build(c.x, c.radius, c.box, 1);
+  std::vector<double> value(nl.pair_count(), 1.0);
+  CHECK_THROWS_AS(nl.carry(value, 0.0), std::logic_error);
+  nl.configure(0.0, 0.2, true);
+  nl.build(c.x, c.radius, c.box, 1);
+  CHECK_NOTHROW(nl.carry(value, 0.0));
 }
