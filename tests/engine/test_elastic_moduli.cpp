@@ -7,12 +7,16 @@
 #include <random>
 
 #include <Eigen/Dense>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "analysis/elastic_moduli.hpp"
 #include "analysis/stress.hpp"
+#include "core/simulation.hpp"
 #include "core/system.hpp"
 #include "interactions/adhesive_contact_law.hpp"
 #include "interactions/contact_forces.hpp"
+#include "io/scene.hpp"
 
 using namespace grains;
 
@@ -304,4 +308,53 @@ TEST_CASE("unit stress increments applied through the engine's pair loop give th
     CHECK(force < 1e-6 * increment * b);
     CHECK(torque < 1e-6 * increment * b * b);
   }
+}
+
+TEST_CASE("the Simulation reports the moduli of a compressed lattice, Reuss exact", "[moduli][adhesion]") {
+  // A triangular lattice of unit disks at spacing l = 1 - 3 delta0 with the adhesive law (K_N = 1e5,
+  // F0 = 1): every contact carries F = K_N 3 delta0 - F0 = 2 F0 and no tangential force. B and G as
+  // above; the force increments of an isotropic compression are proportional to the static forces, so
+  // the Reuss estimate V P^2 / sum F^2 / K_N is exact (= B) and Z2 = 1.
+  const double kn = 1e5, delta0 = 1 / kn, l = 1 - 3 * delta0, kt = 0.5 * kn;
+  const auto t = triangular(6, 6, l);
+  std::vector<std::string> rows;
+  for (const auto& p : t.x) rows.push_back(fmt::format("[{:.17g}, {:.17g}]", p[0], p[1]));
+  auto scene = [&](bool moduli) {
+    return fmt::format(R"(
+[scene]
+dimension = 2
+[particles]
+layout = "list"
+positions = [{}]
+diameter = 1.0
+[box]
+periodic = true
+lengths = [{:.17g}, {:.17g}]
+[adhesion]
+enabled = true
+[friction]
+coefficient = 0.5
+stiffness_ratio = 0.5
+[analysis]
+elastic_moduli = {}
+[run]
+threads = 1
+)", fmt::join(rows, ", "), t.L[0], t.L[1], moduli);
+  };
+  auto s = Simulation::create(Scene::from_string(scene(true), "lattice"));
+  const double r3 = std::sqrt(3.0);
+  CHECK(s->get("B") == Approx(r3 * kn / 2).epsilon(1e-10));
+  CHECK(s->get("G") == Approx(r3 * (kn + kt) / 4).epsilon(1e-10));
+  CHECK(s->get("C11") == Approx((9 * kn + 3 * kt) / (4 * r3)).epsilon(1e-10));
+  CHECK(s->get("C22") == Approx((9 * kn + 3 * kt) / (4 * r3)).epsilon(1e-10));
+  CHECK(s->get("C12") == Approx(3 * (kn - kt) / (4 * r3)).epsilon(1e-10));
+  CHECK(s->get("B_Voigt") == Approx(r3 * kn / 2).epsilon(1e-10));
+  CHECK(s->get("G_Voigt") == Approx(r3 * (kn + kt) / 4).epsilon(1e-10));
+  CHECK(s->get("B_Reuss") == Approx(r3 * kn / 2).epsilon(1e-9));
+  CHECK(s->get("Z2") == Approx(1).epsilon(1e-9));
+  CHECK(s->get("moduli_mechanisms") == 0);
+  CHECK(s->get("moduli_unstable_modes") == 0);
+  // Off by default, and then not among the outputs.
+  auto off = Simulation::create(Scene::from_string(scene(false), "lattice"));
+  CHECK_THROWS_AS(off->index_of("B"), SimulationError);
 }
