@@ -79,7 +79,9 @@ int consolidate_scene(const ConsolidateOptions& opt) {
       fmt::print(stderr, "warning: stage {}: the contact network has {} negative stiffness direction(s) (distant bonds' "
                  "-F0/D0 not held): no elastic moduli\n", r.index, unstable);
     std::string moduli;
-    if (!std::isnan(value("B")) || unstable > 0)
+    if (unstable > 0)
+      moduli = fmt::format("  B, G undefined ({} negative stiffness direction(s))", unstable);
+    else if (!std::isnan(value("B")))
       moduli = fmt::format("  B {:.4g}  G {:.4g}{}", value("B"), value("G"),
                            mechanisms > 0 ? fmt::format(" (mechanism in {} strain direction(s))", mechanisms) : "");
     if (!opt.quiet)

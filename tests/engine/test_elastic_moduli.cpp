@@ -213,30 +213,42 @@ namespace {
 
 using Adhesive = ContactForces<2, AdhesiveContactLaw, CoulombFriction, RollingResistance>;
 
-// The engine's pair loop over disks at x in a periodic box, after the grains moved by `u`, turned by `w`
-// and the cell strained by `strain` (per axis) from a reference where every tangential and rolling
-// spring was relaxed: the motion is fed as one step of length 1 at velocities u, w and strain rate
-// `strain`, so the springs accumulate exactly it. Returns the system (forces, torques, virial).
+// The engine's pair loop over disks at x in a periodic box: one evaluation there (every contact is
+// then known to the loop, not in its first step, and its tangential and rolling springs are relaxed),
+// then, if `u` is given, one more after the grains moved by `u`, turned by `w` and the cell strained
+// by `strain` (per axis), fed as one step of length 1 at velocities u, w and strain rate `strain` so
+// that the springs accumulate exactly that motion. Returns the system (forces, torques, virial).
 System<2> evaluate(const std::vector<Vec<2>>& x, const std::vector<double>& radius, const Vec<2>& L, Adhesive& contacts,
                    const std::vector<Vec<2>>& u = {}, const std::vector<Spin<2>>& w = {}, const Vec<2>& strain = Vec<2>::Zero()) {
   System<2> s;
   const std::size_t N = x.size();
   s.particles.resize(N);
-  s.box.length = L.cwiseProduct(Vec<2>::Ones() + strain);
+  s.box.length = L;
   s.box.periodic.fill(true);
   for (std::size_t i = 0; i < N; ++i) {
     s.particles.set_mass_and_radius(i, 1.0, radius[i]);
-    s.particles.position[i] = s.box.wrap(x[i].cwiseProduct(Vec<2>::Ones() + strain) + (u.empty() ? Vec<2>::Zero() : u[i]));
-    if (!u.empty()) s.particles.velocity[i] = u[i], s.particles.angular_velocity[i] = w[i];
+    s.particles.position[i] = s.box.wrap(x[i]);
   }
   s.neighbours.configure(contacts.pair_range(), 0.1);
   s.neighbours.build(s.particles.position, s.particles.radius, s.box, 1);
   contacts.after_rebuild(s.neighbours);
+  s.want_virial = true;
+  contacts.add_forces(s);
+  if (u.empty()) return s;
+  // The step, as the engine takes it: the cell and the particles' affine part, then their own motion.
+  const Vec<2> scale = Vec<2>::Ones() + strain;
+  s.box.length = L.cwiseProduct(scale);
+  s.neighbours.follow_cell(scale, s.box);
+  for (std::size_t i = 0; i < N; ++i) {
+    s.particles.position[i] = s.particles.position[i].cwiseProduct(scale) + u[i];
+    s.particles.velocity[i] = u[i], s.particles.angular_velocity[i] = w[i];
+    s.particles.force[i].setZero(), s.particles.torque[i].setZero();
+  }
+  s.virial.setZero();
   s.dt = 1;
   s.affine_flow = true;
   s.strain_rate = strain;
-  s.cell_scale = Vec<2>::Ones() + strain;
-  s.want_virial = true;
+  s.cell_scale = scale;
   contacts.add_forces(s);
   return s;
 }
