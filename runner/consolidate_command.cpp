@@ -72,10 +72,22 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                  r.index, r.phase, r.target, r.phase == "aggregation" ? "one cluster" : "equilibrium", r.steps);
       out.write_warning(fmt::format("stage {} ({}, P* = {:.6g}) not reached within {} steps", r.index, r.phase, r.target, r.steps));
     }
+    // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
+    // moduli (NaN): say so rather than print numbers without saying what they are.
+    const double mechanisms = value("moduli_mechanisms"), unstable = value("moduli_unstable_modes");
+    if (unstable > 0)
+      fmt::print(stderr, "warning: stage {}: the contact network has {} negative stiffness direction(s) (distant bonds' "
+                 "-F0/D0 not held): no elastic moduli\n", r.index, unstable);
+    std::string moduli;
+    if (unstable > 0)
+      moduli = fmt::format("  B, G undefined ({} negative stiffness direction(s))", unstable);
+    else if (!std::isnan(value("B")))
+      moduli = fmt::format("  B {:.4g}  G {:.4g}{}", value("B"), value("G"),
+                           mechanisms > 0 ? fmt::format(" (mechanism in {} strain direction(s))", mechanisms) : "");
     if (!opt.quiet)
-      fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}\n", r.index, r.phase,
+      fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}\n", r.index, r.phase,
                  r.target, r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
-                 value("coordination"));
+                 value("coordination"), moduli);
     std::fflush(stdout);
   };
   // Within a stage: what it waits for (one bonded cluster, or the four equilibrium ratios falling below 1).

@@ -14,6 +14,7 @@
 #include "analysis/clusters.hpp"
 #include "analysis/bonded_clusters.hpp"
 #include "analysis/contact_network.hpp"
+#include "analysis/elastic_moduli.hpp"
 #include "analysis/collision_events.hpp"
 #include "analysis/fractal_dimension.hpp"
 #include "analysis/stress.hpp"
@@ -169,6 +170,7 @@ class SimulationImpl final : public Simulation {
     if (auto c = controls_.find(index); c != controls_.end()) return c->second.get();
     if (index < parameter_values_.size()) return parameter_values_[index];
     refresh_observables();
+    if (index >= moduli_first_ && index < moduli_end_) refresh_moduli();   // only on request: a sparse solve
     return observable_values_.at(vars_[index].name);
   }
   void set(std::size_t index, double value) override {
@@ -181,7 +183,7 @@ class SimulationImpl final : public Simulation {
     if (!std::isfinite(value) || value < v.min || value > v.max)
       throw SimulationError(fmt::format("{} = {} is not allowed: a finite value in [{}, {}]", v.name, value, v.min, v.max));
     c->second.set(value);
-    cache_step_ = -1;
+    cache_step_ = moduli_step_ = -1;
   }
 
   std::vector<std::byte> save_state() const override {
@@ -234,7 +236,7 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->load(r);
     for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
-    cache_step_ = -1;
+    cache_step_ = moduli_step_ = -1;
   }
 
  public:
@@ -329,6 +331,9 @@ class SimulationImpl final : public Simulation {
     network_ = true;
     attraction_ = law.attraction;
     zero_force_ = scene.real("analysis.zero_force");
+    // The moduli strain the periodic cell: no outputs in an open box.
+    const auto& periodic = sys_.box.periodic;
+    moduli_ = scene.boolean("analysis.elastic_moduli") && std::all_of(periodic.begin(), periodic.end(), [](bool p) { return p; });
     const double mu = scene.real("friction.coefficient");
     CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), true};
     const double mu_r = scene.real("rolling.coefficient");
@@ -618,6 +623,7 @@ class SimulationImpl final : public Simulation {
             b < network_bins_ ? fmt::format("fraction of interactions with F_N / F0 in [{:g}, {:g}) (the first bin also holds "
                                             "what is below)", -1 + 0.5 * b, -0.5 + 0.5 * b)
                               : fmt::format("fraction of interactions with F_N / F0 >= {:g}", -1 + 0.5 * network_bins_));
+      if (moduli_) describe_moduli_variables(out);
       VariableInfo mark{"network.mark", "", Causality::input, Variability::continuous,
                         "setting a new value makes the current contacts the reference of contacts_kept / lost / gained "
                         "(e.g. the stage number of a compression programme)"};
@@ -629,6 +635,50 @@ class SimulationImpl final : public Simulation {
       out("adhesive_collision_fraction", "", "adhesive_collision_count / collision_count (NaN before the first)");
       out("open_collision_count", "", "contact events still in progress");
     }
+  }
+
+  // Elastic moduli (analysis/elastic_moduli.hpp), computed only when one of them is read.
+  template <class Out>
+  void describe_moduli_variables(Out& out) {
+    moduli_first_ = vars_.size();
+    out("B", "Pa", "bulk modulus of the contact network: sum_ab C_ab / D^2 (2D: (C11 + C12) / 2)");
+    out("G", "Pa", "shear modulus for the cell's pure shears: (tr C - sum_ab C_ab / D) / (2 (D - 1)) (2D: (C11 - C12) / 2)");
+    const char* digits = "123";
+    for (int a = 0; a < D; ++a)
+      for (int b = a; b < D; ++b)
+        out(fmt::format("C{}{}", digits[a], digits[b]), "Pa",
+            "stiffness d sigma_a / d eps_b over the cell's diagonal strains (the inverse of the compliance)");
+    out("B_Voigt", "Pa", "Voigt bulk modulus: every grain follows the strain affinely without rotating (an upper bound of B)");
+    out("G_Voigt", "Pa", "Voigt shear modulus (an upper bound of G)");
+    out("B_Reuss", "Pa", "Reuss estimate: force increments proportional to the static forces, V P^2 / sum (F_N^2/K_N + F_T^2/K_T + Gamma^2/K_R)");
+    out("Z2", "", "<F_N^2 + (K_N/K_T) F_T^2 + (K_N/K_R) Gamma^2> / <F_N>^2 over the interactions carrying force");
+    out("moduli_mechanisms", "", "strain directions the contact network does not resist (B or G is then 0 within round-off)");
+    out("moduli_unstable_modes", "", "negative stiffness directions (distant bonds' -F0/D0 not held): the moduli are then NaN");
+    out("moduli_floppy_modes", "", "zero modes of the grains at fixed strain (rigid translations, rolling on one contact, ...)");
+    moduli_end_ = vars_.size();
+  }
+
+  void refresh_moduli() const {
+    if (moduli_step_ == sys_.step && moduli_time_ == sys_.time) return;
+    std::vector<ElasticSpring<D>> springs;
+    for (const auto& m : modules_) m->list_springs(sys_, springs);
+    double mean_force = 0;   // the contact network's zero-force threshold
+    for (const auto& s : springs) mean_force += std::abs(s.normal_force);
+    if (!springs.empty()) mean_force /= double(springs.size());
+    ElasticModuliOptions opt;
+    opt.zero_force = zero_force_ * std::max(attraction_, mean_force);
+    const ElasticModuli<D> e = elastic_moduli<D>(sys_.particles.size(), sys_.box.volume(), springs, opt);
+    auto& o = observable_values_;
+    o["B"] = e.bulk, o["G"] = e.shear;
+    const char* digits = "123";
+    for (int a = 0; a < D; ++a)
+      for (int b = a; b < D; ++b) o[fmt::format("C{}{}", digits[a], digits[b])] = e.stiffness(a, b);
+    o["B_Voigt"] = e.bulk_voigt, o["G_Voigt"] = e.shear_voigt, o["B_Reuss"] = e.bulk_reuss, o["Z2"] = e.z2;
+    o["moduli_mechanisms"] = e.mechanisms;
+    o["moduli_unstable_modes"] = e.unstable_modes;
+    o["moduli_floppy_modes"] = e.floppy_modes;
+    moduli_step_ = sys_.step;
+    moduli_time_ = sys_.time;
   }
 
   template <class Out>
@@ -826,6 +876,10 @@ class SimulationImpl final : public Simulation {
   double cvode_seconds_ = 0;
   mutable std::map<std::string, double> observable_values_;
   mutable long cache_step_ = -1;
+  bool moduli_ = false;                                  // analysis.elastic_moduli, adhesion scenes in a periodic box
+  std::size_t moduli_first_ = 0, moduli_end_ = 0;        // their outputs' indices in vars_
+  mutable long moduli_step_ = -1;
+  mutable double moduli_time_ = -1;
   mutable double cache_time_ = -1;
 };
 

@@ -45,6 +45,12 @@ struct AdhesiveContactLaw {
     return gap < range ? tail(gap) : 0.0;
   }
 
+  // -dF_N/dh of the static force: K_N in contact, the tail's negative stiffness -F0 / D0 across a gap.
+  double static_stiffness(double gap) const {
+    if (gap < 0) return k;
+    return gap < range ? -attraction / range : 0.0;
+  }
+
   // Potential of the attraction (zero beyond D0): -F0 D0 / 2 (1 - h / D0)^2 in the tail,
   // -F0 D0 / 2 - F0 delta while overlapping.
   double adhesion_energy(double gap) const {

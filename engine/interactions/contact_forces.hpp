@@ -163,6 +163,40 @@ class ContactForces final : public ForceModule<D> {
     }
   }
 
+  // The same pairs linearised, for the elastic moduli: K_N (a distant bond: the tail's -F0 / D0), K_T
+  // and K_R in contact, lever arms to the middle of the overlap (as the tangential force uses), and the
+  // static F_N, |F_T| = |k_t xi| and |Gamma| = |K_R theta_R|.
+  void list_springs(const System<D>& s, std::vector<ElasticSpring<D>>& out) const override {
+    if constexpr (Law::has_tail) {
+      const auto& P = s.particles;
+      const auto& nl = s.neighbours;
+      for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
+        for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+          const auto j = nl.partner[k];
+          const Vec<D> r = P.position[j] + nl.shift[nl.image[k]] - P.position[i];
+          const double gap = r.norm() - P.radius[i] - P.radius[j];
+          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap) == 0)) continue;
+          ElasticSpring<D> e;
+          e.i = std::uint32_t(i), e.j = j, e.branch = r;
+          e.arm_i = P.radius[i] + 0.5 * gap, e.arm_j = P.radius[j] + 0.5 * gap;
+          e.normal = law_.static_stiffness(gap);
+          e.normal_force = law_.static_force(gap);
+          e.contact_stiffness = law_.stiffness(P.mass[i], P.mass[j]);
+          if (gap < 0) {
+            if constexpr (Friction::enabled) {
+              e.tangential = friction_.stiffness_ratio * e.contact_stiffness;
+              if (k < tangential_.size()) e.tangential_force = e.tangential * tangential_[k].norm();
+            }
+            if constexpr (Rolling::enabled) {
+              e.rolling = rolling_.stiffness;
+              if (k < rolling_angle_.size()) e.rolling_moment = rolling_.stiffness * rolling_angle_[k].norm();
+            }
+          }
+          out.push_back(e);
+        }
+    }
+  }
+
  private:
   // Rows are handled in blocks of this many, in two passes: the first gathers the pairs that
   // interact (touching, or within an attraction tail) without a branch, the second evaluates them.

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "analysis/contact_network.hpp"
+#include "analysis/elastic_spring.hpp"
 #include "core/byte_stream.hpp"
 #include "core/system.hpp"
 
@@ -31,6 +32,8 @@ class ForceModule {
   // Pairs this module binds (contacts, distant bonds) with their static normal force; modules that
   // do not describe a contact network add nothing.
   virtual void list_interactions(const System<D>&, std::vector<NetworkInteraction>&) const {}
+  // The same pairs linearised (stiffnesses, branch vectors, static forces), for the elastic moduli.
+  virtual void list_springs(const System<D>&, std::vector<ElasticSpring<D>>&) const {}
   virtual void save(ByteWriter&) const {}
   virtual void load(ByteReader&) {}
 };

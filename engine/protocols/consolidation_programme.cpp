@@ -55,12 +55,15 @@ std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeS
 
 namespace {
 
-// What a stage row records: whichever of these the scene has, and the normal-force histogram.
+// What a stage row records: whichever of these the scene has (the elastic moduli with
+// analysis.elastic_moduli), and the normal-force histogram.
 const char* const recorded[] = {
     "pressure_reduced", "solid_fraction", "coordination", "coordination_compressive", "coordination_tensile",
     "coordination_zero", "rattler_fraction", "backbone_coordination", "distant_bonds", "bonded_clusters",
     "contacts_kept", "contacts_lost", "contacts_gained", "contacts", "cell_length_x", "cell_length_y", "cell_length_z",
-    "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic", "kinetic_energy"};
+    "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic", "kinetic_energy",
+    "B", "G", "C11", "C22", "C33", "C12", "C13", "C23", "B_Voigt", "G_Voigt", "B_Reuss", "Z2", "moduli_mechanisms",
+    "moduli_unstable_modes", "moduli_floppy_modes"};
 
 bool has(const Simulation& s, const std::string& name) {
   for (const auto& v : s.variables())

@@ -37,6 +37,15 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
     for key in ("solid_fraction", "pressure_reduced", "coordination", "rattler_fraction", "contacts_kept",
                 "force_histogram_00"):
         assert key in rows[0]
+    # The elastic moduli (analysis.elastic_moduli = true in the consolidation scenes), in the table and the
+    # H5MD stage records.
+    moduli = ("B", "G", "C11", "C22", "C12", "B_Voigt", "G_Voigt", "B_Reuss", "Z2", "moduli_mechanisms",
+              "moduli_unstable_modes", "moduli_floppy_modes")
+    for key in moduli:
+        assert key in rows[0]
+        float(rows[-1][key])
     with h5py.File(out) as f:
         assert len(f["observables/solid_fraction/value"]) == 1 + len(rows)   # the initial state + one per stage
+        for key in moduli:
+            assert len(f[f"observables/{key}/value"]) == 1 + len(rows)
         assert "did not reach" in f["grains"].attrs["status"] or "not reached" in f["grains"].attrs["status"]
