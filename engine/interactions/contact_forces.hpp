@@ -105,16 +105,12 @@ class ContactForces final : public ForceModule<D> {
 
   void observe(const System<D>& s, std::vector<std::pair<std::string, double>>& out) const override {
     const auto& P = s.particles;
-    const auto& nl = s.neighbours;
     double elastic = 0, max_ratio = 0, adhesion = 0;
     long contacts = 0;
-    for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
-      for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-        const auto j = nl.partner[k];
-        const double d = (P.position[j] + nl.shift[nl.image[k]] - P.position[i]).norm();
-        const double overlap = P.radius[i] + P.radius[j] - d;
+    each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t k, const Vec<D>& r) {
+        const double overlap = P.radius[i] + P.radius[j] - r.norm();
         if constexpr (Law::has_tail) adhesion += law_.adhesion_energy(-overlap);
-        if (overlap <= 0) continue;
+        if (overlap <= 0) return;
         ++contacts;
         const double rmin = std::min(P.radius[i], P.radius[j]);
         const double limit = law_.overlap_limit * rmin;
@@ -126,7 +122,7 @@ class ContactForces final : public ForceModule<D> {
         if constexpr (Rolling::enabled)   // and in the rolling spring
           if (k < rolling_angle_.size()) elastic += 0.5 * rolling_.stiffness * rolling_angle_[k].squaredNorm();
         max_ratio = std::max(max_ratio, overlap / rmin);
-      }
+    });
     out.emplace_back("contacts", double(contacts));
     out.emplace_back("elastic_energy", elastic);
     if constexpr (Law::has_tail) out.emplace_back("adhesion_energy", adhesion);
@@ -153,13 +149,10 @@ class ContactForces final : public ForceModule<D> {
   void list_interactions(const System<D>& s, std::vector<NetworkInteraction>& out) const override {
     if constexpr (Law::has_tail) {
       const auto& P = s.particles;
-      const auto& nl = s.neighbours;
-      for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
-        for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-          const auto j = nl.partner[k];
-          const double gap = (P.position[j] + nl.shift[nl.image[k]] - P.position[i]).norm() - P.radius[i] - P.radius[j];
-          if (gap < law_.reach()) out.push_back({std::uint32_t(i), j, gap, law_.static_force(gap)});
-        }
+      each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t, const Vec<D>& r) {
+        const double gap = r.norm() - P.radius[i] - P.radius[j];
+        if (gap < law_.reach()) out.push_back({std::uint32_t(i), j, gap, law_.static_force(gap)});
+      });
     }
   }
 
@@ -169,13 +162,9 @@ class ContactForces final : public ForceModule<D> {
   void list_springs(const System<D>& s, std::vector<ElasticSpring<D>>& out) const override {
     if constexpr (Law::has_tail) {
       const auto& P = s.particles;
-      const auto& nl = s.neighbours;
-      for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
-        for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
-          const auto j = nl.partner[k];
-          const Vec<D> r = P.position[j] + nl.shift[nl.image[k]] - P.position[i];
+      each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t k, const Vec<D>& r) {
           const double gap = r.norm() - P.radius[i] - P.radius[j];
-          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap) == 0)) continue;
+          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap) == 0)) return;
           ElasticSpring<D> e;
           e.i = std::uint32_t(i), e.j = j, e.branch = r;
           e.arm_i = P.radius[i] + 0.5 * gap, e.arm_j = P.radius[j] + 0.5 * gap;
@@ -193,11 +182,24 @@ class ContactForces final : public ForceModule<D> {
             }
           }
           out.push_back(e);
-        }
+      });
     }
   }
 
  private:
+  // Visits every listed pair: its row i, partner j, list entry k and separation r = x_j - x_i (periodic
+  // image included).
+  template <class Visit>
+  static void each_listed_pair(const System<D>& s, Visit visit) {
+    const auto& P = s.particles;
+    const auto& nl = s.neighbours;
+    for (std::size_t i = 0; i + 1 < nl.start.size(); ++i)
+      for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) {
+        const std::uint32_t j = nl.partner[k];
+        visit(i, j, std::size_t(k), Vec<D>(P.position[j] + nl.shift[nl.image[k]] - P.position[i]));
+      }
+  }
+
   // Rows are handled in blocks of this many, in two passes: the first gathers the pairs that
   // interact (touching, or within an attraction tail) without a branch, the second evaluates them.
   // Most listed pairs are open, so the first pass is the hot one and stays small and tight; the
