@@ -123,6 +123,8 @@ class SimulationImpl final : public Simulation {
                    "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off)", 0.0},
                   [g = gravity_] { return g->G(); }, [g = gravity_](double G) { g->set_G(G); });
     sys_.dt = 0;
+    P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)
+    P.angular_velocity_predicted = P.angular_velocity;
     compute_forces();
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     for (std::size_t i = 0; i < N; ++i) {

@@ -26,13 +26,13 @@ struct AdhesiveContactLaw {
   double damping(double mi, double mj) const { return 2 * damping_ratio * std::sqrt(mi * mj / (mi + mj) * k); }
 
   // Overlapping pair: force on j along n (positive = repulsive), with the sub-step treatment of
-  // touching (contact_step.hpp; the attraction is continuous at h = 0, the elastic force has a kink
-  // and the dashpot jumps). `elastic` is the elastic part K_N delta that bounds friction and rolling.
+  // touching and of parting (contact_step.hpp; the attraction is continuous at h = 0, the elastic
+  // force has a kink there and the dashpot jumps). `elastic` is the elastic part K_N delta that bounds friction and rolling.
   double force(const ContactStep& p, double mi, double mj, double rmin, double& elastic, bool& clamped) const {
     const double limit = overlap_limit * rmin;
     clamped = p.overlap > limit;
     elastic = k * (clamped ? limit : p.overlap);
-    const Onset on = onset(p);
+    const Onset on = parting(p, onset(p));
     return elastic + k * on.extra_overlap - attraction - damping(mi, mj) * p.vn * on.dashpot_weight;
   }
 

@@ -35,6 +35,21 @@ inline Onset onset(const ContactStep& p) {
   return {1.5 - s, growth * (1 - 2 * s) * (1 - 2 * s) / 8};
 }
 
+// Parting of the adhesive law, whose dashpot acts only while overlapping: a separating pair (v_n > 0)
+// whose overlap runs out sigma < 1 steps ahead (predicted from v_n) will be open at the next
+// evaluation, so this step's kick window is the contact's last. The dashpot force jumps to zero at
+// parting: it acts for the half window before now plus sigma h after, w = 1/2 + sigma (a first-order
+// error if charged over the whole window). The elastic force k delta stops falling linearly there, a
+// kink whose missed impulse k v_n h^2 (2 sigma - 1)^2 / 8 is charged as an extra overlap, as at touching.
+// Not parting within the step: w = 1, nothing extra. Adds to the onset of a contact touching and parting
+// within one step.
+inline Onset parting(const ContactStep& p, Onset on) {
+  const double travel = p.vn * p.dt;   // the overlap lost over the step ahead
+  if (!(travel > p.overlap)) return on;
+  const double sigma = p.overlap / travel;
+  return {on.dashpot_weight + sigma - 0.5, on.extra_overlap + travel * (2 * sigma - 1) * (2 * sigma - 1) / 8};
+}
+
 // Clamp release of the non-pulling law: the force f = k delta - c v_n falls to zero and stays clamped
 // at zero after, a kink the kicks would miss f' h^2 (2 sigma - 1)^2 / 8 of (the release at sigma
 // steps after the last positive sample). With `drop` = -f' h, the force's fall over one step, the
