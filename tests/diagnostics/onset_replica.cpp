@@ -1,6 +1,6 @@
 // 1D replica of the engine step for a head-on collision (same law headers, same integrator formulas), with
 // toggles for diagnosing the contact onset (README, binary collisions). Build and run:
-//   g++ -O2 -std=c++20 -Iengine tools/onset_replica.cpp -o /tmp/onset_replica && /tmp/onset_replica 0
+//   g++ -O2 -std=c++20 -Iengine tests/diagnostics/onset_replica.cpp -o /tmp/onset_replica && /tmp/onset_replica 0
 // Flags (sum): 1 position dipole +d/-d on the first two steps, 256 remove it from the next three predicted
 // dashpot velocities, 64 compensate (c/m*) e0; 4/8 exact dashpot velocity at steps 2/3 (oracle); 2/16
 // first-step dashpot decay (Taylor/exponential); 128 dipole from the exact offset. A second argument
