@@ -340,11 +340,14 @@ class SimulationImpl final : public Simulation {
     CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), true};
     const double mu_r = scene.real("rolling.coefficient");
     const double a = 2 * rmax;
-    RollingResistance rr{scene.real("rolling.stiffness_ratio") * law.k * a * a, mu_r};
+    // No rolling spring without rolling resistance (mu_R = 0); the rolling dashpot may still act.
+    RollingResistance rr{mu_r > 0 ? scene.real("rolling.stiffness_ratio") * law.k * a * a : 0.0, mu_r,
+                         scene.real("rolling.damping_ratio")};
+    const bool rolling = mu_r > 0 || rr.damping > 0;
     using L = AdhesiveContactLaw;
-    if (mu > 0 && mu_r > 0) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction, RollingResistance>>(law, fr, rr));
+    if (mu > 0 && rolling) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction, RollingResistance>>(law, fr, rr));
     else if (mu > 0) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction>>(law, fr));
-    else if (mu_r > 0) modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction, RollingResistance>>(law, NoFriction{}, rr));
+    else if (rolling) modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction, RollingResistance>>(law, NoFriction{}, rr));
     else modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction>>(law, NoFriction{}));
     return std::numbers::pi * std::sqrt(mstar_min / law.k);
   }

@@ -334,13 +334,15 @@ class ContactForces final : public ForceModule<D> {
       f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt,
                             torque);
     }
-    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, dt, torque);
+    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, law_.damping(mi, mj), Ri, Rj, dt, torque);
     return f;
   }
 
   // Tangential force on j; adds both torques. Ri, Rj: distances from the centres to the contact point.
-  // xi accumulates the half-step (position-consistent)
-  // tangential velocity; the dashpot uses the predicted end-of-step velocity.
+  // xi accumulates the half-step (position-consistent) tangential velocity, and the dashpot acts on
+  // the same velocity: a predicted end-of-step velocity (as the normal dashpot uses) is stable only
+  // for c dt / m < 0.57 and the tangential-rotational mass of a disk pair is m* / 3, so grains with a
+  // few contacts went unstable at c_t = c_n; the half-step velocity is stable up to c dt / m < 2.
   // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell).
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
                           const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
@@ -354,10 +356,11 @@ class ContactForces final : public ForceModule<D> {
     xi -= xi.dot(n) * n;   // rotate the spring into the current tangent plane, keeping its length
     const double after = xi.norm();
     if (after > 0) xi *= before / after;
-    xi += contact_velocity(P.velocity, P.angular_velocity) * dt;
+    const Vec<D> vt = contact_velocity(P.velocity, P.angular_velocity);
+    xi += vt * dt;
     const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
     const double ct = friction_.damping_ratio * law_.damping(mi, mj);
-    Vec<D> ft = -kt * xi - ct * contact_velocity(P.velocity_predicted, P.angular_velocity_predicted);
+    Vec<D> ft = -kt * xi - ct * vt;
     const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);
     const double mag = ft.norm();
     if (mag > bound) {   // sliding: cap the force, and the spring so that |k_t xi| = mu F_n
@@ -371,9 +374,10 @@ class ContactForces final : public ForceModule<D> {
   }
 
   // Rolling resistance (physics.md section 5): theta_R accumulates the half-step relative rotation
-  // (3D: its part perpendicular to n, the spring rotated into the current tangent plane like xi).
+  // (3D: its part perpendicular to n, the spring rotated into the current tangent plane like xi);
+  // with K_R = 0 (mu_R = 0) only the rolling dashpot acts. Ri, Rj: the grains' radii; c_n: the pair's.
   void rolling_moment(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                      double elastic, double dt, Spin<D>* torque) {
+                      double elastic, double cn, double Ri, double Rj, double dt, Spin<D>* torque) {
     Spin<D>& theta = rolling_angle_[k];
     Spin<D> relative = P.angular_velocity[j] - P.angular_velocity[i];
     if constexpr (D == 3) {
@@ -383,14 +387,20 @@ class ContactForces final : public ForceModule<D> {
       if (after > 0) theta *= before / after;
       relative -= relative.dot(n) * n;
     }
-    theta += relative * dt;
-    Spin<D> moment = -rolling_.stiffness * theta;   // on j
-    const double bound = rolling_.coefficient * elastic;
-    const double mag = moment.norm();
-    if (mag > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
-      moment *= mag > 0 ? bound / mag : 0.0;
-      theta = moment / -rolling_.stiffness;
+    Spin<D> moment = Spin<D>::Zero();   // on j
+    if (rolling_.stiffness > 0) {
+      theta += relative * dt;
+      moment = -rolling_.stiffness * theta;
+      const double bound = rolling_.coefficient * elastic;
+      const double mag = moment.norm();
+      if (mag > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
+        moment *= mag > 0 ? bound / mag : 0.0;
+        theta = moment / -rolling_.stiffness;
+      }
     }
+    // The rolling dashpot, outside the bound like the normal one: it acts on the whole relative spin
+    // (3D: twisting too), at the half-step velocity (stable for c_r dt / I < 2, see tangential_force).
+    if (rolling_.damping > 0) moment -= rolling_.damping * cn * Ri * Rj * (P.angular_velocity[j] - P.angular_velocity[i]);
     torque[j] += moment;
     torque[i] -= moment;
   }

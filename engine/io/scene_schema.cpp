@@ -95,6 +95,13 @@ const std::vector<SchemaEntry>& scene_schema() {
        "0.005). 0 leaves the rolling module out entirely. Needs `adhesion.enabled` (the consolidation law)."},
       {"rolling.stiffness_ratio", K::real, "1e-4", 0, inf, true, false, "",
        "K_R / (K_N a^2), a = the largest particle diameter of the scene (paper: 1e-4)."},
+      {"rolling.damping_ratio", K::real, "0.0", 0, 1, false, false, "",
+       "c_r / (c_n R_i R_j): a dashpot -c_r (w_j - w_i) on the relative spin of touching grains (3D: rolling and "
+       "twisting), consolidation law only, with or without rolling resistance. Not in the paper (it damps normal "
+       "motion only). Without it rolling mechanisms of a loose network, which no normal or sliding motion "
+       "reveals, stay undamped and the equilibrium criteria are not met; with it they are, but it also slows the "
+       "rolling rearrangements of a compaction and lowers Phi (README: equilibrium). At most 1 (explicit dashpot, "
+       "stable for c_r dt / I < 2)."},
 
       // --- self-gravity ---
       {"gravity.enabled", K::boolean, "false", 0, 0, false, false, "",
