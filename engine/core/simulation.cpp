@@ -475,6 +475,7 @@ class SimulationImpl final : public Simulation {
       scale = barostat_->advance(sys_.time, h, sigma);
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
+    for (auto& m : modules_) m->begin_step(sys_, h);
     double witness = rotate_ ? kick_drift_predict<D, true>(P, h, sys_.threads) : kick_drift_predict<D, false>(P, h, sys_.threads);
     sys_.affine_flow = cell_moves;
     if (cell_moves) {
@@ -486,6 +487,7 @@ class SimulationImpl final : public Simulation {
     sys_.dt = h;
     compute_forces();
     witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
+    for (auto& m : modules_) m->finish_step(sys_);
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
     ++sys_.step;

@@ -53,6 +53,12 @@ class ContactForces final : public ForceModule<D> {
 
   void add_forces(System<D>& s) override {
     if (++evaluation_ < 2) evaluation_ = 2;   // on wrap-around: stamps 0 (never) and 1 must never look recent
+    for (const OnsetLag& o : active_) {   // the dashpots see the velocities without the lag impulses
+      const Vec<D> dv = o.n * (o.lag / s.dt);
+      const double mi = s.particles.mass[o.i], mj = s.particles.mass[o.j];
+      s.particles.velocity_predicted[o.j] -= (mi / (mi + mj)) * dv;
+      s.particles.velocity_predicted[o.i] += (mj / (mi + mj)) * dv;
+    }
     touched_.resize(s.neighbours.pair_count(), 0);
     if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
     if constexpr (Rolling::enabled) rolling_angle_.resize(s.neighbours.pair_count(), Spin<D>::Zero());
@@ -103,6 +109,30 @@ class ContactForces final : public ForceModule<D> {
     return clamped_now;
   }
 
+  // The onset lag (contact_step.hpp) of a contact that began in the last step is made up in the next
+  // one by a pair of opposite central impulses: the pair's relative velocity gains lag / h along n
+  // before the step's drift and loses it after its kick, so the drift moves the pair apart by exactly
+  // lag. Central impulses keep momentum and angular momentum exactly (the second acts along the pair's
+  // new direction), and between steps no velocity carries them. The step's dashpots see the velocities
+  // without them (the pair's true relative velocity).
+  void begin_step(System<D>& s, double h) override {
+    active_.swap(pending_);
+    pending_.clear();
+    for (const OnsetLag& o : active_) kick_apart(s.particles, o, o.n * (o.lag / h));
+  }
+  void finish_step(System<D>& s) override {
+    auto& P = s.particles;
+    for (const OnsetLag& o : active_) {
+      const Vec<D> r = s.box.minimum_image(P.position[o.j] - P.position[o.i]);
+      kick_apart(P, o, r * (-o.lag / (s.dt * r.norm())));
+    }
+    active_.clear();
+    for (Gathered& g : gathered_) {   // in thread order: deterministic
+      pending_.insert(pending_.end(), g.lags.begin(), g.lags.end());
+      g.lags.clear();
+    }
+  }
+
   void observe(const System<D>& s, std::vector<std::pair<std::string, double>>& out) const override {
     const auto& P = s.particles;
     double elastic = 0, max_ratio = 0, adhesion = 0;
@@ -133,13 +163,13 @@ class ContactForces final : public ForceModule<D> {
 
   void save(ByteWriter& w) const override {
     w.put(clamped_now_), w.put(clamped_total_);
-    w.put(evaluation_), w.put_vector(touched_);
+    w.put(evaluation_), w.put_vector(touched_), w.put_vector(pending_);
     w.put_vector(tangential_);
     if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
   }
   void load(ByteReader& r) override {
     clamped_now_ = r.get<long>(), clamped_total_ = r.get<long>();
-    evaluation_ = r.get<std::uint32_t>(), r.get_vector(touched_);
+    evaluation_ = r.get<std::uint32_t>(), r.get_vector(touched_), r.get_vector(pending_);
     r.get_vector(tangential_);
     if constexpr (Rolling::enabled) r.get_vector(rolling_angle_);
   }
@@ -206,10 +236,25 @@ class ContactForces final : public ForceModule<D> {
   // second runs the costly arithmetic of consecutive contacts back to back. Pairs are evaluated in
   // list order, as a single pass would.
   static constexpr std::size_t block_rows_ = 256;
+  // A contact's first step ended too deep by `lag` (contact_step.hpp, onset_lag), made up in the next step.
+  struct OnsetLag {
+    std::uint32_t i, j;
+    double lag;
+    Vec<D> n;   // unit vector from i to j at the evaluation
+  };
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint32_t> stale;       // open pairs that still hold history
+    std::vector<OnsetLag> lags;             // contacts that began this step, in list order
   };
+
+  // Adds dv to the pair's relative velocity, shared by the masses so that momentum stays.
+  static void kick_apart(Particles<D>& P, const OnsetLag& o, const Vec<D>& dv) {
+    const double mi = P.mass[o.i], mj = P.mass[o.j];
+    P.velocity[o.j] += (mi / (mi + mj)) * dv;
+    P.velocity[o.i] -= (mj / (mi + mj)) * dv;
+  }
+
 
   template <bool Virial>
   long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
@@ -285,7 +330,7 @@ class ContactForces final : public ForceModule<D> {
             continue;
           }
         }
-        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque, clamped);   // on j
+        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque, clamped, g.lags);   // on j
         force[j] += f;
         fi -= f;
         if constexpr (Virial) virial.noalias() += f * r.transpose();
@@ -298,7 +343,7 @@ class ContactForces final : public ForceModule<D> {
   // A touching pair: the normal law, friction and rolling resistance; returns the force on j and adds
   // the torques.
   Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
-                                         double d2, double Rsum, Spin<D>* torque, long& clamped) {
+                       double d2, double Rsum, Spin<D>* torque, long& clamped, std::vector<OnsetLag>& lags) {
     const auto& P = s.particles;
     const double dt = s.dt;
     const double Ri = P.radius[i], mi = P.mass[i];
@@ -322,9 +367,17 @@ class ContactForces final : public ForceModule<D> {
       const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
       before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
     }
+    ContactStep step{Rsum - d, before, vn, dt, first};
+    if (first) {   // evaluated where the exact solution is; the pair is moved there after the loop
+      const double lag = onset_lag(step, law_.damping(mi, mj) * (mi + mj) / (mi * mj));
+      if (lag > 0) {
+        step.overlap -= lag, step.overlap_before -= lag;
+        lags.push_back({std::uint32_t(i), std::uint32_t(j), lag, n});
+      }
+    }
     double elastic;
     bool was_clamped;
-    const double fn = law_.force({Rsum - d, before, vn, dt, first}, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
+    const double fn = law_.force(step, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
     clamped += was_clamped;
     Vec<D> f = fn * n;   // on j
     if constexpr (Friction::enabled) {
@@ -413,6 +466,8 @@ class ContactForces final : public ForceModule<D> {
   std::vector<std::uint32_t> touched_;   // per neighbour pair: the last evaluation at which it overlapped (0: never)
   std::uint32_t evaluation_ = 1;          // force evaluations so far, + 1
   std::vector<Gathered> gathered_;       // per thread, reused
+  std::vector<OnsetLag> pending_;        // onset lags found in the last step, made up in the next
+  std::vector<OnsetLag> active_;         // ... being made up in this step
   long clamped_now_ = 0, clamped_total_ = 0;
 };
 

@@ -27,12 +27,27 @@ struct Onset {
   double dashpot_weight = 1.0;
   double extra_overlap = 0.0;
 };
-inline Onset onset(const ContactStep& p) {
-  if (!p.first || p.dt <= 0) return {};
+// The share s of a first step at which the surfaces touched (linear in free flight).
+inline double touch_share(const ContactStep& p) {
   const double growth = std::max(0.0, p.overlap - p.overlap_before);
   // Touching within rounding of the step's start can leave overlap_before a hair above 0: s = 0.
-  const double s = growth > 0 ? std::clamp(-p.overlap_before / growth, 0.0, 1.0) : 0.0;
+  return growth > 0 ? std::clamp(-p.overlap_before / growth, 0.0, 1.0) : 0.0;
+}
+inline Onset onset(const ContactStep& p) {
+  if (!p.first || p.dt <= 0) return {};
+  const double growth = std::max(0.0, p.overlap - p.overlap_before), s = touch_share(p);
   return {1.5 - s, growth * (1 - 2 * s) * (1 - 2 * s) / 8};
+}
+
+// The contact's first drift ran at the pre-contact velocity u = -v_n: from touching, the dashpot would
+// have slowed the pair over the rest of the step, tau = (1 - s) h, so the pair ends the step deeper
+// than the exact solution by lag = (c / m*) u tau^2 / 2. Not correcting it shifts the whole contact in
+// time: the restitution does not see that, the duration does (2.7e-3 at e = 0.01, n_c = 50). The
+// caller evaluates the law at overlap - lag and moves the pair apart by lag (contact_forces.hpp).
+inline double onset_lag(const ContactStep& p, double damping_per_reduced_mass) {
+  if (!p.first || p.dt <= 0 || p.vn >= 0) return 0.0;
+  const double tau = (1 - touch_share(p)) * p.dt;
+  return 0.5 * damping_per_reduced_mass * -p.vn * tau * tau;
 }
 
 // Parting of the adhesive law, whose dashpot acts only while overlapping: a separating pair (v_n > 0)

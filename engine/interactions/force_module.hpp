@@ -23,6 +23,10 @@ class ForceModule {
   virtual bool applies_torques() const { return false; }
   // Add this module's forces and torques into particles.force / particles.torque.
   virtual void add_forces(System<D>& s) = 0;
+  // A step of length h begins (before its first half kick and drift) / ends (after its second half
+  // kick): for corrections that act within one step (a contact's onset lag, contact_forces.hpp).
+  virtual void begin_step(System<D>&, double /*h*/) {}
+  virtual void finish_step(System<D>&) {}
   // Whether this module keeps per-pair values that must follow the pairs across list rebuilds.
   virtual bool keeps_pair_history() const { return false; }
   // The neighbour list was rebuilt: re-index per-pair history.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/simulation.hpp"
 #include "interactions/normal_calibration.hpp"
@@ -62,11 +63,9 @@ std::vector<double> onset_phases() {
 
 }  // namespace
 
-// Issue 2: at n_c = 50 the realised restitution is within 1e-3 of the exact clamped value for every
-// e and onset phase. The duration (touching to parting) meets 1e-3 for e >= 0.1; below, the first
-// contact step's drift, made with the pre-contact velocity, leaves the pair up to c |v| dt^2 / 2
-// deeper than the exact solution, a one-off second-order shift of the timing that reaches 2.7e-3
-// at e = 0.01 (falling as dt^2, see the convergence test).
+// Issue 2: at n_c = 50 the realised restitution and the duration (touching to parting) are within
+// 1e-3 of the exact clamped values for every e and onset phase. Without the onset lag correction
+// (contact_step.hpp) the duration's error reached 2.7e-3 at e = 0.01.
 TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50", "[contact][analytic]") {
   for (int dim : {2, 3})
     for (double e : {1.0, 0.9, 0.7, 0.5, 0.3, 0.1, 0.05, 0.03, 0.02, 0.01}) {
@@ -82,7 +81,7 @@ TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50",
       WARN(fmt::format("D = {}, e = {}: worst relative error over {} onset phases at n_c = 50: restitution {:.2e}, "
                        "duration {:.2e}", dim, e, onset_phases().size(), worst, worst_duration));
       CHECK(worst < 1e-3);
-      CHECK(worst_duration < (e >= 0.1 ? 1e-3 : 3e-3));
+      CHECK(worst_duration < 1e-3);
     }
 }
 
@@ -115,15 +114,18 @@ TEST_CASE("binary collision: the per-pair contact record survives list rebuilds 
       auto rebuilt = run("[neighbours]\nskin = 1e-4\n");
       rebuilt->step_n(long(4 * nc));
       CHECK(rebuilt->particles().velocity == v_ref);
-      // Save in the contact's second step, restore into a fresh run.
-      auto first = run("");
-      first->step_n(4);
-      REQUIRE(first->get("contacts") == 1.0);
-      const auto state = first->save_state();
-      auto second = run("");
-      second->restore_state(state);
-      second->step_n(long(4 * nc) - 4);
-      CHECK(second->particles().velocity == v_ref);
+      // Save after the contact's first step (its onset lag is still to be made up in the next step)
+      // and after its second, restore into a fresh run.
+      for (long at : {3L, 4L}) {
+        auto first = run("");
+        first->step_n(at);
+        REQUIRE(first->get("contacts") == 1.0);
+        const auto state = first->save_state();
+        auto second = run("");
+        second->restore_state(state);
+        second->step_n(long(4 * nc) - at);
+        CHECK(second->particles().velocity == v_ref);
+      }
     }
 }
 
@@ -162,21 +164,24 @@ TEST_CASE("the exact clamped collision agrees with a fine numerical integration"
   }
 }
 
-// The duration's error (touching to parting) is second order in dt, also where it is largest (low e).
+// The duration's error (touching to parting) is second order in dt, also where it is largest (low e):
+// at e = 0.01 the observed order approaches 2 from below (1.73, 1.84, 1.91 from n_c = 50 to 400), so
+// every order must exceed 1.7 and the last 1.85 (a first-order error would give 1).
 TEST_CASE("binary collision: the contact duration converges at second order", "[contact][convergence]") {
   for (double e : {0.5, 0.1, 0.01}) {
     const auto kc = calibrate_linear(e, 1.0, 0.5);
     const auto exact = clamped_collision(damping_ratio(e), std::sqrt(kc.k / 0.5));
     std::vector<double> worst;
-    for (double nc : {50.0, 100.0, 200.0}) {
+    for (double nc : {50.0, 100.0, 200.0, 400.0}) {
       double w = 0;
       for (double phase : onset_phases()) w = std::max(w, std::abs(collide(3, e, nc, phase).duration / exact.separation_time - 1));
       worst.push_back(w);
     }
-    const double order1 = std::log2(worst[0] / worst[1]), order2 = std::log2(worst[1] / worst[2]);
-    WARN(fmt::format("e = {}: worst relative error of the duration at n_c = 50, 100, 200: {:.2e} {:.2e} {:.2e}; "
-                     "observed orders {:.2f} {:.2f}", e, worst[0], worst[1], worst[2], order1, order2));
-    CHECK(order1 >= 1.8);
-    CHECK(order2 >= 1.8);
+    std::vector<double> order;
+    for (std::size_t k = 1; k < worst.size(); ++k) order.push_back(std::log2(worst[k - 1] / worst[k]));
+    WARN(fmt::format("e = {}: worst relative error of the duration at n_c = 50, 100, 200, 400: {:.2e}; "
+                     "observed orders {:.2f}", e, fmt::join(worst, " "), fmt::join(order, " ")));
+    for (double o : order) CHECK(o >= 1.7);
+    CHECK(order.back() >= 1.85);
   }
 }
