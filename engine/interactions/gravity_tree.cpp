@@ -149,7 +149,8 @@ GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
 // ---------------------------------------------------------------------------------------------
 
 template <int D>
-Tree::Tree(const Particles<D>& P, double theta, int leaf_size) : theta_(theta), leaf_size_(std::max(1, leaf_size)) {
+Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
+    : theta_(theta), leaf_size_(std::max(1, leaf_size)), group_size_(std::max(1, group_size)) {
   const std::size_t n = P.size();
   if (n == 0) return;
   // The root cube: the bounding box's centre and its longest half edge, widened a little.
@@ -185,19 +186,19 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size) : theta_(theta), 
   cells_.emplace_back();
   cells_[0].half = half;
   cells_[0].centre = {centre[0], centre[1], D == 3 ? centre[D - 1] : 0.0};
-  build<D>(0, 0, int(n), 0, keys);
+  build<D>(0, 0, int(n), 0, false, keys);
   quad_.assign(cells_.size(), Quadrupole{});
   for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
 }
 
-// Splits cell `id` (geometry already set) over the particles [begin, end) at Morton digit `level`.
+// Splits cell `id` (geometry already set) over the particles [begin, end) at Morton digit `level`; the
+// first cell on the way down that is small enough, or a leaf, becomes a group.
 template <int D>
-void Tree::build(int id, int begin, int end, int level, const std::vector<unsigned long long>& keys) {
+void Tree::build(int id, int begin, int end, int level, bool in_group, const std::vector<unsigned long long>& keys) {
   cells_[id].begin = begin, cells_[id].end = end;
-  if (end - begin <= leaf_size_ || level == key_bits<D>) {
-    leaves_.push_back(id);
-    return;
-  }
+  const bool leaf = end - begin <= leaf_size_ || level == key_bits<D>;
+  if (!in_group && (end - begin <= group_size_ || leaf)) groups_.push_back(id), in_group = true;
+  if (leaf) return;
   // The keys are sorted: each child's particles are one run of equal digits.
   const int shift = D * (key_bits<D> - 1 - level);
   auto digit = [&](int k) { return int((keys[k] >> shift) & ((1ULL << D) - 1)); };
@@ -216,7 +217,7 @@ void Tree::build(int id, int begin, int end, int level, const std::vector<unsign
     c.half = h, c.centre = cells_[id].centre;
     for (int a = 0; a < D; ++a) c.centre[a] += (run_digit[r] >> a) & 1 ? h : -h;
   }
-  for (int r = 0; r < runs; ++r) build<D>(first + r, run_start[r], run_start[r + 1], level + 1, keys);
+  for (int r = 0; r < runs; ++r) build<D>(first + r, run_start[r], run_start[r + 1], level + 1, in_group, keys);
 }
 
 // Mass, centre of mass and quadrupole of cell `id`, from its particles (leaf) or its children.
@@ -255,8 +256,8 @@ void Tree::moments(int id) {
   c.accept2 = theta_ > 0 && c.end - c.begin > 1 ? lim * lim : std::numeric_limits<double>::infinity();
 }
 
-template Tree::Tree(const Particles<2>&, double, int);
-template Tree::Tree(const Particles<3>&, double, int);
+template Tree::Tree(const Particles<2>&, double, int, int);
+template Tree::Tree(const Particles<3>&, double, int, int);
 
 // ---------------------------------------------------------------------------------------------
 // Walk.
@@ -274,8 +275,8 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
     Lists L;
     std::vector<int> stack;
 #pragma omp for schedule(dynamic, 4)
-    for (std::size_t g = 0; g < leaves_.size(); ++g) {
-      const Cell& group = cells_[leaves_[g]];
+    for (std::size_t g = 0; g < groups_.size(); ++g) {
+      const Cell& group = cells_[groups_[g]];
       const int b = group.begin, e = group.end;
       // The group's bounding box.
       std::array<double, 3> lo{x_[b], y_[b], z_[b]}, hi = lo;
@@ -293,7 +294,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       while (!stack.empty()) {
         const int id = stack.back();
         stack.pop_back();
-        if (id == leaves_[g]) continue;   // already listed first
+        if (id == groups_[g]) continue;   // its particles are listed first
         const Cell& c = cells_[id];
         double d2 = 0;
         bool reaches = true;   // the box reaches into the cell

@@ -3,7 +3,8 @@
 // Build: the particles are sorted along a Morton (Z-order) curve and copied in that order, so every cell of
 // the 2^D-ary tree holds one contiguous run of them; a cell of more than `leaf_size` particles is split.
 // Moments are formed bottom-up (children's by the parallel-axis rule).
-// Walk: one traversal per leaf serves all its particles (a group walk). A cell of edge s is used whole when
+// Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
+// particles. A cell of edge s is used whole when
 // its centre of mass lies farther than s / theta + |com - cell centre| from the group's bounding box and the
 // box does not reach into the cell; otherwise it is opened, and the particles of the leaves reached are
 // summed one by one. Used whole for the group means used whole for each of its particles under the
@@ -28,7 +29,7 @@ class Tree {
  public:
   // theta <= 0 opens every cell: direct summation, up to round-off.
   template <int D>
-  Tree(const Particles<D>& P, double theta, int leaf_size = 32);
+  Tree(const Particles<D>& P, double theta, int leaf_size = 16, int group_size = 64);
 
   struct Counts {
     std::size_t particle_pairs = 0, particle_cells = 0;   // terms summed (ordered pairs, particle-cell)
@@ -39,7 +40,7 @@ class Tree {
                   std::vector<double>& az, std::vector<double>* phi) const;
 
   std::size_t cell_count() const { return cells_.size(); }
-  std::size_t leaf_count() const { return leaves_.size(); }
+  std::size_t group_count() const { return groups_.size(); }
 
  private:
   struct Cell {
@@ -53,19 +54,19 @@ class Tree {
   using Quadrupole = std::array<double, 6>;
 
   template <int D>
-  void build(int id, int begin, int end, int level, const std::vector<unsigned long long>& keys);
+  void build(int id, int begin, int end, int level, bool in_group, const std::vector<unsigned long long>& keys);
   void moments(int id);
 
   double theta_;
-  int leaf_size_;
+  int leaf_size_, group_size_;
   std::vector<int> order_;                // order_[k] = particle index of the k-th in Morton order
   std::vector<double> x_, y_, z_, m_;     // positions and masses in Morton order
   std::vector<Cell> cells_;
   std::vector<Quadrupole> quad_;
-  std::vector<int> leaves_;               // in Morton order
+  std::vector<int> groups_;               // cells walked for, in Morton order
 };
 
-extern template Tree::Tree(const Particles<2>&, double, int);
-extern template Tree::Tree(const Particles<3>&, double, int);
+extern template Tree::Tree(const Particles<2>&, double, int, int);
+extern template Tree::Tree(const Particles<3>&, double, int, int);
 
 }  // namespace grains::gravity_tree

@@ -15,6 +15,7 @@
 #include "core/simulation.hpp"
 #include "interactions/gravity.hpp"
 #include "interactions/gravity_direct.hpp"
+#include "interactions/gravity_tree.hpp"
 #include "io/scene.hpp"
 
 using namespace grains;
@@ -532,6 +533,38 @@ TEST_CASE("gravity: tree against direct summation", "[.gravity-bench]") {
       WARN(fmt::format("  {:.1f} | {:.3g} | {:.3f} | {:.2g} | {:.2g}", theta, st, st / sd, median, p99));
     }
   }
+}
+
+TEST_CASE("gravity: tree levers (leaf size, kernel, threads, build share)", "[.gravity-bench]") {
+  // N = 1e5 uniform ball, theta = 0.5, eps = 1e-3: build and walk times (fastest of a few calls), the terms
+  // summed per particle and the error against direct summation, for each leaf size; then the portable kernel
+  // and one thread at the default leaf size.
+  const int n = 100000;
+  const double eps = 1e-3, theta = 0.5;
+  const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
+  SoftenedGravity<3> g(1.0, eps, GravitySolver::direct);
+  const auto direct = g.accelerations(P, GravitySolver::direct, 2);
+  WARN(fmt::format("tree levers, N = 1e5, theta 0.5 (1-min load average {}): leaf size | group size | isa | threads | build s | walk s "
+                   "| particle terms / N | cell terms / N | median error | 99th pct", load_average()));
+  auto row = [&](int leaf, int group, gravity_direct::Isa isa, int threads) {
+    std::vector<double> ax, ay, az;
+    gravity_tree::Tree::Counts counts;
+    const double sb = seconds_per_call([&] { gravity_tree::Tree(P, theta, leaf, group); }, 0.1);
+    const gravity_tree::Tree tree(P, theta, leaf, group);
+    const double sw = seconds_per_call([&] { counts = tree.evaluate(isa, eps * eps, threads, ax, ay, az, nullptr); }, 0.1);
+    std::vector<Vec<3>> a(n);
+    for (int i = 0; i < n; ++i) a[i] = Vec<3>(ax[i], ay[i], az[i]);
+    const auto [median, p99] = force_errors(a, direct);
+    WARN(fmt::format("  {:3} | {:3} | {} | {} | {:.3g} | {:.3g} | {:.0f} | {:.0f} | {:.2g} | {:.2g}", leaf, group,
+                     isa == gravity_direct::Isa::avx2 ? "avx2" : "portable", threads, sb, sw,
+                     double(counts.particle_pairs) / n, double(counts.particle_cells) / n, median, p99));
+  };
+  const auto fastest = gravity_direct::fastest_isa();
+  for (int leaf : {8, 16, 32})
+    for (int group : {leaf, 32, 64, 128, 256})
+      if (group >= leaf) row(leaf, group, fastest, 2);
+  row(16, 64, fastest, 1);
+  row(16, 64, gravity_direct::Isa::portable, 2);
 }
 
 // n_c (steps per contact duration): cost and accuracy against the finest setting. Cost: wall time of
