@@ -98,6 +98,8 @@ GRAINS_AVX2 inline double lane_sum(__m256d v) {
   return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
 }
 
+// The potential only when asked for (it costs a few operations per term).
+template <bool potential>
 GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
   const __m256d xi = _mm256_set1_pd(L.x[self]), yi = _mm256_set1_pd(L.y[self]), zi = _mm256_set1_pd(L.z[self]);
   const __m256d e2 = _mm256_set1_pd(eps2), one = _mm256_set1_pd(1.0);
@@ -113,7 +115,7 @@ GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
     if (j0 == self_vector || j0 + W > L.particles) t = _mm256_and_pd(t, lanes_kept(j0, L.particles, self));
     const __m256d w = _mm256_mul_pd(_mm256_loadu_pd(&L.m[j0]), t);
     sx = _mm256_fmadd_pd(w, dx, sx), sy = _mm256_fmadd_pd(w, dy, sy), sz = _mm256_fmadd_pd(w, dz, sz);
-    sp = _mm256_fnmadd_pd(w, r2, sp);   // m / h = m t r2
+    if constexpr (potential) sp = _mm256_fnmadd_pd(w, r2, sp);   // m / h = m t r2
   }
   // Cells (portable kernel above for the formulas); the last vector is masked.
   const __m256d half = _mm256_set1_pd(0.5), five_halves = _mm256_set1_pd(2.5);
@@ -137,7 +139,7 @@ GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
     sx = _mm256_fnmadd_pd(inv5, qx, _mm256_fmadd_pd(a, dx, sx));
     sy = _mm256_fnmadd_pd(inv5, qy, _mm256_fmadd_pd(a, dy, sy));
     sz = _mm256_fnmadd_pd(inv5, qz, _mm256_fmadd_pd(a, dz, sz));
-    sp = _mm256_sub_pd(sp, _mm256_fmadd_pd(M, inv, _mm256_mul_pd(half, rQr_inv5)));
+    if constexpr (potential) sp = _mm256_sub_pd(sp, _mm256_fmadd_pd(M, inv, _mm256_mul_pd(half, rQr_inv5)));
   }
   return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
 }
@@ -268,7 +270,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
   const std::size_t n = order_.size();
   for (auto* v : {&ax, &ay, &az}) v->assign(n, 0.0);
   if (phi) phi->assign(n, 0.0);
-  auto* sums = isa == Isa::avx2 ? sums_avx2 : sums_portable;
+  auto* sums = isa == Isa::portable ? sums_portable : phi ? sums_avx2<true> : sums_avx2<false>;
   std::size_t pairs = 0, cell_terms = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : pairs, cell_terms)
   {

@@ -245,6 +245,58 @@ TEST_CASE("gravity: direct summation is identical on 1 and 2 threads and pairs a
   CHECK(g2.potential_energy(Q, GravitySolver::direct, 1) == Approx(-0.5 * 6 / std::sqrt(26.0)).epsilon(1e-15));
 }
 
+TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its two kernels agree", "[gravity]") {
+  // Unequal masses in a ball plus a tight clump, so that groups, leaves and accepted cells of many sizes occur.
+  auto pos = uniform_ball(5000, 1.0, 21);
+  for (const auto& x : uniform_ball(500, 0.01, 22)) pos.push_back(x + Eigen::Vector3d(0.3, -0.2, 0.1));
+  auto P = particles_from<3>(pos, 1.0);
+  for (std::size_t i = 0; i < P.size(); ++i) P.mass[i] = 1.0 + 0.5 * std::sin(double(i));
+  const double eps2 = 1e-6;
+  using gravity_direct::Isa;
+  const gravity_tree::Tree tree(P, 0.5);
+  std::vector<double> ax1, ay1, az1, p1, ax2, ay2, az2, p2;
+  const auto counts = tree.evaluate(gravity_direct::fastest_isa(), eps2, 1, ax1, ay1, az1, &p1);
+  tree.evaluate(gravity_direct::fastest_isa(), eps2, 2, ax2, ay2, az2, &p2);
+  CHECK(counts.particle_cells > 0);   // the walk did use cells whole
+  CHECK(ax1 == ax2);
+  CHECK(ay1 == ay2);
+  CHECK(az1 == az2);
+  CHECK(p1 == p2);
+  // Portable against AVX2 (same terms, FMA rounding apart): relative to each particle's acceleration and potential.
+  if (gravity_direct::fastest_isa() == Isa::avx2) {
+    std::vector<double> bx, by, bz, q;
+    tree.evaluate(Isa::portable, eps2, 2, bx, by, bz, &q);
+    double worst_a = 0, worst_phi = 0;
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      const Vec<3> a(ax1[i], ay1[i], az1[i]), b(bx[i], by[i], bz[i]);
+      worst_a = std::max(worst_a, (a - b).norm() / a.norm());
+      worst_phi = std::max(worst_phi, std::abs(p1[i] - q[i]) / std::abs(p1[i]));
+    }
+    WARN(fmt::format("tree kernels, portable against AVX2: largest relative difference, acceleration {:.2g}, potential {:.2g}",
+                     worst_a, worst_phi));
+    CHECK(worst_a < 1e-13);
+    CHECK(worst_phi < 1e-13);
+  }
+}
+
+TEST_CASE("gravity: the tree copes with particles on one spot (deeper than its keys resolve)", "[gravity]") {
+  // 300 particles on exactly one point and 40 within 1e-9 of it, among 2000 others: the Morton keys cannot
+  // separate them, so one leaf holds them all; softening keeps the forces finite.
+  auto pos = uniform_ball(2000, 1.0, 31);
+  const Eigen::Vector3d spot(0.25, 0.5, -0.125);
+  for (int k = 0; k < 300; ++k) pos.push_back(spot);
+  for (const auto& x : uniform_ball(40, 1e-9, 32)) pos.push_back(spot + x);
+  const auto P = particles_from<3>(pos, 1.0 / double(pos.size()));
+  const double eps = 1e-3;
+  const double at_default = median_tree_error(P, 0.5, eps), exact = median_tree_error(P, 0.0, eps);
+  INFO(fmt::format("median relative force error: theta 0.5 {:.3g}, theta 0 {:.3g}", at_default, exact));
+  CHECK(at_default < 1e-3);
+  CHECK(exact < 1e-13);
+  SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
+  const double Wd = g.potential_energy(P, GravitySolver::direct, 2), Wt = g.potential_energy(P, GravitySolver::tree, 2);
+  CHECK(Wt == Approx(Wd).epsilon(1e-4));
+}
+
 namespace {
 // Largest error of the direct kernel `isa` against a long-double evaluation of the same sums, for particle
 // positions p (D = 2 uses x, y), masses m and softening eps: forces as max_i |a_i - ref_i| / s_i with the
