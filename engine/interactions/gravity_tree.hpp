@@ -4,10 +4,9 @@
 // the 2^D-ary tree holds one contiguous run of them; a cell of more than `leaf_size` particles is split.
 // Moments are formed bottom-up (children's by the parallel-axis rule).
 // Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
-// particles. A cell of edge s is used whole when
-// its centre of mass lies farther than s / theta + |com - cell centre| from the group's bounding box and the
-// box does not reach into the cell; otherwise it is opened, and the particles of the leaves reached are
-// summed one by one. Used whole for the group means used whole for each of its particles under the
+// particles. A cell of edge s is used whole when its centre of mass lies farther than s / theta +
+// |com - cell centre| from the group's bounding box and the box does not reach into the cell; otherwise it
+// is opened, and the particles of the leaves reached are summed one by one. Used whole for the group means used whole for each of its particles under the
 // per-particle rule, so the group walk is never coarser than a walk per particle at the same theta.
 // Every particle of the group then runs over the two lists with an AVX2 + FMA kernel (four list entries at
 // a time) or a portable one, picked at run time like gravity_direct. FP64 throughout with a correctly
