@@ -110,11 +110,12 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"gravity.softening", K::real, "0.1", 0, inf, false, false, "",
        "eps0: softening length eps = softening * R_min (R_min = smallest particle radius)."},
       {"gravity.solver", K::text, "\"direct\"", 0, 0, false, false, "direct|tree",
-       "`direct`: exact O(N^2) summation; `tree`: Barnes-Hut octree/quadtree (monopole + quadrupole cells, rebuilt every step) with `opening_angle`."},
+       "`direct`: exact O(N^2) summation; `tree`: Barnes-Hut octree/quadtree (monopole + quadrupole cells, one walk per group of "
+       "up to 64 particles, rebuilt every step) with `opening_angle`."},
       {"gravity.opening_angle", K::real, "0.5", 0, 1.5, false, false, "",
-       "Barnes-Hut opening angle theta (tree solver): a cell of edge s is used whole when its centre of mass is farther "
-       "than s / theta + (distance from the cell centre to its centre of mass); 0 = exact. At 0.5 the median force "
-       "error is about 6e-4 (uniform ball)."},
+       "Barnes-Hut opening angle theta (tree solver): a cell of edge s is used whole for a group of particles when its "
+       "centre of mass is farther than s / theta + (distance from the cell centre to its centre of mass) from the group's "
+       "bounding box; 0 = exact. At 0.5 the median force error is about 2e-4 (uniform ball)."},
 
       // --- aggregation analysis ---
       {"analysis.cluster_tolerance", K::real, "1e-3", 0, inf, false, false, "",
