@@ -215,7 +215,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   }
 
   // CSR by counting sort on the lower index.
-  if (history_) previous_start_.swap(start), previous_partner_.swap(partner);
+  previous_start_.swap(start), previous_partner_.swap(partner);
   start.assign(N + 1, 0);
   for (int t = 0; t < nthreads; ++t)
     for (std::size_t n = 0; n < found_count_[t]; ++n) ++start[found_[t][n].i + 1];
