@@ -93,6 +93,7 @@ class NeighbourList {
   long builds_ = 0;
   std::vector<Vec<D>> reference_;      // positions at the last build
   Vec<D> strain_since_build_ = Vec<D>::Ones();   // cell length now / at the last build, per axis
+  Vec<D> reference_lower_ = Vec<D>::Zero();      // the corner the cell is scaled about (follow_cell)
   double list_reach_ = 0;              // largest centre distance a listed pair may have: 2 R_max + range + skin
   std::vector<std::int64_t> previous_entry_;   // with history: index of each pair in the previous list, or -1
   std::vector<std::uint32_t> previous_start_, previous_partner_;   // the list before the last build
