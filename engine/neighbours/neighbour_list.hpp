@@ -24,8 +24,8 @@ class NeighbourList {
   void configure(double range, double skin, bool history = false) { range_ = range, skin_ = skin, history_ = history; }
   double skin() const { return skin_; }
 
-  // Positions must already be wrapped into the box. With history, remembers the previous list so
-  // per-pair values can be carried over with carry().
+  // Positions must already be wrapped into the box. Keeps the previous list's rows for
+  // match_previous(); with history, also maps every entry to the previous list for carry().
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
   // True once some particle has moved more than skin/2 since the last build (less the part of the skin
   // that the cell deformation since the build has used up, see follow_cell).

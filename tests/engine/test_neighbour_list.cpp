@@ -250,8 +250,8 @@ TEST_CASE("neighbour list: carry() maps per-pair values across a rebuild, new pa
   }
 }
 
-// Without history the build neither sorts rows nor keeps the previous list, so carrying values
-// across it would silently scramble them: carry() refuses.
+// Without history the build neither sorts rows nor maps entries to the previous list, so carrying
+// values across it would silently scramble them: carry() refuses (match_previous() is the way there).
 TEST_CASE("neighbour list: carry() needs a list configured with history", "[neighbours]") {
   auto c = make_config<3>(200, Sizes::uniform, true, 6.0, 9);
   NeighbourList<3> nl;
