@@ -42,6 +42,7 @@ class ContactForces final : public ForceModule<D> {
   double pair_range() const override { return law_.reach(); }
   bool applies_torques() const override { return torques_; }
   const Law& law() const { return law_; }
+  Rolling& rolling() { return rolling_; }   // a host may retune the rolling dashpot between steps
 
   // Always: the first-step stamps (touched_) follow the pairs, besides the friction and rolling springs.
   bool keeps_pair_history() const override { return true; }
