@@ -202,16 +202,16 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
       {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",
        "Steps the type-2 aggregation may take to form one bonded cluster."},
-      {"programme.quench_damping", K::real, "0.1", 0, 1, false, false, "",
+      {"programme.quench_damping", K::real, "0.003", 0, 1, false, false, "",
        "beta of the rolling dashpot (`rolling.damping_ratio`) that quenches the rolling mechanisms of a settled stage: "
        "each stage starts on the paper's law (beta = 0); once it has settled (`settle_ratio`, `settle_checks`) the "
        "dashpot is switched on, and when the four criteria hold it is switched off again; the stage is in equilibrium "
        "when they still hold at the next check with beta = 0. 0: no quench (most stages then miss equilibrium). "
        "Consolidation law only (`adhesion.enabled`); the stage table's `quench_start` says when it was switched on."},
-      {"programme.settle_ratio", K::real, "1", 0, inf, true, false, "",
+      {"programme.settle_ratio", K::real, "100", 0, inf, true, false, "",
        "A stage has settled when its kinetic and stress equilibrium ratios (`equilibrium_kinetic`, "
        "`equilibrium_stress`) are below this for `settle_checks` checks in a row."},
-      {"programme.settle_checks", K::integer, "10", 1, 9.2e18, false, false, "",
+      {"programme.settle_checks", K::integer, "20", 1, 9.2e18, false, false, "",
        "Consecutive equilibrium checks a stage must stay settled before its rolling mechanisms are quenched."},
 
       // --- time stepping ---
