@@ -42,6 +42,7 @@ class ContactForces final : public ForceModule<D> {
   double pair_range() const override { return law_.reach(); }
   bool applies_torques() const override { return torques_; }
   const Law& law() const { return law_; }
+  Rolling& rolling() { return rolling_; }   // a host may retune the rolling dashpot between steps
 
   // The first-step stamps (touched_) and the springs follow the pairs that touched at the last
   // evaluation; every other pair starts afresh (holds_history), so no sorted rows are needed.
