@@ -46,7 +46,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
       // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
-      csv << "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time";
+      csv << "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time,quench_start";
       for (const auto& [n, v] : r.values) csv << ',' << n;
       csv << '\n';
     }
@@ -59,11 +59,15 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                                : r.phase == "loading" || (r.phase == "equilibrate" && r.target == settings.start_pressure)
                                    ? "loading"
                                    : "preparation";
-    csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{},{},{:.9g}", r.index, r.phase, branch, r.target,
-                       value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time);
+    // quench_start: steps into the stage when the rolling dashpot was switched on (empty: it never was).
+    const std::string quench = r.quench_start >= 0 ? std::to_string(r.quench_start) : std::string();
+    csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{},{},{:.9g},{}", r.index, r.phase, branch, r.target,
+                       value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time, quench);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
     write_observables(out, *sim);
+    out.write_observable("quench_start", sim->step_count(), sim->time(),
+                         r.quench_start >= 0 ? double(r.quench_start) : std::nan(""));
     write_frame(out, *sim);
     status.finish();
     if (!r.reached) {
@@ -84,10 +88,11 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     else if (!std::isnan(value("B")))
       moduli = fmt::format("  B {:.4g}  G {:.4g}{}", value("B"), value("G"),
                            mechanisms > 0 ? fmt::format(" (mechanism in {} strain direction(s))", mechanisms) : "");
+    const std::string quenched = r.quench_start >= 0 ? fmt::format("  quenched from step {}", r.quench_start) : "";
     if (!opt.quiet)
-      fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}\n", r.index, r.phase,
+      fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}{}\n", r.index, r.phase,
                  r.target, r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
-                 value("coordination"), moduli);
+                 value("coordination"), quenched, moduli);
     std::fflush(stdout);
   };
   // Within a stage: what it waits for (one bonded cluster, or the four equilibrium ratios falling below 1).
@@ -100,8 +105,9 @@ int consolidate_scene(const ConsolidateOptions& opt) {
             : fmt::format("P* {:.4g}  equilibrium ratios force {:.3g} torque {:.3g} stress {:.3g} kinetic {:.3g}",
                           sim->get("pressure_reduced"), sim->get("equilibrium_force"), sim->get("equilibrium_torque"),
                           sim->get("equilibrium_stress"), sim->get("equilibrium_kinetic"));
-    status.show(fmt::format("  stage {} {} step {}/{}  Phi {:.4f}  {}  {:.3g} particle-steps/s", r.index, r.phase,
-                            r.steps, budget, sim->get("solid_fraction"), waiting, rate));
+    const std::string quench = r.quench_start >= 0 ? fmt::format("  quench from {}", r.quench_start) : "";
+    status.show(fmt::format("  stage {} {} step {}/{}  Phi {:.4f}  {}{}  {:.3g} particle-steps/s", r.index, r.phase,
+                            r.steps, budget, sim->get("solid_fraction"), waiting, quench, rate));
   };
   const auto records = run_programme(*sim, settings, on_stage, on_check);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -60,11 +60,13 @@ inline void kick_predict(std::size_t n, double h, double* __restrict w, double* 
 // (integrator.cpp).
 void turn(std::size_t n, double h, const double* w, double* q);
 
-// Second half over n particles of C components: a = f / m; v += h/2 a. Returns the sum of the new v.
+// Second half over n particles of C components: a = f / m; v += h/2 a. Returns the sum of the new v
+// (in any order, like drift's: a sum in loop order would chain every add and keep the loop scalar).
 template <int C>
 double kick(std::size_t n, double h, const double* __restrict inverse_mass, const double* __restrict f,
             double* __restrict a, double* __restrict v) {
   double witness = 0;
+#pragma omp simd reduction(+ : witness)
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < C; ++c) {
       const std::size_t k = i * C + c;

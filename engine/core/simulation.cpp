@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <omp.h>
@@ -118,6 +119,11 @@ class SimulationImpl final : public Simulation {
 
     rebuild();
     describe_variables(scene);
+    if (rolling_)
+      add_control({"rolling.damping_ratio", "", Causality::parameter, Variability::tunable,
+                   "beta = c_r / (c_n R_i R_j) of the rolling dashpot on the relative spin (tunable: takes effect at "
+                   "the next step; 0 is the paper's law)", 0.0, 1.0},
+                  [r = rolling_] { return r->damping; }, [r = rolling_](double beta) { r->damping = beta; });
     if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
       add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
                    "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off)", 0.0},
@@ -343,12 +349,19 @@ class SimulationImpl final : public Simulation {
     // No rolling spring without rolling resistance (mu_R = 0); the rolling dashpot may still act.
     RollingResistance rr{mu_r > 0 ? scene.real("rolling.stiffness_ratio") * law.k * a * a : 0.0, mu_r,
                          scene.real("rolling.damping_ratio")};
-    const bool rolling = mu_r > 0 || rr.damping > 0;
+    // In a pressure-controlled cell the rolling dashpot is switchable between steps (the tunable parameter
+    // rolling.damping_ratio: the consolidation programme quenches each settled stage with it), so the
+    // rolling module is built there even while it does nothing.
+    const bool rolling = mu_r > 0 || rr.damping > 0 || scene.boolean("cell.enabled");
     using L = AdhesiveContactLaw;
-    if (mu > 0 && rolling) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction, RollingResistance>>(law, fr, rr));
-    else if (mu > 0) modules_.push_back(std::make_unique<ContactForces<D, L, CoulombFriction>>(law, fr));
-    else if (rolling) modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction, RollingResistance>>(law, NoFriction{}, rr));
-    else modules_.push_back(std::make_unique<ContactForces<D, L, NoFriction>>(law, NoFriction{}));
+    auto keep = [&](auto module) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(module->rolling())>, RollingResistance>) rolling_ = &module->rolling();
+      modules_.push_back(std::move(module));
+    };
+    if (mu > 0 && rolling) keep(std::make_unique<ContactForces<D, L, CoulombFriction, RollingResistance>>(law, fr, rr));
+    else if (mu > 0) keep(std::make_unique<ContactForces<D, L, CoulombFriction>>(law, fr));
+    else if (rolling) keep(std::make_unique<ContactForces<D, L, NoFriction, RollingResistance>>(law, NoFriction{}, rr));
+    else keep(std::make_unique<ContactForces<D, L, NoFriction>>(law, NoFriction{}));
     return std::numbers::pi * std::sqrt(mstar_min / law.k);
   }
 
@@ -854,6 +867,7 @@ class SimulationImpl final : public Simulation {
   System<D> sys_;
   std::vector<std::unique_ptr<ForceModule<D>>> modules_;
   SoftenedGravity<D>* gravity_ = nullptr;   // in modules_, when the scene has self-gravity
+  RollingResistance* rolling_ = nullptr;     // the contact module's rolling parameters, when it has them
   bool uses_list_ = false, rotate_ = false;
   double dt_ = 0, kn_ = 0, cn_ = 0;
   bool analysis_ = false;   // gravity scenes only

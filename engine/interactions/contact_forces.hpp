@@ -42,13 +42,21 @@ class ContactForces final : public ForceModule<D> {
   double pair_range() const override { return law_.reach(); }
   bool applies_torques() const override { return torques_; }
   const Law& law() const { return law_; }
+  Rolling& rolling() { return rolling_; }   // a host may retune the rolling dashpot between steps
 
-  // Always: the first-step stamps (touched_) follow the pairs, besides the friction and rolling springs.
-  bool keeps_pair_history() const override { return true; }
+  // The first-step stamps (touched_) and the springs follow the pairs that touched at the last
+  // evaluation; every other pair starts afresh (holds_history), so no sorted rows are needed.
   void after_rebuild(const NeighbourList<D>& list) override {
-    list.carry(touched_, std::uint32_t(0));
-    if constexpr (Friction::enabled) list.carry(tangential_, Vec<D>(Vec<D>::Zero()));
-    if constexpr (Rolling::enabled) list.carry(rolling_angle_, Spin<D>(Spin<D>::Zero()));
+    const std::size_t pairs = list.pair_count();
+    std::vector<std::uint32_t> touched(pairs, 0);
+    std::vector<Vec<D>> tangential(Friction::enabled ? pairs : 0, Vec<D>::Zero());
+    std::vector<Spin<D>> rolling_angle(Rolling::enabled ? pairs : 0, Spin<D>::Zero());
+    list.match_previous([&](std::size_t old) { return holds_history(old); }, [&](std::size_t old, std::size_t k) {
+      touched[k] = touched_[old];
+      if constexpr (Friction::enabled) tangential[k] = tangential_[old];
+      if constexpr (Rolling::enabled) rolling_angle[k] = rolling_angle_[old];
+    });
+    touched_.swap(touched), tangential_.swap(tangential), rolling_angle_.swap(rolling_angle);
   }
 
   void add_forces(System<D>& s) override {
@@ -148,9 +156,9 @@ class ContactForces final : public ForceModule<D> {
         // The potential of the clamped spring: quadratic up to the limit, linear beyond.
         elastic += overlap <= limit ? 0.5 * kn * overlap * overlap : kn * limit * (overlap - 0.5 * limit);
         if constexpr (Friction::enabled)   // energy stored in the tangential spring
-          if (k < tangential_.size()) elastic += 0.5 * friction_.stiffness_ratio * kn * tangential_[k].squaredNorm();
+          if (holds_history(k)) elastic += 0.5 * friction_.stiffness_ratio * kn * tangential_[k].squaredNorm();
         if constexpr (Rolling::enabled)   // and in the rolling spring
-          if (k < rolling_angle_.size()) elastic += 0.5 * rolling_.stiffness * rolling_angle_[k].squaredNorm();
+          if (holds_history(k)) elastic += 0.5 * rolling_.stiffness * rolling_angle_[k].squaredNorm();
         max_ratio = std::max(max_ratio, overlap / rmin);
     });
     out.emplace_back("contacts", double(contacts));
@@ -204,11 +212,11 @@ class ContactForces final : public ForceModule<D> {
           if (gap < 0) {
             if constexpr (Friction::enabled) {
               e.tangential = friction_.stiffness_ratio * e.contact_stiffness;
-              if (k < tangential_.size()) e.tangential_force = e.tangential * tangential_[k].norm();
+              if (holds_history(k)) e.tangential_force = e.tangential * tangential_[k].norm();
             }
             if constexpr (Rolling::enabled) {
               e.rolling = rolling_.stiffness;
-              if (k < rolling_angle_.size()) e.rolling_moment = rolling_.stiffness * rolling_angle_[k].norm();
+              if (holds_history(k)) e.rolling_moment = rolling_.stiffness * rolling_angle_[k].norm();
             }
           }
           out.push_back(e);
@@ -217,6 +225,11 @@ class ContactForces final : public ForceModule<D> {
   }
 
  private:
+  // Whether pair k's springs are current: it touched at the last evaluation. The springs of a pair
+  // that opened are not cleared when it opens (that would cost a pass over every listed pair) but
+  // when it touches again (contact_force), so until then they hold stale values.
+  bool holds_history(std::size_t k) const { return k < touched_.size() && touched_[k] == evaluation_; }
+
   // Visits every listed pair: its row i, partner j, list entry k and separation r = x_j - x_i (periodic
   // image included).
   template <class Visit>
@@ -232,6 +245,7 @@ class ContactForces final : public ForceModule<D> {
 
   // Rows are handled in blocks of this many, in two passes: the first gathers the pairs that
   // interact (touching, or within an attraction tail) without a branch, the second evaluates them.
+  // The first reads geometry only: open pairs' springs are left alone (see holds_history).
   // Most listed pairs are open, so the first pass is the hot one and stays small and tight; the
   // second runs the costly arithmetic of consecutive contacts back to back. Pairs are evaluated in
   // list order, as a single pass would.
@@ -244,7 +258,6 @@ class ContactForces final : public ForceModule<D> {
   };
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
-    std::vector<std::uint32_t> stale;       // open pairs that still hold history
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
   };
 
@@ -269,17 +282,14 @@ class ContactForces final : public ForceModule<D> {
     const std::uint32_t* const partner = nl.partner.data();
     const std::uint8_t* const image = nl.image.data();
     const Vec<D>* const shift = nl.shift.data();
-    [[maybe_unused]] Vec<D>* const spring = Friction::enabled ? tangential_.data() : nullptr;
-    [[maybe_unused]] Spin<D>* const rolling_spring = Rolling::enabled ? rolling_angle_.data() : nullptr;
     const double tail_reach = law_.reach();   // 0 without an attractive tail: then exactly Rsum below
     for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
       const std::size_t e = std::min(row_end, b + block_rows_);
       const std::size_t pairs = start[e] - start[b];
-      if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs), g.stale.resize(Friction::enabled || Rolling::enabled ? pairs : 0);
+      if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs);
       std::uint32_t* const gathered_row = g.row.data();
       std::uint32_t* const gathered_pair = g.pair.data();
-      [[maybe_unused]] std::uint32_t* const stale = g.stale.data();
-      std::size_t n = 0, n_stale = 0;
+      std::size_t n = 0;
       for (std::size_t i = b; i < e; ++i) {
         const Vec<D> xi = position[i];
         const double Ri = radius[i];
@@ -290,20 +300,8 @@ class ContactForces final : public ForceModule<D> {
           const bool interacts = r.squaredNorm() < reach * reach;
           gathered_row[n] = std::uint32_t(i), gathered_pair[n] = k;
           n += interacts;
-          if constexpr (Friction::enabled || Rolling::enabled) {   // an open contact loses its history
-            bool held = false;
-            if constexpr (Friction::enabled) held |= !spring[k].isZero(0);
-            if constexpr (Rolling::enabled) held |= !rolling_spring[k].isZero(0);
-            stale[n_stale] = k;
-            n_stale += held && !interacts;
-          }
         }
       }
-      if constexpr (Friction::enabled || Rolling::enabled)
-        for (std::size_t q = 0; q < n_stale; ++q) {
-          if constexpr (Friction::enabled) spring[stale[q]].setZero();
-          if constexpr (Rolling::enabled) rolling_spring[stale[q]].setZero();
-        }
       std::size_t i = row_end;   // no row yet
       Vec<D> xi = Vec<D>::Zero(), fi = Vec<D>::Zero();
       double Ri = 0;
@@ -318,10 +316,6 @@ class ContactForces final : public ForceModule<D> {
         const double d2 = r.squaredNorm();
         if constexpr (Law::has_tail) {
           if (d2 >= Rsum * Rsum) {   // open pair within the attraction range: central force only
-            if constexpr (Friction::enabled)
-              if (!spring[k].isZero(0)) spring[k].setZero();
-            if constexpr (Rolling::enabled)
-              if (!rolling_spring[k].isZero(0)) rolling_spring[k].setZero();
             const double d = std::sqrt(d2);
             const Vec<D> f = law_.tail(d - Rsum) / d * r;
             force[j] += f;
@@ -341,9 +335,11 @@ class ContactForces final : public ForceModule<D> {
   }
 
   // A touching pair: the normal law, friction and rolling resistance; returns the force on j and adds
-  // the torques.
-  Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
-                       double d2, double Rsum, Spin<D>* torque, long& clamped, std::vector<OnsetLag>& lags) {
+  // the torques. Flattened (the law, friction and rolling inlined): their shared terms, such as the
+  // pair's damping coefficient, are then computed once and kept in registers.
+  [[gnu::flatten]] Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
+                                         double d2, double Rsum, Spin<D>* torque, long& clamped,
+                                         std::vector<OnsetLag>& lags) {
     const auto& P = s.particles;
     const double dt = s.dt;
     const double Ri = P.radius[i], mi = P.mass[i];
@@ -360,6 +356,10 @@ class ContactForces final : public ForceModule<D> {
     // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
     const bool first = touched_[k] + 1 != evaluation_;
     touched_[k] = evaluation_;
+    if (first) {   // springs start relaxed (an open pair's are stale, see holds_history)
+      if constexpr (Friction::enabled) tangential_[k].setZero();
+      if constexpr (Rolling::enabled) rolling_angle_[k].setZero();
+    }
     // Its overlap before the step, for the sub-step onset: the step moved the positions by
     // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
     double before = 0;
@@ -368,7 +368,7 @@ class ContactForces final : public ForceModule<D> {
       before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
     }
     ContactStep step{Rsum - d, before, vn, dt, first};
-    if (first) {   // evaluated where the exact solution is; the pair is moved there after the loop
+    if (first) {   // evaluated where the exact solution is; the pair gets there in the next step
       const double lag = onset_lag(step, law_.damping(mi, mj) * (mi + mj) / (mi * mj));
       if (lag > 0) {
         step.overlap -= lag, step.overlap_before -= lag;

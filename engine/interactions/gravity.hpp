@@ -2,8 +2,8 @@
 // Force on i from j: G m_i m_j r_ij / (d^2 + eps^2)^{3/2}, eps = eps0 * R_min, with r_ij = x_j - x_i.
 // Potential: W = -sum_{i<j} G m_i m_j / sqrt(d^2 + eps^2).
 // Two solvers: `direct` (all pairs, O(N^2), the exact reference; gravity_direct.hpp: each pair once, in an
-// order that does not depend on the thread count) and `tree` (Barnes-Hut octree / quadtree, monopole + quadrupole cells, opening angle theta, rebuilt at
-// every call).
+// order that does not depend on the thread count) and `tree` (gravity_tree.hpp: Barnes-Hut octree / quadtree,
+// monopole + quadrupole cells, opening angle theta, one walk per leaf, rebuilt at every call).
 // The module does not use the neighbour list (pair_range() = -1) and holds no state between steps.
 #pragma once
 #include <string>

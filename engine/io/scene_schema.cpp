@@ -100,8 +100,10 @@ const std::vector<SchemaEntry>& scene_schema() {
        "twisting), consolidation law only, with or without rolling resistance. Not in the paper (it damps normal "
        "motion only). Without it rolling mechanisms of a loose network, which no normal or sliding motion "
        "reveals, stay undamped and the equilibrium criteria are not met; with it they are, but it also slows the "
-       "rolling rearrangements of a compaction and lowers Phi (README: equilibrium). At most 1 (explicit dashpot, "
-       "stable for c_r dt / I < 2)."},
+       "rolling rearrangements of a compaction and lowers Phi (README: equilibrium), so `grains consolidate` "
+       "switches it on only in settled stages (`programme.quench_damping`). At most 1 (explicit dashpot, "
+       "stable for c_r dt / I < 2). In a pressure-controlled cell also the tunable parameter `rolling.damping_ratio`, "
+       "which a host may change between steps."},
 
       // --- self-gravity ---
       {"gravity.enabled", K::boolean, "false", 0, 0, false, false, "",
@@ -110,11 +112,12 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"gravity.softening", K::real, "0.1", 0, inf, false, false, "",
        "eps0: softening length eps = softening * R_min (R_min = smallest particle radius)."},
       {"gravity.solver", K::text, "\"direct\"", 0, 0, false, false, "direct|tree",
-       "`direct`: exact O(N^2) summation; `tree`: Barnes-Hut octree/quadtree (monopole + quadrupole cells, rebuilt every step) with `opening_angle`."},
+       "`direct`: exact O(N^2) summation; `tree`: Barnes-Hut octree/quadtree (monopole + quadrupole cells, one walk per group of "
+       "up to 64 particles, rebuilt every step) with `opening_angle`."},
       {"gravity.opening_angle", K::real, "0.5", 0, 1.5, false, false, "",
-       "Barnes-Hut opening angle theta (tree solver): a cell of edge s is used whole when its centre of mass is farther "
-       "than s / theta + (distance from the cell centre to its centre of mass); 0 = exact. At 0.5 the median force "
-       "error is about 6e-4 (uniform ball)."},
+       "Barnes-Hut opening angle theta (tree solver): a cell of edge s is used whole for a group of particles when its "
+       "centre of mass is farther than s / theta + (distance from the cell centre to its centre of mass) from the group's "
+       "bounding box; 0 = exact. At 0.5 the median force error is about 2e-4 (uniform ball)."},
 
       // --- aggregation analysis ---
       {"analysis.cluster_tolerance", K::real, "1e-3", 0, inf, false, false, "",
@@ -200,6 +203,17 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
       {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",
        "Steps the type-2 aggregation may take to form one bonded cluster."},
+      {"programme.quench_damping", K::real, "0.003", 0, 1, false, false, "",
+       "beta of the rolling dashpot (`rolling.damping_ratio`) that quenches the rolling mechanisms of a settled stage: "
+       "each stage starts on the paper's law (beta = 0); once it has settled (`settle_ratio`, `settle_checks`) the "
+       "dashpot is switched on, and when the four criteria hold it is switched off again; the stage is in equilibrium "
+       "when they still hold at the next check with beta = 0. 0: no quench (most stages then miss equilibrium). "
+       "Consolidation law only (`adhesion.enabled`); the stage table's `quench_start` says when it was switched on."},
+      {"programme.settle_ratio", K::real, "100", 0, inf, true, false, "",
+       "A stage has settled when its kinetic and stress equilibrium ratios (`equilibrium_kinetic`, "
+       "`equilibrium_stress`) are below this for `settle_checks` checks in a row."},
+      {"programme.settle_checks", K::integer, "20", 1, 9.2e18, false, false, "",
+       "Consecutive equilibrium checks a stage must stay settled before its rolling mechanisms are quenched."},
 
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},

@@ -215,7 +215,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   }
 
   // CSR by counting sort on the lower index.
-  if (history_) previous_start_.swap(start), previous_partner_.swap(partner);
+  previous_start_.swap(start), previous_partner_.swap(partner);
   start.assign(N + 1, 0);
   for (int t = 0; t < nthreads; ++t)
     for (std::size_t n = 0; n < found_count_[t]; ++n) ++start[found_[t][n].i + 1];
@@ -263,8 +263,14 @@ bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x) const {
   const double allowance = 0.5 * (skin_ - strain * list_reach_);   // per particle
   if (allowance <= 0) return true;
   const double limit = allowance * allowance;
-  for (std::size_t i = 0; i < x.size(); ++i)
-    if ((x[i] - reference_[i]).squaredNorm() > limit) return true;
+  if (strain_since_build_ == Vec<D>::Ones()) {
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if ((x[i] - reference_[i]).squaredNorm() > limit) return true;
+  } else {   // the reference positions as the cell has carried them since the build
+    const Vec<D> lower = reference_lower_, scale = strain_since_build_;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if ((x[i] - (lower + (reference_[i] - lower).cwiseProduct(scale))).squaredNorm() > limit) return true;
+  }
   return false;
 }
 
@@ -273,7 +279,7 @@ void NeighbourList<D>::follow_cell(const Vec<D>& scale, const Box<D>& box) {
   constexpr int images = D == 3 ? 27 : 9;
   for (int s = 0; s < images; ++s)
     for (int a = 0, r = s; a < D; ++a, r /= 3) shift[s][a] = (r % 3 - 1) * box.length[a];
-  for (auto& x : reference_) x = box.lower + (x - box.lower).cwiseProduct(scale);
+  reference_lower_ = box.lower;   // the reference positions follow in stale(): no pass over them here
   strain_since_build_ = strain_since_build_.cwiseProduct(scale);
 }
 
@@ -281,14 +287,14 @@ template <int D>
 void NeighbourList<D>::save(ByteWriter& w) const {
   w.put(range_), w.put(skin_), w.put(builds_);
   w.put_vector(start), w.put_vector(partner), w.put_vector(image), w.put_vector(shift), w.put_vector(reference_);
-  w.put(strain_since_build_), w.put(list_reach_);
+  w.put(strain_since_build_), w.put(list_reach_), w.put(reference_lower_);
 }
 
 template <int D>
 void NeighbourList<D>::load(ByteReader& r) {
   range_ = r.get<double>(), skin_ = r.get<double>(), builds_ = r.get<long>();
   r.get_vector(start), r.get_vector(partner), r.get_vector(image), r.get_vector(shift), r.get_vector(reference_);
-  strain_since_build_ = r.get<Vec<D>>(), list_reach_ = r.get<double>();
+  strain_since_build_ = r.get<Vec<D>>(), list_reach_ = r.get<double>(), reference_lower_ = r.get<Vec<D>>();
   previous_entry_.assign(partner.size(), -1);
 }
 

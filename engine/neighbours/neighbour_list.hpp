@@ -1,9 +1,11 @@
 // Verlet neighbour list: every pair whose surfaces are closer than `reach` (interaction range + skin),
 // stored once, under the lower index (CSR). Built from a hierarchy of cell grids (one per factor-two
-// size class) so that a size ratio of 10 costs about as much as monodisperse. When some module carries
-// per-pair history across rebuilds (configure(..., history = true)), rows are sorted by partner and
-// matched against the previous list; otherwise their order is the (deterministic) order of discovery.
+// size class) so that a size ratio of 10 costs about as much as monodisperse. Rows are in the
+// (deterministic) order of discovery. History of a few pairs (the contacts) follows the pairs with
+// match_previous(); history of every pair with carry(), which needs configure(..., history = true):
+// rows are then sorted by partner and matched against the previous list.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <stdexcept>
@@ -22,8 +24,8 @@ class NeighbourList {
   void configure(double range, double skin, bool history = false) { range_ = range, skin_ = skin, history_ = history; }
   double skin() const { return skin_; }
 
-  // Positions must already be wrapped into the box. With history, remembers the previous list so
-  // per-pair values can be carried over with carry().
+  // Positions must already be wrapped into the box. Keeps the previous list's rows for
+  // match_previous(); with history, also maps every entry to the previous list for carry().
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
   // True once some particle has moved more than skin/2 since the last build (less the part of the skin
   // that the cell deformation since the build has used up, see follow_cell).
@@ -44,6 +46,21 @@ class NeighbourList {
     for (std::size_t k = 0; k < partner.size(); ++k)
       if (previous_entry_[k] >= 0 && std::size_t(previous_entry_[k]) < values.size()) next[k] = values[previous_entry_[k]];
     values.swap(next);
+  }
+
+  // Calls move(old, k) for every entry `old` of the previous list that keep(old) selects and that is
+  // listed again, at entry k. Each kept entry scans its new row: cheap for a few entries (the
+  // contacts), and the rows need no sorting.
+  template <class Keep, class Move> void match_previous(Keep keep, Move move) const {
+    const std::size_t rows = std::min(previous_start_.size(), start.size());
+    for (std::size_t i = 0; i + 1 < rows; ++i)
+      for (std::size_t old = previous_start_[i]; old < previous_start_[i + 1]; ++old)
+        if (keep(old))
+          for (std::size_t k = start[i]; k < start[i + 1]; ++k)
+            if (partner[k] == previous_partner_[old]) {
+              move(old, k);
+              break;
+            }
   }
 
   void save(ByteWriter& w) const;
@@ -76,9 +93,10 @@ class NeighbourList {
   long builds_ = 0;
   std::vector<Vec<D>> reference_;      // positions at the last build
   Vec<D> strain_since_build_ = Vec<D>::Ones();   // cell length now / at the last build, per axis
+  Vec<D> reference_lower_ = Vec<D>::Zero();      // the corner the cell is scaled about (follow_cell)
   double list_reach_ = 0;              // largest centre distance a listed pair may have: 2 R_max + range + skin
   std::vector<std::int64_t> previous_entry_;   // with history: index of each pair in the previous list, or -1
-  std::vector<std::uint32_t> previous_start_, previous_partner_;
+  std::vector<std::uint32_t> previous_start_, previous_partner_;   // the list before the last build
   // Scratch kept between builds (no reallocation per build).
   std::vector<Grid> grids_;
   std::vector<std::uint8_t> class_of_;

@@ -22,11 +22,20 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   p.check_every = scene.integer("programme.check_every");
   p.stage_budget = scene.integer("programme.stage_budget");
   p.aggregation_budget = scene.integer("programme.aggregation_budget");
+  // The rolling dashpot belongs to the consolidation law: a cohesionless programme runs without the quench.
+  p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
+  p.quench.settle_ratio = scene.real("programme.settle_ratio");
+  p.quench.settle_checks = scene.integer("programme.settle_checks");
   if (!scene.boolean("cell.enabled"))
     scene.fail("cell.enabled", "the consolidation programme drives a pressure-controlled cell: set cell.enabled = true");
   if (p.load && p.top_pressure < p.start_pressure)
     scene.fail("programme.top_pressure", fmt::format("value {} is below the start pressure cell.pressure = {}: allowed "
                                                      ">= cell.pressure", p.top_pressure, p.start_pressure));
+  if (p.quench.damping > 0 && scene.real("rolling.damping_ratio") > 0)
+    scene.fail("rolling.damping_ratio",
+               fmt::format("value {} keeps the rolling dashpot on throughout, but programme.quench_damping = {} switches "
+                           "it on and off in every stage: set one of them to 0", scene.real("rolling.damping_ratio"),
+                           p.quench.damping));
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
@@ -93,7 +102,7 @@ class Runner {
       const long n = std::min(p_.check_every, budget - r.steps);
       s_.step_n(n);
       r.steps += n;
-      if (done()) {
+      if (done(r)) {
         r.reached = true;
         break;
       }
@@ -109,14 +118,20 @@ class Runner {
 
   void equilibrate(const std::string& phase, double target) {
     s_.set("cell.pressure", target);
-    stage(phase, target, p_.stage_budget, [&] { return s_.get("equilibrium") == 1.0; });
+    RollingQuench quench(s_, p_.quench);
+    stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
+      const bool reached = quench.in_equilibrium(r.steps);
+      r.quench_start = quench.start();
+      return reached;
+    });
+    quench.end();
   }
 
   std::vector<StageRecord> run() {
     if (p_.preparation == "type2") {   // ballistic aggregation in a fixed cell, then relaxation at P* = 0
       s_.set("cell.active", 0);
       stage("aggregation", std::numeric_limits<double>::quiet_NaN(), p_.aggregation_budget,
-            [&] { return s_.get("bonded_clusters") == 1.0; });
+            [&](StageRecord&) { return s_.get("bonded_clusters") == 1.0; });
       s_.set("cell.active", 1);
       equilibrate("equilibrate", 0.0);
     } else {

@@ -3,12 +3,15 @@
 // then the stepwise compression, P* multiplied by 10^(1/stages_per_decade) per stage up to the top
 // pressure, then unloading back to the start in larger steps. Every stage runs until the four
 // equilibrium criteria hold or its step budget is spent; a stage that runs out is recorded with
-// reached = false and the programme goes on, so the caller can report it.
+// reached = false and the programme goes on, so the caller can report it. Once a stage has settled its
+// rolling mechanisms are quenched (protocols/rolling_quench.hpp, the input rolling.damping_ratio).
 #pragma once
 #include <functional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "protocols/rolling_quench.hpp"
 
 namespace grains {
 
@@ -24,6 +27,7 @@ struct ProgrammeSettings {
   long check_every = 100;             // steps between equilibrium checks
   long stage_budget = 2'000'000;      // steps per stage
   long aggregation_budget = 20'000'000;
+  QuenchSettings quench;              // the rolling dashpot switched on once a stage has settled
 
   static ProgrammeSettings from_scene(const Scene& scene);
 };
@@ -35,6 +39,7 @@ struct StageRecord {
   bool reached = false;     // equilibrium (or, aggregating, one cluster) within the budget
   long steps = 0;
   double time = 0;          // simulated time at the end of the stage
+  long quench_start = -1;   // steps into the stage when the rolling dashpot was first switched on (-1: never)
   std::vector<std::pair<std::string, double>> values;   // outputs at the end of the stage
 };
 

@@ -15,6 +15,7 @@
 #include "core/simulation.hpp"
 #include "interactions/gravity.hpp"
 #include "interactions/gravity_direct.hpp"
+#include "interactions/gravity_tree.hpp"
 #include "io/scene.hpp"
 
 using namespace grains;
@@ -244,6 +245,58 @@ TEST_CASE("gravity: direct summation is identical on 1 and 2 threads and pairs a
   CHECK(g2.potential_energy(Q, GravitySolver::direct, 1) == Approx(-0.5 * 6 / std::sqrt(26.0)).epsilon(1e-15));
 }
 
+TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its two kernels agree", "[gravity]") {
+  // Unequal masses in a ball plus a tight clump, so that groups, leaves and accepted cells of many sizes occur.
+  auto pos = uniform_ball(5000, 1.0, 21);
+  for (const auto& x : uniform_ball(500, 0.01, 22)) pos.push_back(x + Eigen::Vector3d(0.3, -0.2, 0.1));
+  auto P = particles_from<3>(pos, 1.0);
+  for (std::size_t i = 0; i < P.size(); ++i) P.mass[i] = 1.0 + 0.5 * std::sin(double(i));
+  const double eps2 = 1e-6;
+  using gravity_direct::Isa;
+  const gravity_tree::Tree tree(P, 0.5);
+  std::vector<double> ax1, ay1, az1, p1, ax2, ay2, az2, p2;
+  const auto counts = tree.evaluate(gravity_direct::fastest_isa(), eps2, 1, ax1, ay1, az1, &p1);
+  tree.evaluate(gravity_direct::fastest_isa(), eps2, 2, ax2, ay2, az2, &p2);
+  CHECK(counts.particle_cells > 0);   // the walk did use cells whole
+  CHECK(ax1 == ax2);
+  CHECK(ay1 == ay2);
+  CHECK(az1 == az2);
+  CHECK(p1 == p2);
+  // Portable against AVX2 (same terms, FMA rounding apart): relative to each particle's acceleration and potential.
+  if (gravity_direct::fastest_isa() == Isa::avx2) {
+    std::vector<double> bx, by, bz, q;
+    tree.evaluate(Isa::portable, eps2, 2, bx, by, bz, &q);
+    double worst_a = 0, worst_phi = 0;
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      const Vec<3> a(ax1[i], ay1[i], az1[i]), b(bx[i], by[i], bz[i]);
+      worst_a = std::max(worst_a, (a - b).norm() / a.norm());
+      worst_phi = std::max(worst_phi, std::abs(p1[i] - q[i]) / std::abs(p1[i]));
+    }
+    WARN(fmt::format("tree kernels, portable against AVX2: largest relative difference, acceleration {:.2g}, potential {:.2g}",
+                     worst_a, worst_phi));
+    CHECK(worst_a < 1e-13);
+    CHECK(worst_phi < 1e-13);
+  }
+}
+
+TEST_CASE("gravity: the tree copes with particles on one spot (deeper than its keys resolve)", "[gravity]") {
+  // 300 particles on exactly one point and 40 within 1e-9 of it, among 2000 others: the Morton keys cannot
+  // separate them, so one leaf holds them all; softening keeps the forces finite.
+  auto pos = uniform_ball(2000, 1.0, 31);
+  const Eigen::Vector3d spot(0.25, 0.5, -0.125);
+  for (int k = 0; k < 300; ++k) pos.push_back(spot);
+  for (const auto& x : uniform_ball(40, 1e-9, 32)) pos.push_back(spot + x);
+  const auto P = particles_from<3>(pos, 1.0 / double(pos.size()));
+  const double eps = 1e-3;
+  const double at_default = median_tree_error(P, 0.5, eps), exact = median_tree_error(P, 0.0, eps);
+  INFO(fmt::format("median relative force error: theta 0.5 {:.3g}, theta 0 {:.3g}", at_default, exact));
+  CHECK(at_default < 1e-3);
+  CHECK(exact < 1e-13);
+  SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
+  const double Wd = g.potential_energy(P, GravitySolver::direct, 2), Wt = g.potential_energy(P, GravitySolver::tree, 2);
+  CHECK(Wt == Approx(Wd).epsilon(1e-4));
+}
+
 namespace {
 // Largest error of the direct kernel `isa` against a long-double evaluation of the same sums, for particle
 // positions p (D = 2 uses x, y), masses m and softening eps: forces as max_i |a_i - ref_i| / s_i with the
@@ -428,6 +481,16 @@ template <class F> double cpu_seconds_per_call(clockid_t clock, F&& f) {
   }
   return fastest;
 }
+// The 1-minute load average (/proc/loadavg), printed beside timings taken on the shared machine.
+std::string load_average() {
+  std::string load = "?";
+  if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
+    char buf[64] = {};
+    if (std::fgets(buf, sizeof buf, f)) load = std::string(buf, std::strcspn(buf, " "));
+    std::fclose(f);
+  }
+  return load;
+}
 // Median and 99th percentile of |a - ref| / |ref|.
 std::pair<double, double> force_errors(const std::vector<Vec<3>>& a, const std::vector<Vec<3>>& ref) {
   std::vector<double> e(a.size());
@@ -443,12 +506,7 @@ TEST_CASE("gravity: direct kernel throughput", "[.gravity-bench]") {
   // the machine is shared: wall-clock rates fall when other processes hold the cores.
   const double eps = 1e-3;
   using gravity_direct::Isa;
-  std::string load = "?";
-  if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
-    char buf[64] = {};
-    if (std::fgets(buf, sizeof buf, f)) load = std::string(buf, std::strcspn(buf, " "));
-    std::fclose(f);
-  }
+  const std::string load = load_average();
   WARN(fmt::format("direct summation, FP64 forces, pair interactions N (N - 1) per second ({} kernel; 1-min load "
                    "average {}):", gravity_direct::fastest_isa() == Isa::avx2 ? "AVX2" : "portable", load));
   for (int n : {1000, 2000, 5000, 10000, 20000}) {
@@ -470,30 +528,45 @@ TEST_CASE("gravity: direct kernel throughput", "[.gravity-bench]") {
 
 TEST_CASE("gravity: tree against direct summation", "[.gravity-bench]") {
   const double eps = 1e-3;
-  // 1. Tree (theta = 0.5) against direct, 2 threads: the crossover N.
-  WARN("tree (theta 0.5) against direct, 2 threads: seconds per force evaluation");
+  WARN(fmt::format("1-min load average {}", load_average()));
+  // 1. Tree (theta = 0.5) against direct, 2 threads: the crossover N and the speed-up at 1e4, 3e4 and 1e5, with
+  //    the tree's force error beside it.
+  WARN("tree (theta 0.5) against direct, 2 threads: seconds per force evaluation; tree force error median / 99th pct");
   int crossover = -1;
-  for (int n : {250, 500, 1000, 2000, 4000, 8000, 16000}) {
+  for (int n : {125, 250, 500, 1000, 2000, 4000, 10000, 30000, 100000}) {
     const auto P = particles_from<3>(uniform_ball(n, 1.0, 3), 1.0 / n);
     SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
-    const double sd = seconds_per_call([&] { g.accelerations(P, GravitySolver::direct, 2); });
-    const double st = seconds_per_call([&] { g.accelerations(P, GravitySolver::tree, 2); });
-    if (st >= sd) crossover = -1;
-    else if (crossover < 0) crossover = n;
-    WARN(fmt::format("  N = {:6}: direct {:.3g} s, tree {:.3g} s, direct / tree {:.2f}", n, sd, st, sd / st));
-  }
-  WARN(fmt::format("  crossover: the tree is faster from N = {} on (it wins there and at every larger N of the list)", crossover));
-  // 2. N = 1e5: speed-up and force error at the default theta.
-  {
-    const int n = 100000;
-    const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
-    SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
     std::vector<Vec<3>> direct, tree;
-    const double sd = seconds_per_call([&] { direct = g.accelerations(P, GravitySolver::direct, 2); }, 0.0, 1);
+    const bool big = n > 30000;   // one direct call is enough there (about 10 s)
+    const double sd = big ? seconds_per_call([&] { direct = g.accelerations(P, GravitySolver::direct, 2); }, 0.0, 1)
+                          : seconds_per_call([&] { direct = g.accelerations(P, GravitySolver::direct, 2); });
     const double st = seconds_per_call([&] { tree = g.accelerations(P, GravitySolver::tree, 2); });
     const auto [median, p99] = force_errors(tree, direct);
-    WARN(fmt::format("N = 1e5, 2 threads: direct {:.3f} s, tree (theta 0.5) {:.3f} s, speed-up {:.1f}; tree force error "
-                     "median {:.2g}, 99th percentile {:.2g}", sd, st, sd / st, median, p99));
+    if (st >= sd) crossover = -1;
+    else if (crossover < 0) crossover = n;
+    WARN(fmt::format("  N = {:6}: direct {:.3g} s, tree {:.3g} s, direct / tree {:.2f}; error {:.2g} / {:.2g}", n, sd, st,
+                     sd / st, median, p99));
+  }
+  WARN(fmt::format("  crossover: the tree is faster from N = {} on (it wins there and at every larger N of the list)", crossover));
+  // 2. N = 3e5, tree only; its error against direct sums for 1000 of the particles.
+  {
+    const int n = 300000, probes = 1000;
+    const auto P = particles_from<3>(uniform_ball(n, 1.0, 5), 1.0 / n);
+    SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, 0.5);
+    std::vector<Vec<3>> tree, a, ref;
+    const double st = seconds_per_call([&] { tree = g.accelerations(P, GravitySolver::tree, 2); });
+    for (int k = 0; k < probes; ++k) {
+      const std::size_t i = std::size_t(k) * (n / probes);
+      Vec<3> s = Vec<3>::Zero();
+      for (int j = 0; j < n; ++j) {
+        const Vec<3> r = P.position[j] - P.position[i];
+        if (std::size_t(j) != i) s += P.mass[j] * r / std::pow(r.squaredNorm() + eps * eps, 1.5);
+      }
+      a.push_back(tree[i]), ref.push_back(s);
+    }
+    const auto [median, p99] = force_errors(a, ref);
+    WARN(fmt::format("N = 3e5, 2 threads: tree (theta 0.5) {:.3f} s; force error on {} particles median {:.2g}, 99th "
+                     "percentile {:.2g}", st, probes, median, p99));
   }
   // 3. Speed/accuracy of theta, N = 20000, against direct summation (theta -> 0).
   {
@@ -504,7 +577,7 @@ TEST_CASE("gravity: tree against direct summation", "[.gravity-bench]") {
     const double sd = seconds_per_call([&] { direct = g0.accelerations(P, GravitySolver::direct, 2); });
     WARN(fmt::format("theta table, N = {}, 2 threads (direct: {:.3g} s): theta | s per evaluation | cost / direct | "
                      "median error | 99th percentile error", n, sd));
-    for (double theta : {0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0}) {
+    for (double theta : {0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 1.0}) {
       SoftenedGravity<3> g(1.0, eps, GravitySolver::tree, theta);
       std::vector<Vec<3>> tree;
       const double st = seconds_per_call([&] { tree = g.accelerations(P, GravitySolver::tree, 2); });
@@ -512,6 +585,38 @@ TEST_CASE("gravity: tree against direct summation", "[.gravity-bench]") {
       WARN(fmt::format("  {:.1f} | {:.3g} | {:.3f} | {:.2g} | {:.2g}", theta, st, st / sd, median, p99));
     }
   }
+}
+
+TEST_CASE("gravity: tree levers (leaf size, kernel, threads, build share)", "[.gravity-bench]") {
+  // N = 1e5 uniform ball, theta = 0.5, eps = 1e-3: build and walk times (fastest of a few calls), the terms
+  // summed per particle and the error against direct summation, for each leaf size; then the portable kernel
+  // and one thread at the default leaf size.
+  const int n = 100000;
+  const double eps = 1e-3, theta = 0.5;
+  const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
+  SoftenedGravity<3> g(1.0, eps, GravitySolver::direct);
+  const auto direct = g.accelerations(P, GravitySolver::direct, 2);
+  WARN(fmt::format("tree levers, N = 1e5, theta 0.5 (1-min load average {}): leaf size | group size | isa | threads | build s | walk s "
+                   "| particle terms / N | cell terms / N | median error | 99th pct", load_average()));
+  auto row = [&](int leaf, int group, gravity_direct::Isa isa, int threads) {
+    std::vector<double> ax, ay, az;
+    gravity_tree::Tree::Counts counts;
+    const double sb = seconds_per_call([&] { gravity_tree::Tree(P, theta, leaf, group); }, 0.1);
+    const gravity_tree::Tree tree(P, theta, leaf, group);
+    const double sw = seconds_per_call([&] { counts = tree.evaluate(isa, eps * eps, threads, ax, ay, az, nullptr); }, 0.1);
+    std::vector<Vec<3>> a(n);
+    for (int i = 0; i < n; ++i) a[i] = Vec<3>(ax[i], ay[i], az[i]);
+    const auto [median, p99] = force_errors(a, direct);
+    WARN(fmt::format("  {:3} | {:3} | {} | {} | {:.3g} | {:.3g} | {:.0f} | {:.0f} | {:.2g} | {:.2g}", leaf, group,
+                     isa == gravity_direct::Isa::avx2 ? "avx2" : "portable", threads, sb, sw,
+                     double(counts.particle_pairs) / n, double(counts.particle_cells) / n, median, p99));
+  };
+  const auto fastest = gravity_direct::fastest_isa();
+  for (int leaf : {8, 16, 32})
+    for (int group : {leaf, 32, 64, 128, 256})
+      if (group >= leaf) row(leaf, group, fastest, 2);
+  row(16, 64, fastest, 1);
+  row(16, 64, gravity_direct::Isa::portable, 2);
 }
 
 // n_c (steps per contact duration): cost and accuracy against the finest setting. Cost: wall time of

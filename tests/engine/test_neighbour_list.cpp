@@ -250,8 +250,8 @@ TEST_CASE("neighbour list: carry() maps per-pair values across a rebuild, new pa
   }
 }
 
-// Without history the build neither sorts rows nor keeps the previous list, so carrying values
-// across it would silently scramble them: carry() refuses.
+// Without history the build neither sorts rows nor maps entries to the previous list, so carrying
+// values across it would silently scramble them: carry() refuses (match_previous() is the way there).
 TEST_CASE("neighbour list: carry() needs a list configured with history", "[neighbours]") {
   auto c = make_config<3>(200, Sizes::uniform, true, 6.0, 9);
   NeighbourList<3> nl;
@@ -262,4 +262,54 @@ TEST_CASE("neighbour list: carry() needs a list configured with history", "[neig
   nl.configure(0.0, 0.2, true);
   nl.build(c.x, c.radius, c.box, 1);
   CHECK_NOTHROW(nl.carry(value, 0.0));
+}
+
+// match_previous() on a list without history (rows in discovery order, unsorted): every selected
+// previous entry that is listed again is handed over once, at the entry of the same pair; selected
+// entries of pairs that left, and unselected ones, are not.
+template <int D>
+void match_previous_case(unsigned seed) {
+  auto c = make_config<D>(D == 3 ? 600 : 300, Sizes::uniform, true, D == 3 ? 9.0 : 13.0, seed);
+  NeighbourList<D> nl;
+  nl.configure(0.0, 0.2);
+  nl.build(c.x, c.radius, c.box, 1);
+  std::vector<std::pair<std::size_t, std::size_t>> old_pair(nl.pair_count());
+  for (std::size_t i = 0; i < c.x.size(); ++i)
+    for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) old_pair[k] = {i, nl.partner[k]};
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (std::size_t i = 0; i < c.x.size(); ++i) {
+    c.x[i][0] += 0.37 * c.box.length[0];
+    if (i % 3 == 0)
+      for (int a = 0; a < D; ++a) c.x[i][a] += 0.5 * u(rng);
+    c.x[i] = c.box.wrap(c.x[i]);
+  }
+  nl.build(c.x, c.radius, c.box, 2);
+  std::map<std::pair<std::size_t, std::size_t>, std::size_t> now;   // pair -> entry
+  for (std::size_t i = 0; i < c.x.size(); ++i)
+    for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) now[{i, nl.partner[k]}] = k;
+  auto selected = [](std::size_t old) { return old % 3 != 1; };
+  std::vector<int> calls(old_pair.size(), 0);
+  std::size_t moved = 0, expected = 0;
+  nl.match_previous(selected, [&](std::size_t old, std::size_t k) {
+    ++calls[old], ++moved;
+    INFO("previous entry " << old << " -> " << k);
+    CHECK(selected(old));
+    CHECK(now.at(old_pair[old]) == k);
+  });
+  for (std::size_t old = 0; old < old_pair.size(); ++old) {
+    const bool listed = now.count(old_pair[old]) > 0;
+    expected += selected(old) && listed;
+    CHECK(calls[old] == (selected(old) && listed ? 1 : 0));
+  }
+  CHECK(moved == expected);
+  CHECK(expected > 100);
+  CHECK(expected < old_pair.size() * 2 / 3);   // some selected pairs left the list
+}
+
+TEST_CASE("neighbour list: match_previous() hands selected entries to the same pairs after a rebuild", "[neighbours]") {
+  for (unsigned seed : {5u, 6u}) {
+    match_previous_case<3>(seed);
+    match_previous_case<2>(seed);
+  }
 }

@@ -1,0 +1,332 @@
+#include "interactions/gravity_tree.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include <immintrin.h>
+
+namespace grains::gravity_tree {
+
+namespace {
+
+constexpr std::size_t W = 4;   // doubles per AVX2 vector; the lists are padded to whole vectors
+
+// Bits of a Morton key per axis: 3 x 21 or 2 x 31 bits fit one 64-bit key.
+template <int D>
+constexpr int key_bits = D == 3 ? 21 : 31;
+
+// What one group needs: the particles to sum one by one (the group's own first, so member k is entry k)
+// and the cells to use whole. Both are padded with zeros to whole vectors; the kernels mask the padding.
+struct Lists {
+  std::vector<double> x, y, z, m;                                  // particles
+  std::vector<double> cx, cy, cz, cm, qxx, qxy, qxz, qyy, qyz, qzz;   // cells
+  std::size_t particles = 0, cells = 0;
+
+  void clear() {
+    for (auto* v : {&x, &y, &z, &m, &cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->clear();
+  }
+  void pad() {
+    particles = x.size(), cells = cx.size();
+    for (auto* v : {&x, &y, &z, &m}) v->resize((particles + W - 1) / W * W, 0.0);
+    for (auto* v : {&cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->resize((cells + W - 1) / W * W, 0.0);
+  }
+};
+
+// Sums of one particle: acceleration and potential (both without G).
+struct Sums {
+  double x = 0, y = 0, z = 0, phi = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Portable kernels.
+// ---------------------------------------------------------------------------------------------
+
+// Particle `self` of the list (at x, y, z) against every other particle of the list.
+Sums particle_sums_portable(const Lists& L, std::size_t self, double eps2) {
+  const double xi = L.x[self], yi = L.y[self], zi = L.z[self];
+  Sums s;
+  for (std::size_t j = 0; j < L.particles; ++j) {
+    if (j == self) continue;
+    const double dx = L.x[j] - xi, dy = L.y[j] - yi, dz = L.z[j] - zi;
+    const double r2 = dx * dx + dy * dy + dz * dz + eps2;
+    const double w = L.m[j] / (r2 * std::sqrt(r2));
+    s.x += w * dx, s.y += w * dy, s.z += w * dz, s.phi -= w * r2;
+  }
+  return s;
+}
+
+// Monopole + quadrupole of the softened kernel: with r = com - x and h = sqrt(|r|^2 + eps^2),
+// phi = -(M / h + r.Q.r / (2 h^5)), a = (M / h^3 + 5/2 (r.Q.r) / h^7) r - Q r / h^5.
+void cell_sums_portable(const Lists& L, double xi, double yi, double zi, double eps2, Sums& s) {
+  for (std::size_t j = 0; j < L.cells; ++j) {
+    const double dx = L.cx[j] - xi, dy = L.cy[j] - yi, dz = L.cz[j] - zi;
+    const double inv = 1.0 / std::sqrt(dx * dx + dy * dy + dz * dz + eps2);
+    const double inv2 = inv * inv, inv3 = inv * inv2, inv5 = inv3 * inv2;
+    const double qx = L.qxx[j] * dx + L.qxy[j] * dy + L.qxz[j] * dz;
+    const double qy = L.qxy[j] * dx + L.qyy[j] * dy + L.qyz[j] * dz;
+    const double qz = L.qxz[j] * dx + L.qyz[j] * dy + L.qzz[j] * dz;
+    const double rQr = dx * qx + dy * qy + dz * qz;
+    const double a = L.cm[j] * inv3 + 2.5 * rQr * inv5 * inv2;
+    s.x += a * dx - inv5 * qx, s.y += a * dy - inv5 * qy, s.z += a * dz - inv5 * qz;
+    s.phi -= L.cm[j] * inv + 0.5 * rQr * inv5;
+  }
+}
+
+Sums sums_portable(const Lists& L, std::size_t self, double eps2) {
+  Sums s = particle_sums_portable(L, self, eps2);
+  cell_sums_portable(L, L.x[self], L.y[self], L.z[self], eps2, s);
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// AVX2 + FMA kernels: the same sums, four list entries at a time (lanes added in a fixed order at the end).
+// ---------------------------------------------------------------------------------------------
+#define GRAINS_AVX2 __attribute__((target("avx2,fma")))
+
+// Lanes j0 .. j0 + 3 with j < end and j != skip, as all ones / all zeros per lane.
+GRAINS_AVX2 inline __m256d lanes_kept(std::size_t j0, std::size_t end, std::size_t skip) {
+  const __m256i j = _mm256_add_epi64(_mm256_set1_epi64x(static_cast<long long>(j0)), _mm256_setr_epi64x(0, 1, 2, 3));
+  const __m256i below = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(end)), j);
+  const __m256i self = _mm256_cmpeq_epi64(j, _mm256_set1_epi64x(static_cast<long long>(skip)));
+  return _mm256_castsi256_pd(_mm256_andnot_si256(self, below));
+}
+
+GRAINS_AVX2 inline double lane_sum(__m256d v) {
+  const __m128d pair = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));   // (0+2, 1+3)
+  return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
+}
+
+// The potential only when asked for (it costs a few operations per term).
+template <bool potential>
+GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
+  const __m256d xi = _mm256_set1_pd(L.x[self]), yi = _mm256_set1_pd(L.y[self]), zi = _mm256_set1_pd(L.z[self]);
+  const __m256d e2 = _mm256_set1_pd(eps2), one = _mm256_set1_pd(1.0);
+  __m256d sx = _mm256_setzero_pd(), sy = sx, sz = sx, sp = sx;
+  // Particles: the vector holding `self` and the last one are masked (self and padding would add 0 * inf).
+  const std::size_t self_vector = self / W * W;
+  for (std::size_t j0 = 0; j0 < L.particles; j0 += W) {
+    const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&L.x[j0]), xi);
+    const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&L.y[j0]), yi);
+    const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(&L.z[j0]), zi);
+    const __m256d r2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_fmadd_pd(dx, dx, e2)));
+    __m256d t = _mm256_div_pd(one, _mm256_mul_pd(r2, _mm256_sqrt_pd(r2)));
+    if (j0 == self_vector || j0 + W > L.particles) t = _mm256_and_pd(t, lanes_kept(j0, L.particles, self));
+    const __m256d w = _mm256_mul_pd(_mm256_loadu_pd(&L.m[j0]), t);
+    sx = _mm256_fmadd_pd(w, dx, sx), sy = _mm256_fmadd_pd(w, dy, sy), sz = _mm256_fmadd_pd(w, dz, sz);
+    if constexpr (potential) sp = _mm256_fnmadd_pd(w, r2, sp);   // m / h = m t r2
+  }
+  // Cells (portable kernel above for the formulas); the last vector is masked.
+  const __m256d half = _mm256_set1_pd(0.5), five_halves = _mm256_set1_pd(2.5);
+  for (std::size_t j0 = 0; j0 < L.cells; j0 += W) {
+    const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&L.cx[j0]), xi);
+    const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&L.cy[j0]), yi);
+    const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(&L.cz[j0]), zi);
+    const __m256d r2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_fmadd_pd(dx, dx, e2)));
+    __m256d inv = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
+    if (j0 + W > L.cells) inv = _mm256_and_pd(inv, lanes_kept(j0, L.cells, L.cells));
+    const __m256d inv2 = _mm256_mul_pd(inv, inv), inv3 = _mm256_mul_pd(inv, inv2), inv5 = _mm256_mul_pd(inv3, inv2);
+    const __m256d qxx = _mm256_loadu_pd(&L.qxx[j0]), qxy = _mm256_loadu_pd(&L.qxy[j0]), qxz = _mm256_loadu_pd(&L.qxz[j0]);
+    const __m256d qyy = _mm256_loadu_pd(&L.qyy[j0]), qyz = _mm256_loadu_pd(&L.qyz[j0]), qzz = _mm256_loadu_pd(&L.qzz[j0]);
+    const __m256d qx = _mm256_fmadd_pd(qxz, dz, _mm256_fmadd_pd(qxy, dy, _mm256_mul_pd(qxx, dx)));
+    const __m256d qy = _mm256_fmadd_pd(qyz, dz, _mm256_fmadd_pd(qyy, dy, _mm256_mul_pd(qxy, dx)));
+    const __m256d qz = _mm256_fmadd_pd(qzz, dz, _mm256_fmadd_pd(qyz, dy, _mm256_mul_pd(qxz, dx)));
+    const __m256d rQr = _mm256_fmadd_pd(dz, qz, _mm256_fmadd_pd(dy, qy, _mm256_mul_pd(dx, qx)));
+    const __m256d M = _mm256_loadu_pd(&L.cm[j0]);
+    const __m256d rQr_inv5 = _mm256_mul_pd(rQr, inv5);
+    const __m256d a = _mm256_fmadd_pd(M, inv3, _mm256_mul_pd(five_halves, _mm256_mul_pd(rQr_inv5, inv2)));
+    sx = _mm256_fnmadd_pd(inv5, qx, _mm256_fmadd_pd(a, dx, sx));
+    sy = _mm256_fnmadd_pd(inv5, qy, _mm256_fmadd_pd(a, dy, sy));
+    sz = _mm256_fnmadd_pd(inv5, qz, _mm256_fmadd_pd(a, dz, sz));
+    if constexpr (potential) sp = _mm256_sub_pd(sp, _mm256_fmadd_pd(M, inv, _mm256_mul_pd(half, rQr_inv5)));
+  }
+  return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Build.
+// ---------------------------------------------------------------------------------------------
+
+template <int D>
+Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
+    : theta_(theta), leaf_size_(std::max(1, leaf_size)), group_size_(std::max(1, group_size)) {
+  const std::size_t n = P.size();
+  if (n == 0) return;
+  // The root cube: the bounding box's centre and its longest half edge, widened a little.
+  Vec<D> lo = P.position[0], hi = P.position[0];
+  for (const auto& x : P.position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  const double half = 0.5 * (hi - lo).maxCoeff() * (1 + 1e-12) + 1e-300;
+  const Vec<D> centre = 0.5 * (lo + hi);
+  // Morton keys: each coordinate quantised to key_bits<D> bits, the bits interleaved (axis a at bit a of
+  // every D-bit digit, the top digit naming the root's child).
+  constexpr int bits = key_bits<D>;
+  const double scale = std::ldexp(1.0, bits) / (2 * half);
+  const auto top = static_cast<long long>((1ULL << bits) - 1);
+  std::vector<std::pair<unsigned long long, int>> keyed(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    unsigned long long key = 0;
+    for (int a = 0; a < D; ++a) {
+      const double q = std::floor((P.position[i][a] - (centre[a] - half)) * scale);
+      const auto c = static_cast<unsigned long long>(std::clamp(static_cast<long long>(q), 0LL, top));
+      for (int b = 0; b < bits; ++b) key |= ((c >> b) & 1ULL) << (D * b + a);
+    }
+    keyed[i] = {key, int(i)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<unsigned long long> keys(n);
+  order_.resize(n);
+  for (auto* v : {&x_, &y_, &z_, &m_}) v->assign(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    keys[k] = keyed[k].first, order_[k] = keyed[k].second;
+    x_[k] = P.position[order_[k]][0], y_[k] = P.position[order_[k]][1], m_[k] = P.mass[order_[k]];
+    if constexpr (D == 3) z_[k] = P.position[order_[k]][2];
+  }
+  cells_.reserve(4 * n / std::size_t(leaf_size_) + 16);
+  cells_.emplace_back();
+  cells_[0].half = half;
+  cells_[0].centre = {centre[0], centre[1], D == 3 ? centre[D - 1] : 0.0};
+  build<D>(0, 0, int(n), 0, false, keys);
+  quad_.assign(cells_.size(), Quadrupole{});
+  for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
+}
+
+// Splits cell `id` (geometry already set) over the particles [begin, end) at Morton digit `level`; the
+// first cell on the way down that is small enough, or a leaf, becomes a group.
+template <int D>
+void Tree::build(int id, int begin, int end, int level, bool in_group, const std::vector<unsigned long long>& keys) {
+  cells_[id].begin = begin, cells_[id].end = end;
+  const bool leaf = end - begin <= leaf_size_ || level == key_bits<D>;
+  if (!in_group && (end - begin <= group_size_ || leaf)) groups_.push_back(id), in_group = true;
+  if (leaf) return;
+  // The keys are sorted: each child's particles are one run of equal digits.
+  const int shift = D * (key_bits<D> - 1 - level);
+  auto digit = [&](int k) { return int((keys[k] >> shift) & ((1ULL << D) - 1)); };
+  std::array<int, (1 << D) + 1> run_start{};
+  std::array<int, 1 << D> run_digit{};
+  int runs = 0;
+  for (int k = begin; k < end; ++k)
+    if (k == begin || digit(k) != digit(k - 1)) run_digit[runs] = digit(k), run_start[runs++] = k;
+  run_start[runs] = end;
+  const int first = int(cells_.size());
+  cells_.resize(cells_.size() + runs);
+  cells_[id].first_child = first, cells_[id].children = runs;
+  const double h = 0.5 * cells_[id].half;
+  for (int r = 0; r < runs; ++r) {
+    Cell& c = cells_[first + r];
+    c.half = h, c.centre = cells_[id].centre;
+    for (int a = 0; a < D; ++a) c.centre[a] += (run_digit[r] >> a) & 1 ? h : -h;
+  }
+  for (int r = 0; r < runs; ++r) build<D>(first + r, run_start[r], run_start[r + 1], level + 1, in_group, keys);
+}
+
+// Mass, centre of mass and quadrupole of cell `id`, from its particles (leaf) or its children.
+void Tree::moments(int id) {
+  Cell& c = cells_[id];
+  Quadrupole& Q = quad_[id];
+  // Adds m (3 d d^T - |d|^2 I) to Q.
+  auto add = [&Q](double m, double dx, double dy, double dz) {
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    Q[0] += m * (3 * dx * dx - d2), Q[1] += m * 3 * dx * dy, Q[2] += m * 3 * dx * dz;
+    Q[3] += m * (3 * dy * dy - d2), Q[4] += m * 3 * dy * dz, Q[5] += m * (3 * dz * dz - d2);
+  };
+  double mass = 0, mx = 0, my = 0, mz = 0;
+  if (c.children == 0) {
+    for (int k = c.begin; k < c.end; ++k) mass += m_[k], mx += m_[k] * x_[k], my += m_[k] * y_[k], mz += m_[k] * z_[k];
+  } else {
+    for (int k = c.first_child; k < c.first_child + c.children; ++k) {
+      const Cell& s = cells_[k];
+      mass += s.mass, mx += s.mass * s.com[0], my += s.mass * s.com[1], mz += s.mass * s.com[2];
+    }
+  }
+  c.mass = mass;
+  c.com = mass > 0 ? std::array<double, 3>{mx / mass, my / mass, mz / mass} : c.centre;
+  if (c.children == 0) {
+    for (int k = c.begin; k < c.end; ++k) add(m_[k], x_[k] - c.com[0], y_[k] - c.com[1], z_[k] - c.com[2]);
+  } else {
+    for (int k = c.first_child; k < c.first_child + c.children; ++k) {
+      const Cell& s = cells_[k];
+      for (int e = 0; e < 6; ++e) Q[e] += quad_[k][e];
+      add(s.mass, s.com[0] - c.com[0], s.com[1] - c.com[1], s.com[2] - c.com[2]);
+    }
+  }
+  const double offset = std::hypot(c.com[0] - c.centre[0], c.com[1] - c.centre[1], c.com[2] - c.centre[2]);
+  const double lim = 2 * c.half / theta_ + offset;
+  // A lone particle is summed exactly, never as a cell.
+  c.accept2 = theta_ > 0 && c.end - c.begin > 1 ? lim * lim : std::numeric_limits<double>::infinity();
+}
+
+template Tree::Tree(const Particles<2>&, double, int, int);
+template Tree::Tree(const Particles<3>&, double, int, int);
+
+// ---------------------------------------------------------------------------------------------
+// Walk.
+// ---------------------------------------------------------------------------------------------
+
+Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<double>& ax, std::vector<double>& ay,
+                            std::vector<double>& az, std::vector<double>* phi) const {
+  const std::size_t n = order_.size();
+  for (auto* v : {&ax, &ay, &az}) v->assign(n, 0.0);
+  if (phi) phi->assign(n, 0.0);
+  auto* sums = isa == Isa::portable ? sums_portable : phi ? sums_avx2<true> : sums_avx2<false>;
+  std::size_t pairs = 0, cell_terms = 0;
+#pragma omp parallel num_threads(threads) reduction(+ : pairs, cell_terms)
+  {
+    Lists L;
+    std::vector<int> stack;
+#pragma omp for schedule(dynamic, 4)
+    for (std::size_t g = 0; g < groups_.size(); ++g) {
+      const Cell& group = cells_[groups_[g]];
+      const int b = group.begin, e = group.end;
+      // The group's bounding box.
+      std::array<double, 3> lo{x_[b], y_[b], z_[b]}, hi = lo;
+      for (int k = b; k < e; ++k) {
+        lo[0] = std::min(lo[0], x_[k]), lo[1] = std::min(lo[1], y_[k]), lo[2] = std::min(lo[2], z_[k]);
+        hi[0] = std::max(hi[0], x_[k]), hi[1] = std::max(hi[1], y_[k]), hi[2] = std::max(hi[2], z_[k]);
+      }
+      L.clear();
+      auto add_particles = [&](int from, int to) {
+        L.x.insert(L.x.end(), &x_[from], &x_[to]), L.y.insert(L.y.end(), &y_[from], &y_[to]);
+        L.z.insert(L.z.end(), &z_[from], &z_[to]), L.m.insert(L.m.end(), &m_[from], &m_[to]);
+      };
+      add_particles(b, e);
+      stack.assign(1, 0);
+      while (!stack.empty()) {
+        const int id = stack.back();
+        stack.pop_back();
+        if (id == groups_[g]) continue;   // its particles are listed first
+        const Cell& c = cells_[id];
+        double d2 = 0;
+        bool reaches = true;   // the box reaches into the cell
+        for (int a = 0; a < 3; ++a) {
+          const double d = std::max({lo[a] - c.com[a], c.com[a] - hi[a], 0.0});
+          d2 += d * d;
+          reaches &= lo[a] <= c.centre[a] + c.half && hi[a] >= c.centre[a] - c.half;
+        }
+        if (d2 > c.accept2 && !reaches) {
+          const Quadrupole& Q = quad_[id];
+          L.cx.push_back(c.com[0]), L.cy.push_back(c.com[1]), L.cz.push_back(c.com[2]), L.cm.push_back(c.mass);
+          L.qxx.push_back(Q[0]), L.qxy.push_back(Q[1]), L.qxz.push_back(Q[2]);
+          L.qyy.push_back(Q[3]), L.qyz.push_back(Q[4]), L.qzz.push_back(Q[5]);
+        } else if (c.children == 0) {
+          add_particles(c.begin, c.end);
+        } else {
+          for (int k = c.first_child + c.children - 1; k >= c.first_child; --k) stack.push_back(k);
+        }
+      }
+      L.pad();
+      pairs += (L.particles - 1) * std::size_t(e - b), cell_terms += L.cells * std::size_t(e - b);
+      for (int k = b; k < e; ++k) {
+        const Sums s = sums(L, std::size_t(k - b), eps2);
+        const int i = order_[k];
+        ax[i] = s.x, ay[i] = s.y, az[i] = s.z;
+        if (phi) (*phi)[i] = s.phi;
+      }
+    }
+  }
+  return Counts{pairs, cell_terms};
+}
+
+}  // namespace grains::gravity_tree

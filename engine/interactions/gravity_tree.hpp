@@ -1,0 +1,71 @@
+// Barnes-Hut tree for softened gravity (physics.md section 7), without G: the sums of gravity_direct.hpp with
+// far cells replaced by their monopole + quadrupole expansion.
+// Build: the particles are sorted along a Morton (Z-order) curve and copied in that order, so every cell of
+// the 2^D-ary tree holds one contiguous run of them; a cell of more than `leaf_size` particles is split.
+// Moments are formed bottom-up (children's by the parallel-axis rule).
+// Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
+// particles. A cell of edge s is used whole when its centre of mass lies farther than s / theta +
+// |com - cell centre| from the group's bounding box and the box does not reach into the cell; otherwise it
+// is opened, and the particles of the leaves reached are summed one by one. Used whole for the group means used whole for each of its particles under the
+// per-particle rule, so the group walk is never coarser than a walk per particle at the same theta.
+// Every particle of the group then runs over the two lists with an AVX2 + FMA kernel (four list entries at
+// a time) or a portable one, picked at run time like gravity_direct. FP64 throughout with a correctly
+// rounded square root and division. A particle's sum is formed in an order set by the tree alone, so the
+// result is bit-identical on any number of threads.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include "core/particles.hpp"
+#include "interactions/gravity_direct.hpp"
+
+namespace grains::gravity_tree {
+
+using gravity_direct::Isa;
+
+class Tree {
+ public:
+  // theta <= 0 opens every cell: direct summation, up to round-off.
+  template <int D>
+  Tree(const Particles<D>& P, double theta, int leaf_size = 16, int group_size = 64);
+
+  struct Counts {
+    std::size_t particle_pairs = 0, particle_cells = 0;   // terms summed (ordered pairs, particle-cell)
+  };
+  // Accelerations (without G) and, if phi is given, potentials per unit mass (without G: -sum m_j / r),
+  // indexed like the particles. In 2D az stays zero.
+  Counts evaluate(Isa isa, double eps2, int threads, std::vector<double>& ax, std::vector<double>& ay,
+                  std::vector<double>& az, std::vector<double>* phi) const;
+
+  std::size_t cell_count() const { return cells_.size(); }
+  std::size_t group_count() const { return groups_.size(); }
+
+ private:
+  struct Cell {
+    std::array<double, 3> com, centre;   // z = 0 in 2D
+    double mass = 0, half = 0;
+    double accept2 = 0;                  // (s / theta + |com - centre|)^2; infinite: always opened
+    int first_child = -1, children = 0;  // children are stored together
+    int begin = 0, end = 0;              // particles, in Morton order
+  };
+  // Sum m (3 d d^T - |d|^2 I), d = x - com: xx, xy, xz, yy, yz, zz.
+  using Quadrupole = std::array<double, 6>;
+
+  template <int D>
+  void build(int id, int begin, int end, int level, bool in_group, const std::vector<unsigned long long>& keys);
+  void moments(int id);
+
+  double theta_;
+  int leaf_size_, group_size_;
+  std::vector<int> order_;                // order_[k] = particle index of the k-th in Morton order
+  std::vector<double> x_, y_, z_, m_;     // positions and masses in Morton order
+  std::vector<Cell> cells_;
+  std::vector<Quadrupole> quad_;
+  std::vector<int> groups_;               // cells walked for, in Morton order
+};
+
+extern template Tree::Tree(const Particles<2>&, double, int, int);
+extern template Tree::Tree(const Particles<3>&, double, int, int);
+
+}  // namespace grains::gravity_tree
