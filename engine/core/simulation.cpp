@@ -104,9 +104,8 @@ class SimulationImpl final : public Simulation {
     double range = -1;
     for (const auto& m : modules_) range = std::max(range, m->pair_range());
     const double skin = scene.has("neighbours.skin") ? scene.real("neighbours.skin") : 0.4 * rmin;
-    bool history = bool(collisions_);
-    for (const auto& m : modules_) history |= m->keeps_pair_history();
-    sys_.neighbours.configure(std::max(0.0, range), skin, history);
+    // Sorted rows for the collision log's per-pair history (the contact modules carry theirs without them).
+    sys_.neighbours.configure(std::max(0.0, range), skin, bool(collisions_));
     for (int a = 0; a < D; ++a)
       if (sys_.box.periodic[a] && 2 * rmax + std::max(0.0, range) + skin > 0.5 * sys_.box.length[a])
         scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than twice the "

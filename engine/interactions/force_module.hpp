@@ -27,8 +27,6 @@ class ForceModule {
   // kick): for corrections that act within one step (a contact's onset lag, contact_forces.hpp).
   virtual void begin_step(System<D>&, double /*h*/) {}
   virtual void finish_step(System<D>&) {}
-  // Whether this module keeps per-pair values that must follow the pairs across list rebuilds.
-  virtual bool keeps_pair_history() const { return false; }
   // The neighbour list was rebuilt: re-index per-pair history.
   virtual void after_rebuild(const NeighbourList<D>&) {}
   // Scalar observables of this module (name, value), read-only.

@@ -229,7 +229,7 @@ System<2> evaluate(const std::vector<Vec<2>>& x, const std::vector<double>& radi
     s.particles.set_mass_and_radius(i, 1.0, radius[i]);
     s.particles.position[i] = s.box.wrap(x[i]);
   }
-  s.neighbours.configure(contacts.pair_range(), 0.1, contacts.keeps_pair_history());
+  s.neighbours.configure(contacts.pair_range(), 0.1, false);
   s.neighbours.build(s.particles.position, s.particles.radius, s.box, 1);
   contacts.after_rebuild(s.neighbours);
   s.want_virial = true;
