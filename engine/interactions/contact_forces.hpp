@@ -61,12 +61,8 @@ class ContactForces final : public ForceModule<D> {
 
   void add_forces(System<D>& s) override {
     if (++evaluation_ < 2) evaluation_ = 2;   // on wrap-around: stamps 0 (never) and 1 must never look recent
-    for (const OnsetLag& o : active_) {   // the dashpots see the velocities without the lag impulses
-      const Vec<D> dv = o.n * (o.lag / s.dt);
-      const double mi = s.particles.mass[o.i], mj = s.particles.mass[o.j];
-      s.particles.velocity_predicted[o.j] -= (mi / (mi + mj)) * dv;
-      s.particles.velocity_predicted[o.i] += (mj / (mi + mj)) * dv;
-    }
+    for (const OnsetLag& o : active_)   // the dashpots see the velocities without the lag impulses
+      kick_apart(s.particles, s.particles.velocity_predicted, o, o.n * (-o.lag / s.dt));
     touched_.resize(s.neighbours.pair_count(), 0);
     if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
     if constexpr (Rolling::enabled) rolling_angle_.resize(s.neighbours.pair_count(), Spin<D>::Zero());
@@ -126,13 +122,13 @@ class ContactForces final : public ForceModule<D> {
   void begin_step(System<D>& s, double h) override {
     active_.swap(pending_);
     pending_.clear();
-    for (const OnsetLag& o : active_) kick_apart(s.particles, o, o.n * (o.lag / h));
+    for (const OnsetLag& o : active_) kick_apart(s.particles, s.particles.velocity, o, o.n * (o.lag / h));
   }
   void finish_step(System<D>& s) override {
     auto& P = s.particles;
     for (const OnsetLag& o : active_) {
       const Vec<D> r = s.box.minimum_image(P.position[o.j] - P.position[o.i]);
-      kick_apart(P, o, r * (-o.lag / (s.dt * r.norm())));
+      kick_apart(P, P.velocity, o, r * (-o.lag / (s.dt * r.norm())));
     }
     active_.clear();
     for (Gathered& g : gathered_) {   // in thread order: deterministic
@@ -261,13 +257,13 @@ class ContactForces final : public ForceModule<D> {
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
   };
 
-  // Adds dv to the pair's relative velocity, shared by the masses so that momentum stays.
-  static void kick_apart(Particles<D>& P, const OnsetLag& o, const Vec<D>& dv) {
+  // Adds dv to the pair's relative velocity in `v` (P.velocity or P.velocity_predicted), shared by the
+  // masses so that momentum stays.
+  static void kick_apart(const Particles<D>& P, std::vector<Vec<D>>& v, const OnsetLag& o, const Vec<D>& dv) {
     const double mi = P.mass[o.i], mj = P.mass[o.j];
-    P.velocity[o.j] += (mi / (mi + mj)) * dv;
-    P.velocity[o.i] -= (mj / (mi + mj)) * dv;
+    v[o.j] += (mi / (mi + mj)) * dv;
+    v[o.i] -= (mj / (mi + mj)) * dv;
   }
-
 
   template <bool Virial>
   long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
@@ -356,14 +352,13 @@ class ContactForces final : public ForceModule<D> {
     // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
     const bool first = touched_[k] + 1 != evaluation_;
     touched_[k] = evaluation_;
-    if (first) {   // springs start relaxed (an open pair's are stale, see holds_history)
-      if constexpr (Friction::enabled) tangential_[k].setZero();
-      if constexpr (Rolling::enabled) rolling_angle_[k].setZero();
-    }
     // Its overlap before the step, for the sub-step onset: the step moved the positions by
     // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
     double before = 0;
     if (first) {
+      // Springs start relaxed (an open pair's are stale, see holds_history).
+      if constexpr (Friction::enabled) tangential_[k].setZero();
+      if constexpr (Rolling::enabled) rolling_angle_[k].setZero();
       const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
       before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
     }
