@@ -31,7 +31,7 @@ grains_install_python() {
     echo "grains: creating Python environment in $GRAINS_VENV" >&2
     python3 -m venv "$GRAINS_VENV"
   fi
-  if ! "$GRAINS_VENV/bin/python" -c "import numpy, h5py, matplotlib, pytest, scipy, fmpy" 2>/dev/null; then
+  if ! "$GRAINS_VENV/bin/python" -c "import numpy, h5py, matplotlib, pytest, scipy, fmpy, dask" 2>/dev/null; then
     "$GRAINS_VENV/bin/pip" install -q --disable-pip-version-check -r "$GRAINS_ROOT/runner/requirements.txt"
   fi
 }
