@@ -1,17 +1,20 @@
 """Reproduction campaign of the consolidation paper (not part of the test suite; hours of run time).
 
-    python runner/consolidation_campaign.py [--samples 3] [--count 1400] [--jobs 2] [--out campaign]
+    python runner/consolidation_campaign.py [--samples 3] [--first-seed 1] [--count 1400] [--jobs 2] [--out campaign]
                                             [--scene consolidation ...] [--set key=value ...]
 
 For each scene (type 2 without rolling resistance: models/consolidation.toml; with mu_R / a = 0.005:
-models/consolidation-rr.toml) and each sample seed 1..samples, runs `grains consolidate` (preparation,
-loading to P* = 13.33, unloading), `--jobs` samples at a time (Dask, one thread each unless --threads
+models/consolidation-rr.toml) and each sample seed (1..samples unless --first-seed moves them), runs
+`grains consolidate` (preparation, loading to P* = 13.33, unloading), `--jobs` samples at a time (Dask, one thread each unless --threads
 says otherwise). A sample whose stage table already exists in --out is not run again, so an interrupted
 campaign resumes. Then it fits each sample's loading branch (runner/consolidation_fit.py) and prints
 Phi and z at the first loading stage (P* = 0.01), lambda and Phimax, as mean +- sample standard deviation,
 against the paper's values (physics.md section 9 table). A value passes when the mean lies within twice
 the paper's error bar (where the paper gives none, within 2 % for Phi and 5 % for z and lambda). The
 table goes to OUT/summary.md and a plot of every sample's Phi(P*) to OUT/campaign.png.
+
+With --report nothing is run: the summary is made from the tables already in --out, the finished ones and
+the unfinished ones (SCENE-seedN.partial.csv, written stage by stage), which the table marks as partial.
 """
 import argparse
 import csv
@@ -55,10 +58,22 @@ def run_sample(grains, scene, seed, count, threads, overrides, out):
     return table
 
 
+def existing_table(out, scene, seed):
+    """The sample's finished table, else its unfinished one, else None; and whether it is unfinished."""
+    stem = out / f"{scene}-seed{seed}"
+    for path, partial in ((stem.with_suffix(".csv"), False), (stem.with_suffix(".partial.csv"), True)):
+        if path.exists():
+            return path, partial
+    return None, False
+
+
 def summarise(table):
-    """Phi and z at the first loading stage (reached or not), lambda and Phimax from the reached loading stages."""
+    """Phi and z at the first loading stage (reached or not), lambda and Phimax from the reached loading stages.
+    None when the table has no loading stage yet (a sample still aggregating)."""
     rows = list(csv.DictReader(table.open()))
     loading = [r for r in rows if r["branch"] == "loading"]
+    if not loading:
+        return None
     first = loading[0]
     reached = [r for r in loading if r["reached"] == "1"]
     p = np.array([float(r["P_star"]) for r in reached])
@@ -91,6 +106,9 @@ def table_lines(scene, results):
     first = sum(r["first_reached"] for r in results)
     lines.append(f"| {scene} | P* = 0.01 stage in equilibrium | {first} of {len(results)} | | |")
     lines.append(f"| {scene} | stages not in equilibrium (all samples) | {sum(r['unreached'] for r in results)} | 0 | |")
+    unfinished = sum(r.get("partial", False) for r in results)
+    if unfinished:
+        lines.append(f"| {scene} | samples whose programme had not finished | {unfinished} of {len(results)} | | |")
     return lines
 
 
@@ -121,7 +139,8 @@ def plot(summaries, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--samples", type=int, default=3, help="seeds 1..SAMPLES per scene (default 3)")
+    ap.add_argument("--samples", type=int, default=3, help="samples per scene (default 3)")
+    ap.add_argument("--first-seed", type=int, default=1, help="seeds FIRST_SEED .. FIRST_SEED + SAMPLES - 1 (default 1)")
     ap.add_argument("--count", type=int, default=1400, help="disks per sample (default 1400, the paper's)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="samples run at once (default: the cores)")
     ap.add_argument("--threads", type=int, default=0, help="threads per sample (default: cores / jobs, at least 1)")
@@ -130,25 +149,46 @@ def main():
                     help="scene override passed to every run, e.g. programme.stage_budget=1000000")
     ap.add_argument("--out", default="campaign", help="folder for tables, HDF5 files, logs, summary (default campaign)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
+    ap.add_argument("--report", action="store_true",
+                    help="run nothing: summarise the tables already in --out, unfinished ones included")
     args = ap.parse_args()
-    for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs)):
+    for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
-    if not pathlib.Path(args.grains).is_file():
+    if not args.report and not pathlib.Path(args.grains).is_file():
         ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
     threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     scenes = args.scene or list(PAPER)
+    seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 
-    import dask
-    tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)
-             for scene in scenes for seed in range(1, args.samples + 1)}
-    print(f"campaign: {len(tasks)} samples of {args.count} disks, {args.jobs} at a time, {threads} thread(s) each, "
-          f"logs in {out}/", flush=True)
-    tables = dict(zip(tasks, dask.compute(*tasks.values(), scheduler="threads", num_workers=args.jobs)))
+    if args.report:
+        found = {(scene, seed): existing_table(out, scene, seed) for scene in scenes for seed in seeds}
+        tables = {key: found[key][0] for key in found if found[key][0] is not None}
+        partial = {key for key in found if found[key][1]}
+    else:
+        import dask
+        tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)
+                 for scene in scenes for seed in seeds}
+        print(f"campaign: {len(tasks)} samples of {args.count} disks, {args.jobs} at a time, {threads} thread(s) each, "
+              f"logs in {out}/", flush=True)
+        tables = dict(zip(tasks, dask.compute(*tasks.values(), scheduler="threads", num_workers=args.jobs)))
+        partial = set()
 
-    summaries = {scene: [summarise(tables[(scene, seed)]) for seed in range(1, args.samples + 1)] for scene in scenes}
+    summaries = {}
+    for scene in scenes:
+        summaries[scene] = []
+        for seed in seeds:
+            if (scene, seed) not in tables:
+                print(f"  {scene} seed {seed}: no table in {out}", flush=True)
+                continue
+            result = summarise(tables[(scene, seed)])
+            if result is None:
+                print(f"  {scene} seed {seed}: no loading stage yet", flush=True)
+                continue
+            result["partial"] = (scene, seed) in partial
+            summaries[scene].append(result)
     lines = ["| scene | quantity | measured: mean ± sd (samples) | paper | within 2× paper bar |", "|---|---|---|---|---|"]
     for scene in scenes:
         lines += table_lines(scene, summaries[scene])

@@ -54,3 +54,19 @@ def test_verdicts_use_twice_the_paper_bar(tmp_path):
     assert line.endswith("| NO |")
     # A quantity no sample could fit is said so, not averaged as NaN.
     assert any("| lambda | no sample |" in l for l in campaign.table_lines("consolidation", inside))
+
+
+def test_report_reads_unfinished_samples_and_skips_those_still_aggregating(tmp_path):
+    p, phi = synthetic_curve()
+    write_table(tmp_path / "consolidation-seed1.partial.csv",
+                [("aggregation", "preparation", 0.0, 0.36, 1, 3.1), ("equilibrate", "loading", p[0], 0.48, 1, 3.1)])
+    write_table(tmp_path / "consolidation-seed2.partial.csv", [("aggregation", "preparation", 0.0, 0.36, 0, 3.0)])
+    path, partial = campaign.existing_table(tmp_path, "consolidation", 1)
+    assert partial and path.name == "consolidation-seed1.partial.csv"
+    assert campaign.existing_table(tmp_path, "consolidation", 3) == (None, False)
+    assert campaign.summarise(tmp_path / "consolidation-seed2.partial.csv") is None
+    first = campaign.summarise(path)
+    assert first["phi_0.01"] == 0.48 and first["first_reached"]
+    first["partial"] = True
+    assert any("| samples whose programme had not finished | 1 of 1 |" in l
+               for l in campaign.table_lines("consolidation", [first]))
