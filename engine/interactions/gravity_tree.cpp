@@ -17,6 +17,28 @@ constexpr std::size_t W = 4;   // doubles per AVX2 vector; the lists are padded 
 template <int D>
 constexpr int key_bits = D == 3 ? 21 : 31;
 
+// The low key_bits<D> bits of c spread out, bit b to bit D b: each shift-and-mask step cuts the bits into
+// chunks half as wide and moves them apart ("magic numbers"), five steps instead of a loop over the bits.
+template <int D>
+inline unsigned long long spread_bits(unsigned long long c) {
+  if constexpr (D == 3) {
+    c &= 0x1fffffULL;
+    c = (c | c << 32) & 0x1f00000000ffffULL;
+    c = (c | c << 16) & 0x1f0000ff0000ffULL;
+    c = (c | c << 8) & 0x100f00f00f00f00fULL;
+    c = (c | c << 4) & 0x10c30c30c30c30c3ULL;
+    c = (c | c << 2) & 0x1249249249249249ULL;
+  } else {
+    c &= 0xffffffffULL;
+    c = (c | c << 16) & 0x0000ffff0000ffffULL;
+    c = (c | c << 8) & 0x00ff00ff00ff00ffULL;
+    c = (c | c << 4) & 0x0f0f0f0f0f0f0f0fULL;
+    c = (c | c << 2) & 0x3333333333333333ULL;
+    c = (c | c << 1) & 0x5555555555555555ULL;
+  }
+  return c;
+}
+
 // What one group needs: the particles to sum one by one (the group's own first, so member k is entry k)
 // and the cells to use whole. Both are padded with zeros to whole vectors; the kernels mask the padding.
 struct Lists {
@@ -164,14 +186,14 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   // every D-bit digit, the top digit naming the root's child).
   constexpr int bits = key_bits<D>;
   const double scale = std::ldexp(1.0, bits) / (2 * half);
-  const auto top = static_cast<long long>((1ULL << bits) - 1);
+  const double top = std::ldexp(1.0, bits) - 1;
   std::vector<std::pair<unsigned long long, int>> keyed(n);
   for (std::size_t i = 0; i < n; ++i) {
     unsigned long long key = 0;
     for (int a = 0; a < D; ++a) {
-      const double q = std::floor((P.position[i][a] - (centre[a] - half)) * scale);
-      const auto c = static_cast<unsigned long long>(std::clamp(static_cast<long long>(q), 0LL, top));
-      for (int b = 0; b < bits; ++b) key |= ((c >> b) & 1ULL) << (D * b + a);
+      // Clamped in floating point (q >= 0 bar round-off): the conversion then truncates like floor.
+      const double q = std::clamp((P.position[i][a] - (centre[a] - half)) * scale, 0.0, top);
+      key |= spread_bits<D>(static_cast<unsigned long long>(q)) << a;
     }
     keyed[i] = {key, int(i)};
   }
