@@ -17,6 +17,28 @@ constexpr std::size_t W = 4;   // doubles per AVX2 vector; the lists are padded 
 template <int D>
 constexpr int key_bits = D == 3 ? 21 : 31;
 
+// The low key_bits<D> bits of c spread out, bit b to bit D b: each shift-and-mask step cuts the bits into
+// chunks half as wide and moves them apart ("magic numbers"), five steps instead of a loop over the bits.
+template <int D>
+inline unsigned long long spread_bits(unsigned long long c) {
+  if constexpr (D == 3) {
+    c &= 0x1fffffULL;
+    c = (c | c << 32) & 0x1f00000000ffffULL;
+    c = (c | c << 16) & 0x1f0000ff0000ffULL;
+    c = (c | c << 8) & 0x100f00f00f00f00fULL;
+    c = (c | c << 4) & 0x10c30c30c30c30c3ULL;
+    c = (c | c << 2) & 0x1249249249249249ULL;
+  } else {
+    c &= 0xffffffffULL;
+    c = (c | c << 16) & 0x0000ffff0000ffffULL;
+    c = (c | c << 8) & 0x00ff00ff00ff00ffULL;
+    c = (c | c << 4) & 0x0f0f0f0f0f0f0f0fULL;
+    c = (c | c << 2) & 0x3333333333333333ULL;
+    c = (c | c << 1) & 0x5555555555555555ULL;
+  }
+  return c;
+}
+
 // What one group needs: the particles to sum one by one (the group's own first, so member k is entry k)
 // and the cells to use whole. Both are padded with zeros to whole vectors; the kernels mask the padding.
 struct Lists {
@@ -164,14 +186,14 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   // every D-bit digit, the top digit naming the root's child).
   constexpr int bits = key_bits<D>;
   const double scale = std::ldexp(1.0, bits) / (2 * half);
-  const auto top = static_cast<long long>((1ULL << bits) - 1);
+  const double top = std::ldexp(1.0, bits) - 1;
   std::vector<std::pair<unsigned long long, int>> keyed(n);
   for (std::size_t i = 0; i < n; ++i) {
     unsigned long long key = 0;
     for (int a = 0; a < D; ++a) {
-      const double q = std::floor((P.position[i][a] - (centre[a] - half)) * scale);
-      const auto c = static_cast<unsigned long long>(std::clamp(static_cast<long long>(q), 0LL, top));
-      for (int b = 0; b < bits; ++b) key |= ((c >> b) & 1ULL) << (D * b + a);
+      // Clamped in floating point (q >= 0 bar round-off): the conversion then truncates like floor.
+      const double q = std::clamp((P.position[i][a] - (centre[a] - half)) * scale, 0.0, top);
+      key |= spread_bits<D>(static_cast<unsigned long long>(q)) << a;
     }
     keyed[i] = {key, int(i)};
   }
@@ -186,15 +208,13 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   }
   cells_.reserve(4 * n / std::size_t(leaf_size_) + 16);
   cells_.emplace_back();
-  cells_[0].half = half;
-  cells_[0].centre = {centre[0], centre[1], D == 3 ? centre[D - 1] : 0.0};
   build<D>(0, 0, int(n), 0, false, keys);
   quad_.assign(cells_.size(), Quadrupole{});
   for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
 }
 
-// Splits cell `id` (geometry already set) over the particles [begin, end) at Morton digit `level`; the
-// first cell on the way down that is small enough, or a leaf, becomes a group.
+// Splits cell `id` over the particles [begin, end) at Morton digit `level`; the first cell on the way down
+// that is small enough, or a leaf, becomes a group.
 template <int D>
 void Tree::build(int id, int begin, int end, int level, bool in_group, const std::vector<unsigned long long>& keys) {
   cells_[id].begin = begin, cells_[id].end = end;
@@ -205,24 +225,17 @@ void Tree::build(int id, int begin, int end, int level, bool in_group, const std
   const int shift = D * (key_bits<D> - 1 - level);
   auto digit = [&](int k) { return int((keys[k] >> shift) & ((1ULL << D) - 1)); };
   std::array<int, (1 << D) + 1> run_start{};
-  std::array<int, 1 << D> run_digit{};
   int runs = 0;
   for (int k = begin; k < end; ++k)
-    if (k == begin || digit(k) != digit(k - 1)) run_digit[runs] = digit(k), run_start[runs++] = k;
+    if (k == begin || digit(k) != digit(k - 1)) run_start[runs++] = k;
   run_start[runs] = end;
   const int first = int(cells_.size());
   cells_.resize(cells_.size() + runs);
   cells_[id].first_child = first, cells_[id].children = runs;
-  const double h = 0.5 * cells_[id].half;
-  for (int r = 0; r < runs; ++r) {
-    Cell& c = cells_[first + r];
-    c.half = h, c.centre = cells_[id].centre;
-    for (int a = 0; a < D; ++a) c.centre[a] += (run_digit[r] >> a) & 1 ? h : -h;
-  }
   for (int r = 0; r < runs; ++r) build<D>(first + r, run_start[r], run_start[r + 1], level + 1, in_group, keys);
 }
 
-// Mass, centre of mass and quadrupole of cell `id`, from its particles (leaf) or its children.
+// Mass, centre of mass, quadrupole and bounding box of cell `id`, from its particles (leaf) or its children.
 void Tree::moments(int id) {
   Cell& c = cells_[id];
   Quadrupole& Q = quad_[id];
@@ -234,15 +247,23 @@ void Tree::moments(int id) {
   };
   double mass = 0, mx = 0, my = 0, mz = 0;
   if (c.children == 0) {
-    for (int k = c.begin; k < c.end; ++k) mass += m_[k], mx += m_[k] * x_[k], my += m_[k] * y_[k], mz += m_[k] * z_[k];
+    c.lo = {x_[c.begin], y_[c.begin], z_[c.begin]}, c.hi = c.lo;
+    for (int k = c.begin; k < c.end; ++k) {
+      mass += m_[k], mx += m_[k] * x_[k], my += m_[k] * y_[k], mz += m_[k] * z_[k];
+      const std::array<double, 3> x{x_[k], y_[k], z_[k]};
+      for (int a = 0; a < 3; ++a) c.lo[a] = std::min(c.lo[a], x[a]), c.hi[a] = std::max(c.hi[a], x[a]);
+    }
   } else {
+    c.lo = cells_[c.first_child].lo, c.hi = cells_[c.first_child].hi;
     for (int k = c.first_child; k < c.first_child + c.children; ++k) {
       const Cell& s = cells_[k];
       mass += s.mass, mx += s.mass * s.com[0], my += s.mass * s.com[1], mz += s.mass * s.com[2];
+      for (int a = 0; a < 3; ++a) c.lo[a] = std::min(c.lo[a], s.lo[a]), c.hi[a] = std::max(c.hi[a], s.hi[a]);
     }
   }
   c.mass = mass;
-  c.com = mass > 0 ? std::array<double, 3>{mx / mass, my / mass, mz / mass} : c.centre;
+  c.com = mass > 0 ? std::array<double, 3>{mx / mass, my / mass, mz / mass}
+                   : std::array<double, 3>{0.5 * (c.lo[0] + c.hi[0]), 0.5 * (c.lo[1] + c.hi[1]), 0.5 * (c.lo[2] + c.hi[2])};
   if (c.children == 0) {
     for (int k = c.begin; k < c.end; ++k) add(m_[k], x_[k] - c.com[0], y_[k] - c.com[1], z_[k] - c.com[2]);
   } else {
@@ -252,8 +273,17 @@ void Tree::moments(int id) {
       add(s.mass, s.com[0] - c.com[0], s.com[1] - c.com[1], s.com[2] - c.com[2]);
     }
   }
-  const double offset = std::hypot(c.com[0] - c.centre[0], c.com[1] - c.centre[1], c.com[2] - c.centre[2]);
-  const double lim = 2 * c.half / theta_ + offset;
+  // Opening distance: s / theta with s the longest edge of the particles' box (tight: a cell holding a
+  // small clump counts as small), but never less than b_max, the distance from the centre of mass to the
+  // box's farthest corner, so that the target lies outside every particle of the cell (the expansion's
+  // convergence radius) even when the centre of mass sits near one edge.
+  double edge = 0, b2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    edge = std::max(edge, c.hi[a] - c.lo[a]);
+    const double b = std::max(c.com[a] - c.lo[a], c.hi[a] - c.com[a]);
+    b2 += b * b;
+  }
+  const double lim = std::max(edge / theta_, std::sqrt(b2));
   // A lone particle is summed exactly, never as a cell.
   c.accept2 = theta_ > 0 && c.end - c.begin > 1 ? lim * lim : std::numeric_limits<double>::infinity();
 }
@@ -280,12 +310,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
     for (std::size_t g = 0; g < groups_.size(); ++g) {
       const Cell& group = cells_[groups_[g]];
       const int b = group.begin, e = group.end;
-      // The group's bounding box.
-      std::array<double, 3> lo{x_[b], y_[b], z_[b]}, hi = lo;
-      for (int k = b; k < e; ++k) {
-        lo[0] = std::min(lo[0], x_[k]), lo[1] = std::min(lo[1], y_[k]), lo[2] = std::min(lo[2], z_[k]);
-        hi[0] = std::max(hi[0], x_[k]), hi[1] = std::max(hi[1], y_[k]), hi[2] = std::max(hi[2], z_[k]);
-      }
+      const std::array<double, 3>&lo = group.lo, &hi = group.hi;   // the group's bounding box
       L.clear();
       auto add_particles = [&](int from, int to) {
         L.x.insert(L.x.end(), &x_[from], &x_[to]), L.y.insert(L.y.end(), &y_[from], &y_[to]);
@@ -298,14 +323,12 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
         stack.pop_back();
         if (id == groups_[g]) continue;   // its particles are listed first
         const Cell& c = cells_[id];
-        double d2 = 0;
-        bool reaches = true;   // the box reaches into the cell
+        double d2 = 0;   // from the centre of mass to the group's box
         for (int a = 0; a < 3; ++a) {
           const double d = std::max({lo[a] - c.com[a], c.com[a] - hi[a], 0.0});
           d2 += d * d;
-          reaches &= lo[a] <= c.centre[a] + c.half && hi[a] >= c.centre[a] - c.half;
         }
-        if (d2 > c.accept2 && !reaches) {
+        if (d2 > c.accept2) {
           const Quadrupole& Q = quad_[id];
           L.cx.push_back(c.com[0]), L.cy.push_back(c.com[1]), L.cz.push_back(c.com[2]), L.cm.push_back(c.mass);
           L.qxx.push_back(Q[0]), L.qxy.push_back(Q[1]), L.qxz.push_back(Q[2]);

@@ -4,10 +4,12 @@
 // the 2^D-ary tree holds one contiguous run of them; a cell of more than `leaf_size` particles is split.
 // Moments are formed bottom-up (children's by the parallel-axis rule).
 // Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
-// particles. A cell of edge s is used whole when its centre of mass lies farther than s / theta +
-// |com - cell centre| from the group's bounding box and the box does not reach into the cell; otherwise it
-// is opened, and the particles of the leaves reached are summed one by one. Used whole for the group means used whole for each of its particles under the
-// per-particle rule, so the group walk is never coarser than a walk per particle at the same theta.
+// particles. A cell is used whole when its centre of mass lies farther than max(s / theta, b_max) from the
+// group's bounding box, s being the longest edge of the cell's particles' bounding box (not of the
+// geometric cell) and b_max the distance from the centre of mass to that box's farthest corner; otherwise
+// it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
+// means used whole for each of its particles under the same rule per particle, so the group walk is never
+// coarser than a walk per particle at the same theta.
 // Every particle of the group then runs over the two lists with an AVX2 + FMA kernel (four list entries at
 // a time) or a portable one, picked at run time like gravity_direct. FP64 throughout with a correctly
 // rounded square root and division. A particle's sum is formed in an order set by the tree alone, so the
@@ -43,9 +45,9 @@ class Tree {
 
  private:
   struct Cell {
-    std::array<double, 3> com, centre;   // z = 0 in 2D
-    double mass = 0, half = 0;
-    double accept2 = 0;                  // (s / theta + |com - centre|)^2; infinite: always opened
+    std::array<double, 3> com, lo, hi;   // centre of mass, bounding box of the particles; z = 0 in 2D
+    double mass = 0;
+    double accept2 = 0;                  // max(s / theta, b_max)^2; infinite: always opened
     int first_child = -1, children = 0;  // children are stored together
     int begin = 0, end = 0;              // particles, in Morton order
   };
