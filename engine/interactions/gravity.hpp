@@ -3,7 +3,7 @@
 // Potential: W = -sum_{i<j} G m_i m_j / sqrt(d^2 + eps^2).
 // Two solvers: `direct` (all pairs, O(N^2), the exact reference; gravity_direct.hpp: each pair once, in an
 // order that does not depend on the thread count) and `tree` (gravity_tree.hpp: Barnes-Hut octree / quadtree,
-// monopole + quadrupole cells, opening angle theta, one walk per leaf, rebuilt at every call).
+// monopole + quadrupole cells, opening angle theta, one walk per group of nearby particles, rebuilt at every call).
 // The module does not use the neighbour list (pair_range() = -1) and holds no state between steps.
 #pragma once
 #include <string>
