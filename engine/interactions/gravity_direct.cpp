@@ -2,19 +2,36 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 
 #include <immintrin.h>
 
 namespace grains::gravity_direct {
 
+bool supported(Isa isa) {
+  switch (isa) {
+    case Isa::avx512: return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case Isa::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    default: return true;
+  }
+}
+
+const char* isa_name(Isa isa) { return isa == Isa::avx512 ? "avx512" : isa == Isa::avx2 ? "avx2" : "portable"; }
+
 Isa fastest_isa() {
-  static const Isa isa = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? Isa::avx2 : Isa::portable;
+  static const Isa isa = [] {
+    if (const char* want = std::getenv("GRAINS_GRAVITY_ISA"))
+      for (Isa i : {Isa::portable, Isa::avx2, Isa::avx512})
+        if (std::strcmp(want, isa_name(i)) == 0 && supported(i)) return i;
+    return supported(Isa::avx512) ? Isa::avx512 : supported(Isa::avx2) ? Isa::avx2 : Isa::portable;
+  }();
   return isa;
 }
 
 namespace {
 
-constexpr std::size_t W = Columns::width;
+constexpr std::size_t W = 4;   // doubles per AVX2 vector
 
 // Where a tile adds acceleration terms: particle k's into x[k - first], y[k - first], z[k - first].
 struct Sums {
@@ -137,6 +154,104 @@ GRAINS_AVX2 double potential_row_avx2(const Columns& c, double eps2, std::size_t
   return lane_sum(s);
 }
 
+// ---------------------------------------------------------------------------------------------
+// AVX-512 kernels: the AVX2 loops eight j at a time (lane k takes j = 8q + k), with the lanes kept as a
+// bit mask. Lanes are added in a fixed order at the end of a row.
+// ---------------------------------------------------------------------------------------------
+#define GRAINS_AVX512 __attribute__((target("avx512f,avx2,fma")))
+// GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+constexpr std::size_t W8 = 8;
+
+// Lanes j0 .. j0 + 7 with first <= j < end, as bits 0 .. 7.
+inline __mmask8 lanes8_in(std::size_t j0, std::size_t first, std::size_t end) {
+  const unsigned from = first <= j0 ? 0xffu : first - j0 < W8 ? 0xffu << (first - j0) : 0u;
+  const unsigned below = end >= j0 + W8 ? 0xffu : end > j0 ? (1u << (end - j0)) - 1 : 0u;
+  return __mmask8(from & below & 0xffu);
+}
+
+// Lane sum in a fixed order: halves added lane by lane, then as lane_sum.
+GRAINS_AVX512 inline double lane_sum8(__m512d v) {
+  const __m256d quad = _mm256_add_pd(_mm512_castpd512_pd256(v), _mm512_extractf64x4_pd(v, 1));   // (0+4, .., 3+7)
+  const __m128d pair = _mm_add_pd(_mm256_castpd256_pd128(quad), _mm256_extractf128_pd(quad, 1));
+  return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
+}
+
+struct Row8 {
+  __m512d x, y, z, m, eps2;
+  __m512d sx, sy, sz;
+};
+
+// 1 / r2^{3/2}. The divider cannot keep up with eight lanes (a zmm square root and division take about as
+// long as two ymm ones), so this one is y^3 from y = 1 / sqrt(r2): the 14-bit estimate (vrsqrt14pd) refined
+// by two Newton steps y <- y + y (1 - r2 y^2) / 2 in FP64 (relative error 2^-14 -> ~1e-8 -> round-off).
+// The result is within a few units in the last place of 1 / (r2 sqrt(r2)) correctly rounded: round-off
+// level, but not bit for bit the AVX2 value (tests/engine/test_gravity.cpp measures it).
+GRAINS_AVX512 inline __m512d inverse_cube(__m512d r2) {
+  const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5);
+  __m512d y = _mm512_rsqrt14_pd(r2);
+  for (int k = 0; k < 2; ++k) {
+    const __m512d e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, one);   // 1 - r2 y^2
+    y = _mm512_fmadd_pd(_mm512_mul_pd(half, y), e, y);
+  }
+  return _mm512_mul_pd(_mm512_mul_pd(y, y), y);
+}
+
+// Pairs (i, j0 .. j0 + 7) into both sides; with `masked`, lanes outside `keep` add nothing (self, padding).
+template <bool masked>
+GRAINS_AVX512 inline void add_pairs8(const Columns& c, std::size_t j0, __mmask8 keep, Row8& r, Sums sj) {
+  const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&c.x[j0]), r.x);
+  const __m512d dy = _mm512_sub_pd(_mm512_loadu_pd(&c.y[j0]), r.y);
+  const __m512d dz = _mm512_sub_pd(_mm512_loadu_pd(&c.z[j0]), r.z);
+  __m512d r2 = _mm512_fmadd_pd(dx, dx, r.eps2);
+  r2 = _mm512_fmadd_pd(dy, dy, r2);
+  r2 = _mm512_fmadd_pd(dz, dz, r2);
+  __m512d t = inverse_cube(r2);
+  if constexpr (masked) t = _mm512_maskz_mov_pd(keep, t);   // also clears NaN from r2 = 0 (self, eps = 0)
+  const __m512d wi = _mm512_mul_pd(_mm512_loadu_pd(&c.m[j0]), t), wj = _mm512_mul_pd(r.m, t);
+  r.sx = _mm512_fmadd_pd(wi, dx, r.sx), r.sy = _mm512_fmadd_pd(wi, dy, r.sy), r.sz = _mm512_fmadd_pd(wi, dz, r.sz);
+  double *x = &sj.x[j0 - sj.first], *y = &sj.y[j0 - sj.first], *z = &sj.z[j0 - sj.first];
+  _mm512_storeu_pd(x, _mm512_fnmadd_pd(wj, dx, _mm512_loadu_pd(x)));
+  _mm512_storeu_pd(y, _mm512_fnmadd_pd(wj, dy, _mm512_loadu_pd(y)));
+  _mm512_storeu_pd(z, _mm512_fnmadd_pd(wj, dz, _mm512_loadu_pd(z)));
+}
+
+GRAINS_AVX512 void tile_avx512(const Columns& c, double eps2, std::size_t I, std::size_t J, Sums si, Sums sj) {
+  const std::size_t B = c.block;   // a multiple of 8: the last vector of a block stays inside the padding
+  const std::size_t i1 = std::min(I * B + B, c.n), j1 = std::min(J * B + B, (c.n + W8 - 1) / W8 * W8);
+  for (std::size_t i = I * B; i < i1; ++i) {
+    Row8 r{_mm512_set1_pd(c.x[i]), _mm512_set1_pd(c.y[i]), _mm512_set1_pd(c.z[i]), _mm512_set1_pd(c.m[i]),
+           _mm512_set1_pd(eps2), _mm512_setzero_pd(), _mm512_setzero_pd(), _mm512_setzero_pd()};
+    const std::size_t first = I == J ? i + 1 : J * B;
+    for (std::size_t j0 = first / W8 * W8; j0 < j1; j0 += W8) {
+      if (j0 < first || j0 + W8 > c.n)
+        add_pairs8<true>(c, j0, lanes8_in(j0, first, c.n), r, sj);
+      else
+        add_pairs8<false>(c, j0, 0, r, sj);
+    }
+    si.x[i - si.first] += lane_sum8(r.sx), si.y[i - si.first] += lane_sum8(r.sy), si.z[i - si.first] += lane_sum8(r.sz);
+  }
+}
+
+// The potential is needed at output times only: correctly rounded square root and division, as in AVX2.
+GRAINS_AVX512 double potential_row_avx512(const Columns& c, double eps2, std::size_t i) {
+  const __m512d xi = _mm512_set1_pd(c.x[i]), yi = _mm512_set1_pd(c.y[i]), zi = _mm512_set1_pd(c.z[i]);
+  const __m512d e2 = _mm512_set1_pd(eps2);
+  __m512d s = _mm512_setzero_pd();
+  for (std::size_t j0 = (i + 1) / W8 * W8; j0 < c.n; j0 += W8) {
+    const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&c.x[j0]), xi);
+    const __m512d dy = _mm512_sub_pd(_mm512_loadu_pd(&c.y[j0]), yi);
+    const __m512d dz = _mm512_sub_pd(_mm512_loadu_pd(&c.z[j0]), zi);
+    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_fmadd_pd(dx, dx, e2)));
+    const __mmask8 keep = j0 <= i || j0 + W8 > c.n ? lanes8_in(j0, i + 1, c.n) : __mmask8(0xff);   // j > i, no padding
+    s = _mm512_add_pd(s, _mm512_maskz_div_pd(keep, _mm512_loadu_pd(&c.m[j0]), _mm512_sqrt_pd(r2)));
+  }
+  return lane_sum8(s);
+}
+#pragma GCC diagnostic pop
+
 }  // namespace
 
 void accelerations(Isa isa, const Columns& c, double eps2, int threads, std::vector<double>& ax, std::vector<double>& ay,
@@ -148,7 +263,7 @@ void accelerations(Isa isa, const Columns& c, double eps2, int threads, std::vec
   for (auto* a : {&ax, &ay, &az}) a->assign(c.x.size(), 0.0);
   auto slot = [&](std::size_t I, std::size_t J) { return 3 * S * (I * (2 * blocks - I - 1) / 2 + J - I - 1); };
   std::vector<double> spill(3 * S * blocks * (blocks - 1) / 2, 0.0);
-  auto* tile = isa == Isa::avx2 ? tile_avx2 : tile_portable;
+  auto* tile = isa == Isa::avx512 ? tile_avx512 : isa == Isa::avx2 ? tile_avx2 : tile_portable;
   // Task I costs blocks - I - 1/2 tiles: handed out in that (decreasing) order, they balance the threads.
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
   for (std::size_t I = 0; I < blocks; ++I) {
@@ -170,7 +285,7 @@ void accelerations(Isa isa, const Columns& c, double eps2, int threads, std::vec
 
 double potential(Isa isa, const Columns& c, double eps2, int threads) {
   std::vector<double> row(c.n, 0.0);
-  auto* row_sum = isa == Isa::avx2 ? potential_row_avx2 : potential_row_portable;
+  auto* row_sum = isa == Isa::avx512 ? potential_row_avx512 : isa == Isa::avx2 ? potential_row_avx2 : potential_row_portable;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
   for (std::size_t i = 0; i < c.n; ++i) row[i] = c.m[i] * row_sum(c, eps2, i);
   double energy = 0;

@@ -5,8 +5,9 @@
 // slots of its own, which are added at the end in a fixed order: the tasks run on any number of threads
 // with no barrier between them, and results are bit-identical on 1 and 2 threads.
 // Every term is computed in FP64 with a correctly rounded square root and division: g_ij = r_ij / (r2 sqrt(r2)),
-// r2 = d^2 + eps^2. Two builds of the same loops, picked at run time so the binary stays portable x86-64:
-// AVX2 + FMA (four pairs at a time) and plain scalar code. They agree to round-off, not bit for bit.
+// r2 = d^2 + eps^2 (the AVX-512 force kernel excepted: see gravity_direct.cpp). Three builds of the same loops,
+// picked at run time so the binary stays portable x86-64: AVX-512 (eight pairs at a time), AVX2 + FMA (four)
+// and plain scalar code. They agree to round-off, not bit for bit.
 #pragma once
 #include <algorithm>
 #include <cstddef>
@@ -16,14 +17,18 @@
 
 namespace grains::gravity_direct {
 
-enum class Isa { portable, avx2 };
+enum class Isa { portable, avx2, avx512 };
 
-Isa fastest_isa();   // avx2 when the CPU has AVX2 and FMA, else portable
+bool supported(Isa isa);      // the CPU (and OS) can run the kernels of `isa`
+// The kernels the module uses: the best supported, unless the environment variable GRAINS_GRAVITY_ISA
+// ("portable", "avx2" or "avx512") names another supported one (for tests and benchmarks). Read once.
+Isa fastest_isa();
+const char* isa_name(Isa isa);   // "portable", "avx2", "avx512"
 
 // Positions and masses as separate contiguous arrays, padded to whole blocks with massless particles at the
 // origin (the kernels mask them out); z = 0 in 2D, which only adds exact zeros.
 struct Columns {
-  static constexpr std::size_t width = 4;   // doubles per AVX2 vector
+  static constexpr std::size_t width = 8;   // doubles per AVX-512 vector (two AVX2 vectors)
   std::size_t n = 0;
   // Particles per block, a function of n only: at most 16 blocks (the spill slots hold about 8 n
   // accelerations), at least 128 particles (the per-row overhead stays small).
