@@ -1,4 +1,5 @@
 #include "interactions/gravity_direct.hpp"
+#include "interactions/gravity_avx512.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -156,13 +157,14 @@ GRAINS_AVX2 double potential_row_avx2(const Columns& c, double eps2, std::size_t
 
 // ---------------------------------------------------------------------------------------------
 // AVX-512 kernels: the AVX2 loops eight j at a time (lane k takes j = 8q + k), with the lanes kept as a
-// bit mask. Lanes are added in a fixed order at the end of a row.
+// bit mask. Lanes are added in a fixed order at the end of a row. 1 / r2^{3/2} comes from a refined
+// reciprocal square root (gravity_avx512.hpp: within a few units in the last place), not from the divider.
 // ---------------------------------------------------------------------------------------------
-#define GRAINS_AVX512 __attribute__((target("avx512f,avx2,fma")))
 // GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+using gravity_avx512::inverse_cube;
 constexpr std::size_t W8 = 8;
 
 // Lanes j0 .. j0 + 7 with first <= j < end, as bits 0 .. 7.
@@ -172,32 +174,10 @@ inline __mmask8 lanes8_in(std::size_t j0, std::size_t first, std::size_t end) {
   return __mmask8(from & below & 0xffu);
 }
 
-// Lane sum in a fixed order: halves added lane by lane, then as lane_sum.
-GRAINS_AVX512 inline double lane_sum8(__m512d v) {
-  const __m256d quad = _mm256_add_pd(_mm512_castpd512_pd256(v), _mm512_extractf64x4_pd(v, 1));   // (0+4, .., 3+7)
-  const __m128d pair = _mm_add_pd(_mm256_castpd256_pd128(quad), _mm256_extractf128_pd(quad, 1));
-  return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
-}
-
 struct Row8 {
   __m512d x, y, z, m, eps2;
   __m512d sx, sy, sz;
 };
-
-// 1 / r2^{3/2}. The divider cannot keep up with eight lanes (a zmm square root and division take about as
-// long as two ymm ones), so this one is y^3 from y = 1 / sqrt(r2): the 14-bit estimate (vrsqrt14pd) refined
-// by two Newton steps y <- y + y (1 - r2 y^2) / 2 in FP64 (relative error 2^-14 -> ~1e-8 -> round-off).
-// The result is within a few units in the last place of 1 / (r2 sqrt(r2)) correctly rounded: round-off
-// level, but not bit for bit the AVX2 value (tests/engine/test_gravity.cpp measures it).
-GRAINS_AVX512 inline __m512d inverse_cube(__m512d r2) {
-  const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5);
-  __m512d y = _mm512_rsqrt14_pd(r2);
-  for (int k = 0; k < 2; ++k) {
-    const __m512d e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, one);   // 1 - r2 y^2
-    y = _mm512_fmadd_pd(_mm512_mul_pd(half, y), e, y);
-  }
-  return _mm512_mul_pd(_mm512_mul_pd(y, y), y);
-}
 
 // Pairs (i, j0 .. j0 + 7) into both sides; with `masked`, lanes outside `keep` add nothing (self, padding).
 template <bool masked>
@@ -231,7 +211,7 @@ GRAINS_AVX512 void tile_avx512(const Columns& c, double eps2, std::size_t I, std
       else
         add_pairs8<false>(c, j0, 0, r, sj);
     }
-    si.x[i - si.first] += lane_sum8(r.sx), si.y[i - si.first] += lane_sum8(r.sy), si.z[i - si.first] += lane_sum8(r.sz);
+    si.x[i - si.first] += gravity_avx512::lane_sum(r.sx), si.y[i - si.first] += gravity_avx512::lane_sum(r.sy), si.z[i - si.first] += gravity_avx512::lane_sum(r.sz);
   }
 }
 
@@ -248,7 +228,7 @@ GRAINS_AVX512 double potential_row_avx512(const Columns& c, double eps2, std::si
     const __mmask8 keep = j0 <= i || j0 + W8 > c.n ? lanes8_in(j0, i + 1, c.n) : __mmask8(0xff);   // j > i, no padding
     s = _mm512_add_pd(s, _mm512_maskz_div_pd(keep, _mm512_loadu_pd(&c.m[j0]), _mm512_sqrt_pd(r2)));
   }
-  return lane_sum8(s);
+  return gravity_avx512::lane_sum(s);
 }
 #pragma GCC diagnostic pop
 

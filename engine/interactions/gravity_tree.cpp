@@ -1,4 +1,5 @@
 #include "interactions/gravity_tree.hpp"
+#include "interactions/gravity_avx512.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,7 +12,8 @@ namespace grains::gravity_tree {
 
 namespace {
 
-constexpr std::size_t W = 4;   // doubles per AVX2 vector; the lists are padded to whole vectors
+constexpr std::size_t W = 4;     // doubles per AVX2 vector
+constexpr std::size_t W8 = 8;    // per AVX-512 vector; the lists are padded to whole ones
 
 // Bits of a Morton key per axis: 3 x 21 or 2 x 31 bits fit one 64-bit key.
 template <int D>
@@ -51,8 +53,8 @@ struct Lists {
   }
   void pad() {
     particles = x.size(), cells = cx.size();
-    for (auto* v : {&x, &y, &z, &m}) v->resize((particles + W - 1) / W * W, 0.0);
-    for (auto* v : {&cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->resize((cells + W - 1) / W * W, 0.0);
+    for (auto* v : {&x, &y, &z, &m}) v->resize((particles + W8 - 1) / W8 * W8, 0.0);
+    for (auto* v : {&cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->resize((cells + W8 - 1) / W8 * W8, 0.0);
   }
 };
 
@@ -165,6 +167,70 @@ GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
   }
   return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
 }
+
+// ---------------------------------------------------------------------------------------------
+// AVX-512 kernels: the AVX2 ones eight list entries at a time, lanes kept as a bit mask; 1 / sqrt(r2) from a
+// refined reciprocal square root (gravity_avx512.hpp: within a few units in the last place), not the divider.
+// ---------------------------------------------------------------------------------------------
+// GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+// Lanes j0 .. j0 + 7 with j < end and j != skip, as bits 0 .. 7.
+inline __mmask8 lanes8_kept(std::size_t j0, std::size_t end, std::size_t skip) {
+  unsigned keep = end >= j0 + W8 ? 0xffu : end > j0 ? (1u << (end - j0)) - 1 : 0u;
+  if (skip >= j0 && skip < j0 + W8) keep &= ~(1u << (skip - j0));
+  return __mmask8(keep);
+}
+
+template <bool potential>
+GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
+  using gravity_avx512::inverse_cube, gravity_avx512::rsqrt;
+  const __m512d xi = _mm512_set1_pd(L.x[self]), yi = _mm512_set1_pd(L.y[self]), zi = _mm512_set1_pd(L.z[self]);
+  const __m512d e2 = _mm512_set1_pd(eps2);
+  __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx, sp = sx;
+  // Particles: the vector holding `self` and the last one are masked (self: r2 may be 0; padding: m = 0).
+  const std::size_t self_vector = self / W8 * W8;
+  for (std::size_t j0 = 0; j0 < L.particles; j0 += W8) {
+    const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&L.x[j0]), xi);
+    const __m512d dy = _mm512_sub_pd(_mm512_loadu_pd(&L.y[j0]), yi);
+    const __m512d dz = _mm512_sub_pd(_mm512_loadu_pd(&L.z[j0]), zi);
+    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_fmadd_pd(dx, dx, e2)));
+    __m512d t = inverse_cube(r2);
+    if (j0 == self_vector || j0 + W8 > L.particles) t = _mm512_maskz_mov_pd(lanes8_kept(j0, L.particles, self), t);
+    const __m512d w = _mm512_mul_pd(_mm512_loadu_pd(&L.m[j0]), t);
+    sx = _mm512_fmadd_pd(w, dx, sx), sy = _mm512_fmadd_pd(w, dy, sy), sz = _mm512_fmadd_pd(w, dz, sz);
+    if constexpr (potential) sp = _mm512_fnmadd_pd(w, r2, sp);   // m / h = m t r2
+  }
+  // Cells (portable kernel above for the formulas); the last vector is masked.
+  const __m512d half = _mm512_set1_pd(0.5), five_halves = _mm512_set1_pd(2.5);
+  for (std::size_t j0 = 0; j0 < L.cells; j0 += W8) {
+    const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&L.cx[j0]), xi);
+    const __m512d dy = _mm512_sub_pd(_mm512_loadu_pd(&L.cy[j0]), yi);
+    const __m512d dz = _mm512_sub_pd(_mm512_loadu_pd(&L.cz[j0]), zi);
+    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_fmadd_pd(dx, dx, e2)));
+    __m512d inv = rsqrt(r2);
+    if (j0 + W8 > L.cells) inv = _mm512_maskz_mov_pd(lanes8_kept(j0, L.cells, L.cells), inv);
+    const __m512d inv2 = _mm512_mul_pd(inv, inv), inv3 = _mm512_mul_pd(inv, inv2), inv5 = _mm512_mul_pd(inv3, inv2);
+    const __m512d qxx = _mm512_loadu_pd(&L.qxx[j0]), qxy = _mm512_loadu_pd(&L.qxy[j0]), qxz = _mm512_loadu_pd(&L.qxz[j0]);
+    const __m512d qyy = _mm512_loadu_pd(&L.qyy[j0]), qyz = _mm512_loadu_pd(&L.qyz[j0]), qzz = _mm512_loadu_pd(&L.qzz[j0]);
+    const __m512d qx = _mm512_fmadd_pd(qxz, dz, _mm512_fmadd_pd(qxy, dy, _mm512_mul_pd(qxx, dx)));
+    const __m512d qy = _mm512_fmadd_pd(qyz, dz, _mm512_fmadd_pd(qyy, dy, _mm512_mul_pd(qxy, dx)));
+    const __m512d qz = _mm512_fmadd_pd(qzz, dz, _mm512_fmadd_pd(qyz, dy, _mm512_mul_pd(qxz, dx)));
+    const __m512d rQr = _mm512_fmadd_pd(dz, qz, _mm512_fmadd_pd(dy, qy, _mm512_mul_pd(dx, qx)));
+    const __m512d M = _mm512_loadu_pd(&L.cm[j0]);
+    const __m512d rQr_inv5 = _mm512_mul_pd(rQr, inv5);
+    const __m512d a = _mm512_fmadd_pd(M, inv3, _mm512_mul_pd(five_halves, _mm512_mul_pd(rQr_inv5, inv2)));
+    sx = _mm512_fnmadd_pd(inv5, qx, _mm512_fmadd_pd(a, dx, sx));
+    sy = _mm512_fnmadd_pd(inv5, qy, _mm512_fmadd_pd(a, dy, sy));
+    sz = _mm512_fnmadd_pd(inv5, qz, _mm512_fmadd_pd(a, dz, sz));
+    if constexpr (potential) sp = _mm512_sub_pd(sp, _mm512_fmadd_pd(M, inv, _mm512_mul_pd(half, rQr_inv5)));
+  }
+  using gravity_avx512::lane_sum;
+  return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
+}
+#pragma GCC diagnostic pop
 
 }  // namespace
 
@@ -300,7 +366,9 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
   const std::size_t n = order_.size();
   for (auto* v : {&ax, &ay, &az}) v->assign(n, 0.0);
   if (phi) phi->assign(n, 0.0);
-  auto* sums = isa == Isa::portable ? sums_portable : phi ? sums_avx2<true> : sums_avx2<false>;
+  auto* sums = isa == Isa::portable ? sums_portable
+              : isa == Isa::avx2    ? (phi ? sums_avx2<true> : sums_avx2<false>)
+                                    : (phi ? sums_avx512<true> : sums_avx512<false>);
   std::size_t pairs = 0, cell_terms = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : pairs, cell_terms)
   {

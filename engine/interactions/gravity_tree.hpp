@@ -10,10 +10,11 @@
 // it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
 // means used whole for each of its particles under the same rule per particle, so the group walk is never
 // coarser than a walk per particle at the same theta.
-// Every particle of the group then runs over the two lists with an AVX2 + FMA kernel (four list entries at
-// a time) or a portable one, picked at run time like gravity_direct. FP64 throughout with a correctly
-// rounded square root and division. A particle's sum is formed in an order set by the tree alone, so the
-// result is bit-identical on any number of threads.
+// Every particle of the group then runs over the two lists with an AVX-512 kernel (eight list entries at a
+// time), an AVX2 + FMA one (four) or a portable one, picked at run time like gravity_direct. FP64 throughout,
+// with a correctly rounded square root and division (AVX-512: a reciprocal square root refined to within a
+// few units in the last place, see gravity_avx512.hpp). A particle's sum is formed in an order set by the
+// tree and the kernel alone, so the result is bit-identical on any number of threads.
 #pragma once
 #include <array>
 #include <cstddef>

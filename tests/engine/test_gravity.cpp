@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <functional>
 #include <random>
 
 #include <fmt/format.h>
@@ -642,8 +643,8 @@ TEST_CASE("gravity: tree against direct summation", "[.gravity-bench]") {
 
 TEST_CASE("gravity: tree levers (leaf size, kernel, threads, build share)", "[.gravity-bench]") {
   // N = 1e5 uniform ball, theta = 0.5, eps = 1e-3: build and walk times (fastest of a few calls), the terms
-  // summed per particle and the error against direct summation, for each leaf size; then the portable kernel
-  // and one thread at the default leaf size.
+  // summed per particle and the error against direct summation, for each leaf size; then every kernel set
+  // the CPU runs, on 1 and 2 threads, at the default leaf size.
   const int n = 100000;
   const double eps = 1e-3, theta = 0.5;
   const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
@@ -668,8 +669,56 @@ TEST_CASE("gravity: tree levers (leaf size, kernel, threads, build share)", "[.g
   for (int leaf : {8, 16, 32})
     for (int group : {leaf, 32, 64, 128, 256})
       if (group >= leaf) row(leaf, group, fastest, 2);
-  row(16, 64, fastest, 1);
-  row(16, 64, gravity_direct::Isa::portable, 2);
+  for (auto isa : runnable_isas())
+    for (int threads : {1, 2}) row(16, 64, isa, threads);
+}
+
+TEST_CASE("gravity: kernel sets at N = 1e5 (direct and tree)", "[.gravity-bench]") {
+  // Uniform ball, eps = 1e-3: direct summation (2 threads) and the walk of one tree (theta 0.5, built once;
+  // 1 and 2 threads) with each vector kernel set the CPU runs. The variants take turns call by call and each
+  // keeps its fastest call (wall) and least CPU time (the process's, all threads), as the machine is shared.
+  const int n = 100000;
+  const double eps2 = 1e-6;
+  using gravity_direct::Isa;
+  const auto P = particles_from<3>(uniform_ball(n, 1.0, 2), 1.0 / n);
+  const gravity_direct::Columns c(P);
+  const gravity_tree::Tree tree(P, 0.5);
+  std::vector<Isa> isas;
+  for (auto isa : runnable_isas())
+    if (isa != Isa::portable) isas.push_back(isa);
+  auto now = [](clockid_t clock) {
+    timespec t;
+    clock_gettime(clock, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+  };
+  // Fastest wall and least CPU seconds of `rounds` turns of each variant.
+  auto turns = [&](int rounds, const std::vector<std::function<void()>>& variants) {
+    std::vector<std::pair<double, double>> best(variants.size(), {1e300, 1e300});
+    for (int r = 0; r < rounds; ++r)
+      for (std::size_t k = 0; k < variants.size(); ++k) {
+        const double w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_PROCESS_CPUTIME_ID);
+        variants[k]();
+        best[k].first = std::min(best[k].first, now(CLOCK_MONOTONIC) - w0);
+        best[k].second = std::min(best[k].second, now(CLOCK_PROCESS_CPUTIME_ID) - c0);
+      }
+    return best;
+  };
+  std::vector<double> ax, ay, az;
+  WARN(fmt::format("N = 1e5, kernel sets (1-min load average {}):", load_average()));
+  std::vector<std::function<void()>> direct, walk1, walk2;
+  for (auto isa : isas) {
+    direct.push_back([&, isa] { gravity_direct::accelerations(isa, c, eps2, 2, ax, ay, az); });
+    walk1.push_back([&, isa] { tree.evaluate(isa, eps2, 1, ax, ay, az, nullptr); });
+    walk2.push_back([&, isa] { tree.evaluate(isa, eps2, 2, ax, ay, az, nullptr); });
+  }
+  const auto d = turns(2, direct), w1 = turns(5, walk1), w2 = turns(5, walk2);
+  const double pairs = double(n) * (n - 1);
+  for (std::size_t k = 0; k < isas.size(); ++k)
+    WARN(fmt::format("  {}: direct, 2 threads {:.3g} s ({:.3g} pairs /s, {:.3g} per CPU s); tree walk, 1 thread {:.3g} s "
+                     "({:.3g} CPU s), 2 threads {:.3g} s ({:.3g} CPU s); direct / tree walk (2 threads) {:.0f}",
+                     gravity_direct::isa_name(isas[k]), d[k].first, pairs / d[k].first, pairs / d[k].second, w1[k].first,
+                     w1[k].second, w2[k].first, w2[k].second, d[k].first / w2[k].first));
+  WARN(fmt::format("  1-min load average after: {}", load_average()));
 }
 
 // n_c (steps per contact duration): cost and accuracy against the finest setting. Cost: wall time of
