@@ -33,6 +33,10 @@ struct CoulombFriction {
 template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {
   static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
+  // The tangential spring xi. 2D: a scalar along t = z x n; the tangent "plane" is a line that turns
+  // with n, so the spring follows it for free (no projection, no square root) and keeps its length
+  // exactly. 3D: a vector in the tangent plane. Spin<D> is exactly that (a 1-vector in 2D).
+  using Spring = Spin<D>;
 
  public:
   ContactForces(Law law, Friction friction, Rolling rolling = {}) : law_(law), friction_(friction), rolling_(rolling) {}
@@ -49,7 +53,7 @@ class ContactForces final : public ForceModule<D> {
   void after_rebuild(const NeighbourList<D>& list) override {
     const std::size_t pairs = list.pair_count();
     std::vector<std::uint32_t> touched(pairs, 0);
-    std::vector<Vec<D>> tangential(Friction::enabled ? pairs : 0, Vec<D>::Zero());
+    std::vector<Spring> tangential(Friction::enabled ? pairs : 0, Spring::Zero());
     std::vector<Spin<D>> rolling_angle(Rolling::enabled ? pairs : 0, Spin<D>::Zero());
     list.match_previous([&](std::size_t old) { return holds_history(old); }, [&](std::size_t old, std::size_t k) {
       touched[k] = touched_[old];
@@ -64,7 +68,7 @@ class ContactForces final : public ForceModule<D> {
     for (const OnsetLag& o : active_)   // the dashpots see the velocities without the lag impulses
       kick_apart(s.particles, s.particles.velocity_predicted, o, o.n * (-o.lag / s.dt));
     touched_.resize(s.neighbours.pair_count(), 0);
-    if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
+    if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Spring::Zero());
     if constexpr (Rolling::enabled) rolling_angle_.resize(s.neighbours.pair_count(), Spin<D>::Zero());
     if (s.want_virial) clamped_now_ = add_forces_and<true>(s);
     else clamped_now_ = add_forces_and<false>(s);
@@ -168,7 +172,7 @@ class ContactForces final : public ForceModule<D> {
   void save(ByteWriter& w) const override {
     w.put(clamped_now_), w.put(clamped_total_);
     w.put(evaluation_), w.put_vector(touched_), w.put_vector(pending_);
-    w.put_vector(tangential_);
+    w.put_vector(tangential_);   // 2D: one double per pair (xi along z x n), 3D: three
     if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
   }
   void load(ByteReader& r) override {
@@ -395,30 +399,46 @@ class ContactForces final : public ForceModule<D> {
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
                           const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
                           Spin<D>* torque) {
-    auto contact_velocity = [&](const std::vector<Vec<D>>& v, const std::vector<Spin<D>>& w) {
-      Vec<D> vc = (v[j] - cross<D>(w[j], Rj * n)) - (v[i] + cross<D>(w[i], Ri * n)) + flow;
-      return Vec<D>(vc - vc.dot(n) * n);
-    };
-    Vec<D>& xi = tangential_[k];
-    const double before = xi.norm();
-    xi -= xi.dot(n) * n;   // rotate the spring into the current tangent plane, keeping its length
-    const double after = xi.norm();
-    if (after > 0) xi *= before / after;
-    const Vec<D> vt = contact_velocity(P.velocity, P.angular_velocity);
-    xi += vt * dt;
     const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
     const double ct = friction_.damping_ratio * law_.damping(mi, mj);
-    Vec<D> ft = -kt * xi - ct * vt;
-    const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);
-    const double mag = ft.norm();
-    if (mag > bound) {   // sliding: cap the force, and the spring so that |k_t xi| = mu F_n
-      const Vec<D> dir = mag > 0 ? Vec<D>(ft / mag) : Vec<D>::Zero();
-      ft = bound * dir;
-      xi = -(bound / kt) * dir;
+    const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);   // >= 0
+    if constexpr (D == 2) {
+      // Everything along t = z x n: omega x (R n) = omega R t, and F_t = f t has torque -R f on both
+      // grains (lever arms -Rj n and Ri n, forces f t and -f t).
+      const Vec<2> t(-n[1], n[0]);
+      const double vt = (P.velocity[j] - P.velocity[i] + flow).dot(t) - P.angular_velocity[j][0] * Rj -
+                        P.angular_velocity[i][0] * Ri;
+      double& xi = tangential_[k][0];
+      xi += vt * dt;
+      double ft = -kt * xi - ct * vt;
+      if (std::abs(ft) > bound) {   // sliding: cap the force, and the spring so that |k_t xi| = mu F_n
+        ft = std::copysign(bound, ft);
+        xi = ft / -kt;
+      }
+      torque[j][0] -= Rj * ft;
+      torque[i][0] -= Ri * ft;
+      return ft * t;
+    } else {
+      Vec<3>& xi = tangential_[k];
+      // Rotate the spring into the current tangent plane, keeping its length: one root, of the
+      // ratio of the squared lengths.
+      const double before = xi.squaredNorm();
+      xi -= xi.dot(n) * n;
+      const double after = xi.squaredNorm();
+      if (after > 0) xi *= std::sqrt(before / after);
+      Vec<3> vt = (P.velocity[j] - P.angular_velocity[j].cross(Rj * n)) - (P.velocity[i] + P.angular_velocity[i].cross(Ri * n)) + flow;
+      vt -= vt.dot(n) * n;
+      xi += vt * dt;
+      Vec<3> ft = -kt * xi - ct * vt;
+      const double mag2 = ft.squaredNorm();
+      if (mag2 > bound * bound) {   // sliding (so |F_t| > 0): cap the force, and the spring so that |k_t xi| = mu F_n
+        ft *= bound / std::sqrt(mag2);
+        xi = ft / -kt;
+      }
+      torque[j] += (-Rj * n).cross(ft);
+      torque[i] += (Ri * n).cross(-ft);
+      return ft;
     }
-    torque[j] += grains::torque<D>(-Rj * n, ft);
-    torque[i] += grains::torque<D>(Ri * n, -ft);
-    return ft;
   }
 
   // Rolling resistance (physics.md section 5): theta_R accumulates the half-step relative rotation
@@ -426,29 +446,35 @@ class ContactForces final : public ForceModule<D> {
   // with K_R = 0 (mu_R = 0) only the rolling dashpot acts. Ri, Rj: the grains' radii; c_n: the pair's.
   void rolling_moment(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
                       double elastic, double cn, double Ri, double Rj, double dt, Spin<D>* torque) {
-    Spin<D>& theta = rolling_angle_[k];
-    Spin<D> relative = P.angular_velocity[j] - P.angular_velocity[i];
-    if constexpr (D == 3) {
-      const double before = theta.norm();
-      theta -= theta.dot(n) * n;
-      const double after = theta.norm();
-      if (after > 0) theta *= before / after;
-      relative -= relative.dot(n) * n;
-    }
+    const Spin<D> spin = P.angular_velocity[j] - P.angular_velocity[i];
     Spin<D> moment = Spin<D>::Zero();   // on j
     if (rolling_.stiffness > 0) {
-      theta += relative * dt;
-      moment = -rolling_.stiffness * theta;
-      const double bound = rolling_.coefficient * elastic;
-      const double mag = moment.norm();
-      if (mag > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
-        moment *= mag > 0 ? bound / mag : 0.0;
-        theta = moment / -rolling_.stiffness;
+      const double bound = rolling_.coefficient * elastic;   // >= 0
+      Spin<D>& theta = rolling_angle_[k];
+      if constexpr (D == 2) {   // a scalar: the bound is a comparison of absolute values
+        theta[0] += spin[0] * dt;
+        moment[0] = -rolling_.stiffness * theta[0];
+        if (std::abs(moment[0]) > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
+          moment[0] = std::copysign(bound, moment[0]);
+          theta[0] = moment[0] / -rolling_.stiffness;
+        }
+      } else {   // into the tangent plane like xi (one root), the bound on squared lengths
+        const double before = theta.squaredNorm();
+        theta -= theta.dot(n) * n;
+        const double after = theta.squaredNorm();
+        if (after > 0) theta *= std::sqrt(before / after);
+        theta += (spin - spin.dot(n) * n) * dt;
+        moment = -rolling_.stiffness * theta;
+        const double mag2 = moment.squaredNorm();
+        if (mag2 > bound * bound) {
+          moment *= bound / std::sqrt(mag2);
+          theta = moment / -rolling_.stiffness;
+        }
       }
     }
     // The rolling dashpot, outside the bound like the normal one: it acts on the whole relative spin
     // (3D: twisting too), at the half-step velocity (stable for c_r dt / I < 2, see tangential_force).
-    if (rolling_.damping > 0) moment -= rolling_.damping * cn * Ri * Rj * (P.angular_velocity[j] - P.angular_velocity[i]);
+    if (rolling_.damping > 0) moment -= rolling_.damping * cn * Ri * Rj * spin;
     torque[j] += moment;
     torque[i] -= moment;
   }
@@ -456,7 +482,7 @@ class ContactForces final : public ForceModule<D> {
   Law law_;
   Friction friction_;
   Rolling rolling_;
-  std::vector<Vec<D>> tangential_;   // xi per neighbour pair, aligned with the list
+  std::vector<Spring> tangential_;   // xi per neighbour pair, aligned with the list (2D: along z x n)
   std::vector<Spin<D>> rolling_angle_;   // theta_R per neighbour pair, aligned with the list
   std::vector<std::uint32_t> touched_;   // per neighbour pair: the last evaluation at which it overlapped (0: never)
   std::uint32_t evaluation_ = 1;          // force evaluations so far, + 1
