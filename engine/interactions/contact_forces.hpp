@@ -93,22 +93,28 @@ class ContactForces final : public ForceModule<D> {
       {
         const int t = omp_get_thread_num();
         Mat local = Mat::Zero();
-        auto& f = s.thread_force[t];
-        auto& q = s.thread_torque[t];
-        std::fill(f.begin(), f.end(), Vec<D>::Zero());
-        if constexpr (torques_) std::fill(q.begin(), q.end(), Spin<D>::Zero());
+        // Thread 0 adds straight into the force arrays (no other thread writes them before the
+        // reduction below): its buffer needs no clearing and no summing pass.
+        Vec<D>* f = P.force.data();
+        Spin<D>* q = P.torque.data();
+        if (t > 0) {
+          auto& ft = s.thread_force[t];
+          auto& qt = s.thread_torque[t];
+          std::fill(ft.begin(), ft.end(), Vec<D>::Zero());
+          if constexpr (torques_) std::fill(qt.begin(), qt.end(), Spin<D>::Zero());
+          f = ft.data(), q = qt.data();
+        }
         // Rows have uneven lengths; interleaved blocks balance them while staying deterministic.
         const std::size_t blocks = (N + block_rows_ - 1) / block_rows_;
 #pragma omp for schedule(static, 1)
         for (std::size_t c = 0; c < blocks; ++c)
-          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f.data(), q.data(), local,
-                                      gathered_[t]);
+          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f, q, local, gathered_[t]);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < N; ++i) {
-          for (int u = 0; u < T; ++u) P.force[i] += s.thread_force[u][i];
+          for (int u = 1; u < T; ++u) P.force[i] += s.thread_force[u][i];
           if constexpr (torques_)
-            for (int u = 0; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
+            for (int u = 1; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
         }
       }
       if constexpr (Virial)
