@@ -352,6 +352,9 @@ class ContactForces final : public ForceModule<D> {
     const double d = std::sqrt(d2);
     const Vec<D> n = r / d;
     const double mj = P.mass[j], Rj = P.radius[j];
+    // The pair's c_n, computed once (a root for the adhesive law): the stores into the springs and
+    // torques below could alias the law's members, so the compiler would compute it again.
+    const double cn = law_.damping(mi, mj);
     double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
     Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
     if (s.affine_flow) {
@@ -374,7 +377,7 @@ class ContactForces final : public ForceModule<D> {
     }
     ContactStep step{Rsum - d, before, vn, dt, first};
     if (first) {   // evaluated where the exact solution is; the pair gets there in the next step
-      const double lag = onset_lag(step, law_.damping(mi, mj) * (mi + mj) / (mi * mj));
+      const double lag = onset_lag(step, cn * (mi + mj) / (mi * mj));
       if (lag > 0) {
         step.overlap -= lag, step.overlap_before -= lag;
         lags.push_back({std::uint32_t(i), std::uint32_t(j), lag, n});
@@ -389,10 +392,10 @@ class ContactForces final : public ForceModule<D> {
       // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
       // torques of F_t balance its moment and total angular momentum is conserved exactly.
       const double half_overlap = 0.5 * (Rsum - d);
-      f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt,
+      f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, cn, dt,
                             torque);
     }
-    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, law_.damping(mi, mj), Ri, Rj, dt, torque);
+    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, cn, Ri, Rj, dt, torque);
     return f;
   }
 
@@ -401,12 +404,12 @@ class ContactForces final : public ForceModule<D> {
   // the same velocity: a predicted end-of-step velocity (as the normal dashpot uses) is stable only
   // for c dt / m < 0.57 and the tangential-rotational mass of a disk pair is m* / 3, so grains with a
   // few contacts went unstable at c_t = c_n; the half-step velocity is stable up to c dt / m < 2.
-  // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell).
+  // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell); cn: the pair's c_n.
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                          const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
-                          Spin<D>* torque) {
+                          const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic,
+                          double cn, double dt, Spin<D>* torque) {
     const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
-    const double ct = friction_.damping_ratio * law_.damping(mi, mj);
+    const double ct = friction_.damping_ratio * cn;
     const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);   // >= 0
     if constexpr (D == 2) {
       // Everything along t = z x n: omega x (R n) = omega R t, and F_t = f t has torque -R f on both
