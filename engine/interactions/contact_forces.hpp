@@ -33,6 +33,10 @@ struct CoulombFriction {
 template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {
   static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
+  // The tangential spring xi. 2D: a scalar along t = z x n; the tangent "plane" is a line that turns
+  // with n, so the spring follows it for free (no projection, no square root) and keeps its length
+  // exactly. 3D: a vector in the tangent plane. Spin<D> is exactly that (a 1-vector in 2D).
+  using Spring = Spin<D>;
 
  public:
   ContactForces(Law law, Friction friction, Rolling rolling = {}) : law_(law), friction_(friction), rolling_(rolling) {}
@@ -49,7 +53,7 @@ class ContactForces final : public ForceModule<D> {
   void after_rebuild(const NeighbourList<D>& list) override {
     const std::size_t pairs = list.pair_count();
     std::vector<std::uint32_t> touched(pairs, 0);
-    std::vector<Vec<D>> tangential(Friction::enabled ? pairs : 0, Vec<D>::Zero());
+    std::vector<Spring> tangential(Friction::enabled ? pairs : 0, Spring::Zero());
     std::vector<Spin<D>> rolling_angle(Rolling::enabled ? pairs : 0, Spin<D>::Zero());
     list.match_previous([&](std::size_t old) { return holds_history(old); }, [&](std::size_t old, std::size_t k) {
       touched[k] = touched_[old];
@@ -64,7 +68,7 @@ class ContactForces final : public ForceModule<D> {
     for (const OnsetLag& o : active_)   // the dashpots see the velocities without the lag impulses
       kick_apart(s.particles, s.particles.velocity_predicted, o, o.n * (-o.lag / s.dt));
     touched_.resize(s.neighbours.pair_count(), 0);
-    if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Vec<D>::Zero());
+    if constexpr (Friction::enabled) tangential_.resize(s.neighbours.pair_count(), Spring::Zero());
     if constexpr (Rolling::enabled) rolling_angle_.resize(s.neighbours.pair_count(), Spin<D>::Zero());
     if (s.want_virial) clamped_now_ = add_forces_and<true>(s);
     else clamped_now_ = add_forces_and<false>(s);
@@ -89,22 +93,28 @@ class ContactForces final : public ForceModule<D> {
       {
         const int t = omp_get_thread_num();
         Mat local = Mat::Zero();
-        auto& f = s.thread_force[t];
-        auto& q = s.thread_torque[t];
-        std::fill(f.begin(), f.end(), Vec<D>::Zero());
-        if constexpr (torques_) std::fill(q.begin(), q.end(), Spin<D>::Zero());
+        // Thread 0 adds straight into the force arrays (no other thread writes them before the
+        // reduction below): its buffer needs no clearing and no summing pass.
+        Vec<D>* f = P.force.data();
+        Spin<D>* q = P.torque.data();
+        if (t > 0) {
+          auto& ft = s.thread_force[t];
+          auto& qt = s.thread_torque[t];
+          std::fill(ft.begin(), ft.end(), Vec<D>::Zero());
+          if constexpr (torques_) std::fill(qt.begin(), qt.end(), Spin<D>::Zero());
+          f = ft.data(), q = qt.data();
+        }
         // Rows have uneven lengths; interleaved blocks balance them while staying deterministic.
         const std::size_t blocks = (N + block_rows_ - 1) / block_rows_;
 #pragma omp for schedule(static, 1)
         for (std::size_t c = 0; c < blocks; ++c)
-          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f.data(), q.data(), local,
-                                      gathered_[t]);
+          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f, q, local, gathered_[t]);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < N; ++i) {
-          for (int u = 0; u < T; ++u) P.force[i] += s.thread_force[u][i];
+          for (int u = 1; u < T; ++u) P.force[i] += s.thread_force[u][i];
           if constexpr (torques_)
-            for (int u = 0; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
+            for (int u = 1; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
         }
       }
       if constexpr (Virial)
@@ -168,7 +178,7 @@ class ContactForces final : public ForceModule<D> {
   void save(ByteWriter& w) const override {
     w.put(clamped_now_), w.put(clamped_total_);
     w.put(evaluation_), w.put_vector(touched_), w.put_vector(pending_);
-    w.put_vector(tangential_);
+    w.put_vector(tangential_);   // 2D: one double per pair (xi along z x n), 3D: three
     if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
   }
   void load(ByteReader& r) override {
@@ -342,6 +352,9 @@ class ContactForces final : public ForceModule<D> {
     const double d = std::sqrt(d2);
     const Vec<D> n = r / d;
     const double mj = P.mass[j], Rj = P.radius[j];
+    // The pair's c_n, computed once (a root for the adhesive law): the stores into the springs and
+    // torques below could alias the law's members, so the compiler would compute it again.
+    const double cn = law_.damping(mi, mj);
     double vn = (P.velocity_predicted[j] - P.velocity_predicted[i]).dot(n);
     Vec<D> flow = Vec<D>::Zero();   // relative velocity of the affine flow (deforming cell only)
     if (s.affine_flow) {
@@ -364,7 +377,7 @@ class ContactForces final : public ForceModule<D> {
     }
     ContactStep step{Rsum - d, before, vn, dt, first};
     if (first) {   // evaluated where the exact solution is; the pair gets there in the next step
-      const double lag = onset_lag(step, law_.damping(mi, mj) * (mi + mj) / (mi * mj));
+      const double lag = onset_lag(step, cn * (mi + mj) / (mi * mj));
       if (lag > 0) {
         step.overlap -= lag, step.overlap_before -= lag;
         lags.push_back({std::uint32_t(i), std::uint32_t(j), lag, n});
@@ -379,10 +392,10 @@ class ContactForces final : public ForceModule<D> {
       // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
       // torques of F_t balance its moment and total angular momentum is conserved exactly.
       const double half_overlap = 0.5 * (Rsum - d);
-      f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, dt,
+      f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, cn, dt,
                             torque);
     }
-    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, law_.damping(mi, mj), Ri, Rj, dt, torque);
+    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, cn, Ri, Rj, dt, torque);
     return f;
   }
 
@@ -391,34 +404,50 @@ class ContactForces final : public ForceModule<D> {
   // the same velocity: a predicted end-of-step velocity (as the normal dashpot uses) is stable only
   // for c dt / m < 0.57 and the tangential-rotational mass of a disk pair is m* / 3, so grains with a
   // few contacts went unstable at c_t = c_n; the half-step velocity is stable up to c dt / m < 2.
-  // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell).
+  // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell); cn: the pair's c_n.
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                          const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic, double dt,
-                          Spin<D>* torque) {
-    auto contact_velocity = [&](const std::vector<Vec<D>>& v, const std::vector<Spin<D>>& w) {
-      Vec<D> vc = (v[j] - cross<D>(w[j], Rj * n)) - (v[i] + cross<D>(w[i], Ri * n)) + flow;
-      return Vec<D>(vc - vc.dot(n) * n);
-    };
-    Vec<D>& xi = tangential_[k];
-    const double before = xi.norm();
-    xi -= xi.dot(n) * n;   // rotate the spring into the current tangent plane, keeping its length
-    const double after = xi.norm();
-    if (after > 0) xi *= before / after;
-    const Vec<D> vt = contact_velocity(P.velocity, P.angular_velocity);
-    xi += vt * dt;
+                          const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic,
+                          double cn, double dt, Spin<D>* torque) {
     const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
-    const double ct = friction_.damping_ratio * law_.damping(mi, mj);
-    Vec<D> ft = -kt * xi - ct * vt;
-    const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);
-    const double mag = ft.norm();
-    if (mag > bound) {   // sliding: cap the force, and the spring so that |k_t xi| = mu F_n
-      const Vec<D> dir = mag > 0 ? Vec<D>(ft / mag) : Vec<D>::Zero();
-      ft = bound * dir;
-      xi = -(bound / kt) * dir;
+    const double ct = friction_.damping_ratio * cn;
+    const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);   // >= 0
+    if constexpr (D == 2) {
+      // Everything along t = z x n: omega x (R n) = omega R t, and F_t = f t has torque -R f on both
+      // grains (lever arms -Rj n and Ri n, forces f t and -f t).
+      const Vec<2> t(-n[1], n[0]);
+      const double vt = (P.velocity[j] - P.velocity[i] + flow).dot(t) - P.angular_velocity[j][0] * Rj -
+                        P.angular_velocity[i][0] * Ri;
+      double& xi = tangential_[k][0];
+      xi += vt * dt;
+      double ft = -kt * xi - ct * vt;
+      if (std::abs(ft) > bound) {   // sliding: cap the force, and the spring so that |k_t xi| = mu F_n
+        ft = std::copysign(bound, ft);
+        xi = ft / -kt;
+      }
+      torque[j][0] -= Rj * ft;
+      torque[i][0] -= Ri * ft;
+      return ft * t;
+    } else {
+      Vec<3>& xi = tangential_[k];
+      // Rotate the spring into the current tangent plane, keeping its length: one root, of the
+      // ratio of the squared lengths.
+      const double before = xi.squaredNorm();
+      xi -= xi.dot(n) * n;
+      const double after = xi.squaredNorm();
+      if (after > 0) xi *= std::sqrt(before / after);
+      Vec<3> vt = (P.velocity[j] - P.angular_velocity[j].cross(Rj * n)) - (P.velocity[i] + P.angular_velocity[i].cross(Ri * n)) + flow;
+      vt -= vt.dot(n) * n;
+      xi += vt * dt;
+      Vec<3> ft = -kt * xi - ct * vt;
+      const double mag2 = ft.squaredNorm();
+      if (mag2 > bound * bound) {   // sliding (so |F_t| > 0): cap the force, and the spring so that |k_t xi| = mu F_n
+        ft *= bound / std::sqrt(mag2);
+        xi = ft / -kt;
+      }
+      torque[j] += (-Rj * n).cross(ft);
+      torque[i] += (Ri * n).cross(-ft);
+      return ft;
     }
-    torque[j] += grains::torque<D>(-Rj * n, ft);
-    torque[i] += grains::torque<D>(Ri * n, -ft);
-    return ft;
   }
 
   // Rolling resistance (physics.md section 5): theta_R accumulates the half-step relative rotation
@@ -426,29 +455,35 @@ class ContactForces final : public ForceModule<D> {
   // with K_R = 0 (mu_R = 0) only the rolling dashpot acts. Ri, Rj: the grains' radii; c_n: the pair's.
   void rolling_moment(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
                       double elastic, double cn, double Ri, double Rj, double dt, Spin<D>* torque) {
-    Spin<D>& theta = rolling_angle_[k];
-    Spin<D> relative = P.angular_velocity[j] - P.angular_velocity[i];
-    if constexpr (D == 3) {
-      const double before = theta.norm();
-      theta -= theta.dot(n) * n;
-      const double after = theta.norm();
-      if (after > 0) theta *= before / after;
-      relative -= relative.dot(n) * n;
-    }
+    const Spin<D> spin = P.angular_velocity[j] - P.angular_velocity[i];
     Spin<D> moment = Spin<D>::Zero();   // on j
     if (rolling_.stiffness > 0) {
-      theta += relative * dt;
-      moment = -rolling_.stiffness * theta;
-      const double bound = rolling_.coefficient * elastic;
-      const double mag = moment.norm();
-      if (mag > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
-        moment *= mag > 0 ? bound / mag : 0.0;
-        theta = moment / -rolling_.stiffness;
+      const double bound = rolling_.coefficient * elastic;   // >= 0
+      Spin<D>& theta = rolling_angle_[k];
+      if constexpr (D == 2) {   // a scalar: the bound is a comparison of absolute values
+        theta[0] += spin[0] * dt;
+        moment[0] = -rolling_.stiffness * theta[0];
+        if (std::abs(moment[0]) > bound) {   // rolling: cap the moment, and the spring so that |K_R theta_R| = mu_R F_N^e
+          moment[0] = std::copysign(bound, moment[0]);
+          theta[0] = moment[0] / -rolling_.stiffness;
+        }
+      } else {   // into the tangent plane like xi (one root), the bound on squared lengths
+        const double before = theta.squaredNorm();
+        theta -= theta.dot(n) * n;
+        const double after = theta.squaredNorm();
+        if (after > 0) theta *= std::sqrt(before / after);
+        theta += (spin - spin.dot(n) * n) * dt;
+        moment = -rolling_.stiffness * theta;
+        const double mag2 = moment.squaredNorm();
+        if (mag2 > bound * bound) {
+          moment *= bound / std::sqrt(mag2);
+          theta = moment / -rolling_.stiffness;
+        }
       }
     }
     // The rolling dashpot, outside the bound like the normal one: it acts on the whole relative spin
     // (3D: twisting too), at the half-step velocity (stable for c_r dt / I < 2, see tangential_force).
-    if (rolling_.damping > 0) moment -= rolling_.damping * cn * Ri * Rj * (P.angular_velocity[j] - P.angular_velocity[i]);
+    if (rolling_.damping > 0) moment -= rolling_.damping * cn * Ri * Rj * spin;
     torque[j] += moment;
     torque[i] -= moment;
   }
@@ -456,7 +491,7 @@ class ContactForces final : public ForceModule<D> {
   Law law_;
   Friction friction_;
   Rolling rolling_;
-  std::vector<Vec<D>> tangential_;   // xi per neighbour pair, aligned with the list
+  std::vector<Spring> tangential_;   // xi per neighbour pair, aligned with the list (2D: along z x n)
   std::vector<Spin<D>> rolling_angle_;   // theta_R per neighbour pair, aligned with the list
   std::vector<std::uint32_t> touched_;   // per neighbour pair: the last evaluation at which it overlapped (0: never)
   std::uint32_t evaluation_ = 1;          // force evaluations so far, + 1
