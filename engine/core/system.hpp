@@ -14,7 +14,8 @@ struct System {
   double time = 0, dt = 0;   // dt: length of the step being taken (0 for the initial force evaluation)
   long step = 0;
   int threads = 1;
-  // Per-thread force/torque buffers, reused across steps (pair loops add into their thread's slot).
+  // Per-thread force/torque buffers, reused across steps (pair loops add into their thread's slot; thread 0
+  // adds straight into the particles' arrays, so its slot stays empty).
   std::vector<std::vector<Vec<D>>> thread_force;
   std::vector<std::vector<Spin<D>>> thread_torque;
   // Contact virial W = sum over pairs of F_ij (x) r_ij (F_ij: force on j, r_ij = x_j - x_i): the contact
