@@ -194,10 +194,14 @@ class SimulationImpl final : public Simulation {
     cache_step_ = moduli_step_ = -1;
   }
 
+  // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
+  // 2D tangential spring became one number per pair). States of builds before the word start with D (2, 3).
+  static constexpr std::uint32_t state_format = 0x47524e02;
+
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
     const auto& P = sys_.particles;
-    w.put<int>(D), w.put<std::uint64_t>(P.size());
+    w.put(state_format), w.put<int>(D), w.put<std::uint64_t>(P.size());
     w.put(sys_.time), w.put(sys_.step);
     w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.accel),
         w.put_vector(P.accel_prev), w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.angular_accel),
@@ -226,6 +230,9 @@ class SimulationImpl final : public Simulation {
   void load_state(std::span<const std::byte> bytes) {
     ByteReader r(bytes);
     auto& P = sys_.particles;
+    if (const auto format = r.get<std::uint32_t>(); format != state_format)
+      throw SimulationError(fmt::format("the saved state has format {:#x}, this build reads {:#x} (saved by another "
+                                        "version of grains)", format, state_format));
     if (r.get<int>() != D || r.get<std::uint64_t>() != P.size())
       throw SimulationError("the saved state belongs to a scene of another dimension or particle count");
     sys_.time = r.get<double>(), sys_.step = r.get<long>();

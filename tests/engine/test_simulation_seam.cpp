@@ -73,6 +73,21 @@ TEST_CASE("save_state / restore_state continues bit-identically", "[seam]") {
   CHECK_THROWS_AS(s->restore_state(std::span(saved).first(saved.size() / 2)), SimulationError);
 }
 
+TEST_CASE("a state saved by a build with another layout is refused by name, leaving the simulation as it was", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  s->step_n(20);
+  auto saved = s->save_state();
+  s->step_n(5);
+  const auto before = s->particles();
+  // Builds before the format word began with the dimension: a 3D state's first four bytes held 3.
+  std::vector<std::byte> old_layout(saved.begin() + 4, saved.end());
+  REQUIRE_THROWS_WITH(s->restore_state(old_layout), Catch::Contains("format 0x3") && Catch::Contains("another version"));
+  saved[0] = std::byte{0x01};   // a newer (or older) version of the word
+  CHECK_THROWS_AS(s->restore_state(saved), SimulationError);
+  CHECK(s->step_count() == 25);
+  CHECK(s->particles().position == before.position);
+}
+
 TEST_CASE("step(k dt) takes exactly the k steps of step_n(k), also late in a run", "[seam]") {
   auto a = Simulation::create(Scene::from_string(small_gas, "gas"));
   auto b = Simulation::create(Scene::from_string(small_gas, "gas"));
