@@ -41,6 +41,26 @@ inline unsigned long long spread_bits(unsigned long long c) {
   return c;
 }
 
+// Sorts keys (carrying index along) by key, eight bits a pass from the lowest: a stable sort, so equal keys
+// keep the index order (the order std::sort gives the (key, index) pairs), in a fraction of its time.
+void radix_sort(std::vector<unsigned long long>& keys, std::vector<int>& index) {
+  const std::size_t n = keys.size();
+  std::vector<unsigned long long> keys2(n);
+  std::vector<int> index2(n);
+  for (int shift = 0; shift < 64; shift += 8) {
+    std::array<std::size_t, 256> start{};
+    for (std::size_t k = 0; k < n; ++k) ++start[(keys[k] >> shift) & 0xff];
+    if (start[(keys[0] >> shift) & 0xff] == n) continue;   // one digit value throughout: nothing moves
+    std::size_t sum = 0;
+    for (auto& s : start) sum += std::exchange(s, sum);
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t to = start[(keys[k] >> shift) & 0xff]++;
+      keys2[to] = keys[k], index2[to] = index[k];
+    }
+    keys.swap(keys2), index.swap(index2);
+  }
+}
+
 // What one group needs: the particles to sum one by one (the group's own first, so member k is entry k)
 // and the cells to use whole. Both are padded with zeros to whole vectors; the kernels mask the padding.
 struct Lists {
@@ -253,7 +273,8 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   constexpr int bits = key_bits<D>;
   const double scale = std::ldexp(1.0, bits) / (2 * half);
   const double top = std::ldexp(1.0, bits) - 1;
-  std::vector<std::pair<unsigned long long, int>> keyed(n);
+  std::vector<unsigned long long> keys(n);
+  order_.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     unsigned long long key = 0;
     for (int a = 0; a < D; ++a) {
@@ -261,14 +282,11 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
       const double q = std::clamp((P.position[i][a] - (centre[a] - half)) * scale, 0.0, top);
       key |= spread_bits<D>(static_cast<unsigned long long>(q)) << a;
     }
-    keyed[i] = {key, int(i)};
+    keys[i] = key, order_[i] = int(i);
   }
-  std::sort(keyed.begin(), keyed.end());
-  std::vector<unsigned long long> keys(n);
-  order_.resize(n);
+  radix_sort(keys, order_);
   for (auto* v : {&x_, &y_, &z_, &m_}) v->assign(n, 0.0);
   for (std::size_t k = 0; k < n; ++k) {
-    keys[k] = keyed[k].first, order_[k] = keyed[k].second;
     x_[k] = P.position[order_[k]][0], y_[k] = P.position[order_[k]][1], m_[k] = P.mass[order_[k]];
     if constexpr (D == 3) z_[k] = P.position[order_[k]][2];
   }
@@ -277,6 +295,14 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   build<D>(0, 0, int(n), 0, false, keys);
   quad_.assign(cells_.size(), Quadrupole{});
   for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
+  nodes_.resize(cells_.size());
+  multipoles_.resize(cells_.size());
+  for (std::size_t id = 0; id < cells_.size(); ++id) {
+    const Cell& c = cells_[id];
+    const Quadrupole& Q = quad_[id];
+    nodes_[id] = Node{c.com[0], c.com[1], c.com[2], c.accept2, c.first_child, c.children, c.begin, c.end};
+    multipoles_[id] = {c.com[0], c.com[1], c.com[2], c.mass, Q[0], Q[1], Q[2], Q[3], Q[4], Q[5]};
+  }
 }
 
 // Splits cell `id` over the particles [begin, end) at Morton digit `level`; the first cell on the way down
@@ -373,7 +399,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
 #pragma omp parallel num_threads(threads) reduction(+ : pairs, cell_terms)
   {
     Lists L;
-    std::vector<int> stack;
+    std::vector<int> stack, used;
 #pragma omp for schedule(dynamic, 4)
     for (std::size_t g = 0; g < groups_.size(); ++g) {
       const Cell& group = cells_[groups_[g]];
@@ -385,27 +411,32 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
         L.z.insert(L.z.end(), &z_[from], &z_[to]), L.m.insert(L.m.end(), &m_[from], &m_[to]);
       };
       add_particles(b, e);
+      // Cells used whole are noted during the walk and copied into the lists after it.
+      used.clear();
       stack.assign(1, 0);
       while (!stack.empty()) {
         const int id = stack.back();
         stack.pop_back();
         if (id == groups_[g]) continue;   // its particles are listed first
-        const Cell& c = cells_[id];
-        double d2 = 0;   // from the centre of mass to the group's box
-        for (int a = 0; a < 3; ++a) {
-          const double d = std::max({lo[a] - c.com[a], c.com[a] - hi[a], 0.0});
-          d2 += d * d;
-        }
-        if (d2 > c.accept2) {
-          const Quadrupole& Q = quad_[id];
-          L.cx.push_back(c.com[0]), L.cy.push_back(c.com[1]), L.cz.push_back(c.com[2]), L.cm.push_back(c.mass);
-          L.qxx.push_back(Q[0]), L.qxy.push_back(Q[1]), L.qxz.push_back(Q[2]);
-          L.qyy.push_back(Q[3]), L.qyz.push_back(Q[4]), L.qzz.push_back(Q[5]);
+        const Node& c = nodes_[id];
+        // From the centre of mass to the group's box.
+        const double dx = std::max({lo[0] - c.cx, c.cx - hi[0], 0.0});
+        const double dy = std::max({lo[1] - c.cy, c.cy - hi[1], 0.0});
+        const double dz = std::max({lo[2] - c.cz, c.cz - hi[2], 0.0});
+        if (dx * dx + dy * dy + dz * dz > c.accept2) {
+          used.push_back(id);
         } else if (c.children == 0) {
           add_particles(c.begin, c.end);
         } else {
           for (int k = c.first_child + c.children - 1; k >= c.first_child; --k) stack.push_back(k);
         }
+      }
+      const std::size_t u = used.size();
+      for (auto* v : {&L.cx, &L.cy, &L.cz, &L.cm, &L.qxx, &L.qxy, &L.qxz, &L.qyy, &L.qyz, &L.qzz}) v->resize(u);
+      for (std::size_t k = 0; k < u; ++k) {
+        const Multipole& c = multipoles_[used[k]];
+        L.cx[k] = c[0], L.cy[k] = c[1], L.cz[k] = c[2], L.cm[k] = c[3];
+        L.qxx[k] = c[4], L.qxy[k] = c[5], L.qxz[k] = c[6], L.qyy[k] = c[7], L.qyz[k] = c[8], L.qzz[k] = c[9];
       }
       L.pad();
       pairs += (L.particles - 1) * std::size_t(e - b), cell_terms += L.cells * std::size_t(e - b);

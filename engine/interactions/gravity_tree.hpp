@@ -52,6 +52,11 @@ class Tree {
     int first_child = -1, children = 0;  // children are stored together
     int begin = 0, end = 0;              // particles, in Morton order
   };
+  // What the walk reads of a cell on every visit, packed in 48 bytes (a Cell takes 104).
+  struct Node {
+    double cx, cy, cz, accept2;
+    int first_child, children, begin, end;
+  };
   // Sum m (3 d d^T - |d|^2 I), d = x - com: xx, xy, xz, yy, yz, zz.
   using Quadrupole = std::array<double, 6>;
 
@@ -64,7 +69,11 @@ class Tree {
   std::vector<int> order_;                // order_[k] = particle index of the k-th in Morton order
   std::vector<double> x_, y_, z_, m_;     // positions and masses in Morton order
   std::vector<Cell> cells_;
+  std::vector<Node> nodes_;                // the walk's copy of cells_
   std::vector<Quadrupole> quad_;
+  // What a cell used whole adds to the lists, in one record: com x, y, z, mass, quadrupole.
+  using Multipole = std::array<double, 10>;
+  std::vector<Multipole> multipoles_;
   std::vector<int> groups_;               // cells walked for, in Morton order
 };
 
