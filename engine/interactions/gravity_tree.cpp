@@ -14,6 +14,7 @@ namespace {
 
 constexpr std::size_t W = 4;     // doubles per AVX2 vector
 constexpr std::size_t W8 = 8;    // per AVX-512 vector; the lists are padded to whole ones
+constexpr std::size_t W16 = 16;  // floats per AVX-512 vector (the FP32 cell lists)
 
 // Bits of a Morton key per axis: 3 x 21 or 2 x 31 bits fit one 64-bit key.
 template <int D>
@@ -67,14 +68,43 @@ struct Lists {
   std::vector<double> x, y, z, m;                                  // particles
   std::vector<double> cx, cy, cz, cm, qxx, qxy, qxz, qyy, qyz, qzz;   // cells
   std::size_t particles = 0, cells = 0;
+  // The AVX-512 kernel's FP32 copy of the cells (cell_sums_fp32), when `fp32`: positions relative to the
+  // group's centre (gx, gy, gz) in units of `len`, each split into float hi + lo; masses in units of `mass`,
+  // quadrupoles in units of mass len^2. Padded to whole 16-float vectors with zeros.
+  bool fp32 = false;
+  double gx = 0, gy = 0, gz = 0, len = 1, mass = 1;
+  std::vector<float> fxh, fxl, fyh, fyl, fzh, fzl, fm, fqxx, fqxy, fqxz, fqyy, fqyz, fqzz;
 
   void clear() {
     for (auto* v : {&x, &y, &z, &m, &cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->clear();
   }
-  void pad() {
-    particles = x.size(), cells = cx.size();
+  void pad_particles() {
+    particles = x.size();
     for (auto* v : {&x, &y, &z, &m}) v->resize((particles + W8 - 1) / W8 * W8, 0.0);
+  }
+  void pad_cells() {
+    cells = cx.size();
     for (auto* v : {&cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->resize((cells + W8 - 1) / W8 * W8, 0.0);
+  }
+  // The FP32 copy of the cells `ids` (records com x, y, z, mass, quadrupole), instead of the FP64 one; false
+  // (and the lists unusable) if a mass is too small for FP32 (scaled, below 1e-20 but not 0).
+  template <class Record>
+  bool fill_fp32(const std::vector<Record>& records, const std::vector<int>& ids) {
+    cells = ids.size();
+    const std::size_t n = (cells + W16 - 1) / W16 * W16;
+    for (auto* v : {&fxh, &fxl, &fyh, &fyl, &fzh, &fzl, &fm, &fqxx, &fqxy, &fqxz, &fqyy, &fqyz, &fqzz}) v->assign(n, 0.0f);
+    const double il = 1 / len, im = 1 / mass, iq = im * il * il;   // powers of two: exact
+    auto split = [](double v, float& hi, float& lo) { hi = float(v), lo = float(v - double(hi)); };
+    bool ok = true;
+    for (std::size_t k = 0; k < cells; ++k) {
+      const Record& c = records[ids[k]];
+      split((c[0] - gx) * il, fxh[k], fxl[k]), split((c[1] - gy) * il, fyh[k], fyl[k]), split((c[2] - gz) * il, fzh[k], fzl[k]);
+      fm[k] = float(c[3] * im);
+      ok &= c[3] == 0 || c[3] * im >= 1e-20;
+      fqxx[k] = float(c[4] * iq), fqxy[k] = float(c[5] * iq), fqxz[k] = float(c[6] * iq);
+      fqyy[k] = float(c[7] * iq), fqyz[k] = float(c[8] * iq), fqzz[k] = float(c[9] * iq);
+    }
+    return ok;
   }
 };
 
@@ -204,6 +234,61 @@ inline __mmask8 lanes8_kept(std::size_t j0, std::size_t end, std::size_t skip) {
   return __mmask8(keep);
 }
 
+// Float lanes k and k + 8 added in FP64, times `unit` (a power of two: exact).
+GRAINS_AVX512 inline __m512d widen(__m512 v, double unit) {
+  const __m256 hi = _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1));
+  return _mm512_mul_pd(_mm512_add_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(v)), _mm512_cvtps_pd(hi)), _mm512_set1_pd(unit));
+}
+
+// Cell terms in FP32, sixteen at a time, added to the FP64 lane sums sx .. sp. FP32 is safe here: a cell term
+// is an expansion whose truncation error is ~1e-4 relative at theta 0.5 (the tree's median force error is
+// ~2e-4), FP32 rounding ~1e-7 relative. Large coordinates lose nothing: positions are taken relative to the
+// group's centre in FP64 and split into float hi + lo, so (hi_c - hi_x) + (lo_c - lo_x) is the FP64
+// displacement to about FP32 precision however far from the origin. Lengths and masses are in power-of-two
+// units (exact scaling) fitted to the tree, and the walk keeps a group in FP64 when h could leave the range
+// where h^-7 and the like stay normal floats (Tree::evaluate). 1 / h: vrsqrt14ps and one Newton step (2^-14
+// -> ~1e-8, below FP32 round-off). Each particle's sums stay in FP32 lanes to the end of the list (about 60
+// terms a lane), then are widened, scaled back and added to the FP64 ones: deterministic as before. Measured
+// against the FP64 kernels: within 5e-7 of each particle's acceleration (tests/engine/test_gravity.cpp).
+template <bool potential>
+GRAINS_AVX512 void cell_sums_fp32(const Lists& L, double xi, double yi, double zi, double eps2, __m512d& sx,
+                                  __m512d& sy, __m512d& sz, __m512d& sp) {
+  const double il = 1 / L.len;
+  const double X = (xi - L.gx) * il, Y = (yi - L.gy) * il, Z = (zi - L.gz) * il;
+  const float xh = float(X), yh = float(Y), zh = float(Z);
+  const __m512 xhv = _mm512_set1_ps(xh), yhv = _mm512_set1_ps(yh), zhv = _mm512_set1_ps(zh);
+  const __m512 xlv = _mm512_set1_ps(float(X - xh)), ylv = _mm512_set1_ps(float(Y - yh)), zlv = _mm512_set1_ps(float(Z - zh));
+  const __m512 e2 = _mm512_set1_ps(float(eps2 * il * il));
+  const __m512 one = _mm512_set1_ps(1.0f), half = _mm512_set1_ps(0.5f), five_halves = _mm512_set1_ps(2.5f);
+  __m512 fx = _mm512_setzero_ps(), fy = fx, fz = fx, fp = fx;
+  for (std::size_t j0 = 0; j0 < L.cells; j0 += W16) {
+    const __m512 dx = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fxh[j0]), xhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fxl[j0]), xlv));
+    const __m512 dy = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fyh[j0]), yhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fyl[j0]), ylv));
+    const __m512 dz = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fzh[j0]), zhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fzl[j0]), zlv));
+    const __m512 r2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_fmadd_ps(dx, dx, e2)));
+    __m512 inv = _mm512_rsqrt14_ps(r2);
+    inv = _mm512_fmadd_ps(_mm512_mul_ps(half, inv), _mm512_fnmadd_ps(_mm512_mul_ps(r2, inv), inv, one), inv);
+    if (j0 + W16 > L.cells) inv = _mm512_maskz_mov_ps(__mmask16((1u << (L.cells - j0)) - 1), inv);   // padding
+    const __m512 inv2 = _mm512_mul_ps(inv, inv), inv3 = _mm512_mul_ps(inv, inv2), inv5 = _mm512_mul_ps(inv3, inv2);
+    const __m512 qxx = _mm512_loadu_ps(&L.fqxx[j0]), qxy = _mm512_loadu_ps(&L.fqxy[j0]), qxz = _mm512_loadu_ps(&L.fqxz[j0]);
+    const __m512 qyy = _mm512_loadu_ps(&L.fqyy[j0]), qyz = _mm512_loadu_ps(&L.fqyz[j0]), qzz = _mm512_loadu_ps(&L.fqzz[j0]);
+    const __m512 qx = _mm512_fmadd_ps(qxz, dz, _mm512_fmadd_ps(qxy, dy, _mm512_mul_ps(qxx, dx)));
+    const __m512 qy = _mm512_fmadd_ps(qyz, dz, _mm512_fmadd_ps(qyy, dy, _mm512_mul_ps(qxy, dx)));
+    const __m512 qz = _mm512_fmadd_ps(qzz, dz, _mm512_fmadd_ps(qyz, dy, _mm512_mul_ps(qxz, dx)));
+    const __m512 rQr = _mm512_fmadd_ps(dz, qz, _mm512_fmadd_ps(dy, qy, _mm512_mul_ps(dx, qx)));
+    const __m512 M = _mm512_loadu_ps(&L.fm[j0]);
+    const __m512 rQr_inv5 = _mm512_mul_ps(rQr, inv5);
+    const __m512 a = _mm512_fmadd_ps(M, inv3, _mm512_mul_ps(five_halves, _mm512_mul_ps(rQr_inv5, inv2)));
+    fx = _mm512_fnmadd_ps(inv5, qx, _mm512_fmadd_ps(a, dx, fx));
+    fy = _mm512_fnmadd_ps(inv5, qy, _mm512_fmadd_ps(a, dy, fy));
+    fz = _mm512_fnmadd_ps(inv5, qz, _mm512_fmadd_ps(a, dz, fz));
+    if constexpr (potential) fp = _mm512_sub_ps(fp, _mm512_fmadd_ps(M, inv, _mm512_mul_ps(half, rQr_inv5)));
+  }
+  const double unit_a = L.mass * il * il;
+  sx = _mm512_add_pd(sx, widen(fx, unit_a)), sy = _mm512_add_pd(sy, widen(fy, unit_a)), sz = _mm512_add_pd(sz, widen(fz, unit_a));
+  if constexpr (potential) sp = _mm512_add_pd(sp, widen(fp, L.mass * il));
+}
+
 template <bool potential>
 GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
   using gravity_avx512::inverse_cube, gravity_avx512::rsqrt;
@@ -223,7 +308,12 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
     sx = _mm512_fmadd_pd(w, dx, sx), sy = _mm512_fmadd_pd(w, dy, sy), sz = _mm512_fmadd_pd(w, dz, sz);
     if constexpr (potential) sp = _mm512_fnmadd_pd(w, r2, sp);   // m / h = m t r2
   }
-  // Cells (portable kernel above for the formulas); the last vector is masked.
+  using gravity_avx512::lane_sum;
+  if (L.fp32) {
+    cell_sums_fp32<potential>(L, L.x[self], L.y[self], L.z[self], eps2, sx, sy, sz, sp);
+    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
+  }
+  // Cells in FP64 (portable kernel above for the formulas); the last vector is masked.
   const __m512d half = _mm512_set1_pd(0.5), five_halves = _mm512_set1_pd(2.5);
   for (std::size_t j0 = 0; j0 < L.cells; j0 += W8) {
     const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&L.cx[j0]), xi);
@@ -247,7 +337,6 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
     sz = _mm512_fnmadd_pd(inv5, qz, _mm512_fmadd_pd(a, dz, sz));
     if constexpr (potential) sp = _mm512_sub_pd(sp, _mm512_fmadd_pd(M, inv, _mm512_mul_pd(half, rQr_inv5)));
   }
-  using gravity_avx512::lane_sum;
   return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
 }
 #pragma GCC diagnostic pop
@@ -295,6 +384,9 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   build<D>(0, 0, int(n), 0, false, keys);
   quad_.assign(cells_.size(), Quadrupole{});
   for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
+  // Units of the FP32 cell terms: powers of two near the root cube's edge and the total mass.
+  len_ = std::ldexp(1.0, std::ilogb(2 * half));
+  mass_unit_ = cells_[0].mass > 0 ? std::ldexp(1.0, std::ilogb(cells_[0].mass)) : 1.0;
   nodes_.resize(cells_.size());
   multipoles_.resize(cells_.size());
   for (std::size_t id = 0; id < cells_.size(); ++id) {
@@ -413,6 +505,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       add_particles(b, e);
       // Cells used whole are noted during the walk and copied into the lists after it.
       used.clear();
+      double near2 = std::numeric_limits<double>::infinity();   // least squared distance of a used cell to the box
       stack.assign(1, 0);
       while (!stack.empty()) {
         const int id = stack.back();
@@ -425,20 +518,33 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
         const double dz = std::max({lo[2] - c.cz, c.cz - hi[2], 0.0});
         if (dx * dx + dy * dy + dz * dz > c.accept2) {
           used.push_back(id);
+          near2 = std::min(near2, dx * dx + dy * dy + dz * dz);
         } else if (c.children == 0) {
           add_particles(c.begin, c.end);
         } else {
           for (int k = c.first_child + c.children - 1; k >= c.first_child; --k) stack.push_back(k);
         }
       }
+      L.pad_particles();
       const std::size_t u = used.size();
-      for (auto* v : {&L.cx, &L.cy, &L.cz, &L.cm, &L.qxx, &L.qxy, &L.qxz, &L.qyy, &L.qyz, &L.qzz}) v->resize(u);
-      for (std::size_t k = 0; k < u; ++k) {
-        const Multipole& c = multipoles_[used[k]];
-        L.cx[k] = c[0], L.cy[k] = c[1], L.cz[k] = c[2], L.cm[k] = c[3];
-        L.qxx[k] = c[4], L.qxy[k] = c[5], L.qxz[k] = c[6], L.qyy[k] = c[7], L.qyz[k] = c[8], L.qzz[k] = c[9];
+      // FP32 cell terms (cell_sums_fp32) when h / len lies in [1e-5, 1e5] for every particle and cell (cells
+      // lie within the root box, < 4 len apart) and no scaled mass is below 1e-20: then h^-5, h^-7 M and the
+      // like stay normal floats. Otherwise (extreme clustering or softening) the group stays in FP64.
+      L.fp32 = isa == Isa::avx512 && u > 0 && (near2 + eps2) / (len_ * len_) >= 1e-10 && eps2 / (len_ * len_) <= 1e10;
+      if (L.fp32) {
+        L.gx = 0.5 * (lo[0] + hi[0]), L.gy = 0.5 * (lo[1] + hi[1]), L.gz = 0.5 * (lo[2] + hi[2]);
+        L.len = len_, L.mass = mass_unit_;
+        L.fp32 = L.fill_fp32(multipoles_, used);
       }
-      L.pad();
+      if (!L.fp32) {
+        for (auto* v : {&L.cx, &L.cy, &L.cz, &L.cm, &L.qxx, &L.qxy, &L.qxz, &L.qyy, &L.qyz, &L.qzz}) v->resize(u);
+        for (std::size_t k = 0; k < u; ++k) {
+          const Multipole& c = multipoles_[used[k]];
+          L.cx[k] = c[0], L.cy[k] = c[1], L.cz[k] = c[2], L.cm[k] = c[3];
+          L.qxx[k] = c[4], L.qxy[k] = c[5], L.qxz[k] = c[6], L.qyy[k] = c[7], L.qyz[k] = c[8], L.qzz[k] = c[9];
+        }
+        L.pad_cells();
+      }
       pairs += (L.particles - 1) * std::size_t(e - b), cell_terms += L.cells * std::size_t(e - b);
       for (int k = b; k < e; ++k) {
         const Sums s = sums(L, std::size_t(k - b), eps2);

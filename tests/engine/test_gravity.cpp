@@ -289,8 +289,13 @@ TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its kernels ag
     CHECK(ay1 == ay2);
     CHECK(az1 == az2);
     CHECK(p1 == p2);
-    // Against portable (same terms, FMA rounding apart): relative to each particle's acceleration and potential.
+    // Against portable, relative to each particle's acceleration and potential. The same terms, FMA rounding
+    // apart: 1e-13, but for the AVX-512 cell terms, which are FP32 (gravity_tree.cpp; measured 4.6e-7 and
+    // 1.5e-7). Their bound, 2e-6, is still over 50 times below the tree's median truncation error against
+    // direct summation (checked below): cell terms off by 1e-4 relative give 2.8e-4 here (tried), and dropped
+    // ones far more, so either would fail it.
     if (isa == Isa::portable) continue;
+    const double bound = isa == Isa::avx512 ? 2e-6 : 1e-13;
     double worst_a = 0, worst_phi = 0;
     for (std::size_t i = 0; i < P.size(); ++i) {
       const Vec<3> a(ax1[i], ay1[i], az1[i]), b(bx[i], by[i], bz[i]);
@@ -299,9 +304,18 @@ TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its kernels ag
     }
     WARN(fmt::format("tree kernels, portable against {}: largest relative difference, acceleration {:.2g}, potential {:.2g}",
                      gravity_direct::isa_name(isa), worst_a, worst_phi));
-    CHECK(worst_a < 1e-13);
-    CHECK(worst_phi < 1e-13);
+    CHECK(worst_a < bound);
+    CHECK(worst_phi < bound);
   }
+  // The tree's own error (portable kernel) against direct summation: median relative force error.
+  const gravity_direct::Columns c(P);
+  std::vector<double> dx, dy, dz, e(P.size());
+  gravity_direct::accelerations(Isa::portable, c, eps2, 2, dx, dy, dz);
+  for (std::size_t i = 0; i < P.size(); ++i)
+    e[i] = (Vec<3>(bx[i], by[i], bz[i]) - Vec<3>(dx[i], dy[i], dz[i])).norm() / Vec<3>(dx[i], dy[i], dz[i]).norm();
+  std::nth_element(e.begin(), e.begin() + std::ptrdiff_t(e.size() / 2), e.end());
+  INFO(fmt::format("tree median force error {:.3g}", e[e.size() / 2]));
+  CHECK(e[e.size() / 2] > 50 * 2e-6);
 }
 
 TEST_CASE("gravity: the tree copes with particles on one spot (deeper than its keys resolve)", "[gravity]") {
