@@ -429,12 +429,7 @@ class ContactForces final : public ForceModule<D> {
       return ft * t;
     } else {
       Vec<3>& xi = tangential_[k];
-      // Rotate the spring into the current tangent plane, keeping its length: one root, of the
-      // ratio of the squared lengths.
-      const double before = xi.squaredNorm();
-      xi -= xi.dot(n) * n;
-      const double after = xi.squaredNorm();
-      if (after > 0) xi *= std::sqrt(before / after);
+      turn_into_tangent_plane(xi, n);
       Vec<3> vt = (P.velocity[j] - P.angular_velocity[j].cross(Rj * n)) - (P.velocity[i] + P.angular_velocity[i].cross(Ri * n)) + flow;
       vt -= vt.dot(n) * n;
       xi += vt * dt;
@@ -448,6 +443,15 @@ class ContactForces final : public ForceModule<D> {
       torque[i] += (Ri * n).cross(-ft);
       return ft;
     }
+  }
+
+  // 3D springs (xi, theta_R) follow the contact: v is turned into the plane normal to n, keeping its
+  // length, with one root (of the ratio of the squared lengths).
+  static void turn_into_tangent_plane(Vec<3>& v, const Vec<3>& n) {
+    const double before = v.squaredNorm();
+    v -= v.dot(n) * n;
+    const double after = v.squaredNorm();
+    if (after > 0) v *= std::sqrt(before / after);
   }
 
   // Rolling resistance (physics.md section 5): theta_R accumulates the half-step relative rotation
@@ -467,11 +471,8 @@ class ContactForces final : public ForceModule<D> {
           moment[0] = std::copysign(bound, moment[0]);
           theta[0] = moment[0] / -rolling_.stiffness;
         }
-      } else {   // into the tangent plane like xi (one root), the bound on squared lengths
-        const double before = theta.squaredNorm();
-        theta -= theta.dot(n) * n;
-        const double after = theta.squaredNorm();
-        if (after > 0) theta *= std::sqrt(before / after);
+      } else {   // into the tangent plane like xi, the bound on squared lengths
+        turn_into_tangent_plane(theta, n);
         theta += (spin - spin.dot(n) * n) * dt;
         moment = -rolling_.stiffness * theta;
         const double mag2 = moment.squaredNorm();
