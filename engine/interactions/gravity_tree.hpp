@@ -13,9 +13,10 @@
 // Every particle of the group then runs over the two lists with an AVX-512 kernel (eight list entries at a
 // time), an AVX2 + FMA one (four) or a portable one, picked at run time like gravity_direct. FP64 throughout,
 // with a correctly rounded square root and division (AVX-512: a reciprocal square root refined to within a
-// few units in the last place, see gravity_avx512.hpp), except the AVX-512 kernel's cell terms: FP32, sixteen
-// at a time (their truncation error, ~1e-4, dwarfs FP32 round-off; see cell_sums_fp32). A particle's sum is formed in an order set by the
-// tree and the kernel alone, so the result is bit-identical on any number of threads.
+// few units in the last place, see gravity_avx512.hpp), except the AVX-512 kernel's cell terms: FP32,
+// sixteen at a time (their truncation error, ~1e-4, dwarfs FP32 round-off; see cell_sums_fp32). A
+// particle's sum is formed in an order set by the tree and the kernel alone, so the result is
+// bit-identical on any number of threads.
 #pragma once
 #include <array>
 #include <cstddef>
