@@ -13,6 +13,7 @@
 
 #include "interactions/force_module.hpp"
 #include "interactions/linear_contact_law.hpp"
+#include "interactions/pair_filter.hpp"
 #include "interactions/rolling_resistance.hpp"
 
 namespace grains {
@@ -251,7 +252,7 @@ class ContactForces final : public ForceModule<D> {
 
   // Rows are handled in blocks of this many, in two passes: the first gathers the pairs that
   // interact (touching, or within an attraction tail) without a branch, the second evaluates them.
-  // The first reads geometry only: open pairs' springs are left alone (see holds_history).
+  // The first (pair_filter.hpp) reads geometry only: open pairs' springs are left alone (see holds_history).
   // Most listed pairs are open, so the first pass is the hot one and stays small and tight; the
   // second runs the costly arithmetic of consecutive contacts back to back. Pairs are evaluated in
   // list order, as a single pass would.
@@ -288,26 +289,15 @@ class ContactForces final : public ForceModule<D> {
     const std::uint32_t* const partner = nl.partner.data();
     const std::uint8_t* const image = nl.image.data();
     const Vec<D>* const shift = nl.shift.data();
-    const double tail_reach = law_.reach();   // 0 without an attractive tail: then exactly Rsum below
+    // law_.reach() is 0 without an attractive tail: then exactly Rsum in the filter.
+    const pair_filter::Geometry<D> geometry{position, radius, partner, nl.owner.data(), image, shift, law_.reach()};
     for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
       const std::size_t e = std::min(row_end, b + block_rows_);
-      const std::size_t pairs = start[e] - start[b];
+      const std::size_t pairs = start[e] - start[b] + pair_filter::slack;
       if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs);
       std::uint32_t* const gathered_row = g.row.data();
       std::uint32_t* const gathered_pair = g.pair.data();
-      std::size_t n = 0;
-      for (std::size_t i = b; i < e; ++i) {
-        const Vec<D> xi = position[i];
-        const double Ri = radius[i];
-        const std::uint32_t row_end_k = start[i + 1];
-        for (std::uint32_t k = start[i]; k < row_end_k; ++k) {
-          const Vec<D> r = position[partner[k]] + shift[image[k]] - xi;
-          const double reach = Ri + radius[partner[k]] + tail_reach;
-          const bool interacts = r.squaredNorm() < reach * reach;
-          gathered_row[n] = std::uint32_t(i), gathered_pair[n] = k;
-          n += interacts;
-        }
-      }
+      const std::size_t n = pair_filter::gather<D>(geometry, start, b, e, gathered_row, gathered_pair);
       std::size_t i = row_end;   // no row yet
       Vec<D> xi = Vec<D>::Zero(), fi = Vec<D>::Zero();
       double Ri = 0;

@@ -222,6 +222,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   std::partial_sum(start.begin(), start.end(), start.begin());
   partner.resize(start[N]);
   image.resize(start[N]);
+  fill_owners();
   fill_.assign(start.begin(), start.end() - 1);
   for (int t = 0; t < nthreads; ++t)
     for (std::size_t n = 0; n < found_count_[t]; ++n) {
@@ -296,6 +297,13 @@ void NeighbourList<D>::load(ByteReader& r) {
   r.get_vector(start), r.get_vector(partner), r.get_vector(image), r.get_vector(shift), r.get_vector(reference_);
   strain_since_build_ = r.get<Vec<D>>(), list_reach_ = r.get<double>(), reference_lower_ = r.get<Vec<D>>();
   previous_entry_.assign(partner.size(), -1);
+  fill_owners();
+}
+
+template <int D>
+void NeighbourList<D>::fill_owners() {
+  owner.resize(partner.size());
+  for (std::size_t i = 0; i + 1 < start.size(); ++i) std::fill(owner.begin() + start[i], owner.begin() + start[i + 1], std::uint32_t(i));
 }
 
 template class NeighbourList<2>;

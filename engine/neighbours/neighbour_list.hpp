@@ -69,9 +69,11 @@ class NeighbourList {
   std::vector<std::uint32_t> start;    // row i is [start[i], start[i+1])
   std::vector<std::uint32_t> partner;  // j > i? not necessarily: stored under min(i, j), so always j > i
   std::vector<std::uint8_t> image;     // index into shift: x_j + shift[image] - x_i is the pair vector
+  std::vector<std::uint32_t> owner;    // the row i of each entry (for loops that run over entries, not rows)
   std::vector<Vec<D>> shift;           // 3^D periodic image shifts
 
  private:
+  void fill_owners();   // owner from start
   // One uniform grid of cells holding the particles of one size class, counting-sorted by cell, with
   // positions and radii copied in cell order so that the candidate loop reads memory in sequence.
   struct Grid {

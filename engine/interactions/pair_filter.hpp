@@ -1,0 +1,66 @@
+// The first pass of the pair loop: of a run of neighbour-list entries, which pairs interact (their
+// centres closer than R_i + R_j + tail_reach). Most listed pairs do not, so this pass is the hot one
+// in dilute scenes. Two builds of the same test, picked at run time so the binary stays portable
+// x86-64: plain scalar code, and AVX-512 (eight entries at a time, the result compressed into place).
+// Both form r = (x_j + shift) - x_i, d^2 = (r_x^2 + r_y^2) + r_z^2 and (R_i + R_j + tail)^2 with the same
+// operations in the same order (the AVX-512 file is compiled without FMA contraction), so they select
+// exactly the same entries, in list order: the forces are bit-identical whichever runs.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "core/vec.hpp"
+
+namespace grains::pair_filter {
+
+template <int D>
+struct Geometry {
+  const Vec<D>* position;
+  const double* radius;
+  const std::uint32_t* partner;   // the list's j of each entry
+  const std::uint32_t* owner;     // the list's row (i) of each entry
+  const std::uint8_t* image;      // index into shift
+  const Vec<D>* shift;            // 3^D periodic image shifts, indexed by sum (k_a + 1) 3^a
+  double tail_reach;              // gap up to which a pair interacts (0: touching only)
+};
+
+// Writes the interacting entries k of rows [row_begin, row_end) (entries start[row_begin] ..
+// start[row_end]) to pairs[] and their rows to rows[], in list order; returns how many. The arrays must
+// hold the run's entries plus `slack` (the AVX-512 build stores whole vectors).
+inline constexpr std::size_t slack = 8;
+
+template <int D>
+std::size_t gather_portable(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,
+                            std::uint32_t* rows, std::uint32_t* pairs) {
+  std::size_t n = 0;
+  for (std::size_t i = row_begin; i < row_end; ++i) {
+    const Vec<D> xi = g.position[i];
+    const double Ri = g.radius[i];
+    const std::uint32_t end = start[i + 1];
+    for (std::uint32_t k = start[i]; k < end; ++k) {   // without a branch: store, then count if it interacts
+      const Vec<D> r = g.position[g.partner[k]] + g.shift[g.image[k]] - xi;
+      const double reach = Ri + g.radius[g.partner[k]] + g.tail_reach;
+      rows[n] = std::uint32_t(i), pairs[n] = k;
+      n += r.squaredNorm() < reach * reach;
+    }
+  }
+  return n;
+}
+
+// The AVX-512 build (pair_filter_avx512.cpp); only where avx512() is true.
+template <int D>
+std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
+                          std::uint32_t* pairs);
+
+// Whether the AVX-512 build runs: the processor has AVX-512 F, VL and BW, unless the environment variable
+// GRAINS_PAIR_ISA is "portable" (for tests and benchmarks). Read once.
+bool avx512();
+
+template <int D>
+std::size_t gather(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,
+                   std::uint32_t* rows, std::uint32_t* pairs) {
+  if (avx512()) return gather_avx512<D>(g, start[row_begin], start[row_end], rows, pairs);
+  return gather_portable<D>(g, start, row_begin, row_end, rows, pairs);
+}
+
+}  // namespace grains::pair_filter
