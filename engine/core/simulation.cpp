@@ -477,8 +477,13 @@ class SimulationImpl final : public Simulation {
 
   void compute_forces() {
     auto& P = sys_.particles;
-    std::fill(P.force.begin(), P.force.end(), Vec<D>::Zero());
-    if (rotate_) std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());   // else nothing ever sets a torque
+    // In the integrator's shares, so each thread clears what it last wrote.
+#pragma omp parallel num_threads(sys_.threads)
+    {
+      const auto [b, e] = integrator_detail::share(P.size(), omp_get_thread_num(), omp_get_num_threads());
+      std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());
+      if (rotate_) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
+    }
     sys_.virial.setZero();
     for (auto& m : modules_) m->add_forces(sys_);
   }
@@ -503,7 +508,7 @@ class SimulationImpl final : public Simulation {
       sys_.cell_scale = scale;
       sys_.strain_rate = barostat_->rate().cwiseQuotient(sys_.box.length);
     }
-    if (uses_list_ && sys_.neighbours.stale(P.position)) rebuild();
+    if (uses_list_ && sys_.neighbours.stale(P.position, sys_.threads)) rebuild();
     sys_.dt = h;
     compute_forces();
     witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -258,19 +259,24 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 }
 
 template <int D>
-bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x) const {
+bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x, int threads) const {
   if (reference_.size() != x.size()) return true;
   const double strain = (strain_since_build_.array() - 1).abs().maxCoeff();
   const double allowance = 0.5 * (skin_ - strain * list_reach_);   // per particle
   if (allowance <= 0) return true;
   const double limit = allowance * allowance;
-  // The reference positions as the cell has carried them since the build (scale 1 in a fixed box). In
-  // chunks, each reduced to its largest displacement without a branch (so the loop vectorises), then tested.
+  // The reference positions as the cell has carried them since the build (scale 1 in a fixed box).
+  // Chunks are reduced to their largest displacement without a branch (so the loop vectorises), then
+  // tested; the threads take contiguous shares of chunks, and a thread stops when any has found one.
   const Vec<D> lower = reference_lower_, scale = strain_since_build_;
   const bool fixed = scale == Vec<D>::Ones();
   constexpr std::size_t chunk = 512;
-  for (std::size_t b = 0; b < x.size(); b += chunk) {
-    const std::size_t e = std::min(x.size(), b + chunk);
+  const std::size_t chunks = (x.size() + chunk - 1) / chunk;
+  std::atomic<bool> found{false};
+#pragma omp parallel for num_threads(std::max(1, std::min<int>(threads, int(chunks)))) schedule(static)
+  for (std::size_t c = 0; c < chunks; ++c) {
+    if (found.load(std::memory_order_relaxed)) continue;
+    const std::size_t b = c * chunk, e = std::min(x.size(), b + chunk);
     double largest = 0;
     if (fixed) {
 #pragma omp simd reduction(max : largest)
@@ -280,9 +286,9 @@ bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x) const {
       for (std::size_t i = b; i < e; ++i)
         largest = std::max(largest, (x[i] - (lower + (reference_[i] - lower).cwiseProduct(scale))).squaredNorm());
     }
-    if (largest > limit) return true;
+    if (largest > limit) found.store(true, std::memory_order_relaxed);
   }
-  return false;
+  return found.load();
 }
 
 template <int D>

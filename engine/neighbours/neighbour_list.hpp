@@ -29,7 +29,7 @@ class NeighbourList {
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
   // True once some particle has moved more than skin/2 since the last build (less the part of the skin
   // that the cell deformation since the build has used up, see follow_cell).
-  bool stale(const std::vector<Vec<D>>& position) const;
+  bool stale(const std::vector<Vec<D>>& position, int threads = 1) const;
   // The periodic cell was rescaled by `scale` per axis about box.lower and the particles followed
   // affinely: image shifts follow the new lengths and the reference positions the affine map, so
   // stale() sees only the motion relative to the cell. A pair's separation changes by at most
