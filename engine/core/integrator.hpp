@@ -56,6 +56,12 @@ inline void kick_predict(std::size_t n, double h, double* __restrict w, double* 
   }
 }
 
+// 2D orientations: theta += h w over n disks.
+inline void advance(std::size_t n, double h, double* __restrict theta, const double* __restrict w) {
+#pragma omp simd
+  for (std::size_t k = 0; k < n; ++k) theta[k] += h * w[k];
+}
+
 // Turn n orientations q (quaternions stored x, y, z, w) by the rotations of angle |w| h about w
 // (integrator.cpp).
 void turn(std::size_t n, double h, const double* w, double* q);
@@ -99,12 +105,9 @@ double kick_drift_predict(Particles<D>& P, double h, int threads) {
                    flat(P.angular_accel) + 3 * b, flat(P.angular_accel_prev) + 3 * b);
       turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
     } else if constexpr (Rotate) {   // 2D: the angle simply advances
-      for (std::size_t i = b; i < e; ++i) {
-        P.angular_velocity[i] += 0.5 * h * P.angular_accel[i];
-        P.angular_velocity_predicted[i] =
-            P.angular_velocity[i] + 0.5 * h * (1.75 * P.angular_accel[i] - 0.75 * P.angular_accel_prev[i]);
-        P.orientation[i] += h * P.angular_velocity[i][0];
-      }
+      kick_predict(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_velocity_predicted) + b, flat(P.angular_accel) + b,
+                   flat(P.angular_accel_prev) + b);
+      advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
     }
   }
   return witness;
