@@ -28,12 +28,13 @@ struct AdhesiveContactLaw {
   // Overlapping pair: force on j along n (positive = repulsive), with the sub-step treatment of
   // touching and of parting (contact_step.hpp; the attraction is continuous at h = 0, the elastic
   // force has a kink there and the dashpot jumps). `elastic` is the elastic part K_N delta that bounds friction and rolling.
-  double force(const ContactStep& p, double mi, double mj, double rmin, double& elastic, bool& clamped) const {
+  // cn: the pair's damping(mi, mj), which the caller has computed already (a root and a division).
+  double force(const ContactStep& p, double, double, double cn, double rmin, double& elastic, bool& clamped) const {
     const double limit = overlap_limit * rmin;
     clamped = p.overlap > limit;
     elastic = k * (clamped ? limit : p.overlap);
     const Onset on = parting(p, onset(p));
-    return elastic + k * on.extra_overlap - attraction - damping(mi, mj) * p.vn * on.dashpot_weight;
+    return elastic + k * on.extra_overlap - attraction - cn * p.vn * on.dashpot_weight;
   }
 
   // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).

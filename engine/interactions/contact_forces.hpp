@@ -375,7 +375,7 @@ class ContactForces final : public ForceModule<D> {
     }
     double elastic;
     bool was_clamped;
-    const double fn = law_.force(step, mi, mj, std::min(Ri, Rj), elastic, was_clamped);
+    const double fn = law_.force(step, mi, mj, cn, std::min(Ri, Rj), elastic, was_clamped);
     clamped += was_clamped;
     Vec<D> f = fn * n;   // on j
     if constexpr (Friction::enabled) {

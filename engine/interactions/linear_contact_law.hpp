@@ -20,8 +20,9 @@ struct LinearContactLaw {
 
   // Force on j along n (positive = repulsive), with the sub-step treatment of touching and of the
   // clamp release (contact_step.hpp). `elastic`: k delta_used, which bounds friction.
-  double force(const ContactStep& p, double mi, double mj, double rmin, double& elastic, bool& clamped) const {
-    const double kn = stiffness(mi, mj), cn = damping(mi, mj);
+  // cn: the pair's damping(mi, mj), which the caller has computed already.
+  double force(const ContactStep& p, double mi, double mj, double cn, double rmin, double& elastic, bool& clamped) const {
+    const double kn = stiffness(mi, mj);
     const double limit = overlap_limit * rmin;
     clamped = p.overlap > limit;
     const double used = clamped ? limit : p.overlap;

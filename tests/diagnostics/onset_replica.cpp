@@ -39,7 +39,7 @@ Out run(double e, double nc, double phase) {
     }
     double el; bool cl;
     ContactStep p{ov, before, vn, dt, first};
-    double f = law.force(p, 1, 1, 0.5, el, cl) + corr;
+    double f = law.force(p, 1, 1, law.damping(1, 1), 0.5, el, cl) + corr;
     fsmooth = std::max(0.0, kc.k * ov - kc.c * vn);
     return f;
   };
