@@ -6,12 +6,16 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <omp.h>
 
 #include "interactions/force_module.hpp"
+#include "interactions/adhesive_contact_law.hpp"
+#include "interactions/cohesive_contacts_avx512.hpp"
 #include "interactions/linear_contact_law.hpp"
 #include "interactions/pair_filter.hpp"
 #include "interactions/rolling_resistance.hpp"
@@ -34,6 +38,9 @@ struct CoulombFriction {
 template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {
   static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
+  // Cohesive disks with friction (the consolidation scenes in 2D): steady contacts eight at a time where
+  // the processor has AVX-512 (cohesive_contacts_avx512.hpp).
+  static constexpr bool batched_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
   // The tangential spring xi. 2D: a scalar along t = z x n; the tangent "plane" is a line that turns
   // with n, so the spring follows it for free (no projection, no square root) and keeps its length
   // exactly. 3D: a vector in the tangent plane. Spin<D> is exactly that (a 1-vector in 2D).
@@ -85,8 +92,13 @@ class ContactForces final : public ForceModule<D> {
     long clamped_now = 0;
     const int T = s.threads;
     gathered_.resize(T);
+    // Set up once per evaluation, before the threads start (it may refresh damping_).
+    std::optional<cohesive_contacts_avx512::Input> batched;
+    if constexpr (batched_)
+      if (pair_filter::avx512()) batched = batch_input(s);
+    const cohesive_contacts_avx512::Input* const batch = batched ? &*batched : nullptr;
     if (T == 1) {
-      clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial, gathered_[0]);
+      clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial, gathered_[0], batch);
     } else {
       // One virial per thread, summed in thread order afterwards: deterministic for a thread count.
       std::vector<Mat> thread_virial(Virial ? T : 0, Mat::Zero());
@@ -109,7 +121,7 @@ class ContactForces final : public ForceModule<D> {
         const std::size_t blocks = (N + block_rows_ - 1) / block_rows_;
 #pragma omp for schedule(static, 1)
         for (std::size_t c = 0; c < blocks; ++c)
-          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f, q, local, gathered_[t]);
+          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f, q, local, gathered_[t], batch);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < N; ++i) {
@@ -183,6 +195,7 @@ class ContactForces final : public ForceModule<D> {
     if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
   }
   void load(ByteReader& r) override {
+    damping_builds_ = -1;   // the restored list is another one, whatever its build count
     clamped_now_ = r.get<long>(), clamped_total_ = r.get<long>();
     evaluation_ = r.get<std::uint32_t>(), r.get_vector(touched_), r.get_vector(pending_);
     r.get_vector(tangential_);
@@ -265,8 +278,47 @@ class ContactForces final : public ForceModule<D> {
   };
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
+    std::vector<std::uint8_t> image;        // ... and its periodic image
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
+    // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
+    std::vector<double> fx, fy, torque_i, torque_j, moment, rx, ry;
+    std::vector<std::uint8_t> steady;
   };
+
+  // The batched kernel's view of the state (a fixed cell and a deforming one alike).
+  cohesive_contacts_avx512::Input batch_input(System<D>& s) {
+    auto& P = s.particles;
+    const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
+    const auto cflat = [](const auto& v) { return reinterpret_cast<const double*>(v.data()); };
+    cohesive_contacts_avx512::Input in{};
+    in.position = cflat(P.position), in.radius = P.radius.data();
+    in.velocity_predicted = cflat(P.velocity_predicted), in.velocity = cflat(P.velocity);
+    in.angular_velocity = cflat(P.angular_velocity);
+    in.partner = s.neighbours.partner.data();
+    in.shift = reinterpret_cast<const Vec<2>*>(s.neighbours.shift.data());
+    if (damping_builds_ != s.neighbours.builds()) {   // c_n per list entry, a function of the masses only
+      damping_.resize(s.neighbours.pair_count());
+      for (std::size_t i = 0; i + 1 < s.neighbours.start.size(); ++i)
+        for (auto k = s.neighbours.start[i]; k < s.neighbours.start[i + 1]; ++k)
+          damping_[k] = law_.damping(P.mass[i], P.mass[s.neighbours.partner[k]]);
+      damping_builds_ = s.neighbours.builds();
+    }
+    in.damping = damping_.data();
+    in.touched = touched_.data(), in.evaluation = evaluation_;
+    in.tangential = flat(tangential_);
+    in.k = law_.k, in.attraction = law_.attraction;
+    in.overlap_limit = law_.overlap_limit, in.dt = s.dt;
+    in.friction_stiffness_ratio = friction_.stiffness_ratio, in.friction_damping_ratio = friction_.damping_ratio;
+    in.mu = friction_.mu, in.elastic_bound = friction_.elastic_bound;
+    if constexpr (Rolling::enabled) {
+      in.rolling_angle = flat(rolling_angle_);
+      in.rolling_stiffness = rolling_.stiffness, in.rolling_coefficient = rolling_.coefficient;
+      in.rolling_damping = rolling_.damping;
+    }
+    in.affine = s.affine_flow;
+    in.strain_rate_x = s.strain_rate[0], in.strain_rate_y = s.strain_rate[1];
+    return in;
+  }
 
   // Adds dv to the pair's relative velocity in `v` (P.velocity or P.velocity_predicted), shared by the
   // masses so that momentum stays.
@@ -278,7 +330,7 @@ class ContactForces final : public ForceModule<D> {
 
   template <bool Virial>
   long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
-            Eigen::Matrix<double, D, D>& virial, Gathered& g) {
+            Eigen::Matrix<double, D, D>& virial, Gathered& g, const cohesive_contacts_avx512::Input* batch) {
     auto& P = s.particles;
     const auto& nl = s.neighbours;
     long clamped = 0;
@@ -294,10 +346,25 @@ class ContactForces final : public ForceModule<D> {
     for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
       const std::size_t e = std::min(row_end, b + block_rows_);
       const std::size_t pairs = start[e] - start[b] + pair_filter::slack;
-      if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs);
+      if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs), g.image.resize(pairs);
       std::uint32_t* const gathered_row = g.row.data();
       std::uint32_t* const gathered_pair = g.pair.data();
-      const std::size_t n = pair_filter::gather<D>(geometry, start, b, e, gathered_row, gathered_pair);
+      const std::size_t n = pair_filter::gather<D>(geometry, start, b, e, gathered_row, gathered_pair, g.image.data());
+      // Batched: the steady contacts evaluated first, their results added below in list order.
+      const std::uint8_t* batched = nullptr;
+      if constexpr (batched_) {
+        if (batch) {
+          const std::size_t room = n + 8;
+          for (auto* v : {&g.fx, &g.fy, &g.torque_i, &g.torque_j, &g.moment, &g.rx, &g.ry})
+            if (v->size() < room) v->resize(room);
+          if (g.steady.size() < room / 8) g.steady.resize(room / 8);
+          clamped += cohesive_contacts_avx512::evaluate(
+              *batch, gathered_row, gathered_pair, g.image.data(), n,
+              {g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i.data(), g.torque_j.data(), g.moment.data(), g.rx.data(),
+               g.ry.data()});
+          batched = g.steady.data();
+        }
+      }
       std::size_t i = row_end;   // no row yet
       Vec<D> xi = Vec<D>::Zero(), fi = Vec<D>::Zero();
       double Ri = 0;
@@ -307,6 +374,21 @@ class ContactForces final : public ForceModule<D> {
           i = gathered_row[q], xi = position[i], Ri = radius[i], fi.setZero();
         }
         const std::uint32_t k = gathered_pair[q], j = partner[k];
+        if constexpr (batched_) {
+          if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
+            torque[j][0] -= g.torque_j[q];
+            torque[i][0] -= g.torque_i[q];
+            if constexpr (Rolling::enabled) {
+              torque[j][0] += g.moment[q];
+              torque[i][0] -= g.moment[q];
+            }
+            const Vec<D> f(g.fx[q], g.fy[q]);
+            force[j] += f;
+            fi -= f;
+            if constexpr (Virial) virial.noalias() += f * Vec<D>(g.rx[q], g.ry[q]).transpose();
+            continue;
+          }
+        }
         const Vec<D> r = position[j] + shift[image[k]] - xi;
         const double Rsum = Ri + radius[j];
         const double d2 = r.squaredNorm();
@@ -490,6 +572,8 @@ class ContactForces final : public ForceModule<D> {
   std::vector<OnsetLag> pending_;        // onset lags found in the last step, made up in the next
   std::vector<OnsetLag> active_;         // ... being made up in this step
   long clamped_now_ = 0, clamped_total_ = 0;
+  std::vector<double> damping_;   // batched_: each list entry's c_n, for the list of build damping_builds_
+  long damping_builds_ = -1;
 };
 
 }  // namespace grains

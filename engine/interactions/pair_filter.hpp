@@ -25,13 +25,13 @@ struct Geometry {
 };
 
 // Writes the interacting entries k of rows [row_begin, row_end) (entries start[row_begin] ..
-// start[row_end]) to pairs[] and their rows to rows[], in list order; returns how many. The arrays must
-// hold the run's entries plus `slack` (the AVX-512 build stores whole vectors).
+// start[row_end]) to pairs[], their rows to rows[] and their images to images[], in list order; returns
+// how many. The arrays must hold the run's entries plus `slack` (the AVX-512 build stores whole vectors).
 inline constexpr std::size_t slack = 8;
 
 template <int D>
 std::size_t gather_portable(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,
-                            std::uint32_t* rows, std::uint32_t* pairs) {
+                            std::uint32_t* rows, std::uint32_t* pairs, std::uint8_t* images) {
   std::size_t n = 0;
   for (std::size_t i = row_begin; i < row_end; ++i) {
     const Vec<D> xi = g.position[i];
@@ -40,7 +40,7 @@ std::size_t gather_portable(const Geometry<D>& g, const std::uint32_t* start, st
     for (std::uint32_t k = start[i]; k < end; ++k) {   // without a branch: store, then count if it interacts
       const Vec<D> r = g.position[g.partner[k]] + g.shift[g.image[k]] - xi;
       const double reach = Ri + g.radius[g.partner[k]] + g.tail_reach;
-      rows[n] = std::uint32_t(i), pairs[n] = k;
+      rows[n] = std::uint32_t(i), pairs[n] = k, images[n] = g.image[k];
       n += r.squaredNorm() < reach * reach;
     }
   }
@@ -50,17 +50,19 @@ std::size_t gather_portable(const Geometry<D>& g, const std::uint32_t* start, st
 // The AVX-512 build (pair_filter_avx512.cpp); only where avx512() is true.
 template <int D>
 std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
-                          std::uint32_t* pairs);
+                          std::uint32_t* pairs, std::uint8_t* images);
 
-// Whether the AVX-512 build runs: the processor has AVX-512 F, VL and BW, unless the environment variable
-// GRAINS_PAIR_ISA is "portable" (for tests and benchmarks). Read once.
+// Whether the pair loop's AVX-512 pieces run (this filter and cohesive_contacts_avx512): the processor has
+// AVX-512 F, VL, BW and DQ, unless the environment variable GRAINS_PAIR_ISA is "portable" (read once) or a
+// test has asked for the portable build with prefer_portable(true).
 bool avx512();
+void prefer_portable(bool yes);
 
 template <int D>
 std::size_t gather(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,
-                   std::uint32_t* rows, std::uint32_t* pairs) {
-  if (avx512()) return gather_avx512<D>(g, start[row_begin], start[row_end], rows, pairs);
-  return gather_portable<D>(g, start, row_begin, row_end, rows, pairs);
+                   std::uint32_t* rows, std::uint32_t* pairs, std::uint8_t* images) {
+  if (avx512()) return gather_avx512<D>(g, start[row_begin], start[row_end], rows, pairs, images);
+  return gather_portable<D>(g, start, row_begin, row_end, rows, pairs, images);
 }
 
 }  // namespace grains::pair_filter

@@ -2,6 +2,7 @@
 // without FMA contraction (engine/CMakeLists.txt), so each lane does the portable build's operations.
 #include "interactions/pair_filter.hpp"
 
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
 
@@ -16,14 +17,21 @@ namespace grains::pair_filter {
 
 static_assert(sizeof(Vec<2>) == 2 * sizeof(double) && sizeof(Vec<3>) == 3 * sizeof(double), "positions are packed");
 
+namespace {
+std::atomic<bool> portable_preferred{false};
+}
+
 bool avx512() {
-  static const bool use = [] {
+  static const bool available = [] {
     const char* want = std::getenv("GRAINS_PAIR_ISA");
     if (want && std::strcmp(want, "portable") == 0) return false;
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512dq");
   }();
-  return use;
+  return available && !portable_preferred.load(std::memory_order_relaxed);
 }
+
+void prefer_portable(bool yes) { portable_preferred.store(yes, std::memory_order_relaxed); }
 
 namespace {
 
@@ -40,7 +48,7 @@ GRAINS_AVX512_FILTER inline __m512d shift_table(const Vec<D>* shift, int a) {
 
 template <int D>
 GRAINS_AVX512_FILTER std::size_t gather(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
-                                        std::uint32_t* pairs) {
+                                        std::uint32_t* pairs, std::uint8_t* images) {
   const double* x = g.position[0].data();
   const __m512d tail = _mm512_set1_pd(g.tail_reach), zero = _mm512_setzero_pd();
   const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), dim = _mm256_set1_epi32(D), three = _mm256_set1_epi32(3);
@@ -79,6 +87,7 @@ GRAINS_AVX512_FILTER std::size_t gather(const Geometry<D>& g, std::uint32_t k_be
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(pairs + n),
                         _mm256_maskz_compress_epi32(hit, _mm256_add_epi32(_mm256_set1_epi32(int(k)), iota)));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(rows + n), _mm256_maskz_compress_epi32(hit, i));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(images + n), _mm256_cvtepi32_epi8(_mm256_maskz_compress_epi32(hit, s)));
     n += std::size_t(__builtin_popcount(hit));
   }
   return n;
@@ -88,11 +97,13 @@ GRAINS_AVX512_FILTER std::size_t gather(const Geometry<D>& g, std::uint32_t k_be
 
 template <int D>
 std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
-                          std::uint32_t* pairs) {
-  return gather<D>(g, k_begin, k_end, rows, pairs);
+                          std::uint32_t* pairs, std::uint8_t* images) {
+  return gather<D>(g, k_begin, k_end, rows, pairs, images);
 }
 
-template std::size_t gather_avx512<2>(const Geometry<2>&, std::uint32_t, std::uint32_t, std::uint32_t*, std::uint32_t*);
-template std::size_t gather_avx512<3>(const Geometry<3>&, std::uint32_t, std::uint32_t, std::uint32_t*, std::uint32_t*);
+template std::size_t gather_avx512<2>(const Geometry<2>&, std::uint32_t, std::uint32_t, std::uint32_t*, std::uint32_t*,
+                                      std::uint8_t*);
+template std::size_t gather_avx512<3>(const Geometry<3>&, std::uint32_t, std::uint32_t, std::uint32_t*, std::uint32_t*,
+                                      std::uint8_t*);
 
 }  // namespace grains::pair_filter

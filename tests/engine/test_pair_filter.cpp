@@ -34,6 +34,7 @@ pair_filter::Geometry<D> geometry(const Packing<D>& p, double tail) {
 struct Selection {
   std::size_t n = 0;
   std::vector<std::uint32_t> rows, pairs;
+  std::vector<std::uint8_t> images;
 };
 
 // Both builds over the list in runs of `block` rows; returns the portable selection after comparing.
@@ -47,17 +48,22 @@ Selection compare_builds(const Packing<D>& p, double tail, std::size_t block) {
     const std::size_t e = std::min(N, b + block);
     const std::size_t room = nl.start[e] - nl.start[b] + pair_filter::slack;
     std::vector<std::uint32_t> rows(room, 0xFFFFFFFFu), pairs(room, 0xFFFFFFFFu);
-    const std::size_t n = pair_filter::gather_portable<D>(g, nl.start.data(), b, e, rows.data(), pairs.data());
+    std::vector<std::uint8_t> images(room, 0xFF);
+    const std::size_t n = pair_filter::gather_portable<D>(g, nl.start.data(), b, e, rows.data(), pairs.data(), images.data());
     if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw")) {
       std::vector<std::uint32_t> rows512(room, 0xFFFFFFFFu), pairs512(room, 0xFFFFFFFFu);
-      const std::size_t n512 = pair_filter::gather_avx512<D>(g, nl.start[b], nl.start[e], rows512.data(), pairs512.data());
+      std::vector<std::uint8_t> images512(room, 0xFF);
+      const std::size_t n512 =
+          pair_filter::gather_avx512<D>(g, nl.start[b], nl.start[e], rows512.data(), pairs512.data(), images512.data());
       INFO("rows " << b << " to " << e);
       REQUIRE(n512 == n);
       CHECK(std::equal(pairs.begin(), pairs.begin() + n, pairs512.begin()));
       CHECK(std::equal(rows.begin(), rows.begin() + n, rows512.begin()));
+      CHECK(std::equal(images.begin(), images.begin() + n, images512.begin()));
     }
     all.rows.insert(all.rows.end(), rows.begin(), rows.begin() + n);
     all.pairs.insert(all.pairs.end(), pairs.begin(), pairs.begin() + n);
+    all.images.insert(all.images.end(), images.begin(), images.begin() + n);
     all.n += n;
   }
   return all;
@@ -78,6 +84,7 @@ void check_definition(const Packing<D>& p, double tail, const Selection& s) {
         REQUIRE(q < s.n);
         CHECK(s.pairs[q] == k);
         CHECK(s.rows[q] == i);
+        CHECK(s.images[q] == nl.image[k]);
         ++q;
       }
     }

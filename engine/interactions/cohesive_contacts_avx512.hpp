@@ -1,0 +1,55 @@
+// The steady contacts of cohesive disks, eight at a time (AVX-512): the consolidation scene's law in 2D
+// (adhesion, friction, optionally rolling resistance; physics.md sections 4-6) for the contacts that
+// already touched at the last force evaluation. Those take no onset corrections, so each is the same
+// straight-line arithmetic; the pair loop (contact_forces.hpp) evaluates a contact's first step and
+// the attraction across gaps itself, and adds every result in list order. Each lane does the portable
+// code's operations in the same order, with correctly rounded roots and divisions and no multiply-add
+// contraction (engine/CMakeLists.txt), so the forces, torques and springs are bit-identical to it.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "core/vec.hpp"
+
+namespace grains::cohesive_contacts_avx512 {
+
+struct Input {
+  // Particle arrays (positions and velocities as x, y pairs).
+  const double *position, *radius, *velocity_predicted, *velocity, *angular_velocity;
+  // Neighbour list: partner of each entry, the image shifts.
+  const std::uint32_t* partner;
+  const Vec<2>* shift;
+  // Per entry: the evaluation at which the pair last touched (a steady contact's is evaluation - 1),
+  // the tangential spring (along z x n) and the rolling spring (null without rolling resistance).
+  std::uint32_t* touched;
+  std::uint32_t evaluation;
+  double *tangential, *rolling_angle;
+  // Per entry: the pair's c_n (AdhesiveContactLaw::damping of its masses).
+  const double* damping;
+  // The law: K_N, F0, f_max, the step.
+  double k, attraction, overlap_limit, dt;
+  // Friction: k_t / k_n, c_t / c_n, mu, bound on k_n delta (true) or on the normal force.
+  double friction_stiffness_ratio, friction_damping_ratio, mu;
+  bool elastic_bound;
+  // Rolling resistance: K_R, mu_R, c_r / (c_n R_i R_j).
+  double rolling_stiffness, rolling_coefficient, rolling_damping;
+  // A deforming cell: the pair's flow velocity (strain rate times r) counts in v_n and v_t.
+  bool affine;
+  double strain_rate_x, strain_rate_y;
+};
+
+// Per gathered pair q: whether it was evaluated here (a steady contact), and then its force on j, the
+// tangential force's torques (subtracted from i's and j's), the rolling moment (added to j's and
+// subtracted from i's) and the pair vector (for the virial).
+struct Output {
+  std::uint8_t* steady;
+  double *fx, *fy, *torque_i, *torque_j, *moment, *rx, *ry;
+};
+
+// Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]): their forces
+// into `out`, their springs and touched stamps updated. Returns how many had their overlap clamped.
+// Output arrays hold n rounded up to a multiple of 8.
+long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+              std::size_t n, const Output& out);
+
+}  // namespace grains::cohesive_contacts_avx512
