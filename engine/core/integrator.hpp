@@ -46,14 +46,11 @@ inline double drift(std::size_t n, double h, double* __restrict x, double* __res
   return witness;
 }
 
-// First half for angular velocities over n components: w += h/2 alpha; wp = w + h/2 (7/4 alpha - 3/4 alpha_prev).
-inline void kick_predict(std::size_t n, double h, double* __restrict w, double* __restrict wp, const double* __restrict alpha,
-                         const double* __restrict alpha_prev) {
+// First half for angular velocities over n components: w += h/2 alpha. No prediction of w(t + h): the
+// torques all act on the half-step spin.
+inline void half_kick(std::size_t n, double h, double* __restrict w, const double* __restrict alpha) {
 #pragma omp simd
-  for (std::size_t k = 0; k < n; ++k) {
-    w[k] += 0.5 * h * alpha[k];
-    wp[k] = w[k] + 0.5 * h * (1.75 * alpha[k] - 0.75 * alpha_prev[k]);
-  }
+  for (std::size_t k = 0; k < n; ++k) w[k] += 0.5 * h * alpha[k];
 }
 
 // 2D orientations: theta += h w over n disks.
@@ -101,12 +98,10 @@ double kick_drift_predict(Particles<D>& P, double h, int threads) {
                      flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
     if constexpr (Rotate && D == 3) {
       static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
-      kick_predict(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_velocity_predicted) + 3 * b,
-                   flat(P.angular_accel) + 3 * b, flat(P.angular_accel_prev) + 3 * b);
+      half_kick(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_accel) + 3 * b);
       turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
     } else if constexpr (Rotate) {   // 2D: the angle simply advances
-      kick_predict(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_velocity_predicted) + b, flat(P.angular_accel) + b,
-                   flat(P.angular_accel_prev) + b);
+      half_kick(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_accel) + b);
       advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
     }
   }
@@ -122,7 +117,6 @@ double finish_kick(Particles<D>& P, double h, int threads) {
   constexpr int S = Spin<D>::SizeAtCompileTime;
   double witness = 0;
   P.accel.swap(P.accel_prev);
-  if constexpr (Rotate) P.angular_accel.swap(P.angular_accel_prev);
 #pragma omp parallel num_threads(threads) reduction(+ : witness)
   {
     const auto [b, e] = share(N, omp_get_thread_num(), omp_get_num_threads());

@@ -14,7 +14,8 @@ struct Particles {
   std::vector<V> position, velocity, force;
   std::vector<V> accel, accel_prev;          // a_n and a_{n-1}: the velocity predictor uses both
   std::vector<V> velocity_predicted;         // v(t_{n+1}) estimate used by the dashpots
-  std::vector<S> angular_velocity, torque, angular_accel, angular_accel_prev, angular_velocity_predicted;
+  // No predicted spin: every torque acts on the half-step spin (the tangential spring and the rolling parts).
+  std::vector<S> angular_velocity, torque, angular_accel;
   std::vector<Orientation<D>> orientation;
   std::vector<double> radius, mass, inv_mass, inertia, inv_inertia;
 
@@ -22,7 +23,7 @@ struct Particles {
 
   void resize(std::size_t n) {
     for (auto* v : {&position, &velocity, &force, &accel, &accel_prev, &velocity_predicted}) v->assign(n, V::Zero());
-    for (auto* v : {&angular_velocity, &torque, &angular_accel, &angular_accel_prev, &angular_velocity_predicted})
+    for (auto* v : {&angular_velocity, &torque, &angular_accel})
       v->assign(n, S::Zero());
     if constexpr (D == 3) orientation.assign(n, Eigen::Quaterniond::Identity());
     else orientation.assign(n, 0.0);

@@ -130,12 +130,11 @@ class SimulationImpl final : public Simulation {
                   [g = gravity_] { return g->G(); }, [g = gravity_](double G) { g->set_G(G); });
     sys_.dt = 0;
     P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)
-    P.angular_velocity_predicted = P.angular_velocity;
     compute_forces();
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     for (std::size_t i = 0; i < N; ++i) {
       P.accel[i] = P.accel_prev[i] = P.inv_mass[i] * P.force[i];
-      P.angular_accel[i] = P.angular_accel_prev[i] = P.inv_inertia[i] * P.torque[i];
+      P.angular_accel[i] = P.inv_inertia[i] * P.torque[i];
     }
     check_finite("the initial state");
     track_aggregation();
@@ -195,8 +194,9 @@ class SimulationImpl final : public Simulation {
   }
 
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
-  // 2D tangential spring became one number per pair). States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e02;
+  // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
+  // unused spin prediction read). States of builds before the word start with D (2, 3).
+  static constexpr std::uint32_t state_format = 0x47524e03;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -205,7 +205,7 @@ class SimulationImpl final : public Simulation {
     w.put(sys_.time), w.put(sys_.step);
     w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.accel),
         w.put_vector(P.accel_prev), w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.angular_accel),
-        w.put_vector(P.angular_accel_prev), w.put_vector(P.orientation);
+        w.put_vector(P.orientation);
     sys_.neighbours.save(w);
     for (const auto& m : modules_) m->save(w);
     if (analysis_) w.put(aggregation_time_);
@@ -238,7 +238,7 @@ class SimulationImpl final : public Simulation {
     sys_.time = r.get<double>(), sys_.step = r.get<long>();
     r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.accel),
         r.get_vector(P.accel_prev), r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.angular_accel),
-        r.get_vector(P.angular_accel_prev), r.get_vector(P.orientation);
+        r.get_vector(P.orientation);
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
     if (analysis_) aggregation_time_ = r.get<double>();
