@@ -86,7 +86,8 @@ double kick(std::size_t n, double h, const double* __restrict inverse_mass, cons
 // never reads or writes them (half the memory traffic of the step). Both halves are memory-bound:
 // each array is read or written once. Returns the sum of the new positions' components, a cheap
 // witness: it is finite exactly when every position is.
-template <int D, bool Rotate>
+// Orient = false leaves the orientations alone (particles.track_orientation = false).
+template <int D, bool Rotate, bool Orient = true>
 double kick_drift_predict(Particles<D>& P, double h, int threads) {
   using namespace integrator_detail;
   const std::size_t N = P.size();
@@ -99,10 +100,10 @@ double kick_drift_predict(Particles<D>& P, double h, int threads) {
     if constexpr (Rotate && D == 3) {
       static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
       half_kick(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_accel) + 3 * b);
-      turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
+      if constexpr (Orient) turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
     } else if constexpr (Rotate) {   // 2D: the angle simply advances
       half_kick(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_accel) + b);
-      advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
+      if constexpr (Orient) advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
     }
   }
   return witness;

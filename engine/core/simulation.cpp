@@ -114,6 +114,7 @@ class SimulationImpl final : public Simulation {
                                               2 * rmax + std::max(0.0, range) + skin));
     uses_list_ = range >= 0;
     if (scene.boolean("cell.enabled")) setup_cell(scene, 2 * rmax + std::max(0.0, range) + skin);
+    orient_ = scene.boolean("particles.track_orientation");
     for (const auto& m : modules_) rotate_ |= m->applies_torques();
     for (const auto& w : sys_.particles.angular_velocity) rotate_ |= !w.isZero(0);
 
@@ -269,7 +270,8 @@ class SimulationImpl final : public Simulation {
         v.force.push_back(P.force[i][a]);
       }
       for (int a = 0; a < S; ++a) v.angular_velocity.push_back(P.angular_velocity[i][a]);
-      if constexpr (D == 3) {
+      if (!orient_) {   // not tracked: no orientation in the view (nor in the output)
+      } else if constexpr (D == 3) {
         const auto& q = P.orientation[i];
         v.orientation.insert(v.orientation.end(), {q.w(), q.x(), q.y(), q.z()});
       } else {
@@ -501,7 +503,9 @@ class SimulationImpl final : public Simulation {
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
     for (auto& m : modules_) m->begin_step(sys_, h);
-    double witness = rotate_ ? kick_drift_predict<D, true>(P, h, sys_.threads) : kick_drift_predict<D, false>(P, h, sys_.threads);
+    double witness = !rotate_ ? kick_drift_predict<D, false>(P, h, sys_.threads)
+                     : orient_ ? kick_drift_predict<D, true>(P, h, sys_.threads)
+                               : kick_drift_predict<D, true, false>(P, h, sys_.threads);
     sys_.affine_flow = cell_moves;
     if (cell_moves) {
       follow_cell(scale);
@@ -881,6 +885,7 @@ class SimulationImpl final : public Simulation {
   SoftenedGravity<D>* gravity_ = nullptr;   // in modules_, when the scene has self-gravity
   RollingResistance* rolling_ = nullptr;     // the contact module's rolling parameters, when it has them
   bool uses_list_ = false, rotate_ = false;
+  bool orient_ = true;   // particles.track_orientation
   double dt_ = 0, kn_ = 0, cn_ = 0;
   bool analysis_ = false;   // gravity scenes only
   double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0;

@@ -26,7 +26,7 @@ struct ParticleView {
   std::vector<double> position;         // count * dimension, unwrapped into the primary box
   std::vector<double> velocity;         // count * dimension
   std::vector<double> angular_velocity; // count * (dimension == 3 ? 3 : 1)
-  std::vector<double> orientation;      // 3D: count * 4 quaternions (w, x, y, z); 2D: count angles
+  std::vector<double> orientation;      // 3D: count * 4 quaternions (w, x, y, z); 2D: count angles; empty if not tracked
   std::vector<double> radius, mass;     // count each
   std::vector<double> force;            // count * dimension, total force from the last evaluation
 };

@@ -19,7 +19,7 @@ inline H5mdFrame frame_view(long step, double time, const ParticleView& p, const
   f.mass = p.mass.data();
   f.angular_velocity = p.angular_velocity.data();
   f.angular_components = p.dimension == 3 ? 3 : 1;
-  f.orientation = p.orientation.data();
+  f.orientation = p.orientation.empty() ? nullptr : p.orientation.data();   // empty: not tracked
   f.orientation_components = p.dimension == 3 ? 4 : 1;
   f.box_lower = b.lower.data();
   f.box_length = b.length.data();

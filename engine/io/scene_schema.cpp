@@ -34,6 +34,11 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"particles.mass", K::real, "", 0, inf, true, false, "", "If set, the mass of every particle, whatever its size."},
       {"particles.solid_fraction", K::real, "", 0, 1, true, true, "",
        "Sets the box size for `lattice` and `random` layouts when `box.lengths` is absent."},
+      {"particles.track_orientation", K::boolean, "true", 0, 0, false, false, "",
+       "Integrate each particle's orientation (3D: a unit quaternion turned by the exact rotation of omega dt; 2D: "
+       "an angle) and write it to the output. No force depends on it (the grains are round), so a scene that does not "
+       "look at orientations may set false: the step then skips that update (in the frictional gas about a tenth of "
+       "the work) and the output has no orientation."},
       {"particles.velocity", K::text, "\"zero\"", 0, 0, false, false, "zero|gaussian|list",
        "Initial velocities: zero, Gaussian (zero total momentum, scaled to `kinetic_energy`), or explicit `velocities`."},
       {"particles.kinetic_energy", K::real, "1.5", 0, inf, false, false, "",
