@@ -1,16 +1,19 @@
 """Side-by-side throughput benchmark: grains against LAMMPS on the `gas` scene.
 
-    python runner/bench.py [--steps 3000] [--peers ../shared/peers] [--no-lammps]
+    python runner/bench.py [--steps 3000] [--repeat 1] [--peers ../shared/peers] [--no-lammps]
 
 Runs the frictionless and frictional gas (17,576 spheres) with grains and LAMMPS (Debian's `lmp`,
 the peer inputs in ../shared/peers), on one core and on two, in one session, and prints particle-steps
 per second and the grains/LAMMPS ratio for each. Machines here are shared and noisy: compare the
-ratios, not the absolute numbers, and only within one run.
+ratios, not the absolute numbers, and only within one run. With --repeat R every configuration runs R
+times, grains and LAMMPS back to back each time; the table gives the medians and the range of the R
+back-to-back ratios.
 """
 import argparse
 import pathlib
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -57,27 +60,35 @@ def main():
     ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     ap.add_argument("--no-lammps", action="store_true", help="grains only")
+    ap.add_argument("--repeat", type=int, default=1, help="runs of every configuration (medians reported)")
     args = ap.parse_args()
     have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()
     if not args.no_lammps and not have_lammps:
         print("note: LAMMPS (`lmp`, Debian package lammps) or the peer inputs are missing: grains only", file=sys.stderr)
 
-    rows = []
+    runs = {}   # (scene, threads) -> [(grains, LAMMPS)] in run order
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(tmp)
-        for scene, friction in (("gas", False), ("gas-friction", True)):
-            for threads in (1, 2):
-                g = grains_rate(args.binary, scene, args.steps, threads, work)
-                lmp = lammps_rate(args.peers, args.steps, threads, friction, work) if have_lammps else float("nan")
-                rows.append((scene, threads, g, lmp))
-                print(f"{scene:13s} {threads} core(s): grains {g:.3g}  LAMMPS {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
-
-    print(f"\nparticle-steps per second, gas scene (17,576 spheres), {args.steps} steps")
-    print("| scene | cores | grains | LAMMPS | grains / LAMMPS |")
-    print("|---|---|---|---|---|")
-    for scene, threads, g, lmp in rows:
-        print(f"| {scene} | {threads} | {g:.3g} | {lmp:.3g} | {g / lmp:.2f} |")
-    by = {(s, t): g for s, t, g, _ in rows}
+        for r in range(max(1, args.repeat)):
+            for scene, friction in (("gas", False), ("gas-friction", True)):
+                for threads in (1, 2):
+                    g = grains_rate(args.binary, scene, args.steps, threads, work)
+                    lmp = lammps_rate(args.peers, args.steps, threads, friction, work) if have_lammps else float("nan")
+                    runs.setdefault((scene, threads), []).append((g, lmp))
+                    print(f"{scene:13s} {threads} core(s), run {r + 1}: grains {g:.3g}  LAMMPS {lmp:.3g}  ratio {g / lmp:.2f}",
+                          flush=True)
+    rows = []
+    for (scene, threads), pairs in runs.items():
+        ratios = [g / lmp for g, lmp in pairs]
+        rows.append((scene, threads, statistics.median(g for g, _ in pairs), statistics.median(l for _, l in pairs),
+                     statistics.median(ratios), min(ratios), max(ratios)))
+    n = max(1, args.repeat)
+    print(f"\nparticle-steps per second, gas scene (17,576 spheres), {args.steps} steps" + (f", medians of {n} runs" if n > 1 else ""))
+    print("| scene | cores | grains | LAMMPS | grains / LAMMPS | range |")
+    print("|---|---|---|---|---|---|")
+    for scene, threads, g, lmp, ratio, low, high in rows:
+        print(f"| {scene} | {threads} | {g:.3g} | {lmp:.3g} | {ratio:.2f} | {low:.2f}-{high:.2f} |")
+    by = {(s, t): g for s, t, g, *_ in rows}
     print(f"\nfrictionless / frictional (grains, 1 core): {by[('gas', 1)] / by[('gas-friction', 1)]:.2f}")
     print(f"two cores / one core (grains, frictionless): {by[('gas', 2)] / by[('gas', 1)]:.2f}")
 

@@ -18,6 +18,7 @@ import math
 import pathlib
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -104,27 +105,35 @@ def main():
     ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     ap.add_argument("--threads", default="1,2")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="rounds (LAMMPS, then the grains laws, each round); medians and the range of the ratios")
     args = ap.parse_args()
     have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
     if not have_lammps:
         print("note: LAMMPS (`lmp`, Debian package lammps) or the peer input is missing: grains only", file=sys.stderr)
-    rows = []
+    runs = {}   # (variant, threads) -> [(grains, LAMMPS of the same round, contacts)]
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(tmp)
-        for threads in (int(t) for t in args.threads.split(",")):
-            lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
-            for variant in ("adhesion+friction+rolling", "adhesion+friction", "spring-dashpot+friction"):
-                scene, n = grains_scene(work, args.cells, variant)
-                g, contacts = grains_rate(args.binary, scene, args.steps, threads, work)
-                rows.append((variant, threads, g, lmp, contacts))
-                print(f"{variant:26s} {threads} core(s): grains {g:.3g} (contacts at the end {contacts:.0f})  "
-                      f"LAMMPS gran/hooke/history {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
-    print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps")
-    print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS |")
-    print("|---|---|---|---|---|")
-    for variant, threads, g, lmp, _ in rows:
-        print(f"| {variant} | {threads} | {g:.3g} | {lmp:.3g} | {g / lmp:.2f} |")
-
+        for r in range(max(1, args.repeat)):
+            for threads in (int(t) for t in args.threads.split(",")):
+                lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
+                for variant in ("adhesion+friction+rolling", "adhesion+friction", "spring-dashpot+friction"):
+                    scene, n = grains_scene(work, args.cells, variant)
+                    g, contacts = grains_rate(args.binary, scene, args.steps, threads, work)
+                    runs.setdefault((variant, threads), []).append((g, lmp, contacts))
+                    print(f"{variant:26s} {threads} core(s), round {r + 1}: grains {g:.3g} (contacts at the end "
+                          f"{contacts:.0f})  LAMMPS gran/hooke/history {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
+    rounds = max(1, args.repeat)
+    print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps" +
+          (f", medians of {rounds} rounds" if rounds > 1 else ""))
+    print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS | range |")
+    print("|---|---|---|---|---|---|")
+    for (variant, threads), results in runs.items():
+        ratios = [g / lmp for g, lmp, _ in results]
+        g = statistics.median(x for x, _, _ in results)
+        lmp = statistics.median(x for _, x, _ in results)
+        print(f"| {variant} | {threads} | {g:.3g} | {lmp:.3g} | {statistics.median(ratios):.2f} | "
+              f"{min(ratios):.2f}-{max(ratios):.2f} |")
 
 if __name__ == "__main__":
     main()
