@@ -17,6 +17,7 @@
 #include "interactions/adhesive_contact_law.hpp"
 #include "interactions/cohesive_contacts_avx512.hpp"
 #include "interactions/linear_contact_law.hpp"
+#include "interactions/linear_contacts_avx512.hpp"
 #include "interactions/pair_filter.hpp"
 #include "interactions/rolling_resistance.hpp"
 
@@ -41,6 +42,9 @@ class ContactForces final : public ForceModule<D> {
   // Cohesive disks with friction (the consolidation scenes in 2D): steady contacts eight at a time where
   // the processor has AVX-512 (cohesive_contacts_avx512.hpp).
   static constexpr bool batched_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
+  // Frictionless spheres with one global (k_n, c_n) (the gas): the same, linear_contacts_avx512.hpp.
+  static constexpr bool batched_linear_ =
+      D == 3 && std::is_same_v<Law, LinearContactLaw<false>> && !Friction::enabled && !Rolling::enabled;
   // The tangential spring xi. 2D: a scalar along t = z x n; the tangent "plane" is a line that turns
   // with n, so the spring follows it for free (no projection, no square root) and keeps its length
   // exactly. 3D: a vector in the tangent plane. Spin<D> is exactly that (a 1-vector in 2D).
@@ -94,9 +98,12 @@ class ContactForces final : public ForceModule<D> {
     gathered_.resize(T);
     // Set up once per evaluation, before the threads start (it may refresh damping_).
     std::optional<cohesive_contacts_avx512::Input> batched;
+    std::optional<linear_contacts_avx512::Input> batched_linear;
     if constexpr (batched_)
       if (pair_filter::avx512()) batched = batch_input(s);
-    const cohesive_contacts_avx512::Input* const batch = batched ? &*batched : nullptr;
+    if constexpr (batched_linear_)
+      if (pair_filter::avx512()) batched_linear = linear_batch_input(s);
+    const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr};
     if (T == 1) {
       clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial, gathered_[0], batch);
     } else {
@@ -281,11 +288,29 @@ class ContactForces final : public ForceModule<D> {
     std::vector<std::uint8_t> image;        // ... and its periodic image
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
     // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
-    std::vector<double> fx, fy, torque_i, torque_j, moment, rx, ry;
+    std::vector<double> fx, fy, fz, torque_i, torque_j, moment, rx, ry, rz;
     std::vector<std::uint8_t> steady;
   };
 
-  // The batched kernel's view of the state (a fixed cell and a deforming one alike).
+  // The batched kernel of this combination, if it has one and the processor runs it (else both null).
+  struct Batch {
+    const cohesive_contacts_avx512::Input* cohesive;
+    const linear_contacts_avx512::Input* linear;
+  };
+
+  // The batched kernels' views of the state (a fixed cell and a deforming one alike).
+  linear_contacts_avx512::Input linear_batch_input(System<D>& s) {
+    auto& P = s.particles;
+    linear_contacts_avx512::Input in{};
+    in.position = reinterpret_cast<const double*>(P.position.data()), in.radius = P.radius.data(), in.mass = P.mass.data();
+    in.velocity_predicted = reinterpret_cast<const double*>(P.velocity_predicted.data());
+    in.partner = s.neighbours.partner.data(), in.shift = reinterpret_cast<const Vec<3>*>(s.neighbours.shift.data());
+    in.touched = touched_.data(), in.evaluation = evaluation_;
+    in.k = law_.k, in.c = law_.c, in.overlap_limit = law_.overlap_limit, in.dt = s.dt;
+    in.affine = s.affine_flow;
+    for (int a = 0; a < D; ++a) in.strain_rate[a] = s.strain_rate[a];
+    return in;
+  }
   cohesive_contacts_avx512::Input batch_input(System<D>& s) {
     auto& P = s.particles;
     const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
@@ -330,7 +355,7 @@ class ContactForces final : public ForceModule<D> {
 
   template <bool Virial>
   long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
-            Eigen::Matrix<double, D, D>& virial, Gathered& g, const cohesive_contacts_avx512::Input* batch) {
+            Eigen::Matrix<double, D, D>& virial, Gathered& g, const Batch& batch) {
     auto& P = s.particles;
     const auto& nl = s.neighbours;
     long clamped = 0;
@@ -352,16 +377,21 @@ class ContactForces final : public ForceModule<D> {
       const std::size_t n = pair_filter::gather<D>(geometry, start, b, e, gathered_row, gathered_pair, g.image.data());
       // Batched: the steady contacts evaluated first, their results added below in list order.
       const std::uint8_t* batched = nullptr;
-      if constexpr (batched_) {
-        if (batch) {
+      if constexpr (batched_ || batched_linear_) {
+        if (batch.cohesive || batch.linear) {
           const std::size_t room = n + 8;
-          for (auto* v : {&g.fx, &g.fy, &g.torque_i, &g.torque_j, &g.moment, &g.rx, &g.ry})
+          for (auto* v : {&g.fx, &g.fy, &g.fz, &g.torque_i, &g.torque_j, &g.moment, &g.rx, &g.ry, &g.rz})
             if (v->size() < room) v->resize(room);
           if (g.steady.size() < room / 8) g.steady.resize(room / 8);
-          clamped += cohesive_contacts_avx512::evaluate(
-              *batch, gathered_row, gathered_pair, g.image.data(), n,
-              {g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i.data(), g.torque_j.data(), g.moment.data(), g.rx.data(),
-               g.ry.data()});
+          if (batch.cohesive)
+            clamped += cohesive_contacts_avx512::evaluate(
+                *batch.cohesive, gathered_row, gathered_pair, g.image.data(), n,
+                {g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i.data(), g.torque_j.data(), g.moment.data(),
+                 g.rx.data(), g.ry.data()});
+          else
+            clamped += linear_contacts_avx512::evaluate(
+                *batch.linear, gathered_row, gathered_pair, g.image.data(), n,
+                {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data()});
           batched = g.steady.data();
         }
       }
@@ -374,18 +404,23 @@ class ContactForces final : public ForceModule<D> {
           i = gathered_row[q], xi = position[i], Ri = radius[i], fi.setZero();
         }
         const std::uint32_t k = gathered_pair[q], j = partner[k];
-        if constexpr (batched_) {
+        if constexpr (batched_ || batched_linear_) {
           if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
-            torque[j][0] -= g.torque_j[q];
-            torque[i][0] -= g.torque_i[q];
-            if constexpr (Rolling::enabled) {
-              torque[j][0] += g.moment[q];
-              torque[i][0] -= g.moment[q];
+            Vec<D> f, r;
+            if constexpr (batched_) {
+              torque[j][0] -= g.torque_j[q];
+              torque[i][0] -= g.torque_i[q];
+              if constexpr (Rolling::enabled) {
+                torque[j][0] += g.moment[q];
+                torque[i][0] -= g.moment[q];
+              }
+              f = Vec<D>(g.fx[q], g.fy[q]), r = Vec<D>(g.rx[q], g.ry[q]);
+            } else {
+              f = Vec<D>(g.fx[q], g.fy[q], g.fz[q]), r = Vec<D>(g.rx[q], g.ry[q], g.rz[q]);
             }
-            const Vec<D> f(g.fx[q], g.fy[q]);
             force[j] += f;
             fi -= f;
-            if constexpr (Virial) virial.noalias() += f * Vec<D>(g.rx[q], g.ry[q]).transpose();
+            if constexpr (Virial) virial.noalias() += f * r.transpose();
             continue;
           }
         }

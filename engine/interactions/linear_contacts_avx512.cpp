@@ -1,0 +1,114 @@
+// AVX-512 build of the steady frictionless contacts (linear_contacts_avx512.hpp). Compiled for AVX-512
+// whatever the build flags and without FMA contraction (engine/CMakeLists.txt). Every line mirrors an
+// expression of contact_forces.hpp / linear_contact_law.hpp / contact_step.hpp, in the same order.
+#include "interactions/linear_contacts_avx512.hpp"
+
+#include <immintrin.h>
+
+// GCC's own gather and permutation intrinsics start from an "undefined" vector it then warns about.
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+
+#define GRAINS_AVX512_CONTACTS __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2")))
+
+namespace grains::linear_contacts_avx512 {
+namespace {
+
+using V = __m512d;
+
+GRAINS_AVX512_CONTACTS inline V add(V a, V b) { return _mm512_add_pd(a, b); }
+GRAINS_AVX512_CONTACTS inline V sub(V a, V b) { return _mm512_sub_pd(a, b); }
+GRAINS_AVX512_CONTACTS inline V mul(V a, V b) { return _mm512_mul_pd(a, b); }
+GRAINS_AVX512_CONTACTS inline V div(V a, V b) { return _mm512_div_pd(a, b); }
+GRAINS_AVX512_CONTACTS inline V all(double a) { return _mm512_set1_pd(a); }
+GRAINS_AVX512_CONTACTS inline V gather(const double* a, __m256i idx, __mmask8 m) {
+  return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, idx, a, 8);
+}
+
+GRAINS_AVX512_CONTACTS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
+                                      const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
+  const __m256i i = _mm256_maskz_loadu_epi32(live, rows + q);
+  const __m256i k = _mm256_maskz_loadu_epi32(live, pairs + q);
+  const __m256i j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, in.partner, 4);
+  // Image shift: digits s % 3, (s / 3) % 3, s / 9 (s < 27; s / 3 = (11 s) >> 5 there), looked up in registers
+  // holding shift[d][0], shift[3 d][1], shift[9 d][2].
+  const __m256i s = _mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q));
+  const __m256i three = _mm256_set1_epi32(3), eleven = _mm256_set1_epi32(11);
+  const __m256i s1 = _mm256_srli_epi32(_mm256_mullo_epi32(s, eleven), 5), s2 = _mm256_srli_epi32(_mm256_mullo_epi32(s1, eleven), 5);
+  const __m256i digit[3] = {_mm256_sub_epi32(s, _mm256_mullo_epi32(s1, three)), _mm256_sub_epi32(s1, _mm256_mullo_epi32(s2, three)), s2};
+  const __m256i i3 = _mm256_mullo_epi32(i, three), j3 = _mm256_mullo_epi32(j, three);
+  V r[3];
+  for (int a = 0; a < 3; ++a) {
+    const int unit = a == 0 ? 1 : a == 1 ? 3 : 9;
+    const V table = _mm512_setr_pd(in.shift[0][a], in.shift[unit][a], in.shift[2 * unit][a], 0, 0, 0, 0, 0);
+    const V sh = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(digit[a]), table);
+    r[a] = sub(add(gather(in.position + a, j3, live), sh), gather(in.position + a, i3, live));
+  }
+  const V d2 = add(add(mul(r[0], r[0]), mul(r[1], r[1])), mul(r[2], r[2]));   // (x^2 + y^2) + z^2, as Eigen
+  const V Ri = gather(in.radius, i, live), Rj = gather(in.radius, j, live);
+  const V Rsum = add(Ri, Rj);
+  const __mmask8 touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
+  const __m256i stamp = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), touching, k, in.touched, 4);
+  const __mmask8 m = _mm256_mask_cmpeq_epi32_mask(touching, _mm256_add_epi32(stamp, _mm256_set1_epi32(1)),
+                                                   _mm256_set1_epi32(int(in.evaluation)));
+  out.steady[q / 8] = m;   // q is a multiple of 8
+  if (!m) return 0;
+  _mm256_mask_i32scatter_epi32(in.touched, m, k, _mm256_set1_epi32(int(in.evaluation)), 4);
+
+  const V d = _mm512_sqrt_pd(d2);
+  const V n[3] = {div(r[0], d), div(r[1], d), div(r[2], d)};
+  V dv[3];
+  for (int a = 0; a < 3; ++a) dv[a] = sub(gather(in.velocity_predicted + a, j3, m), gather(in.velocity_predicted + a, i3, m));
+  V vn = add(add(mul(dv[0], n[0]), mul(dv[1], n[1])), mul(dv[2], n[2]));
+  if (in.affine) {
+    V flow[3];
+    for (int a = 0; a < 3; ++a) flow[a] = mul(all(in.strain_rate[a]), r[a]);
+    vn = add(vn, add(add(mul(flow[0], n[0]), mul(flow[1], n[1])), mul(flow[2], n[2])));
+  }
+
+  // LinearContactLaw::force (global k, c) for a steady contact: onset {1, 0}, then the release charge.
+  const V overlap = sub(Rsum, d);
+  const V limit = mul(all(in.overlap_limit), _mm512_min_pd(Rj, Ri));   // std::min(Ri, Rj)
+  const __mmask8 clamped = _mm512_mask_cmp_pd_mask(m, overlap, limit, _CMP_GT_OQ);
+  const V kn = all(in.k), cn = all(in.c);
+  const V elastic = mul(kn, _mm512_mask_blend_pd(clamped, overlap, limit));
+  V f = sub(add(elastic, mul(kn, all(0.0))), mul(mul(cn, vn), all(1.0)));
+  const __mmask8 releasing = _mm512_mask_cmp_pd_mask(m & ~clamped, f, all(0.0), _CMP_GT_OQ) &
+                             _mm512_mask_cmp_pd_mask(m, vn, all(0.0), _CMP_GT_OQ);
+  if (releasing) {
+    const V mi = gather(in.mass, i, releasing), mj = gather(in.mass, j, releasing);
+    const V mm = mul(mi, mj);
+    const V fall = mul(all(in.dt), add(mul(mul(kn, vn), mm), mul(mul(cn, f), add(mi, mj))));
+    const __mmask8 charged = _mm512_mask_cmp_pd_mask(releasing, mul(f, mm), mul(all(2.0), fall), _CMP_LT_OQ);
+    if (charged) {   // release_force(f, fall / mm)
+      const V drop = _mm512_mask_div_pd(all(1.0), charged, fall, mm);
+      const V sigma = _mm512_mask_div_pd(all(0.0), charged, f, drop);
+      const __mmask8 within = _mm512_cmp_pd_mask(sigma, all(1.0), _CMP_LE_OQ);
+      const V rr = _mm512_mask_blend_pd(within, sub(sigma, all(1.0)), sigma);
+      const V weight = _mm512_mask_blend_pd(within, sub(all(2.0), sigma), sigma);
+      const V two_r_less_one = sub(mul(all(2.0), rr), all(1.0));
+      const V charge = mul(div(mul(mul(drop, two_r_less_one), two_r_less_one), all(8.0)), weight);
+      f = _mm512_mask_add_pd(f, charged, f, charge);
+    }
+  }
+  f = _mm512_max_pd(f, all(0.0));   // std::max(0.0, f)
+  _mm512_mask_storeu_pd(out.fx + q, m, mul(f, n[0]));
+  _mm512_mask_storeu_pd(out.fy + q, m, mul(f, n[1]));
+  _mm512_mask_storeu_pd(out.fz + q, m, mul(f, n[2]));
+  _mm512_mask_storeu_pd(out.rx + q, m, r[0]);
+  _mm512_mask_storeu_pd(out.ry + q, m, r[1]);
+  _mm512_mask_storeu_pd(out.rz + q, m, r[2]);
+  return __builtin_popcount(clamped & m);
+}
+
+}  // namespace
+
+long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+              std::size_t n, const Output& out) {
+  long clamped = 0;
+  for (std::size_t q = 0; q < n; q += 8)
+    clamped += evaluate8(in, rows, pairs, images, q, n - q >= 8 ? __mmask8(0xFF) : __mmask8((1u << (n - q)) - 1), out);
+  return clamped;
+}
+
+}  // namespace grains::linear_contacts_avx512
