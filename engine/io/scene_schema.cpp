@@ -210,7 +210,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps the type-2 aggregation may take to form one bonded cluster."},
       {"programme.quench_damping", K::real, "0.003", 0, 1, false, false, "",
        "beta of the rolling dashpot (`rolling.damping_ratio`) that quenches the rolling mechanisms of a settled stage: "
-       "each stage starts on the paper's law (beta = 0); once it has settled (`settle_ratio`, `settle_checks`) the "
+       "each stage starts on the paper's law (beta = 0); once it has settled (`settle_ratio`, `settle_checks`, "
+       "`settle_compaction`) the "
        "dashpot is switched on, and when the four criteria hold it is switched off again; the stage is in equilibrium "
        "when they still hold at the next check with beta = 0. 0: no quench (most stages then miss equilibrium). "
        "Consolidation law only (`adhesion.enabled`); the stage table's `quench_start` says when it was switched on."},
@@ -219,6 +220,10 @@ const std::vector<SchemaEntry>& scene_schema() {
        "`equilibrium_stress`) are below this for `settle_checks` checks in a row."},
       {"programme.settle_checks", K::integer, "20", 1, 9.2e18, false, false, "",
        "Consecutive equilibrium checks a stage must stay settled before its rolling mechanisms are quenched."},
+      {"programme.settle_compaction", K::real, "1e-5", 0, inf, false, false, "",
+       "A stage has settled only while its solid fraction also moves by less than this (relative) over those "
+       "`settle_checks` checks: a loose cohesive network collapses slowly at its target pressure with the kinetic and "
+       "stress ratios already small, and the quench would slow that collapse. 1: the ratios alone decide."},
 
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},

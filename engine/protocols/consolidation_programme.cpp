@@ -26,6 +26,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
   p.quench.settle_ratio = scene.real("programme.settle_ratio");
   p.quench.settle_checks = scene.integer("programme.settle_checks");
+  p.quench.settle_compaction = scene.real("programme.settle_compaction");
   if (!scene.boolean("cell.enabled"))
     scene.fail("cell.enabled", "the consolidation programme drives a pressure-controlled cell: set cell.enabled = true");
   if (p.load && p.top_pressure < p.start_pressure)

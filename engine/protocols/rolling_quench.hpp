@@ -2,13 +2,16 @@
 // network keeps soft, prestress-held rolling mechanisms that neither the normal nor the tangential
 // dashpot sees, so the paper's law alone leaves net forces far above the equilibrium threshold. Each
 // stage therefore runs the paper's law (rolling dashpot beta = 0) until the sample has settled -- its
-// kinetic and stress equilibrium ratios below settle_ratio for settle_checks checks in a row -- and
+// kinetic and stress equilibrium ratios below settle_ratio for settle_checks checks in a row, with the
+// solid fraction steady to settle_compaction over them -- and
 // only then switches the rolling dashpot on: switched on earlier it slows the rearrangements and lowers
 // the packing fraction. Once the four criteria hold it is switched off again, and the stage counts as
 // in equilibrium only if they still hold at the next check with beta = 0: an equilibrium of the
 // paper's law, whose relative spins (what the dashpot acts on) have died out.
 // All state but the counters lives in the Simulation (the tunable parameter rolling.damping_ratio).
 #pragma once
+#include <cmath>
+
 #include "core/simulation.hpp"
 
 namespace grains {
@@ -20,6 +23,9 @@ struct QuenchSettings {
   double damping = 0.003;      // beta while quenching; 0: no quench (the paper's law throughout)
   double settle_ratio = 100;   // the kinetic and stress ratios below which a stage has settled
   long settle_checks = 20;     // consecutive checks they must stay below it
+  // ... while the solid fraction moves by less than this (relative) over those checks: a loose network
+  // collapses slowly at its target pressure, with the kinetic and stress ratios already small.
+  double settle_compaction = 1e-5;
 };
 
 class RollingQuench {
@@ -35,8 +41,12 @@ class RollingQuench {
       return false;
     }
     if (equilibrium) return true;
-    const bool settled = s_.get("equilibrium_kinetic") < q_.settle_ratio && s_.get("equilibrium_stress") < q_.settle_ratio;
-    settled_checks_ = settled ? settled_checks_ + 1 : 0;
+    const bool quiet = s_.get("equilibrium_kinetic") < q_.settle_ratio && s_.get("equilibrium_stress") < q_.settle_ratio;
+    const double phi = s_.get("solid_fraction");
+    if (!quiet) settled_checks_ = 0;
+    else if (settled_checks_ == 0 || std::abs(phi - run_phi_) > q_.settle_compaction * run_phi_)
+      settled_checks_ = 1, run_phi_ = phi;   // a settled run starts here (or starts again: still compacting)
+    else ++settled_checks_;
     if (q_.damping > 0 && settled_checks_ >= q_.settle_checks) {
       switch_dashpot(true);
       if (start_ < 0) start_ = steps;
@@ -62,6 +72,7 @@ class RollingQuench {
   QuenchSettings q_;
   bool on_ = false;
   long settled_checks_ = 0;
+  double run_phi_ = 0;   // the solid fraction at the start of the settled run
   long start_ = -1;
 };
 

@@ -124,3 +124,74 @@ TEST_CASE("quench: bad values and conflicting keys are named", "[quench][program
   conflicting.set_value("programme.quench_damping", "0.0");   // no switch: the scene's dashpot stays on
   CHECK(ProgrammeSettings::from_scene(conflicting).quench.damping == 0.0);
 }
+
+namespace {
+
+// A stand-in Simulation whose equilibrium readings the test scripts, to drive RollingQuench alone.
+class ScriptedReadings final : public Simulation {
+ public:
+  double kinetic = 1, stress = 1, phi = 0.4, beta = 0;
+  void step(double) override {}
+  void step_n(long) override {}
+  double time() const override { return 0; }
+  long step_count() const override { return 0; }
+  double dt() const override { return 1; }
+  int dimension() const override { return 2; }
+  int threads() const override { return 1; }
+  std::size_t particle_count() const override { return 0; }
+  const std::vector<VariableInfo>& variables() const override { return variables_; }
+  double get(std::size_t k) const override {
+    const double values[] = {0.0, kinetic, stress, phi, beta};   // never in equilibrium here
+    return values[k];
+  }
+  void set(std::size_t k, double value) override {
+    if (k == 4) beta = value;
+  }
+  std::vector<std::byte> save_state() const override { return {}; }
+  void restore_state(std::span<const std::byte>) override {}
+  ParticleView particles() const override { return {}; }
+  BoxView box() const override { return {}; }
+  const std::vector<std::string>& warnings() const override { return warnings_; }
+
+ private:
+  std::vector<VariableInfo> variables_ = {
+      {"equilibrium", "", Causality::output, Variability::continuous, ""},
+      {"equilibrium_kinetic", "", Causality::output, Variability::continuous, ""},
+      {"equilibrium_stress", "", Causality::output, Variability::continuous, ""},
+      {"solid_fraction", "", Causality::output, Variability::continuous, ""},
+      {"rolling.damping_ratio", "", Causality::parameter, Variability::tunable, ""}};
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace
+
+TEST_CASE("quench: a packing still compacting at its target pressure is not quenched", "[quench]") {
+  ScriptedReadings s;
+  QuenchSettings q;   // beta 0.003, ratios below 100 for 20 checks, solid fraction steady to 1e-5
+  RollingQuench quench(s, q);
+  // Kinetic and stress ratios small, but the packing collapses: 2e-5 relative per check.
+  for (int check = 0; check < 200; ++check) {
+    s.phi *= 1 + 2e-5;
+    quench.in_equilibrium(100 * check);
+  }
+  CHECK(s.beta == 0.0);
+  CHECK(quench.start() == -1);
+  // The collapse stops (changes far below 1e-5 over the run): quenched after 20 steady checks.
+  int switched_at = -1;
+  for (int check = 200; check < 260 && switched_at < 0; ++check) {
+    s.phi *= 1 + 1e-8;
+    quench.in_equilibrium(100 * check);
+    if (s.beta > 0) switched_at = check;
+  }
+  CHECK(switched_at == 218);   // the run starts at the last moving check (199): 20 checks in, at 218, it switches
+  CHECK(s.beta == q.damping);
+  // With the compaction test off (1: any change passes), the ratios alone decide, as before.
+  ScriptedReadings t;
+  q.settle_compaction = 1;
+  RollingQuench ratios_only(t, q);
+  for (int check = 0; check < 20; ++check) {
+    t.phi *= 1 + 2e-5;
+    ratios_only.in_equilibrium(100 * check);
+  }
+  CHECK(t.beta == q.damping);
+}
