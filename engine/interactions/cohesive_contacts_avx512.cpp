@@ -3,59 +3,27 @@
 // expression of contact_forces.hpp / adhesive_contact_law.hpp / contact_step.hpp, in the same order.
 #include "interactions/cohesive_contacts_avx512.hpp"
 
-#include <immintrin.h>
-
-// GCC's own gather and permutation intrinsics start from an "undefined" vector it then warns about.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
-
-#define GRAINS_AVX512_CONTACTS __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2")))
+#include "interactions/pair_avx512.hpp"
 
 namespace grains::cohesive_contacts_avx512 {
 namespace {
 
-using V = __m512d;
+using namespace pair_avx512;
 
-GRAINS_AVX512_CONTACTS inline V add(V a, V b) { return _mm512_add_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V sub(V a, V b) { return _mm512_sub_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V mul(V a, V b) { return _mm512_mul_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V div(V a, V b) { return _mm512_div_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V all(double a) { return _mm512_set1_pd(a); }
-// The lanes' values of array a at indices idx (scale: doubles per index).
-template <int Scale>
-GRAINS_AVX512_CONTACTS inline V gather(const double* a, __m256i idx, __mmask8 m) {
-  return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, idx, a, 8 * Scale);
-}
-GRAINS_AVX512_CONTACTS inline __m512i sign_bit() { return _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL)); }
-GRAINS_AVX512_CONTACTS inline V abs(V a) { return _mm512_abs_pd(a); }
-// -a, exactly (a sign flip, as unary minus).
-GRAINS_AVX512_CONTACTS inline V neg(V a) { return _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(a), sign_bit())); }
-// std::copysign(magnitude, sign).
-GRAINS_AVX512_CONTACTS inline V copysign(V magnitude, V sign) {
-  return _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign_bit(), _mm512_castpd_si512(magnitude)),
-                                             _mm512_and_si512(_mm512_castpd_si512(sign), sign_bit())));
-}
-
-GRAINS_AVX512_CONTACTS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
+GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   const __m256i i = _mm256_maskz_loadu_epi32(live, rows + q);
   const __m256i k = _mm256_maskz_loadu_epi32(live, pairs + q);
   const __m256i j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, in.partner, 4);
-  // Image shift: x digit s % 3, y digit s / 3 (s < 9), looked up in registers holding shift[d][0], shift[3 d][1].
-  const __m256i s = _mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q));
-  const __m256i sy = _mm256_srli_epi32(_mm256_mullo_epi32(s, _mm256_set1_epi32(11)), 5);   // s / 3 for s < 27
-  const __m256i sx = _mm256_sub_epi32(s, _mm256_mullo_epi32(sy, _mm256_set1_epi32(3)));
-  const V shift_x = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(sx),
-                                          _mm512_setr_pd(in.shift[0][0], in.shift[1][0], in.shift[2][0], 0, 0, 0, 0, 0));
-  const V shift_y = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(sy),
-                                          _mm512_setr_pd(in.shift[0][1], in.shift[3][1], in.shift[6][1], 0, 0, 0, 0, 0));
+  V shift[2];
+  ImageShifts<2>(in.shift).lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), shift);
   const __m256i i2 = _mm256_add_epi32(i, i), j2 = _mm256_add_epi32(j, j);
 
   // r = x_j + shift - x_i, d2 = |r|^2; a contact when d2 < (R_i + R_j)^2.
-  const V rx = sub(add(gather<1>(in.position, j2, live), shift_x), gather<1>(in.position, i2, live));
-  const V ry = sub(add(gather<1>(in.position + 1, j2, live), shift_y), gather<1>(in.position + 1, i2, live));
+  const V rx = sub(add(gather(in.position, j2, live), shift[0]), gather(in.position, i2, live));
+  const V ry = sub(add(gather(in.position + 1, j2, live), shift[1]), gather(in.position + 1, i2, live));
   const V d2 = add(mul(rx, rx), mul(ry, ry));
-  const V Ri = gather<1>(in.radius, i, live), Rj = gather<1>(in.radius, j, live);
+  const V Ri = gather(in.radius, i, live), Rj = gather(in.radius, j, live);
   const V Rsum = add(Ri, Rj);
   const __mmask8 touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
   // Steady: touched at the last evaluation (first = touched + 1 != evaluation in the portable code).
@@ -68,9 +36,9 @@ GRAINS_AVX512_CONTACTS long evaluate8(const Input& in, const std::uint32_t* rows
 
   const V d = _mm512_sqrt_pd(d2);
   const V nx = div(rx, d), ny = div(ry, d);
-  const V cn = gather<1>(in.damping, k, m);
-  const V dvx = sub(gather<1>(in.velocity_predicted, j2, m), gather<1>(in.velocity_predicted, i2, m));
-  const V dvy = sub(gather<1>(in.velocity_predicted + 1, j2, m), gather<1>(in.velocity_predicted + 1, i2, m));
+  const V cn = gather(in.damping, k, m);
+  const V dvx = sub(gather(in.velocity_predicted, j2, m), gather(in.velocity_predicted, i2, m));
+  const V dvy = sub(gather(in.velocity_predicted + 1, j2, m), gather(in.velocity_predicted + 1, i2, m));
   V vn = add(mul(dvx, nx), mul(dvy, ny));
   V flow_x = _mm512_setzero_pd(), flow_y = _mm512_setzero_pd();
   if (in.affine) {
@@ -99,11 +67,11 @@ GRAINS_AVX512_CONTACTS long evaluate8(const Input& in, const std::uint32_t* rows
   const V ct = mul(all(in.friction_damping_ratio), cn);
   const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
   const V tx = neg(ny), ty = nx;   // t = (-n_y, n_x)
-  const V wi = gather<1>(in.angular_velocity, i, m), wj = gather<1>(in.angular_velocity, j, m);
-  const V ux = add(sub(gather<1>(in.velocity, j2, m), gather<1>(in.velocity, i2, m)), flow_x);
-  const V uy = add(sub(gather<1>(in.velocity + 1, j2, m), gather<1>(in.velocity + 1, i2, m)), flow_y);
+  const V wi = gather(in.angular_velocity, i, m), wj = gather(in.angular_velocity, j, m);
+  const V ux = add(sub(gather(in.velocity, j2, m), gather(in.velocity, i2, m)), flow_x);
+  const V uy = add(sub(gather(in.velocity + 1, j2, m), gather(in.velocity + 1, i2, m)), flow_y);
   const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
-  V xi = add(gather<1>(in.tangential, k, m), mul(vt, all(in.dt)));
+  V xi = add(gather(in.tangential, k, m), mul(vt, all(in.dt)));
   const V minus_kt = neg(kt);
   V ft = sub(mul(minus_kt, xi), mul(ct, vt));
   const __mmask8 slides = _mm512_mask_cmp_pd_mask(m, abs(ft), bound, _CMP_GT_OQ);
@@ -123,7 +91,7 @@ GRAINS_AVX512_CONTACTS long evaluate8(const Input& in, const std::uint32_t* rows
     V moment = _mm512_setzero_pd();
     if (in.rolling_stiffness > 0) {
       const V bound_r = mul(all(in.rolling_coefficient), elastic);
-      V theta = add(gather<1>(in.rolling_angle, k, m), mul(spin, all(in.dt)));
+      V theta = add(gather(in.rolling_angle, k, m), mul(spin, all(in.dt)));
       const V minus_kr = all(-in.rolling_stiffness);
       moment = mul(minus_kr, theta);
       const __mmask8 rolls = _mm512_mask_cmp_pd_mask(m, abs(moment), bound_r, _CMP_GT_OQ);
@@ -143,7 +111,7 @@ long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* p
               std::size_t n, const Output& out) {
   long clamped = 0;
   for (std::size_t q = 0; q < n; q += 8)
-    clamped += evaluate8(in, rows, pairs, images, q, n - q >= 8 ? __mmask8(0xFF) : __mmask8((1u << (n - q)) - 1), out);
+    clamped += evaluate8(in, rows, pairs, images, q, first_lanes(n - q), out);
   return clamped;
 }
 

@@ -3,47 +3,24 @@
 // expression of contact_forces.hpp / linear_contact_law.hpp / contact_step.hpp, in the same order.
 #include "interactions/linear_contacts_avx512.hpp"
 
-#include <immintrin.h>
-
-// GCC's own gather and permutation intrinsics start from an "undefined" vector it then warns about.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
-
-#define GRAINS_AVX512_CONTACTS __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2")))
+#include "interactions/pair_avx512.hpp"
 
 namespace grains::linear_contacts_avx512 {
 namespace {
 
-using V = __m512d;
+using namespace pair_avx512;
 
-GRAINS_AVX512_CONTACTS inline V add(V a, V b) { return _mm512_add_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V sub(V a, V b) { return _mm512_sub_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V mul(V a, V b) { return _mm512_mul_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V div(V a, V b) { return _mm512_div_pd(a, b); }
-GRAINS_AVX512_CONTACTS inline V all(double a) { return _mm512_set1_pd(a); }
-GRAINS_AVX512_CONTACTS inline V gather(const double* a, __m256i idx, __mmask8 m) {
-  return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, idx, a, 8);
-}
-
-GRAINS_AVX512_CONTACTS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
+GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   const __m256i i = _mm256_maskz_loadu_epi32(live, rows + q);
   const __m256i k = _mm256_maskz_loadu_epi32(live, pairs + q);
   const __m256i j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, in.partner, 4);
-  // Image shift: digits s % 3, (s / 3) % 3, s / 9 (s < 27; s / 3 = (11 s) >> 5 there), looked up in registers
-  // holding shift[d][0], shift[3 d][1], shift[9 d][2].
-  const __m256i s = _mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q));
-  const __m256i three = _mm256_set1_epi32(3), eleven = _mm256_set1_epi32(11);
-  const __m256i s1 = _mm256_srli_epi32(_mm256_mullo_epi32(s, eleven), 5), s2 = _mm256_srli_epi32(_mm256_mullo_epi32(s1, eleven), 5);
-  const __m256i digit[3] = {_mm256_sub_epi32(s, _mm256_mullo_epi32(s1, three)), _mm256_sub_epi32(s1, _mm256_mullo_epi32(s2, three)), s2};
+  V shift[3];
+  ImageShifts<3>(in.shift).lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), shift);
+  const __m256i three = _mm256_set1_epi32(3);
   const __m256i i3 = _mm256_mullo_epi32(i, three), j3 = _mm256_mullo_epi32(j, three);
   V r[3];
-  for (int a = 0; a < 3; ++a) {
-    const int unit = a == 0 ? 1 : a == 1 ? 3 : 9;
-    const V table = _mm512_setr_pd(in.shift[0][a], in.shift[unit][a], in.shift[2 * unit][a], 0, 0, 0, 0, 0);
-    const V sh = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(digit[a]), table);
-    r[a] = sub(add(gather(in.position + a, j3, live), sh), gather(in.position + a, i3, live));
-  }
+  for (int a = 0; a < 3; ++a) r[a] = sub(add(gather(in.position + a, j3, live), shift[a]), gather(in.position + a, i3, live));
   const V d2 = add(add(mul(r[0], r[0]), mul(r[1], r[1])), mul(r[2], r[2]));   // (x^2 + y^2) + z^2, as Eigen
   const V Ri = gather(in.radius, i, live), Rj = gather(in.radius, j, live);
   const V Rsum = add(Ri, Rj);
@@ -107,7 +84,7 @@ long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* p
               std::size_t n, const Output& out) {
   long clamped = 0;
   for (std::size_t q = 0; q < n; q += 8)
-    clamped += evaluate8(in, rows, pairs, images, q, n - q >= 8 ? __mmask8(0xFF) : __mmask8((1u << (n - q)) - 1), out);
+    clamped += evaluate8(in, rows, pairs, images, q, first_lanes(n - q), out);
   return clamped;
 }
 

@@ -1,0 +1,70 @@
+// AVX-512 pieces shared by the pair loop's kernels (pair_filter_avx512.cpp, cohesive_contacts_avx512.cpp,
+// linear_contacts_avx512.cpp): eight doubles per vector, one lane per list entry. They are compiled for
+// AVX-512 whatever the build flags (the binary stays portable x86-64): call them only from
+// GRAINS_AVX512_PAIRS functions, and those only where pair_filter::avx512() is true. Include this header
+// only in files compiled without multiply-add contraction (engine/CMakeLists.txt), so that every lane does
+// the portable code's operations.
+#pragma once
+#include <immintrin.h>
+
+#include "core/vec.hpp"
+
+// GCC's own conversion, permutation and gather intrinsics start from an "undefined" vector it then warns about.
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+
+#define GRAINS_AVX512_PAIRS __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2")))
+
+namespace grains::pair_avx512 {
+
+using V = __m512d;
+
+GRAINS_AVX512_PAIRS inline V add(V a, V b) { return _mm512_add_pd(a, b); }
+GRAINS_AVX512_PAIRS inline V sub(V a, V b) { return _mm512_sub_pd(a, b); }
+GRAINS_AVX512_PAIRS inline V mul(V a, V b) { return _mm512_mul_pd(a, b); }
+GRAINS_AVX512_PAIRS inline V div(V a, V b) { return _mm512_div_pd(a, b); }
+GRAINS_AVX512_PAIRS inline V all(double a) { return _mm512_set1_pd(a); }
+GRAINS_AVX512_PAIRS inline V abs(V a) { return _mm512_abs_pd(a); }
+
+// The lanes' a[idx] (zero where m is clear).
+GRAINS_AVX512_PAIRS inline V gather(const double* a, __m256i idx, __mmask8 m) {
+  return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, idx, a, 8);
+}
+
+GRAINS_AVX512_PAIRS inline __m512i sign_bit() { return _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL)); }
+// -a, exactly (a sign flip, as unary minus).
+GRAINS_AVX512_PAIRS inline V neg(V a) { return _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(a), sign_bit())); }
+// std::copysign(magnitude, sign).
+GRAINS_AVX512_PAIRS inline V copysign(V magnitude, V sign) {
+  return _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign_bit(), _mm512_castpd_si512(magnitude)),
+                                             _mm512_and_si512(_mm512_castpd_si512(sign), sign_bit())));
+}
+
+// The lanes' mask: all eight, or the first `left` of them.
+inline __mmask8 first_lanes(std::size_t left) { return left >= 8 ? __mmask8(0xFF) : __mmask8((1u << left) - 1); }
+
+// The periodic image shifts of the neighbour list (shift[s], s = sum (k_a + 1) 3^a), component by component,
+// looked up by permutation rather than gathered: axis a's register holds shift[d 3^a][a] in lanes d = 0, 1, 2.
+template <int D>
+struct ImageShifts {
+  V table[D];
+  GRAINS_AVX512_PAIRS explicit ImageShifts(const Vec<D>* shift) {
+    for (int a = 0; a < D; ++a) {
+      const int unit = a == 0 ? 1 : a == 1 ? 3 : 9;
+      table[a] = _mm512_setr_pd(shift[0][a], shift[unit][a], shift[2 * unit][a], 0, 0, 0, 0, 0);
+    }
+  }
+  // Components of shift[s] for the lanes' image indices s (s < 3^D; s / 3 = (11 s) >> 5 is exact there).
+  GRAINS_AVX512_PAIRS void lookup(__m256i s, V out[D]) const {
+    const __m256i three = _mm256_set1_epi32(3), eleven = _mm256_set1_epi32(11);
+    __m256i rest = s;
+    for (int a = 0; a < D; ++a) {
+      const __m256i next = _mm256_srli_epi32(_mm256_mullo_epi32(rest, eleven), 5);
+      const __m256i digit = a == D - 1 ? rest : _mm256_sub_epi32(rest, _mm256_mullo_epi32(next, three));
+      out[a] = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(digit), table[a]);
+      rest = next;
+    }
+  }
+};
+
+}  // namespace grains::pair_avx512
