@@ -25,12 +25,9 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V Ri = gather(in.radius, i, live), Rj = gather(in.radius, j, live);
   const V Rsum = add(Ri, Rj);
   const __mmask8 touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
-  const __m256i stamp = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), touching, k, in.touched, 4);
-  const __mmask8 m = _mm256_mask_cmpeq_epi32_mask(touching, _mm256_add_epi32(stamp, _mm256_set1_epi32(1)),
-                                                   _mm256_set1_epi32(int(in.evaluation)));
+  const __mmask8 m = steady_contacts(touching, k, in.touched, in.evaluation);
   out.steady[q / 8] = m;   // q is a multiple of 8
   if (!m) return 0;
-  _mm256_mask_i32scatter_epi32(in.touched, m, k, _mm256_set1_epi32(int(in.evaluation)), 4);
 
   const V d = _mm512_sqrt_pd(d2);
   const V n[3] = {div(r[0], d), div(r[1], d), div(r[2], d)};
@@ -82,10 +79,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
 
 long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
               std::size_t n, const Output& out) {
-  long clamped = 0;
-  for (std::size_t q = 0; q < n; q += 8)
-    clamped += evaluate8(in, rows, pairs, images, q, first_lanes(n - q), out);
-  return clamped;
+  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8(in, rows, pairs, images, q, lanes, out); });
 }
 
 }  // namespace grains::linear_contacts_avx512

@@ -5,6 +5,9 @@
 // only in files compiled without multiply-add contraction (engine/CMakeLists.txt), so that every lane does
 // the portable code's operations.
 #pragma once
+#include <cstddef>
+#include <cstdint>
+
 #include <immintrin.h>
 
 #include "core/vec.hpp"
@@ -42,6 +45,25 @@ GRAINS_AVX512_PAIRS inline V copysign(V magnitude, V sign) {
 
 // The lanes' mask: all eight, or the first `left` of them.
 inline __mmask8 first_lanes(std::size_t left) { return left >= 8 ? __mmask8(0xFF) : __mmask8((1u << left) - 1); }
+
+// Of the touching lanes (list entries k), those that touched at the last evaluation too (stamp + 1 ==
+// evaluation; the contact's first step otherwise), restamped with this evaluation.
+GRAINS_AVX512_PAIRS inline __mmask8 steady_contacts(__mmask8 touching, __m256i k, std::uint32_t* touched,
+                                                    std::uint32_t evaluation) {
+  const __m256i now = _mm256_set1_epi32(int(evaluation));
+  const __m256i stamp = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), touching, k, touched, 4);
+  const __mmask8 steady = _mm256_mask_cmpeq_epi32_mask(touching, _mm256_add_epi32(stamp, _mm256_set1_epi32(1)), now);
+  _mm256_mask_i32scatter_epi32(touched, steady, k, now, 4);
+  return steady;
+}
+
+// Runs batch(q, lanes) over the n gathered pairs eight at a time; sums what it returns.
+template <class Batch>
+long in_batches(std::size_t n, Batch batch) {
+  long sum = 0;
+  for (std::size_t q = 0; q < n; q += 8) sum += batch(q, first_lanes(n - q));
+  return sum;
+}
 
 // The periodic image shifts of the neighbour list (shift[s], s = sum (k_a + 1) 3^a), component by component,
 // looked up by permutation rather than gathered: axis a's register holds shift[d 3^a][a] in lanes d = 0, 1, 2.
