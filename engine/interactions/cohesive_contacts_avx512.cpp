@@ -12,22 +12,11 @@ using namespace pair_avx512;
 
 GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
-  const __m256i i = _mm256_maskz_loadu_epi32(live, rows + q);
-  const __m256i k = _mm256_maskz_loadu_epi32(live, pairs + q);
-  const __m256i j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, in.partner, 4);
-  V shift[2];
-  ImageShifts<2>(in.shift).lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), shift);
-  const __m256i i2 = _mm256_add_epi32(i, i), j2 = _mm256_add_epi32(j, j);
-
-  // r = x_j + shift - x_i, d2 = |r|^2; a contact when d2 < (R_i + R_j)^2.
-  const V rx = sub(add(gather(in.position, j2, live), shift[0]), gather(in.position, i2, live));
-  const V ry = sub(add(gather(in.position + 1, j2, live), shift[1]), gather(in.position + 1, i2, live));
-  const V d2 = add(mul(rx, rx), mul(ry, ry));
-  const V Ri = gather(in.radius, i, live), Rj = gather(in.radius, j, live);
-  const V Rsum = add(Ri, Rj);
-  const __mmask8 touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
-  // Steady: touched at the last evaluation (first = touched + 1 != evaluation in the portable code).
-  const __mmask8 m = steady_contacts(touching, k, in.touched, in.evaluation);
+  // The pairs' geometry; the steady contacts among them (touched at the last evaluation too).
+  const Contacts8<2> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
+  const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
+  const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
+  const __mmask8 m = c.steady;
   out.steady[q / 8] = m;   // q is a multiple of 8
   if (!m) return 0;
 

@@ -12,20 +12,12 @@ using namespace pair_avx512;
 
 GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
-  const __m256i i = _mm256_maskz_loadu_epi32(live, rows + q);
-  const __m256i k = _mm256_maskz_loadu_epi32(live, pairs + q);
-  const __m256i j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, in.partner, 4);
-  V shift[3];
-  ImageShifts<3>(in.shift).lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), shift);
-  const __m256i three = _mm256_set1_epi32(3);
-  const __m256i i3 = _mm256_mullo_epi32(i, three), j3 = _mm256_mullo_epi32(j, three);
-  V r[3];
-  for (int a = 0; a < 3; ++a) r[a] = sub(add(gather(in.position + a, j3, live), shift[a]), gather(in.position + a, i3, live));
-  const V d2 = add(add(mul(r[0], r[0]), mul(r[1], r[1])), mul(r[2], r[2]));   // (x^2 + y^2) + z^2, as Eigen
-  const V Ri = gather(in.radius, i, live), Rj = gather(in.radius, j, live);
-  const V Rsum = add(Ri, Rj);
-  const __mmask8 touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
-  const __mmask8 m = steady_contacts(touching, k, in.touched, in.evaluation);
+  // The pairs' geometry; the steady contacts among them (touched at the last evaluation too).
+  const Contacts8<3> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
+  const __m256i i = c.i, j = c.j, i3 = c.iD, j3 = c.jD;
+  const V* r = c.r;
+  const V d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
+  const __mmask8 m = c.steady;
   out.steady[q / 8] = m;   // q is a multiple of 8
   if (!m) return 0;
 

@@ -89,4 +89,32 @@ struct ImageShifts {
   }
 };
 
+// The geometry of eight gathered pairs q .. q + 7 (rows[q], list entries pairs[q], images[q]) and which of
+// them are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
+// r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2 (as Eigen sums it), touching when d2 < (R_i + R_j)^2.
+// Lanes of indices i D and j D address the D-vectors of the particle arrays.
+template <int D>
+struct Contacts8 {
+  __m256i i, k, j, iD, jD;
+  V r[D], d2, Ri, Rj, Rsum;
+  __mmask8 steady;
+  GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
+                                __mmask8 live, const std::uint32_t* partner, const Vec<D>* shift, const double* position,
+                                const double* radius, std::uint32_t* touched, std::uint32_t evaluation) {
+    i = _mm256_maskz_loadu_epi32(live, rows + q);
+    k = _mm256_maskz_loadu_epi32(live, pairs + q);
+    j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, partner, 4);
+    const __m256i dim = _mm256_set1_epi32(D);
+    iD = _mm256_mullo_epi32(i, dim), jD = _mm256_mullo_epi32(j, dim);
+    V s[D];
+    ImageShifts<D>(shift).lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), s);
+    for (int a = 0; a < D; ++a) {
+      r[a] = sub(add(gather(position + a, jD, live), s[a]), gather(position + a, iD, live));
+      d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
+    }
+    Ri = gather(radius, i, live), Rj = gather(radius, j, live), Rsum = add(Ri, Rj);
+    steady = steady_contacts(_mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ), k, touched, evaluation);
+  }
+};
+
 }  // namespace grains::pair_avx512
