@@ -266,7 +266,7 @@ bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x, int threads) const {
   if (allowance <= 0) return true;
   const double limit = allowance * allowance;
   // The reference positions as the cell has carried them since the build (scale 1 in a fixed box).
-  // Chunks are reduced to their largest displacement without a branch (so the loop vectorises), then
+  // Chunks are reduced to their largest displacement without a branch (no early exit per particle), then
   // tested; the threads take contiguous shares of chunks, and a thread stops when any has found one.
   const Vec<D> lower = reference_lower_, scale = strain_since_build_;
   const bool fixed = scale == Vec<D>::Ones();
