@@ -10,15 +10,11 @@
 #include <omp.h>
 
 #include "core/particles.hpp"
+#include "core/thread_share.hpp"
 
 namespace grains {
 
 namespace integrator_detail {
-
-// Thread t's share of n items: contiguous, in thread order.
-inline std::pair<std::size_t, std::size_t> share(std::size_t n, int t, int threads) {
-  return {n * std::size_t(t) / std::size_t(threads), n * std::size_t(t + 1) / std::size_t(threads)};
-}
 
 // An array of fixed-size vectors as the plain doubles it holds, so that the kernels below run over
 // unaliased flat arrays (the compiler then keeps everything in registers and vectorises).
@@ -63,10 +59,11 @@ inline void advance(std::size_t n, double h, double* __restrict theta, const dou
 // (integrator.cpp).
 void turn(std::size_t n, double h, const double* w, double* q);
 
-// Second half over n particles of C components: a = f / m; v += h/2 a. Returns the sum of the new v
-// (in any order, like drift's: a sum in loop order would chain every add and keep the loop scalar).
+// Second half over n particles of C components: a = f / m; v = (v + h/2 a) keep, keep = exp(-gamma h)
+// for a drag of rate gamma (1 without: x * 1 is x exactly). Returns the sum of the new v (in any
+// order, like drift's: a sum in loop order would chain every add and keep the loop scalar).
 template <int C>
-double kick(std::size_t n, double h, const double* __restrict inverse_mass, const double* __restrict f,
+double kick(std::size_t n, double h, double keep, const double* __restrict inverse_mass, const double* __restrict f,
             double* __restrict a, double* __restrict v) {
   double witness = 0;
 #pragma omp simd reduction(+ : witness)
@@ -74,7 +71,7 @@ double kick(std::size_t n, double h, const double* __restrict inverse_mass, cons
     for (int c = 0; c < C; ++c) {
       const std::size_t k = i * C + c;
       a[k] = inverse_mass[i] * f[k];
-      v[k] += 0.5 * h * a[k];
+      v[k] = (v[k] + 0.5 * h * a[k]) * keep;
       witness += v[k];
     }
   return witness;
@@ -94,7 +91,7 @@ double kick_drift_predict(Particles<D>& P, double h, int threads) {
   double witness = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : witness)
   {
-    const auto [b, e] = share(N, omp_get_thread_num(), omp_get_num_threads());
+    const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
     witness += drift(D * (e - b), h, flat(P.position) + D * b, flat(P.velocity) + D * b, flat(P.velocity_predicted) + D * b,
                      flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
     if constexpr (Rotate && D == 3) {
@@ -109,10 +106,11 @@ double kick_drift_predict(Particles<D>& P, double h, int threads) {
   return witness;
 }
 
-// Second half kick from the new forces (a_n becomes a_{n-1} by swapping the arrays, not copying).
-// Returns the sum of all velocities' components: finite exactly when every velocity is.
+// Second half kick from the new forces (a_n becomes a_{n-1} by swapping the arrays, not copying),
+// velocities and spins then multiplied by `keep` (a drag, see kick). Returns the sum of all
+// velocities' components: finite exactly when every velocity is.
 template <int D, bool Rotate>
-double finish_kick(Particles<D>& P, double h, int threads) {
+double finish_kick(Particles<D>& P, double h, int threads, double keep = 1.0) {
   using namespace integrator_detail;
   const std::size_t N = P.size();
   constexpr int S = Spin<D>::SizeAtCompileTime;
@@ -120,10 +118,10 @@ double finish_kick(Particles<D>& P, double h, int threads) {
   P.accel.swap(P.accel_prev);
 #pragma omp parallel num_threads(threads) reduction(+ : witness)
   {
-    const auto [b, e] = share(N, omp_get_thread_num(), omp_get_num_threads());
-    witness += kick<D>(e - b, h, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.accel) + D * b, flat(P.velocity) + D * b);
+    const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
+    witness += kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.accel) + D * b, flat(P.velocity) + D * b);
     if constexpr (Rotate)
-      witness += kick<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_accel) + S * b,
+      witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_accel) + S * b,
                          flat(P.angular_velocity) + S * b);
   }
   return witness;

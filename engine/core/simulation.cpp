@@ -125,6 +125,12 @@ class SimulationImpl final : public Simulation {
                    "beta = c_r / (c_n R_i R_j) of the rolling dashpot on the relative spin (tunable: takes effect at "
                    "the next step; 0 is the paper's law)", 0.0, 1.0},
                   [r = rolling_] { return r->damping; }, [r = rolling_](double beta) { r->damping = beta; });
+    drag_ = scene.real("drag.rate");
+    add_control({"drag.rate", "1/s", Causality::parameter, Variability::tunable,
+                 "gamma: every step multiplies velocities (relative to the cell's affine flow) and spins by "
+                 "exp(-gamma dt), a drag on every grain that no paper's law has: a relaxation aid (tunable: takes "
+                 "effect at the next step; 0 is off)", 0.0},
+                [this] { return drag_; }, [this](double gamma) { drag_ = gamma; });
     if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
       add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
                    "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off)", 0.0},
@@ -197,7 +203,7 @@ class SimulationImpl final : public Simulation {
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
   // unused spin prediction read). States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e03;
+  static constexpr std::uint32_t state_format = 0x47524e04;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -428,7 +434,7 @@ class SimulationImpl final : public Simulation {
     p.rate_cap = rate_cap(target_reduced_);
     p.rtol = scene.real("cell.rtol");
     p.atol_length = scene.real("cell.atol") * length_unit_;
-    p.time_unit = std::sqrt(length_unit_ * grain_mass_ / force_scale(target_reduced_));
+    p.time_unit = inertial_time(target_reduced_);
     tolerances_ = {scene.real("cell.tolerance_force"), scene.real("cell.tolerance_torque"),
                    scene.real("cell.tolerance_stress"), scene.real("cell.tolerance_kinetic")};
     barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
@@ -442,10 +448,11 @@ class SimulationImpl final : public Simulation {
   double force_scale(double reduced_pressure) const {
     return std::max(force_unit_, reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1));
   }
-  // Strain-rate cap I_a / T, T = sqrt(a m / F1) (= T0 when cohesion dominates).
-  double rate_cap(double reduced_pressure) const {
-    return inertia_number_ / std::sqrt(length_unit_ * grain_mass_ / force_scale(reduced_pressure));
+  // T = sqrt(a m / F1) (= T0 when cohesion dominates) and the strain-rate cap I_a / T.
+  double inertial_time(double reduced_pressure) const {
+    return std::sqrt(length_unit_ * grain_mass_ / force_scale(reduced_pressure));
   }
+  double rate_cap(double reduced_pressure) const { return inertia_number_ / inertial_time(reduced_pressure); }
 
   // Move the particles with the cell (affinely, about its lower corner); velocities are left as they
   // are: relative to the affine flow.
@@ -482,7 +489,7 @@ class SimulationImpl final : public Simulation {
     // In the integrator's shares, so each thread clears what it last wrote.
 #pragma omp parallel num_threads(sys_.threads)
     {
-      const auto [b, e] = integrator_detail::share(P.size(), omp_get_thread_num(), omp_get_num_threads());
+      const auto [b, e] = thread_share(P.size(), omp_get_thread_num(), omp_get_num_threads());
       std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());
       if (rotate_) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
     }
@@ -515,7 +522,8 @@ class SimulationImpl final : public Simulation {
     if (uses_list_ && sys_.neighbours.stale(P.position, sys_.threads)) rebuild();
     sys_.dt = h;
     compute_forces();
-    witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads) : finish_kick<D, false>(P, h, sys_.threads);
+    const double keep = drag_ > 0 ? std::exp(-drag_ * h) : 1.0;
+    witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads, keep) : finish_kick<D, false>(P, h, sys_.threads, keep);
     for (auto& m : modules_) m->finish_step(sys_);
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
@@ -734,6 +742,8 @@ class SimulationImpl final : public Simulation {
     out("equilibrium_torque", "", "largest net torque / (tolerance_torque F1 a): below 1 passes");
     out("equilibrium_stress", "", "largest |sigma_aa - P| / (tolerance_stress F1 / a^(D-1)): below 1 passes");
     out("equilibrium_kinetic", "", "kinetic energy per grain / (tolerance_kinetic F1 a): below 1 passes");
+    out("inertial_time", "s", "T = sqrt(a m / F1), F1 = max(F0, P a^(D-1)) at the target pressure: the time unit of the "
+        "strain-rate cap (I_a / T) and of programme.quench_drag");
     out("cvode_steps", "", "CVODE internal steps of the cell-length equations so far");
     out("cvode_rhs_evaluations", "", "CVODE right-hand-side evaluations so far");
     out("cvode_reinitialisations", "", "CVODE restarts (new target pressure, saved or restored state)");
@@ -790,6 +800,7 @@ class SimulationImpl final : public Simulation {
     o["equilibrium"] = m.within({1, 1, 1, 1}) ? 1.0 : 0.0;
     o["equilibrium_force"] = m.force, o["equilibrium_torque"] = m.torque, o["equilibrium_stress"] = m.stress,
     o["equilibrium_kinetic"] = m.kinetic;
+    o["inertial_time"] = inertial_time(target_reduced_);
     const auto st = barostat_->statistics();
     o["cvode_steps"] = double(st.internal_steps);
     o["cvode_rhs_evaluations"] = double(st.rhs_evaluations);
@@ -909,6 +920,7 @@ class SimulationImpl final : public Simulation {
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;
+  double drag_ = 0;   // drag.rate gamma
   double contact_damping_ = 0;                       // multiplies the contacts' affine damping of the cell
   static constexpr long contact_damping_every_ = 10;  // steps between its updates (one pass over the list)
   double cvode_seconds_ = 0;

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <omp.h>
 
+#include "core/thread_share.hpp"
 #include "interactions/force_module.hpp"
 #include "interactions/adhesive_contact_law.hpp"
 #include "interactions/cohesive_contacts_avx512.hpp"
@@ -113,29 +114,28 @@ class ContactForces final : public ForceModule<D> {
       {
         const int t = omp_get_thread_num();
         Mat local = Mat::Zero();
-        // Thread 0 adds straight into the force arrays (no other thread writes them before the
-        // reduction below): its buffer needs no clearing and no summing pass.
-        Vec<D>* f = P.force.data();
-        Spin<D>* q = P.torque.data();
-        if (t > 0) {
-          auto& ft = s.thread_force[t];
-          auto& qt = s.thread_torque[t];
-          std::fill(ft.begin(), ft.end(), Vec<D>::Zero());
-          if constexpr (torques_) std::fill(qt.begin(), qt.end(), Spin<D>::Zero());
-          f = ft.data(), q = qt.data();
-        }
-        // Rows have uneven lengths; interleaved blocks balance them while staying deterministic.
-        const std::size_t blocks = (N + block_rows_ - 1) / block_rows_;
-#pragma omp for schedule(static, 1)
-        for (std::size_t c = 0; c < blocks; ++c)
-          clamped_now += loop<Virial>(s, c * block_rows_, std::min(N, (c + 1) * block_rows_), f, q, local, gathered_[t], batch);
+        // Each thread takes the rows of the particles it integrates (core/thread_share.hpp): a slab
+        // of space when the particles are numbered along a space-filling curve (initial_state), so its
+        // partners are mostly its own particles too and few cache lines change cores. Thread 0 adds
+        // straight into the force arrays; the others into their own, zero on entry (see below).
+        Vec<D>* f = t == 0 ? P.force.data() : s.thread_force[t].data();
+        Spin<D>* q = t == 0 ? P.torque.data() : s.thread_torque[t].data();
+        const auto [b, e] = thread_share(N, t, T);
+        clamped_now += loop<Virial>(s, b, e, f, q, local, gathered_[t], batch);
         if constexpr (Virial) thread_virial[t] = local;
-#pragma omp for schedule(static)
-        for (std::size_t i = 0; i < N; ++i) {
-          for (int u = 1; u < T; ++u) P.force[i] += s.thread_force[u][i];
-          if constexpr (torques_)
-            for (int u = 1; u < T; ++u) P.torque[i] += s.thread_torque[u][i];
-        }
+#pragma omp barrier
+        // Each thread collects its own particles' shares from the other threads' arrays, in thread
+        // order (deterministic for a thread count), and zeroes what it read: the arrays are zero again
+        // for the next evaluation, and their lines stay with the thread that reads them.
+        for (std::size_t i = b; i < e; ++i)
+          for (int u = 1; u < T; ++u) {
+            P.force[i] += s.thread_force[u][i];
+            s.thread_force[u][i].setZero();
+            if constexpr (torques_) {
+              P.torque[i] += s.thread_torque[u][i];
+              s.thread_torque[u][i].setZero();
+            }
+          }
       }
       if constexpr (Virial)
         for (const Mat& w : thread_virial) s.virial += w;

@@ -110,6 +110,14 @@ const std::vector<SchemaEntry>& scene_schema() {
        "stable for c_r dt / I < 2). In a pressure-controlled cell also the tunable parameter `rolling.damping_ratio`, "
        "which a host may change between steps."},
 
+      // --- drag ---
+      {"drag.rate", K::real, "0.0", 0, inf, false, false, "",
+       "gamma (1 / time): every step multiplies each velocity (relative to the cell's affine flow, if any) and spin "
+       "by exp(-gamma dt), a drag on every grain. In no paper's law: a relaxation aid that damps every motion alike, "
+       "the slow collective modes of a loose network (its softest elastic modes and grains swinging about single "
+       "contacts) that the contact dashpots hardly see. 0 leaves it out. Also the tunable parameter `drag.rate`, "
+       "which `grains consolidate` switches on in settled stages (`programme.quench_drag`)."},
+
       // --- self-gravity ---
       {"gravity.enabled", K::boolean, "false", 0, 0, false, false, "",
        "Softened Newtonian self-gravity between all pairs (physics.md section 7). Open boxes only (`box.periodic = false`)."},
@@ -208,18 +216,26 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
       {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",
        "Steps the type-2 aggregation may take to form one bonded cluster."},
-      {"programme.quench_damping", K::real, "0.003", 0, 1, false, false, "",
-       "beta of the rolling dashpot (`rolling.damping_ratio`) that quenches the rolling mechanisms of a settled stage: "
-       "each stage starts on the paper's law (beta = 0); once it has settled (`settle_ratio`, `settle_checks`, "
-       "`settle_compaction`) the "
-       "dashpot is switched on, and when the four criteria hold it is switched off again; the stage is in equilibrium "
-       "when they still hold at the next check with beta = 0. 0: no quench (most stages then miss equilibrium). "
-       "Consolidation law only (`adhesion.enabled`); the stage table's `quench_start` says when it was switched on."},
+      {"programme.quench_drag", K::real, "1.0", 0, inf, false, false, "",
+       "gamma T of the drag (`drag.rate`, T = sqrt(a m / F1) the output `inertial_time`) that quenches a settled "
+       "stage: each stage starts on the paper's law (no drag); once it has settled (`settle_ratio`, `settle_checks`, "
+       "`settle_compaction`) the drag is switched on, and when the four criteria hold it is switched off again; the "
+       "stage is in equilibrium when they then hold at `confirm_checks` checks in a row without it. The paper's law damps relative "
+       "normal motion only: its loose networks keep slow collective modes (ringing with periods of 5-40 T, decaying "
+       "by about 2 % a period) far longer than a stage's budget. 0: no drag quench. The stage table's `quench_start` "
+       "says when the quench began."},
+      {"programme.quench_damping", K::real, "0.0", 0, 1, false, false, "",
+       "beta of the rolling dashpot (`rolling.damping_ratio`, consolidation law only) switched on and off with the "
+       "quench, on top of the drag (the quench of earlier versions, default 0.003 then: it damps only relative spins "
+       "and left the slow collective modes ringing). 0: not used."},
+      {"programme.confirm_checks", K::integer, "5", 1, 9.2e18, false, false, "",
+       "Consecutive equilibrium checks (without the quench) at which the four criteria must hold for a stage to be in "
+       "equilibrium: one check samples a single phase of whatever still rings."},
       {"programme.settle_ratio", K::real, "100", 0, inf, true, false, "",
        "A stage has settled when its kinetic and stress equilibrium ratios (`equilibrium_kinetic`, "
        "`equilibrium_stress`) are below this for `settle_checks` checks in a row."},
       {"programme.settle_checks", K::integer, "20", 1, 9.2e18, false, false, "",
-       "Consecutive equilibrium checks a stage must stay settled before its rolling mechanisms are quenched."},
+       "Consecutive equilibrium checks a stage must stay settled before it is quenched."},
       {"programme.settle_compaction", K::real, "1e-5", 0, inf, false, false, "",
        "A stage has settled only while its solid fraction also moves by less than this (relative) over those "
        "`settle_checks` checks: a loose cohesive network collapses slowly at its target pressure with the kinetic and "

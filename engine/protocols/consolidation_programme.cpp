@@ -22,11 +22,13 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   p.check_every = scene.integer("programme.check_every");
   p.stage_budget = scene.integer("programme.stage_budget");
   p.aggregation_budget = scene.integer("programme.aggregation_budget");
-  // The rolling dashpot belongs to the consolidation law: a cohesionless programme runs without the quench.
+  // The rolling dashpot belongs to the consolidation law; the drag serves any law.
   p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
+  p.quench.drag = scene.real("programme.quench_drag");
   p.quench.settle_ratio = scene.real("programme.settle_ratio");
   p.quench.settle_checks = scene.integer("programme.settle_checks");
   p.quench.settle_compaction = scene.real("programme.settle_compaction");
+  p.quench.confirm_checks = scene.integer("programme.confirm_checks");
   if (!scene.boolean("cell.enabled"))
     scene.fail("cell.enabled", "the consolidation programme drives a pressure-controlled cell: set cell.enabled = true");
   if (p.load && p.top_pressure < p.start_pressure)
@@ -37,6 +39,10 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
                fmt::format("value {} keeps the rolling dashpot on throughout, but programme.quench_damping = {} switches "
                            "it on and off in every stage: set one of them to 0", scene.real("rolling.damping_ratio"),
                            p.quench.damping));
+  if (p.quench.drag > 0 && scene.real("drag.rate") > 0)
+    scene.fail("drag.rate", fmt::format("value {} keeps the drag on throughout, but programme.quench_drag = {} switches it "
+                                        "on and off in every stage: set one of them to 0", scene.real("drag.rate"),
+                                        p.quench.drag));
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
@@ -119,7 +125,7 @@ class Runner {
 
   void equilibrate(const std::string& phase, double target) {
     s_.set("cell.pressure", target);
-    RollingQuench quench(s_, p_.quench);
+    StageQuench quench(s_, p_.quench);
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();

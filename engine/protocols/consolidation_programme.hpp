@@ -4,14 +4,14 @@
 // pressure, then unloading back to the start in larger steps. Every stage runs until the four
 // equilibrium criteria hold or its step budget is spent; a stage that runs out is recorded with
 // reached = false and the programme goes on, so the caller can report it. Once a stage has settled its
-// rolling mechanisms are quenched (protocols/rolling_quench.hpp, the input rolling.damping_ratio).
+// slow modes are quenched (protocols/stage_quench.hpp: the drag drag.rate, optionally the rolling dashpot).
 #pragma once
 #include <functional>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "protocols/rolling_quench.hpp"
+#include "protocols/stage_quench.hpp"
 
 namespace grains {
 
@@ -27,7 +27,7 @@ struct ProgrammeSettings {
   long check_every = 100;             // steps between equilibrium checks
   long stage_budget = 2'000'000;      // steps per stage
   long aggregation_budget = 20'000'000;
-  QuenchSettings quench;              // the rolling dashpot switched on once a stage has settled
+  QuenchSettings quench;              // the drag (and rolling dashpot) switched on once a stage has settled
 
   static ProgrammeSettings from_scene(const Scene& scene);
 };

@@ -70,7 +70,7 @@ diameter_max = 1.0
 solid_fraction = 0.3
 velocity = "gaussian"
 kinetic_energy = 1.0
-seed = 5
+seed = 7
 [contact]
 restitution = {}
 duration = {}

@@ -1,0 +1,91 @@
+// The consolidation programme's quench of settled stages (README, consolidation). The paper's law
+// damps relative normal motion only, so a loose cohesive network keeps slow collective modes -- its
+// softest elastic modes, grains and branches swinging about single contacts, rolling mechanisms --
+// that ring for thousands of T with net forces far above the equilibrium threshold. Each stage
+// therefore runs the paper's law until the sample has settled -- its kinetic and stress equilibrium
+// ratios below settle_ratio for settle_checks checks in a row, with the solid fraction steady to
+// settle_compaction over them -- and only then switches on a drag on every grain (drag.rate), and
+// optionally the rolling dashpot (rolling.damping_ratio): switched on earlier they would slow the
+// rearrangements and change the packing. Once the four criteria hold both are switched off again,
+// and the stage counts as in equilibrium only if they then hold at confirm_checks checks in a row
+// without them: an equilibrium of the paper's law.
+// All state but the counters lives in the Simulation (its tunable parameters).
+#pragma once
+#include <cmath>
+
+#include "core/simulation.hpp"
+
+namespace grains {
+
+struct QuenchSettings {
+  // gamma T of the drag, T the output inertial_time: about critical for the slow modes (periods of
+  // 5-40 T); a stage of seed 4 at P* = 0.01 that the rolling dashpot alone left ringing for 7 million
+  // steps reached equilibrium 300,000 steps into the quench with gamma T = 0.5 or 2. 0: no drag.
+  double drag = 1.0;
+  // beta of the rolling dashpot, on top of the drag (the quench of earlier versions); 0: not used.
+  double damping = 0.0;
+  double settle_ratio = 100;   // the kinetic and stress ratios below which a stage has settled
+  long settle_checks = 20;     // consecutive checks they must stay below it
+  // ... while the solid fraction moves by less than this (relative) over those checks: a loose network
+  // collapses slowly at its target pressure, with the kinetic and stress ratios already small.
+  double settle_compaction = 1e-5;
+  long confirm_checks = 5;     // consecutive checks the criteria must hold for the stage to be in equilibrium
+
+  bool any() const { return drag > 0 || damping > 0; }
+};
+
+class StageQuench {
+ public:
+  // Starts a stage on the paper's law.
+  StageQuench(Simulation& s, const QuenchSettings& q) : s_(s), q_(q) { switch_quench(false); }
+
+  // At an equilibrium check, `steps` into the stage: whether the stage is in equilibrium without the
+  // quench, i.e. the criteria have held at confirm_checks checks in a row (single checks sample the
+  // phase of whatever still rings: a drag-quenched state whose forces pass once may read 3-4 times the
+  // threshold 200 steps later, as a contact-scale mode swings back).
+  bool in_equilibrium(long steps) {
+    const bool equilibrium = s_.get("equilibrium") == 1.0;
+    if (on_) {   // quenched: switch off and let the next checks judge the paper's law
+      if (equilibrium) switch_quench(false);
+      return false;
+    }
+    if (equilibrium) return ++confirmed_ >= q_.confirm_checks;
+    confirmed_ = 0;
+    const bool quiet = s_.get("equilibrium_kinetic") < q_.settle_ratio && s_.get("equilibrium_stress") < q_.settle_ratio;
+    const double phi = s_.get("solid_fraction");
+    if (!quiet) settled_checks_ = 0;
+    else if (settled_checks_ == 0 || std::abs(phi - run_phi_) > q_.settle_compaction * run_phi_)
+      settled_checks_ = 1, run_phi_ = phi;   // a settled run starts here (or starts again: still compacting)
+    else ++settled_checks_;
+    if (q_.any() && settled_checks_ >= q_.settle_checks) {
+      switch_quench(true);
+      if (start_ < 0) start_ = steps;
+    }
+    return false;
+  }
+
+  // Leaves the paper's law for whatever follows the stage.
+  void end() { switch_quench(false); }
+
+  long start() const { return start_; }   // steps into the stage at the first switch-on; -1: never
+  bool on() const { return on_; }
+
+ private:
+  // What is not used is left alone: the scene's own drag.rate or rolling.damping_ratio then stays.
+  void switch_quench(bool on) {
+    if (q_.drag > 0) s_.set("drag.rate", on ? q_.drag / s_.get("inertial_time") : 0.0);
+    if (q_.damping > 0) s_.set("rolling.damping_ratio", on ? q_.damping : 0.0);
+    on_ = on && q_.any();
+    settled_checks_ = 0, confirmed_ = 0;
+  }
+
+  Simulation& s_;
+  QuenchSettings q_;
+  bool on_ = false;
+  long settled_checks_ = 0;
+  long confirmed_ = 0;   // consecutive checks in equilibrium without the quench
+  double run_phi_ = 0;   // the solid fraction at the start of the settled run
+  long start_ = -1;
+};
+
+}  // namespace grains
