@@ -202,7 +202,7 @@ class SimulationImpl final : public Simulation {
 
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
-  // unused spin prediction read). States of builds before the word start with D (2, 3).
+  // unused spin prediction read; 4: the drag.rate control). States of builds before the word start with D (2, 3).
   static constexpr std::uint32_t state_format = 0x47524e04;
 
   std::vector<std::byte> save_state() const override {
