@@ -1,10 +1,9 @@
 #include "protocols/initial_state.hpp"
+#include "core/morton.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
-#include <numeric>
 #include <fstream>
 #include <numbers>
 #include <random>
@@ -108,23 +107,18 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
 // exchangeable: only their labels change).
 template <int D>
 void number_along_z_curve(Particles<D>& P, const Box<D>& box) {
-  constexpr int bits = D == 3 ? 21 : 31;   // cells per axis 2^bits: the key fits 63 bits
+  constexpr int bits = morton::key_bits<D>;
+  const double cells = std::ldexp(1.0, bits), top = cells - 1;
   const std::size_t N = P.size();
-  std::vector<std::uint64_t> key(N);
+  std::vector<unsigned long long> keys(N);
+  std::vector<int> order(N);
   for (std::size_t i = 0; i < N; ++i) {
-    std::uint64_t k = 0;
-    std::array<std::uint64_t, D> c;
-    for (int a = 0; a < D; ++a) {
-      const double u = std::clamp((P.position[i][a] - box.lower[a]) / box.length[a], 0.0, 1.0);
-      c[a] = std::min<std::uint64_t>((std::uint64_t(1) << bits) - 1, std::uint64_t(u * double(std::uint64_t(1) << bits)));
-    }
-    for (int b = bits - 1; b >= 0; --b)
-      for (int a = D - 1; a >= 0; --a) k = (k << 1) | ((c[a] >> b) & 1);
-    key[i] = k;
+    std::array<unsigned long long, D> q;
+    for (int a = 0; a < D; ++a)
+      q[a] = static_cast<unsigned long long>(std::clamp((P.position[i][a] - box.lower[a]) / box.length[a] * cells, 0.0, top));
+    keys[i] = morton::key<D>(q), order[i] = int(i);
   }
-  std::vector<std::size_t> order(N);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return key[x] < key[y]; });
+  morton::radix_sort(keys, order);
   const auto position = P.position;
   const auto radius = P.radius, mass = P.mass;
   for (std::size_t i = 0; i < N; ++i) {
