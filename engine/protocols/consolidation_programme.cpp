@@ -34,15 +34,14 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   if (p.load && p.top_pressure < p.start_pressure)
     scene.fail("programme.top_pressure", fmt::format("value {} is below the start pressure cell.pressure = {}: allowed "
                                                      ">= cell.pressure", p.top_pressure, p.start_pressure));
-  if (p.quench.damping > 0 && scene.real("rolling.damping_ratio") > 0)
-    scene.fail("rolling.damping_ratio",
-               fmt::format("value {} keeps the rolling dashpot on throughout, but programme.quench_damping = {} switches "
-                           "it on and off in every stage: set one of them to 0", scene.real("rolling.damping_ratio"),
-                           p.quench.damping));
-  if (p.quench.drag > 0 && scene.real("drag.rate") > 0)
-    scene.fail("drag.rate", fmt::format("value {} keeps the drag on throughout, but programme.quench_drag = {} switches it "
-                                        "on and off in every stage: set one of them to 0", scene.real("drag.rate"),
-                                        p.quench.drag));
+  // A damper the scene keeps on throughout cannot also be the quench the programme switches.
+  const auto refuse_both = [&](const char* key, const char* what, const char* quench_key, double quench) {
+    if (quench > 0 && scene.real(key) > 0)
+      scene.fail(key, fmt::format("value {} keeps the {} on throughout, but {} = {} switches it on and off in every "
+                                  "stage: set one of them to 0", scene.real(key), what, quench_key, quench));
+  };
+  refuse_both("rolling.damping_ratio", "rolling dashpot", "programme.quench_damping", p.quench.damping);
+  refuse_both("drag.rate", "drag", "programme.quench_drag", p.quench.drag);
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
