@@ -79,29 +79,25 @@ double kick(std::size_t n, double h, double keep, const double* __restrict inver
 
 }  // namespace integrator_detail
 
+// First half over the particles [b, e), one thread's share (core/thread_share.hpp): the step runs it
+// inside a parallel region it shares with the other per-particle work of the step's first half.
 // Rotate = false skips every angular array: a scene without torques and without initial spin
 // never reads or writes them (half the memory traffic of the step). Both halves are memory-bound:
 // each array is read or written once. Returns the sum of the new positions' components, a cheap
 // witness: it is finite exactly when every position is.
 // Orient = false leaves the orientations alone (particles.track_orientation = false).
 template <int D, bool Rotate, bool Orient = true>
-double kick_drift_predict(Particles<D>& P, double h, int threads) {
+double kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e) {
   using namespace integrator_detail;
-  const std::size_t N = P.size();
-  double witness = 0;
-#pragma omp parallel num_threads(threads) reduction(+ : witness)
-  {
-    const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
-    witness += drift(D * (e - b), h, flat(P.position) + D * b, flat(P.velocity) + D * b, flat(P.velocity_predicted) + D * b,
-                     flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
-    if constexpr (Rotate && D == 3) {
-      static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
-      half_kick(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_accel) + 3 * b);
-      if constexpr (Orient) turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
-    } else if constexpr (Rotate) {   // 2D: the angle simply advances
-      half_kick(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_accel) + b);
-      if constexpr (Orient) advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
-    }
+  const double witness = drift(D * (e - b), h, flat(P.position) + D * b, flat(P.velocity) + D * b,
+                               flat(P.velocity_predicted) + D * b, flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
+  if constexpr (Rotate && D == 3) {
+    static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
+    half_kick(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_accel) + 3 * b);
+    if constexpr (Orient) turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
+  } else if constexpr (Rotate) {   // 2D: the angle simply advances
+    half_kick(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_accel) + b);
+    if constexpr (Orient) advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
   }
   return witness;
 }

@@ -454,13 +454,9 @@ class SimulationImpl final : public Simulation {
   }
   double rate_cap(double reduced_pressure) const { return inertia_number_ / inertial_time(reduced_pressure); }
 
-  // Move the particles with the cell (affinely, about its lower corner); velocities are left as they
-  // are: relative to the affine flow.
-  void follow_cell(const Vec<D>& scale) {
-    auto& P = sys_.particles;
-    const Vec<D> lower = sys_.box.lower;
-#pragma omp parallel for num_threads(sys_.threads) schedule(static)
-    for (std::size_t i = 0; i < P.size(); ++i) P.position[i] = lower + (P.position[i] - lower).cwiseProduct(scale);
+  // The cell takes its new lengths: the list's image shifts follow, and a cell too small for its
+  // particles stops the run. The particles follow in the step's first parallel region (follow_cell).
+  void resize_cell(const Vec<D>& scale) {
     sys_.box.length = barostat_->length();
     sys_.neighbours.follow_cell(scale, sys_.box);
     for (int a = 0; a < D; ++a)
@@ -469,6 +465,13 @@ class SimulationImpl final : public Simulation {
             "step {}: the cell has shrunk to {:.6g} on axis {}, no longer than twice the interaction reach "
             "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles",
             sys_.step + 1, sys_.box.length[a], a, cell_list_reach_));
+  }
+  // Particles [b, e) move with the cell, affinely about its lower corner; velocities are left as they
+  // are: relative to the affine flow.
+  void follow_cell(const Vec<D>& scale, std::size_t b, std::size_t e) {
+    auto& P = sys_.particles;
+    const Vec<D> lower = sys_.box.lower;
+    for (std::size_t i = b; i < e; ++i) P.position[i] = lower + (P.position[i] - lower).cwiseProduct(scale);
   }
 
   Tensor<D> stress() const { return contact_stress_ + kinetic_stress<D>(sys_.particles, sys_.box.volume()); }
@@ -484,22 +487,45 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->after_rebuild(sys_.neighbours);
   }
 
-  void compute_forces() {
+  void clear_forces(std::size_t b, std::size_t e) {
     auto& P = sys_.particles;
-    // In the integrator's shares, so each thread clears what it last wrote.
-#pragma omp parallel num_threads(sys_.threads)
-    {
-      const auto [b, e] = thread_share(P.size(), omp_get_thread_num(), omp_get_num_threads());
-      std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());
-      if (rotate_) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
-    }
+    std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());
+    if (rotate_) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
+  }
+
+  // `cleared`: the step's first half has already zeroed the forces, each thread its own share.
+  void compute_forces(bool cleared = false) {
+    auto& P = sys_.particles;
+    if (!cleared) clear_forces(0, P.size());
     sys_.virial.setZero();
     for (auto& m : modules_) m->add_forces(sys_);
   }
 
+  // Kick, drift and predict; follow the cell; measure how far the particles moved since the list was
+  // built; clear the forces: all per particle, so one parallel region does them, each thread its own
+  // share (core/thread_share.hpp). On a few thousand particles a step takes some tens of microseconds,
+  // and every region that opens and joins costs a few of them. Returns the integrator's witness.
+  double first_half(double h, bool cell_moves, const Vec<D>& scale, double& moved) {
+    auto& P = sys_.particles;
+    const std::size_t N = P.size();
+    double witness = 0, largest = 0;
+#pragma omp parallel num_threads(sys_.threads) reduction(+ : witness) reduction(max : largest)
+    {
+      const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
+      witness += !rotate_ ? kick_drift_predict<D, false>(P, h, b, e)
+                 : orient_ ? kick_drift_predict<D, true>(P, h, b, e)
+                           : kick_drift_predict<D, true, false>(P, h, b, e);
+      if (cell_moves) follow_cell(scale, b, e);
+      if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
+      clear_forces(b, e);
+    }
+    moved = largest;
+    return witness;
+  }
+
   void one_step(double h) {
     auto& P = sys_.particles;
-    Vec<D> scale;
+    Vec<D> scale = Vec<D>::Ones();
     const bool cell_moves = barostat_ && cell_active_;
     if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
       if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0)
@@ -508,20 +534,19 @@ class SimulationImpl final : public Simulation {
       const auto start = std::chrono::steady_clock::now();
       scale = barostat_->advance(sys_.time, h, sigma);
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      resize_cell(scale);
     }
     for (auto& m : modules_) m->begin_step(sys_, h);
-    double witness = !rotate_ ? kick_drift_predict<D, false>(P, h, sys_.threads)
-                     : orient_ ? kick_drift_predict<D, true>(P, h, sys_.threads)
-                               : kick_drift_predict<D, true, false>(P, h, sys_.threads);
+    double moved = 0;
+    double witness = first_half(h, cell_moves, scale, moved);
     sys_.affine_flow = cell_moves;
     if (cell_moves) {
-      follow_cell(scale);
       sys_.cell_scale = scale;
       sys_.strain_rate = barostat_->rate().cwiseQuotient(sys_.box.length);
     }
-    if (uses_list_ && sys_.neighbours.stale(P.position, sys_.threads)) rebuild();
+    if (uses_list_ && sys_.neighbours.stale_after(moved)) rebuild();
     sys_.dt = h;
-    compute_forces();
+    compute_forces(true);
     const double keep = drag_ > 0 ? std::exp(-drag_ * h) : 1.0;
     witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads, keep) : finish_kick<D, false>(P, h, sys_.threads, keep);
     for (auto& m : modules_) m->finish_step(sys_);

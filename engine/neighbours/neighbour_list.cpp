@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -259,36 +258,28 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 }
 
 template <int D>
-bool NeighbourList<D>::stale(const std::vector<Vec<D>>& x, int threads) const {
-  if (reference_.size() != x.size()) return true;
+double NeighbourList<D>::largest_move(const std::vector<Vec<D>>& x, std::size_t b, std::size_t e) const {
+  if (reference_.size() != x.size()) return std::numeric_limits<double>::infinity();
+  // The reference positions as the cell has carried them since the build (scale 1 in a fixed box).
+  // Reduced without a branch: the loop vectorises.
+  const Vec<D> lower = reference_lower_, scale = strain_since_build_;
+  double largest = 0;
+  if (scale == Vec<D>::Ones()) {
+#pragma omp simd reduction(max : largest)
+    for (std::size_t i = b; i < e; ++i) largest = std::max(largest, (x[i] - reference_[i]).squaredNorm());
+  } else {
+#pragma omp simd reduction(max : largest)
+    for (std::size_t i = b; i < e; ++i)
+      largest = std::max(largest, (x[i] - (lower + (reference_[i] - lower).cwiseProduct(scale))).squaredNorm());
+  }
+  return largest;
+}
+
+template <int D>
+bool NeighbourList<D>::stale_after(double largest_move) const {
   const double strain = (strain_since_build_.array() - 1).abs().maxCoeff();
   const double allowance = 0.5 * (skin_ - strain * list_reach_);   // per particle
-  if (allowance <= 0) return true;
-  const double limit = allowance * allowance;
-  // The reference positions as the cell has carried them since the build (scale 1 in a fixed box).
-  // Chunks are reduced to their largest displacement without a branch (no early exit per particle), then
-  // tested; the threads take contiguous shares of chunks, and a thread stops when any has found one.
-  const Vec<D> lower = reference_lower_, scale = strain_since_build_;
-  const bool fixed = scale == Vec<D>::Ones();
-  constexpr std::size_t chunk = 512;
-  const std::size_t chunks = (x.size() + chunk - 1) / chunk;
-  std::atomic<bool> found{false};
-#pragma omp parallel for num_threads(std::max(1, std::min<int>(threads, int(chunks)))) schedule(static)
-  for (std::size_t c = 0; c < chunks; ++c) {
-    if (found.load(std::memory_order_relaxed)) continue;
-    const std::size_t b = c * chunk, e = std::min(x.size(), b + chunk);
-    double largest = 0;
-    if (fixed) {
-#pragma omp simd reduction(max : largest)
-      for (std::size_t i = b; i < e; ++i) largest = std::max(largest, (x[i] - reference_[i]).squaredNorm());
-    } else {
-#pragma omp simd reduction(max : largest)
-      for (std::size_t i = b; i < e; ++i)
-        largest = std::max(largest, (x[i] - (lower + (reference_[i] - lower).cwiseProduct(scale))).squaredNorm());
-    }
-    if (largest > limit) found.store(true, std::memory_order_relaxed);
-  }
-  return found.load();
+  return allowance <= 0 || largest_move > allowance * allowance;
 }
 
 template <int D>

@@ -27,12 +27,16 @@ class NeighbourList {
   // Positions must already be wrapped into the box. Keeps the previous list's rows for
   // match_previous(); with history, also maps every entry to the previous list for carry().
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
-  // True once some particle has moved more than skin/2 since the last build (less the part of the skin
-  // that the cell deformation since the build has used up, see follow_cell).
-  bool stale(const std::vector<Vec<D>>& position, int threads = 1) const;
+  // The list is stale once some particle has moved more than skin/2 since the last build (less the part
+  // of the skin that the cell deformation since the build has used up, see follow_cell). The test is in
+  // two parts so that each thread measures its own share of particles inside the step's first parallel
+  // region: largest_move gives the largest squared displacement over particles [b, e) (infinite if the
+  // particle count changed), stale_after judges the largest over all shares.
+  double largest_move(const std::vector<Vec<D>>& position, std::size_t b, std::size_t e) const;
+  bool stale_after(double largest_move) const;
   // The periodic cell was rescaled by `scale` per axis about box.lower and the particles followed
   // affinely: image shifts follow the new lengths and the reference positions the affine map, so
-  // stale() sees only the motion relative to the cell. A pair's separation changes by at most
+  // largest_move() sees only the motion relative to the cell. A pair's separation changes by at most
   // |scale - 1| times the list reach, which the staleness test charges against the skin.
   void follow_cell(const Vec<D>& scale, const Box<D>& box);
 
