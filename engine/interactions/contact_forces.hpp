@@ -43,9 +43,9 @@ class ContactForces final : public ForceModule<D> {
   // Cohesive disks with friction (the consolidation scenes in 2D): steady contacts eight at a time where
   // the processor has AVX-512 (cohesive_contacts_avx512.hpp).
   static constexpr bool batched_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
-  // Frictionless spheres with one global (k_n, c_n) (the gas): the same, linear_contacts_avx512.hpp.
-  static constexpr bool batched_linear_ =
-      D == 3 && std::is_same_v<Law, LinearContactLaw<false>> && !Friction::enabled && !Rolling::enabled;
+  // Spheres with one global (k_n, c_n), with or without friction (the gas scenes): the same,
+  // linear_contacts_avx512.hpp.
+  static constexpr bool batched_linear_ = D == 3 && std::is_same_v<Law, LinearContactLaw<false>> && !Rolling::enabled;
   // The tangential spring xi. 2D: a scalar along t = z x n; the tangent "plane" is a line that turns
   // with n, so the spring follows it for free (no projection, no square root) and keeps its length
   // exactly. 3D: a vector in the tangent plane. Spin<D> is exactly that (a 1-vector in 2D).
@@ -288,7 +288,7 @@ class ContactForces final : public ForceModule<D> {
     std::vector<std::uint8_t> image;        // ... and its periodic image
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
     // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
-    std::vector<double> fx, fy, fz, torque_i, torque_j, moment, rx, ry, rz;
+    std::vector<double> fx, fy, fz, torque_i[3], torque_j[3], moment, rx, ry, rz;   // torques: 2D only [0]
     std::vector<std::uint8_t> steady;
   };
 
@@ -309,6 +309,13 @@ class ContactForces final : public ForceModule<D> {
     in.k = law_.k, in.c = law_.c, in.overlap_limit = law_.overlap_limit, in.dt = s.dt;
     in.affine = s.affine_flow;
     for (int a = 0; a < D; ++a) in.strain_rate[a] = s.strain_rate[a];
+    if constexpr (Friction::enabled) {
+      in.tangential = reinterpret_cast<double*>(tangential_.data());
+      in.velocity = reinterpret_cast<const double*>(P.velocity.data());
+      in.angular_velocity = reinterpret_cast<const double*>(P.angular_velocity.data());
+      in.friction_stiffness = friction_.stiffness_ratio * law_.k, in.friction_damping_ratio = friction_.damping_ratio;
+      in.mu = friction_.mu, in.elastic_bound = friction_.elastic_bound;
+    }
     return in;
   }
   cohesive_contacts_avx512::Input batch_input(System<D>& s) {
@@ -380,18 +387,21 @@ class ContactForces final : public ForceModule<D> {
       if constexpr (batched_ || batched_linear_) {
         if (batch.cohesive || batch.linear) {
           const std::size_t room = n + 8;
-          for (auto* v : {&g.fx, &g.fy, &g.fz, &g.torque_i, &g.torque_j, &g.moment, &g.rx, &g.ry, &g.rz})
+          for (auto* v : {&g.fx, &g.fy, &g.fz, &g.torque_i[0], &g.torque_i[1], &g.torque_i[2], &g.torque_j[0],
+                          &g.torque_j[1], &g.torque_j[2], &g.moment, &g.rx, &g.ry, &g.rz})
             if (v->size() < room) v->resize(room);
           if (g.steady.size() < room / 8) g.steady.resize(room / 8);
           if (batch.cohesive)
             clamped += cohesive_contacts_avx512::evaluate(
                 *batch.cohesive, gathered_row, gathered_pair, g.image.data(), n,
-                {g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i.data(), g.torque_j.data(), g.moment.data(),
+                {g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i[0].data(), g.torque_j[0].data(), g.moment.data(),
                  g.rx.data(), g.ry.data()});
           else
             clamped += linear_contacts_avx512::evaluate(
                 *batch.linear, gathered_row, gathered_pair, g.image.data(), n,
-                {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data()});
+                {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data(),
+                 {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()},
+                 {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()}});
           batched = g.steady.data();
         }
       }
@@ -408,14 +418,18 @@ class ContactForces final : public ForceModule<D> {
           if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
             Vec<D> f, r;
             if constexpr (batched_) {
-              torque[j][0] -= g.torque_j[q];
-              torque[i][0] -= g.torque_i[q];
+              torque[j][0] -= g.torque_j[0][q];
+              torque[i][0] -= g.torque_i[0][q];
               if constexpr (Rolling::enabled) {
                 torque[j][0] += g.moment[q];
                 torque[i][0] -= g.moment[q];
               }
               f = Vec<D>(g.fx[q], g.fy[q]), r = Vec<D>(g.rx[q], g.ry[q]);
             } else {
+              if constexpr (Friction::enabled) {
+                torque[j] += Spin<D>(g.torque_j[0][q], g.torque_j[1][q], g.torque_j[2][q]);
+                torque[i] += Spin<D>(g.torque_i[0][q], g.torque_i[1][q], g.torque_i[2][q]);
+              }
               f = Vec<D>(g.fx[q], g.fy[q], g.fz[q]), r = Vec<D>(g.rx[q], g.ry[q], g.rz[q]);
             }
             force[j] += f;

@@ -1,4 +1,4 @@
-// AVX-512 build of the steady frictionless contacts (linear_contacts_avx512.hpp). Compiled for AVX-512
+// AVX-512 build of the steady contacts of spheres (linear_contacts_avx512.hpp). Compiled for AVX-512
 // whatever the build flags and without FMA contraction (engine/CMakeLists.txt). Every line mirrors an
 // expression of contact_forces.hpp / linear_contact_law.hpp / contact_step.hpp, in the same order.
 #include "interactions/linear_contacts_avx512.hpp"
@@ -9,6 +9,74 @@ namespace grains::linear_contacts_avx512 {
 namespace {
 
 using namespace pair_avx512;
+
+GRAINS_AVX512_PAIRS inline V dot(const V a[3], const V b[3]) { return add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2])); }
+// Eigen's cross product: (a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0).
+GRAINS_AVX512_PAIRS inline void cross(const V a[3], const V b[3], V out[3]) {
+  out[0] = sub(mul(a[1], b[2]), mul(a[2], b[1]));
+  out[1] = sub(mul(a[2], b[0]), mul(a[0], b[2]));
+  out[2] = sub(mul(a[0], b[1]), mul(a[1], b[0]));
+}
+GRAINS_AVX512_PAIRS inline void scaled(V s, const V v[3], V out[3]) {
+  for (int a = 0; a < 3; ++a) out[a] = mul(s, v[a]);
+}
+
+// ContactForces::tangential_force (3D) on the steady lanes m: turns and advances the springs, caps them,
+// adds F_t to `force` (on j) and stores both torques. fn: the normal force, elastic: k_n delta_used.
+GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmask8 m, const V n[3], V elastic, V fn, V d,
+                                  const V flow[3], V force[3], std::size_t q, const Output& out) {
+  const __m256i k3 = _mm256_mullo_epi32(c.k, _mm256_set1_epi32(3));
+  // Lever arms to the middle of the overlap.
+  const V half_overlap = mul(all(0.5), sub(c.Rsum, d));
+  const V arm_i = sub(c.Ri, half_overlap), arm_j = sub(c.Rj, half_overlap);
+  const V kt = all(in.friction_stiffness), ct = all(in.friction_damping_ratio * in.c);
+  const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
+  // turn_into_tangent_plane(xi, n)
+  V xi[3];
+  for (int a = 0; a < 3; ++a) xi[a] = gather(in.tangential + a, k3, m);
+  const V before = dot(xi, xi);
+  const V along = dot(xi, n);
+  for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(along, n[a]));
+  const V after = dot(xi, xi);
+  const __mmask8 turned = _mm512_mask_cmp_pd_mask(m, after, all(0.0), _CMP_GT_OQ);
+  const V stretch = _mm512_mask_sqrt_pd(all(1.0), turned, _mm512_mask_div_pd(all(1.0), turned, before, after));
+  for (int a = 0; a < 3; ++a) xi[a] = _mm512_mask_mul_pd(xi[a], turned, xi[a], stretch);
+  // vt = (v_j - w_j x (R_j n)) - (v_i + w_i x (R_i n)) + flow, then its part in the tangent plane.
+  V wi[3], wj[3], lever_i[3], lever_j[3], spin_i[3], spin_j[3], vt[3];
+  for (int a = 0; a < 3; ++a) wi[a] = gather(in.angular_velocity + a, c.iD, m), wj[a] = gather(in.angular_velocity + a, c.jD, m);
+  scaled(arm_i, n, lever_i), scaled(arm_j, n, lever_j);
+  cross(wj, lever_j, spin_j), cross(wi, lever_i, spin_i);
+  for (int a = 0; a < 3; ++a)
+    vt[a] = add(sub(sub(gather(in.velocity + a, c.jD, m), spin_j[a]), add(gather(in.velocity + a, c.iD, m), spin_i[a])), flow[a]);
+  const V normal = dot(vt, n);
+  for (int a = 0; a < 3; ++a) vt[a] = sub(vt[a], mul(normal, n[a]));
+  // The spring, the force and the Coulomb cap.
+  const V minus_kt = neg(kt);
+  V ft[3];
+  for (int a = 0; a < 3; ++a) {
+    xi[a] = add(xi[a], mul(vt[a], all(in.dt)));
+    ft[a] = sub(mul(minus_kt, xi[a]), mul(ct, vt[a]));
+  }
+  const V mag2 = dot(ft, ft);
+  const __mmask8 slides = _mm512_mask_cmp_pd_mask(m, mag2, mul(bound, bound), _CMP_GT_OQ);
+  if (slides) {
+    const V cap = _mm512_mask_div_pd(all(1.0), slides, bound, _mm512_mask_sqrt_pd(all(1.0), slides, mag2));
+    for (int a = 0; a < 3; ++a) {
+      ft[a] = _mm512_mask_mul_pd(ft[a], slides, ft[a], cap);
+      xi[a] = _mm512_mask_div_pd(xi[a], slides, ft[a], minus_kt);
+    }
+  }
+  for (int a = 0; a < 3; ++a) _mm512_mask_i32scatter_pd(in.tangential + a, m, k3, xi[a], 8);
+  // Torques: (-R_j n) x F_t on j, (R_i n) x (-F_t) on i.
+  V lever[3], minus_ft[3], torque[3];
+  scaled(neg(arm_j), n, lever);
+  cross(lever, ft, torque);
+  for (int a = 0; a < 3; ++a) _mm512_mask_storeu_pd(out.torque_j[a] + q, m, torque[a]);
+  for (int a = 0; a < 3; ++a) minus_ft[a] = neg(ft[a]);
+  cross(lever_i, minus_ft, torque);
+  for (int a = 0; a < 3; ++a) _mm512_mask_storeu_pd(out.torque_i[a] + q, m, torque[a]);
+  for (int a = 0; a < 3; ++a) force[a] = add(force[a], ft[a]);
+}
 
 GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
@@ -58,9 +126,16 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     }
   }
   f = _mm512_max_pd(f, all(0.0));   // std::max(0.0, f)
-  _mm512_mask_storeu_pd(out.fx + q, m, mul(f, n[0]));
-  _mm512_mask_storeu_pd(out.fy + q, m, mul(f, n[1]));
-  _mm512_mask_storeu_pd(out.fz + q, m, mul(f, n[2]));
+  V force[3] = {mul(f, n[0]), mul(f, n[1]), mul(f, n[2])};
+  if (in.tangential) {
+    V flow[3] = {all(0.0), all(0.0), all(0.0)};
+    if (in.affine)
+      for (int a = 0; a < 3; ++a) flow[a] = mul(all(in.strain_rate[a]), r[a]);
+    friction(in, c, m, n, elastic, f, d, flow, force, q, out);
+  }
+  _mm512_mask_storeu_pd(out.fx + q, m, force[0]);
+  _mm512_mask_storeu_pd(out.fy + q, m, force[1]);
+  _mm512_mask_storeu_pd(out.fz + q, m, force[2]);
   _mm512_mask_storeu_pd(out.rx + q, m, r[0]);
   _mm512_mask_storeu_pd(out.ry + q, m, r[1]);
   _mm512_mask_storeu_pd(out.rz + q, m, r[2]);

@@ -1,9 +1,10 @@
-// The steady contacts of frictionless spheres, eight at a time (AVX-512): the linear spring-dashpot law
-// with one global (k_n, c_n) (physics.md section 2) for the contacts that already touched at the last
-// force evaluation, as the gas scene has them. Those take no onset corrections; the pair loop
-// (contact_forces.hpp) evaluates a contact's first step itself and adds every result in list order. Each
-// lane does the portable code's operations in the same order (LinearContactLaw::force with its release
-// charge), with correctly rounded roots and divisions and no multiply-add contraction, so the forces are
+// The steady contacts of spheres, eight at a time (AVX-512): the linear spring-dashpot law with one
+// global (k_n, c_n) (physics.md section 2) and optionally Coulomb friction (section 4), for the contacts
+// that already touched at the last force evaluation, as the gas scenes have them. Those take no onset
+// corrections; the pair loop (contact_forces.hpp) evaluates a contact's first step itself and adds every
+// result in list order. Each lane does the portable code's operations in the same order
+// (LinearContactLaw::force with its release charge, ContactForces::tangential_force), with correctly
+// rounded roots and divisions and no multiply-add contraction, so forces, torques and springs are
 // bit-identical to it.
 #pragma once
 #include <cstddef>
@@ -22,12 +23,21 @@ struct Input {
   double k, c, overlap_limit, dt;                                  // the law, the step
   bool affine;                                                     // a deforming cell: the flow counts in v_n
   double strain_rate[3];
+  // Friction, when `tangential` is set: the springs xi (x, y, z per list entry), the half-step
+  // velocities and spins they advance with (x, y, z triples), k_t, c_t / c_n, mu, and whether the
+  // Coulomb bound is on k_n delta (true) or on the whole normal force.
+  double* tangential;
+  const double *velocity, *angular_velocity;
+  double friction_stiffness, friction_damping_ratio, mu;
+  bool elastic_bound;
 };
 
-// Per gathered pair q: whether it was evaluated here (a bit per pair), its force on j and its pair vector.
+// Per gathered pair q: whether it was evaluated here (a bit per pair), its force on j, its pair vector and,
+// with friction, the torques to add to i and j.
 struct Output {
   std::uint8_t* steady;
   double *fx, *fy, *fz, *rx, *ry, *rz;
+  double *torque_i[3], *torque_j[3];
 };
 
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]).

@@ -5,8 +5,9 @@
 //   resistance (rolling dashpot on), in a fixed cell and compressed in a pressure-controlled one. It gains
 //   contacts, slides and rolls on the way, so steady contacts, first steps, distant bonds, the parting
 //   charge and both Coulomb caps all occur.
-// - Frictionless spheres (interactions/linear_contacts_avx512.hpp): a dense hot gas, fixed and compressed
-//   (so the release charge, clamped overlaps and the affine flow occur).
+// - Spheres (interactions/linear_contacts_avx512.hpp): a dense hot gas, fixed and compressed (so the
+//   release charge, clamped overlaps and the affine flow occur), frictionless and with Coulomb friction
+//   (mu = 0.1: most contacts slide; mu = 0.5 with k_t = 2/7 k_n and c_t = c_n / 2 as in the gas-friction scene).
 #include <catch2/catch.hpp>
 
 #include <fmt/format.h>
@@ -91,7 +92,7 @@ TEST_CASE("batched contacts, cohesive disks: bit-identical to the portable pair 
 
 namespace {
 
-Scene hot_spheres(int threads, bool cell) {
+Scene hot_spheres(int threads, bool cell, double mu) {
   return Scene::from_string(fmt::format(R"(
 [scene]
 dimension = 3
@@ -111,32 +112,37 @@ periodic = true
 restitution = 0.6
 duration = 0.05
 overlap_limit = 0.05
+[friction]
+coefficient = {}
+stiffness_ratio = 0.2857142857142857
+damping_ratio = 0.5
 [cell]
 enabled = {}
 force_unit = 0
 pressure = 1e-3
 [run]
 threads = {}
-)", cell, threads), "batched-linear");
+)", mu, cell, threads), "batched-linear");
 }
 
 }  // namespace
 
-TEST_CASE("batched contacts, frictionless spheres: bit-identical to the portable pair loop", "[contacts][batched]") {
+TEST_CASE("batched contacts, spheres with and without friction: bit-identical to the portable pair loop", "[contacts][batched]") {
   pair_filter::prefer_portable(false);
   if (!pair_filter::avx512()) {
     WARN("no AVX-512 here: only the portable pair loop runs");
     return;
   }
   for (int threads : {1, 2})
-    for (bool cell : {false, true}) {
-      const Scene scene = hot_spheres(threads, cell);
-      INFO("threads " << threads << ", pressure-controlled cell " << cell);
-      const Outcome batched = run(scene, false, 4000), portable = run(scene, true, 4000);
-      CHECK(batched.contacts > 50);
-      CHECK(batched.clamped > 0);   // overlaps beyond the limit happen too
-      CHECK(batched.contacts == portable.contacts);
-      CHECK(batched.clamped == portable.clamped);
-      CHECK(batched.state == portable.state);
-    }
+    for (bool cell : {false, true})
+      for (double mu : {0.0, 0.1, 0.5}) {
+        const Scene scene = hot_spheres(threads, cell, mu);
+        INFO("threads " << threads << ", pressure-controlled cell " << cell << ", mu " << mu);
+        const Outcome batched = run(scene, false, 4000), portable = run(scene, true, 4000);
+        CHECK(batched.contacts > 30);   // friction cools the gas: fewer contacts at the end
+        CHECK(batched.clamped > 0);   // overlaps beyond the limit happen too
+        CHECK(batched.contacts == portable.contacts);
+        CHECK(batched.clamped == portable.clamped);
+        CHECK(batched.state == portable.state);
+      }
 }
