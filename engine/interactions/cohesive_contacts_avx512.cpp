@@ -12,7 +12,9 @@ using namespace pair_avx512;
 
 GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
-  // The pairs' geometry; the steady contacts among them (touched at the last evaluation too).
+  // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
+  // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
+  // results are never stored.
   const Contacts8<2> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
@@ -22,9 +24,9 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
 
   const V d = _mm512_sqrt_pd(d2);
   const V nx = div(rx, d), ny = div(ry, d);
-  const V cn = gather(in.damping, k, m);
-  const V dvx = sub(gather(in.velocity_predicted, j2, m), gather(in.velocity_predicted, i2, m));
-  const V dvy = sub(gather(in.velocity_predicted + 1, j2, m), gather(in.velocity_predicted + 1, i2, m));
+  const V cn = gather(in.damping, k, live);
+  const V dvx = sub(gather(in.velocity_predicted, j2, live), gather(in.velocity_predicted, i2, live));
+  const V dvy = sub(gather(in.velocity_predicted + 1, j2, live), gather(in.velocity_predicted + 1, i2, live));
   V vn = add(mul(dvx, nx), mul(dvy, ny));
   V flow_x = _mm512_setzero_pd(), flow_y = _mm512_setzero_pd();
   if (in.affine) {
@@ -38,12 +40,17 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const __mmask8 clamped = _mm512_mask_cmp_pd_mask(m, overlap, limit, _CMP_GT_OQ);
   const V elastic = mul(all(in.k), _mm512_mask_blend_pd(clamped, overlap, limit));
   const V travel = mul(vn, all(in.dt));
+  // Divisions cost as much as a dozen multiplications here: those of rare lanes (a contact parting
+  // within the step, a sliding or rolling spring) run only when some lane needs them.
   const __mmask8 parts = _mm512_mask_cmp_pd_mask(m, travel, overlap, _CMP_GT_OQ);
-  const V sigma = _mm512_mask_div_pd(all(0.0), parts, overlap, travel);
-  const V two_sigma_less_one = sub(mul(all(2.0), sigma), all(1.0));
-  const V weight = _mm512_mask_blend_pd(parts, all(1.0), sub(add(all(1.0), sigma), all(0.5)));
-  const V extra = _mm512_mask_blend_pd(parts, all(0.0),
-                                       add(all(0.0), div(mul(mul(travel, two_sigma_less_one), two_sigma_less_one), all(8.0))));
+  V weight = all(1.0), extra = all(0.0);
+  if (parts) {
+    const V sigma = _mm512_mask_div_pd(all(0.0), parts, overlap, travel);
+    const V two_sigma_less_one = sub(mul(all(2.0), sigma), all(1.0));
+    weight = _mm512_mask_blend_pd(parts, weight, sub(add(all(1.0), sigma), all(0.5)));
+    extra = _mm512_mask_blend_pd(parts, extra,
+                                 add(all(0.0), div(mul(mul(travel, two_sigma_less_one), two_sigma_less_one), all(8.0))));
+  }
   const V fn = sub(sub(add(elastic, mul(all(in.k), extra)), all(in.attraction)), mul(mul(cn, vn), weight));
 
   // Friction (tangential_force, 2D): everything along t = z x n.
@@ -53,16 +60,18 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V ct = mul(all(in.friction_damping_ratio), cn);
   const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
   const V tx = neg(ny), ty = nx;   // t = (-n_y, n_x)
-  const V wi = gather(in.angular_velocity, i, m), wj = gather(in.angular_velocity, j, m);
-  const V ux = add(sub(gather(in.velocity, j2, m), gather(in.velocity, i2, m)), flow_x);
-  const V uy = add(sub(gather(in.velocity + 1, j2, m), gather(in.velocity + 1, i2, m)), flow_y);
+  const V wi = gather(in.angular_velocity, i, live), wj = gather(in.angular_velocity, j, live);
+  const V ux = add(sub(gather(in.velocity, j2, live), gather(in.velocity, i2, live)), flow_x);
+  const V uy = add(sub(gather(in.velocity + 1, j2, live), gather(in.velocity + 1, i2, live)), flow_y);
   const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
-  V xi = add(gather(in.tangential, k, m), mul(vt, all(in.dt)));
+  V xi = add(gather(in.tangential, k, live), mul(vt, all(in.dt)));
   const V minus_kt = neg(kt);
   V ft = sub(mul(minus_kt, xi), mul(ct, vt));
   const __mmask8 slides = _mm512_mask_cmp_pd_mask(m, abs(ft), bound, _CMP_GT_OQ);
-  ft = _mm512_mask_blend_pd(slides, ft, copysign(bound, ft));
-  xi = _mm512_mask_blend_pd(slides, xi, div(ft, minus_kt));
+  if (slides) {
+    ft = _mm512_mask_blend_pd(slides, ft, copysign(bound, ft));
+    xi = _mm512_mask_div_pd(xi, slides, ft, minus_kt);
+  }
   _mm512_mask_i32scatter_pd(in.tangential, m, k, xi, 8);
   _mm512_mask_storeu_pd(out.torque_j + q, m, mul(arm_j, ft));
   _mm512_mask_storeu_pd(out.torque_i + q, m, mul(arm_i, ft));
@@ -77,12 +86,14 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     V moment = _mm512_setzero_pd();
     if (in.rolling_stiffness > 0) {
       const V bound_r = mul(all(in.rolling_coefficient), elastic);
-      V theta = add(gather(in.rolling_angle, k, m), mul(spin, all(in.dt)));
+      V theta = add(gather(in.rolling_angle, k, live), mul(spin, all(in.dt)));
       const V minus_kr = all(-in.rolling_stiffness);
       moment = mul(minus_kr, theta);
       const __mmask8 rolls = _mm512_mask_cmp_pd_mask(m, abs(moment), bound_r, _CMP_GT_OQ);
-      moment = _mm512_mask_blend_pd(rolls, moment, copysign(bound_r, moment));
-      theta = _mm512_mask_blend_pd(rolls, theta, div(moment, minus_kr));
+      if (rolls) {
+        moment = _mm512_mask_blend_pd(rolls, moment, copysign(bound_r, moment));
+        theta = _mm512_mask_div_pd(theta, rolls, moment, minus_kr);
+      }
       _mm512_mask_i32scatter_pd(in.rolling_angle, m, k, theta, 8);
     }
     if (in.rolling_damping > 0) moment = sub(moment, mul(mul(mul(mul(all(in.rolling_damping), cn), Ri), Rj), spin));

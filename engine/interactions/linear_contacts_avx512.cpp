@@ -23,7 +23,8 @@ GRAINS_AVX512_PAIRS inline void scaled(V s, const V v[3], V out[3]) {
 
 // ContactForces::tangential_force (3D) on the steady lanes m: turns and advances the springs, caps them,
 // adds F_t to `force` (on j) and stores both torques. fn: the normal force, elastic: k_n delta_used.
-GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmask8 m, const V n[3], V elastic, V fn, V d,
+// Loads take every live lane (see evaluate8).
+GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmask8 live, __mmask8 m, const V n[3], V elastic, V fn, V d,
                                   const V flow[3], V force[3], std::size_t q, const Output& out) {
   const __m256i k3 = _mm256_mullo_epi32(c.k, _mm256_set1_epi32(3));
   // Lever arms to the middle of the overlap.
@@ -33,7 +34,7 @@ GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmas
   const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
   // turn_into_tangent_plane(xi, n)
   V xi[3];
-  for (int a = 0; a < 3; ++a) xi[a] = gather(in.tangential + a, k3, m);
+  for (int a = 0; a < 3; ++a) xi[a] = gather(in.tangential + a, k3, live);
   const V before = dot(xi, xi);
   const V along = dot(xi, n);
   for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(along, n[a]));
@@ -43,11 +44,11 @@ GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmas
   for (int a = 0; a < 3; ++a) xi[a] = _mm512_mask_mul_pd(xi[a], turned, xi[a], stretch);
   // vt = (v_j - w_j x (R_j n)) - (v_i + w_i x (R_i n)) + flow, then its part in the tangent plane.
   V wi[3], wj[3], lever_i[3], lever_j[3], spin_i[3], spin_j[3], vt[3];
-  for (int a = 0; a < 3; ++a) wi[a] = gather(in.angular_velocity + a, c.iD, m), wj[a] = gather(in.angular_velocity + a, c.jD, m);
+  for (int a = 0; a < 3; ++a) wi[a] = gather(in.angular_velocity + a, c.iD, live), wj[a] = gather(in.angular_velocity + a, c.jD, live);
   scaled(arm_i, n, lever_i), scaled(arm_j, n, lever_j);
   cross(wj, lever_j, spin_j), cross(wi, lever_i, spin_i);
   for (int a = 0; a < 3; ++a)
-    vt[a] = add(sub(sub(gather(in.velocity + a, c.jD, m), spin_j[a]), add(gather(in.velocity + a, c.iD, m), spin_i[a])), flow[a]);
+    vt[a] = add(sub(sub(gather(in.velocity + a, c.jD, live), spin_j[a]), add(gather(in.velocity + a, c.iD, live), spin_i[a])), flow[a]);
   const V normal = dot(vt, n);
   for (int a = 0; a < 3; ++a) vt[a] = sub(vt[a], mul(normal, n[a]));
   // The spring, the force and the Coulomb cap.
@@ -80,7 +81,9 @@ GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmas
 
 GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
-  // The pairs' geometry; the steady contacts among them (touched at the last evaluation too).
+  // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
+  // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
+  // results are never stored.
   const Contacts8<3> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
   const __m256i i = c.i, j = c.j, i3 = c.iD, j3 = c.jD;
   const V* r = c.r;
@@ -92,7 +95,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V d = _mm512_sqrt_pd(d2);
   const V n[3] = {div(r[0], d), div(r[1], d), div(r[2], d)};
   V dv[3];
-  for (int a = 0; a < 3; ++a) dv[a] = sub(gather(in.velocity_predicted + a, j3, m), gather(in.velocity_predicted + a, i3, m));
+  for (int a = 0; a < 3; ++a) dv[a] = sub(gather(in.velocity_predicted + a, j3, live), gather(in.velocity_predicted + a, i3, live));
   V vn = add(add(mul(dv[0], n[0]), mul(dv[1], n[1])), mul(dv[2], n[2]));
   if (in.affine) {
     V flow[3];
@@ -131,7 +134,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     V flow[3] = {all(0.0), all(0.0), all(0.0)};
     if (in.affine)
       for (int a = 0; a < 3; ++a) flow[a] = mul(all(in.strain_rate[a]), r[a]);
-    friction(in, c, m, n, elastic, f, d, flow, force, q, out);
+    friction(in, c, live, m, n, elastic, f, d, flow, force, q, out);
   }
   _mm512_mask_storeu_pd(out.fx + q, m, force[0]);
   _mm512_mask_storeu_pd(out.fy + q, m, force[1]);
