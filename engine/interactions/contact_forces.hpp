@@ -114,14 +114,16 @@ class ContactForces final : public ForceModule<D> {
       {
         const int t = omp_get_thread_num();
         Mat local = Mat::Zero();
-        // Each thread takes the rows of the particles it integrates (core/thread_share.hpp): a slab
-        // of space when the particles are numbered along a space-filling curve (initial_state), so its
-        // partners are mostly its own particles too and few cache lines change cores. Thread 0 adds
-        // straight into the force arrays; the others into their own, zero on entry (see below).
+        // Each thread takes a contiguous range of rows with about as many listed pairs as the others
+        // (core/thread_share.hpp), close to the particles it integrates: a slab of space when the
+        // particles are numbered along a space-filling curve (initial_state), so its partners are mostly
+        // its own particles too and few cache lines change cores. Thread 0 adds straight into the force
+        // arrays; the others into their own, zero on entry (see below).
         Vec<D>* f = t == 0 ? P.force.data() : s.thread_force[t].data();
         Spin<D>* q = t == 0 ? P.torque.data() : s.thread_torque[t].data();
         const auto [b, e] = thread_share(N, t, T);
-        clamped_now += loop<Virial>(s, b, e, f, q, local, gathered_[t], batch);
+        const auto [rb, re] = row_share(s.neighbours.start, t, T);
+        clamped_now += loop<Virial>(s, rb, re, f, q, local, gathered_[t], batch);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp barrier
         // Each thread collects its own particles' shares from the other threads' arrays, in thread
