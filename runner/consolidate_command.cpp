@@ -46,7 +46,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
       // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
-      csv << "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time,quench_start";
+      csv << "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time,quench_start,quench_drag";
       for (const auto& [n, v] : r.values) csv << ',' << n;
       csv << '\n';
     }
@@ -59,15 +59,17 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                                : r.phase == "loading" || (r.phase == "equilibrate" && r.target == settings.start_pressure)
                                    ? "loading"
                                    : "preparation";
-    // quench_start: steps into the stage when the rolling dashpot was switched on (empty: it never was).
-    const std::string quench = r.quench_start >= 0 ? std::to_string(r.quench_start) : std::string();
+    // quench_start: steps into the stage when the quench was switched on; quench_drag: its gamma T at the
+    // end (both empty: never quenched).
+    const bool quenched = r.quench_start >= 0;
+    const std::string quench = quenched ? fmt::format("{},{:.6g}", r.quench_start, r.quench_drag) : std::string(",");
     csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{},{},{:.9g},{}", r.index, r.phase, branch, r.target,
                        value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time, quench);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
     write_observables(out, *sim);
-    out.write_observable("quench_start", sim->step_count(), sim->time(),
-                         r.quench_start >= 0 ? double(r.quench_start) : std::nan(""));
+    out.write_observable("quench_start", sim->step_count(), sim->time(), quenched ? double(r.quench_start) : std::nan(""));
+    out.write_observable("quench_drag", sim->step_count(), sim->time(), quenched ? r.quench_drag : std::nan(""));
     write_frame(out, *sim);
     status.finish();
     if (!r.reached) {
@@ -88,11 +90,12 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     else if (!std::isnan(value("B")))
       moduli = fmt::format("  B {:.4g}  G {:.4g}{}", value("B"), value("G"),
                            mechanisms > 0 ? fmt::format(" (mechanism in {} strain direction(s))", mechanisms) : "");
-    const std::string quenched = r.quench_start >= 0 ? fmt::format("  quenched from step {}", r.quench_start) : "";
+    const std::string quench_note =
+        quenched ? fmt::format("  quenched from step {} (drag gamma T {:.3g})", r.quench_start, r.quench_drag) : "";
     if (!opt.quiet)
       fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}{}\n", r.index, r.phase,
                  r.target, r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
-                 value("coordination"), quenched, moduli);
+                 value("coordination"), quench_note, moduli);
     std::fflush(stdout);
   };
   // Within a stage: what it waits for (one bonded cluster, or the four equilibrium ratios falling below 1).

@@ -224,6 +224,14 @@ const std::vector<SchemaEntry>& scene_schema() {
        "normal motion only: its loose networks keep slow collective modes (ringing with periods of 5-40 T, decaying "
        "by about 2 % a period) far longer than a stage's budget. 0: no drag quench. The stage table's `quench_start` "
        "says when the quench began."},
+      {"programme.quench_drag_min", K::real, "0.125", 0, inf, false, false, "",
+       "gamma T to which the quench's drag may step down: while a stage is quenched, the smallest force ratio "
+       "(`equilibrium_force`) of each window of `quench_patience` checks is compared with the previous window's, and "
+       "if it has not halved the drag halves, down to this value. A network still creeping to a denser state creeps "
+       "as fast as the drag lets it, its largest net force steady near gamma m v, while ringing modes decay under "
+       "the drag; the stage table's `quench_drag` gives the value a stage ended with."},
+      {"programme.quench_patience", K::integer, "300", 0, 9.2e18, false, false, "",
+       "Checks per window of the drag's step-down (`quench_drag_min`); 0: the drag stays at `quench_drag`."},
       {"programme.quench_damping", K::real, "0.0", 0, 1, false, false, "",
        "beta of the rolling dashpot (`rolling.damping_ratio`, consolidation law only) switched on and off with the "
        "quench, on top of the drag (the quench of earlier versions, default 0.003 then: it damps only relative spins "

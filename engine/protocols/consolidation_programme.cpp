@@ -25,6 +25,8 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   // The rolling dashpot belongs to the consolidation law; the drag serves any law.
   p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
   p.quench.drag = scene.real("programme.quench_drag");
+  p.quench.drag_min = scene.real("programme.quench_drag_min");
+  p.quench.patience = scene.integer("programme.quench_patience");
   p.quench.settle_ratio = scene.real("programme.settle_ratio");
   p.quench.settle_checks = scene.integer("programme.settle_checks");
   p.quench.settle_compaction = scene.real("programme.settle_compaction");
@@ -128,6 +130,7 @@ class Runner {
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();
+      r.quench_drag = quench.drag();
       return reached;
     });
     quench.end();

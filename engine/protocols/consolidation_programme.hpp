@@ -39,7 +39,8 @@ struct StageRecord {
   bool reached = false;     // equilibrium (or, aggregating, one cluster) within the budget
   long steps = 0;
   double time = 0;          // simulated time at the end of the stage
-  long quench_start = -1;   // steps into the stage when the rolling dashpot was first switched on (-1: never)
+  long quench_start = -1;   // steps into the stage when the quench was first switched on (-1: never)
+  double quench_drag = 0;   // gamma T of the quench's drag at the stage's end (stepped down, or as set)
   std::vector<std::pair<std::string, double>> values;   // outputs at the end of the stage
 };
 

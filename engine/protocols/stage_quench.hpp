@@ -8,12 +8,14 @@
 // optionally the rolling dashpot (rolling.damping_ratio): switched on earlier they would slow the
 // rearrangements and change the packing. Once the four criteria hold both are switched off again,
 // and the stage counts as in equilibrium only if they then hold at confirm_checks checks in a row
-// without them: an equilibrium of the paper's law.
+// without them: an equilibrium of the paper's law. While quenched, the drag steps down when it holds
+// a creeping stage back (drag_schedule.hpp).
 // All state but the counters lives in the Simulation (its tunable parameters).
 #pragma once
 #include <cmath>
 
 #include "core/simulation.hpp"
+#include "protocols/drag_schedule.hpp"
 
 namespace grains {
 
@@ -22,6 +24,8 @@ struct QuenchSettings {
   // 5-40 T); a stage of seed 4 at P* = 0.01 that the rolling dashpot alone left ringing for 7 million
   // steps reached equilibrium 300,000 steps into the quench with gamma T = 0.5 or 2. 0: no drag.
   double drag = 1.0;
+  double drag_min = 0.125;   // the drag steps down to this (gamma T) while it holds a creep back ...
+  long patience = 300;       // ... judged over windows of this many checks (0: never)
   // beta of the rolling dashpot, on top of the drag (the quench of earlier versions); 0: not used.
   double damping = 0.0;
   double settle_ratio = 100;   // the kinetic and stress ratios below which a stage has settled
@@ -37,7 +41,9 @@ struct QuenchSettings {
 class StageQuench {
  public:
   // Starts a stage on the paper's law.
-  StageQuench(Simulation& s, const QuenchSettings& q) : s_(s), q_(q) { switch_quench(false); }
+  StageQuench(Simulation& s, const QuenchSettings& q) : s_(s), q_(q), drag_(q.drag, q.drag_min, q.patience) {
+    switch_quench(false);
+  }
 
   // At an equilibrium check, `steps` into the stage: whether the stage is in equilibrium without the
   // quench, i.e. the criteria have held at confirm_checks checks in a row (single checks sample the
@@ -47,6 +53,7 @@ class StageQuench {
     const bool equilibrium = s_.get("equilibrium") == 1.0;
     if (on_) {   // quenched: switch off and let the next checks judge the paper's law
       if (equilibrium) switch_quench(false);
+      else if (drag_.observe(s_.get("equilibrium_force"))) switch_quench(true);   // at the lower drag
       return false;
     }
     if (equilibrium) return ++confirmed_ >= q_.confirm_checks;
@@ -69,18 +76,21 @@ class StageQuench {
 
   long start() const { return start_; }   // steps into the stage at the first switch-on; -1: never
   bool on() const { return on_; }
+  double drag() const { return drag_.value(); }   // gamma T of the drag now (stepped down, or as set)
 
  private:
   // What is not used is left alone: the scene's own drag.rate or rolling.damping_ratio then stays.
   void switch_quench(bool on) {
-    if (q_.drag > 0) s_.set("drag.rate", on ? q_.drag / s_.get("inertial_time") : 0.0);
+    if (q_.drag > 0) s_.set("drag.rate", on ? drag_.value() / s_.get("inertial_time") : 0.0);
     if (q_.damping > 0) s_.set("rolling.damping_ratio", on ? q_.damping : 0.0);
+    if (!on) drag_.restart();
     on_ = on && q_.any();
     settled_checks_ = 0, confirmed_ = 0;
   }
 
   Simulation& s_;
   QuenchSettings q_;
+  DragSchedule drag_;
   bool on_ = false;
   long settled_checks_ = 0;
   long confirmed_ = 0;   // consecutive checks in equilibrium without the quench

@@ -1,0 +1,45 @@
+// The quench's drag, stepped down when it holds a stage back (README, consolidation: the drag quench).
+// A drag damps the slow modes a loose network rings with, and their forces fall; but a network that
+// still creeps towards a denser state creeps at the speed the drag allows, its largest net force then
+// steady near the drag's own gamma m v. So while a stage is quenched the smallest force ratio of each
+// window of `patience` checks is compared with the previous window's: if it has not halved, the drag
+// halves, down to `floor` (gamma T values). After a change the next window only records.
+#pragma once
+#include <algorithm>
+#include <limits>
+
+namespace grains {
+
+class DragSchedule {
+ public:
+  // patience 0: the drag never changes.
+  DragSchedule(double start, double floor, long patience)
+      : value_(start), floor_(std::min(floor, start)), patience_(patience) {}
+
+  double value() const { return value_; }
+
+  // One check while quenched, with its force ratio (largest net force over the threshold). True when
+  // the drag has just stepped down.
+  bool observe(double force_ratio) {
+    best_ = std::min(best_, force_ratio);
+    if (patience_ <= 0 || ++checks_ < patience_) return false;
+    const bool stalled = best_ > 0.5 * previous_best_;   // false after a change: previous_best_ is infinite
+    previous_best_ = best_, best_ = none(), checks_ = 0;
+    if (!stalled || value_ <= floor_) return false;
+    value_ = std::max(floor_, 0.5 * value_);
+    previous_best_ = none();
+    return true;
+  }
+
+  // The quench was switched off: a new quench starts new windows (at the drag reached so far).
+  void restart() { best_ = previous_best_ = none(), checks_ = 0; }
+
+ private:
+  static double none() { return std::numeric_limits<double>::infinity(); }
+  double value_, floor_;
+  long patience_;
+  long checks_ = 0;
+  double best_ = none(), previous_best_ = none();
+};
+
+}  // namespace grains
