@@ -25,7 +25,7 @@ struct QuenchSettings {
   // steps reached equilibrium 300,000 steps into the quench with gamma T = 0.5 or 2. 0: no drag.
   double drag = 1.0;
   double drag_min = 0.125;   // the drag steps down to this (gamma T) while it holds a creep back ...
-  long patience = 300;       // ... judged over windows of this many checks (0: never)
+  long patience = 1000;      // ... judged over windows of this many checks (0: never)
   // beta of the rolling dashpot, on top of the drag (the quench of earlier versions); 0: not used.
   double damping = 0.0;
   double settle_ratio = 100;   // the kinetic and stress ratios below which a stage has settled
