@@ -368,6 +368,9 @@ class ContactForces final : public ForceModule<D> {
     auto& P = s.particles;
     const auto& nl = s.neighbours;
     long clamped = 0;
+    // The pair virial, summed here (in registers: plain doubles, which the compiler keeps there where it
+    // kept an Eigen matrix in memory) and added to virial at the end.
+    double w[D * D] = {};
     // Plain pointers: stores into the force arrays cannot then make the compiler reload them.
     const Vec<D>* const position = P.position.data();
     const double* const radius = P.radius.data();
@@ -407,36 +410,58 @@ class ContactForces final : public ForceModule<D> {
           batched = g.steady.data();
         }
       }
+      // The batched results, through plain pointers: stores into the force arrays cannot then make
+      // the compiler reload the vectors' data pointers.
+      const double* const gfx = g.fx.data();
+      const double* const gfy = g.fy.data();
+      const double* const gfz = g.fz.data();
+      const double* const grx = g.rx.data();
+      const double* const gry = g.ry.data();
+      const double* const grz = g.rz.data();
+      const double* const gti[3] = {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()};
+      const double* const gtj[3] = {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()};
+      const double* const gmoment = g.moment.data();
+      // The row particle's force and torque, and the virial, are summed in registers (the row's
+      // force and torque added once per row): in memory, each addition waited for the last one's store.
       std::size_t i = row_end;   // no row yet
-      Vec<D> xi = Vec<D>::Zero(), fi = Vec<D>::Zero();
+      Vec<D> xi = Vec<D>::Zero();
+      double fi[D] = {};
+      Spin<D> ti = Spin<D>::Zero();
+      // A pair's force f on j (r: from i to j) into the sums, as Eigen's fi -= f and w += f r^T would.
+      const auto take = [&](std::uint32_t j, const Vec<D>& f, const Vec<D>& r) {
+        force[j] += f;
+        for (int a = 0; a < D; ++a) fi[a] -= f[a];
+        if constexpr (Virial)
+          for (int b = 0; b < D; ++b)
+            for (int a = 0; a < D; ++a) w[a + D * b] += f[a] * r[b];
+      };
       double Ri = 0;
       for (std::size_t q = 0; q < n; ++q) {
         if (gathered_row[q] != i) {
-          if (i != row_end) force[i] += fi;
-          i = gathered_row[q], xi = position[i], Ri = radius[i], fi.setZero();
+          if (i != row_end) add_row(force, torque, i, fi, ti);
+          i = gathered_row[q], xi = position[i], Ri = radius[i], ti.setZero();
+          for (double& c : fi) c = 0;
         }
         const std::uint32_t k = gathered_pair[q], j = partner[k];
         if constexpr (batched_ || batched_linear_) {
           if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
             Vec<D> f, r;
             if constexpr (batched_) {
-              torque[j][0] -= g.torque_j[0][q];
-              torque[i][0] -= g.torque_i[0][q];
+              torque[j][0] -= gtj[0][q];
+              ti[0] -= gti[0][q];
               if constexpr (Rolling::enabled) {
-                torque[j][0] += g.moment[q];
-                torque[i][0] -= g.moment[q];
+                torque[j][0] += gmoment[q];
+                ti[0] -= gmoment[q];
               }
-              f = Vec<D>(g.fx[q], g.fy[q]), r = Vec<D>(g.rx[q], g.ry[q]);
+              f = Vec<D>(gfx[q], gfy[q]), r = Vec<D>(grx[q], gry[q]);
             } else {
               if constexpr (Friction::enabled) {
-                torque[j] += Spin<D>(g.torque_j[0][q], g.torque_j[1][q], g.torque_j[2][q]);
-                torque[i] += Spin<D>(g.torque_i[0][q], g.torque_i[1][q], g.torque_i[2][q]);
+                torque[j] += Spin<D>(gtj[0][q], gtj[1][q], gtj[2][q]);
+                ti += Spin<D>(gti[0][q], gti[1][q], gti[2][q]);
               }
-              f = Vec<D>(g.fx[q], g.fy[q], g.fz[q]), r = Vec<D>(g.rx[q], g.ry[q], g.rz[q]);
+              f = Vec<D>(gfx[q], gfy[q], gfz[q]), r = Vec<D>(grx[q], gry[q], grz[q]);
             }
-            force[j] += f;
-            fi -= f;
-            if constexpr (Virial) virial.noalias() += f * r.transpose();
+            take(j, f, r);
             continue;
           }
         }
@@ -447,27 +472,36 @@ class ContactForces final : public ForceModule<D> {
           if (d2 >= Rsum * Rsum) {   // open pair within the attraction range: central force only
             const double d = std::sqrt(d2);
             const Vec<D> f = law_.tail(d - Rsum) / d * r;
-            force[j] += f;
-            fi -= f;
-            if constexpr (Virial) virial.noalias() += f * r.transpose();   // attraction counts too
+            take(j, f, r);   // attraction counts in the virial too
             continue;
           }
         }
-        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque, clamped, g.lags);   // on j
-        force[j] += f;
-        fi -= f;
-        if constexpr (Virial) virial.noalias() += f * r.transpose();
+        // Through a copy: ti, never address-taken, can then stay in a register on the batched path.
+        Spin<D> ti_copy = ti;
+        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque, ti_copy, clamped, g.lags);   // on j
+        ti = ti_copy;
+        take(j, f, r);
       }
-      if (i != row_end) force[i] += fi;
+      if (i != row_end) add_row(force, torque, i, fi, ti);
     }
+    if constexpr (Virial)
+      for (int b = 0; b < D; ++b)
+        for (int a = 0; a < D; ++a) virial(a, b) += w[a + D * b];
     return clamped;
   }
 
+  static void add_row(Vec<D>* force, Spin<D>* torque, std::size_t i, const double* fi, const Spin<D>& ti) {
+    for (int a = 0; a < D; ++a) force[i][a] += fi[a];
+    if constexpr (torques_) torque[i] += ti;
+  }
+
   // A touching pair: the normal law, friction and rolling resistance; returns the force on j and adds
-  // the torques. Flattened (the law, friction and rolling inlined): their shared terms, such as the
-  // pair's damping coefficient, are then computed once and kept in registers.
-  [[gnu::flatten]] Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
-                                         double d2, double Rsum, Spin<D>* torque, long& clamped,
+  // the torques (the one on i into ti, the row's sum). Flattened (the law, friction and rolling
+  // inlined): their shared terms, such as the pair's damping coefficient, are then computed once and
+  // kept in registers. Not inlined into the pair loop, whose hot path (the batched contacts) then keeps
+  // its sums in registers: where the batched kernels run, only a contact's first step comes here.
+  [[gnu::flatten, gnu::noinline]] Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
+                                         double d2, double Rsum, Spin<D>* torque, Spin<D>& ti, long& clamped,
                                          std::vector<OnsetLag>& lags) {
     const auto& P = s.particles;
     const double dt = s.dt;
@@ -516,13 +550,13 @@ class ContactForces final : public ForceModule<D> {
       // torques of F_t balance its moment and total angular momentum is conserved exactly.
       const double half_overlap = 0.5 * (Rsum - d);
       f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, cn, dt,
-                            torque);
+                            torque, ti);
     }
-    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, cn, Ri, Rj, dt, torque);
+    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, cn, Ri, Rj, dt, torque, ti);
     return f;
   }
 
-  // Tangential force on j; adds both torques. Ri, Rj: distances from the centres to the contact point.
+  // Tangential force on j; adds the torques (on i into ti). Ri, Rj: distances from the centres to the contact point.
   // xi accumulates the half-step (position-consistent) tangential velocity, and the dashpot acts on
   // the same velocity: a predicted end-of-step velocity (as the normal dashpot uses) is stable only
   // for c dt / m < 0.57 and the tangential-rotational mass of a disk pair is m* / 3, so grains with a
@@ -530,7 +564,7 @@ class ContactForces final : public ForceModule<D> {
   // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell); cn: the pair's c_n.
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
                           const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic,
-                          double cn, double dt, Spin<D>* torque) {
+                          double cn, double dt, Spin<D>* torque, Spin<D>& ti) {
     const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
     const double ct = friction_.damping_ratio * cn;
     const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);   // >= 0
@@ -548,7 +582,7 @@ class ContactForces final : public ForceModule<D> {
         xi = ft / -kt;
       }
       torque[j][0] -= Rj * ft;
-      torque[i][0] -= Ri * ft;
+      ti[0] -= Ri * ft;
       return ft * t;
     } else {
       Vec<3>& xi = tangential_[k];
@@ -563,7 +597,7 @@ class ContactForces final : public ForceModule<D> {
         xi = ft / -kt;
       }
       torque[j] += (-Rj * n).cross(ft);
-      torque[i] += (Ri * n).cross(-ft);
+      ti += (Ri * n).cross(-ft);
       return ft;
     }
   }
@@ -581,7 +615,7 @@ class ContactForces final : public ForceModule<D> {
   // (3D: its part perpendicular to n, the spring rotated into the current tangent plane like xi);
   // with K_R = 0 (mu_R = 0) only the rolling dashpot acts. Ri, Rj: the grains' radii; c_n: the pair's.
   void rolling_moment(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                      double elastic, double cn, double Ri, double Rj, double dt, Spin<D>* torque) {
+                      double elastic, double cn, double Ri, double Rj, double dt, Spin<D>* torque, Spin<D>& ti) {
     const Spin<D> spin = P.angular_velocity[j] - P.angular_velocity[i];
     Spin<D> moment = Spin<D>::Zero();   // on j
     if (rolling_.stiffness > 0) {
@@ -609,7 +643,7 @@ class ContactForces final : public ForceModule<D> {
     // (3D: twisting too), at the half-step velocity (stable for c_r dt / I < 2, see tangential_force).
     if (rolling_.damping > 0) moment -= rolling_.damping * cn * Ri * Rj * spin;
     torque[j] += moment;
-    torque[i] -= moment;
+    ti -= moment;
   }
 
   Law law_;

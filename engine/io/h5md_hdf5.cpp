@@ -116,13 +116,14 @@ std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::st
   return dims;
 }
 
-void append_row(hid_t dataset, hid_t mem_type, const void* data, const std::vector<hsize_t>& count,
-                const std::string& file, const std::string& what) {
+void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, const std::vector<hsize_t>& count,
+                 const std::string& file, const std::string& what) {
+  if (rows == 0) return;
   std::vector<hsize_t> dims = shape(dataset, file, what);
   if (dims.size() != count.size() + 1) fail(file, "appending to " + what + " (rank mismatch)");
-  std::vector<hsize_t> start(dims.size(), 0), block{1};
+  std::vector<hsize_t> start(dims.size(), 0), block{rows};
   start[0] = dims[0];
-  dims[0] += 1;
+  dims[0] += rows;
   bool empty = false;
   for (std::size_t i = 0; i < count.size(); ++i) {
     if (count[i] > dims[i + 1]) dims[i + 1] = count[i];

@@ -44,9 +44,13 @@ Handle open_or_create_group(hid_t parent, const std::string& name, const std::st
 // particle count may grow); chunked as [chunk_rows, chunk_inner...]. Doubles are filled with NaN.
 Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,
                          const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file);
-// Appends one row holding `count` (per inner axis) elements of `data`, growing inner axes if needed.
-void append_row(hid_t dataset, hid_t mem_type, const void* data, const std::vector<hsize_t>& count,
-                const std::string& file, const std::string& what);
+// Appends `rows` rows, each holding `count` (per inner axis) elements of `data`, growing inner axes if needed.
+void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, const std::vector<hsize_t>& count,
+                 const std::string& file, const std::string& what);
+inline void append_row(hid_t dataset, hid_t mem_type, const void* data, const std::vector<hsize_t>& count,
+                       const std::string& file, const std::string& what) {
+  append_rows(dataset, mem_type, data, 1, count, file, what);
+}
 // Current shape of a dataset.
 std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::string& what);
 

@@ -1,9 +1,13 @@
 // H5MD 1.1 writer (see h5md_writer.hpp). Every time-dependent element is a group with extendable
 // step/time/value datasets; each frame appends one row and flushes, so a killed run leaves a
-// readable file holding every frame written so far.
+// readable file holding every frame written so far. Observables are held in memory and written, a
+// block of rows per dataset, with the next flush, at most a second after the first of them: with some
+// forty observables recorded every 100 steps, writing and flushing each record took 10-30 % of the wall time of a
+// 1400-disk run (three HDF5 writes per observable per record).
 #include "io/h5md_writer.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -21,12 +25,15 @@ namespace {
 constexpr hsize_t kObservableChunk = 1024;      // rows per chunk of observables and step/time
 constexpr hsize_t kFrameChunkBytes = 64 * 1024;  // small frames are batched to about this size
 constexpr hsize_t kMaxChunkBytes = 4 * 1024 * 1024;
-constexpr int kFlushEveryObservables = 64;
+constexpr std::chrono::seconds kObservableFlushInterval{1};   // the most a killed run loses of them
 
 // A time-dependent H5MD element: <group>/{step,time,value}.
 struct Series {
   h5::Handle group, step, time, value;
   int components = 0;  // 0: one scalar per row or per particle
+  // Observables only: rows recorded since the last flush, not yet in the file.
+  std::vector<std::int64_t> pending_step;
+  std::vector<double> pending_time, pending_value;
 };
 
 }  // namespace
@@ -39,7 +46,7 @@ struct H5mdWriter::Impl {
   std::map<std::string, Series> observable;   // observables/<name>
   std::size_t frames = 0, max_count = 0, xdmf_frames_on_disk = 0;
   bool has_angular = false, has_orientation = false;
-  int observable_writes = 0;
+  std::chrono::steady_clock::time_point last_flush = std::chrono::steady_clock::now();
   std::unique_ptr<XdmfWriter> xdmf;
 
   Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components) {
@@ -96,7 +103,19 @@ struct H5mdWriter::Impl {
     xdmf_frames_on_disk = frames;
   }
 
-  void flush() { h5::check(H5Fflush(file.get(), H5F_SCOPE_GLOBAL), path, "flushing the file"); }
+  // Writes the observables' pending rows, in order of name, then flushes.
+  void flush() {
+    for (auto& [name, s] : observable) {
+      const std::string what = "/observables/" + name;
+      const hsize_t rows = s.pending_step.size();
+      h5::append_rows(s.step.get(), H5T_NATIVE_INT64, s.pending_step.data(), rows, {}, path, what + "/step");
+      h5::append_rows(s.time.get(), H5T_NATIVE_DOUBLE, s.pending_time.data(), rows, {}, path, what + "/time");
+      h5::append_rows(s.value.get(), H5T_NATIVE_DOUBLE, s.pending_value.data(), rows, {}, path, what + "/value");
+      s.pending_step.clear(), s.pending_time.clear(), s.pending_value.clear();
+    }
+    h5::check(H5Fflush(file.get(), H5F_SCOPE_GLOBAL), path, "flushing the file");
+    last_flush = std::chrono::steady_clock::now();
+  }
 };
 
 H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
@@ -219,8 +238,9 @@ void H5mdWriter::write_observable(const std::string& name, long step, double tim
       throw std::invalid_argument(fmt::format("H5MD output '{}': invalid observable name '{}'", m.path, name));
     it = m.observable.emplace(name, m.make_series(m.observables.get(), name, {}, 0)).first;
   }
-  m.append(it->second, "/observables/" + name, step, time, &value, {});
-  if (++m.observable_writes % kFlushEveryObservables == 0) m.flush();
+  Series& s = it->second;
+  s.pending_step.push_back(step), s.pending_time.push_back(time), s.pending_value.push_back(value);
+  if (std::chrono::steady_clock::now() - m.last_flush >= kObservableFlushInterval) m.flush();
 }
 
 void H5mdWriter::write_warning(const std::string& text) {

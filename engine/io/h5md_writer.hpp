@@ -34,6 +34,7 @@ class H5mdWriter {
   H5mdWriter& operator=(const H5mdWriter&) = delete;
 
   void write_frame(const H5mdFrame& f);    // appends to particles/all/*, then flushes
+  // Held in memory and written with the next flush, which comes at most a second after the first of them.
   void write_observable(const std::string& name, long step, double time, double value);
   void write_warning(const std::string& text);                        // appends to /grains/warnings
   void set_attribute(const std::string& name, const std::string& value);  // string attribute on /grains
@@ -41,7 +42,7 @@ class H5mdWriter {
   // /grains/<name>: a [rows, columns] table of doubles (row-major `values`), its column names in the
   // attribute `columns`; written once (a second call replaces it).
   void write_table(const std::string& name, const std::vector<std::string>& columns, const std::vector<double>& values);
-  void flush();                             // the file stays readable if the process dies afterwards
+  void flush();                             // writes pending observables; the file stays readable if the process dies afterwards
 
   const std::string& path() const;
   const std::string& xdmf_path() const;     // empty when XDMF is off

@@ -1,6 +1,8 @@
 """The command-line runner as a user meets it: help, errors, output safety, the scene reference."""
+import signal
 import subprocess
 import sys
+import time
 
 import h5py
 import pytest
@@ -97,3 +99,53 @@ def test_aggregation_plot_against_free_fall_time(grains_bin, root, tmp_path):
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     assert png.stat().st_size > 1000
+
+
+def _start_long_run(grains_bin, root, out):
+    """A gas run far longer than the test waits; returns once its output file exists."""
+    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet",
+                          "--set", "time.steps=100000000", "--set", "particles.count=512", "--set", "run.threads=1"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    assert out.exists(), p.communicate()[1]
+    return p
+
+
+def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path):
+    out = tmp_path / "gas.h5"
+    p = _start_long_run(grains_bin, root, out)
+    time.sleep(1.5)
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 130, stderr
+    assert "INTERRUPTED" in stdout
+    with h5py.File(out) as f:
+        status = f["grains"].attrs["status"]
+        status = status.decode() if isinstance(status, bytes) else status
+        assert status.startswith("interrupted at step ")
+        step = int(status.split()[-1])
+        assert step > 0
+        # The last frame and the last record of every observable are the state it stopped in.
+        assert f["particles/all/position/step"][-1] == step
+        for name, series in f["observables"].items():
+            assert series["step"][-1] == step, name
+            assert len(series["step"]) == len(series["time"]) == len(series["value"]), name
+
+
+def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path):
+    # SIGKILL cannot be caught: what the file holds is what the last flush wrote (observables flush at
+    # most a second apart, frames at once).
+    out = tmp_path / "gas.h5"
+    p = _start_long_run(grains_bin, root, out)
+    time.sleep(2.5)
+    p.kill()
+    p.communicate(timeout=60)
+    with h5py.File(out) as f:
+        assert f["particles/all/position/value"].shape[0] >= 1
+        ke = f["observables/kinetic_energy"]
+        records = len(ke["step"])
+        assert records > 1, "no observable record flushed after the first one in 2.5 s"
+        assert len(ke["value"]) == records and len(ke["time"]) == records
+        assert list(ke["step"][:]) == sorted(ke["step"][:])
