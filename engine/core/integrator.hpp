@@ -42,11 +42,20 @@ inline double drift(std::size_t n, double h, double* __restrict x, double* __res
   return witness;
 }
 
-// First half for angular velocities over n components: w += h/2 alpha. No prediction of w(t + h): the
-// torques all act on the half-step spin.
-inline void half_kick(std::size_t n, double h, double* __restrict w, const double* __restrict alpha) {
+// First half for the spins of n particles of S components: w += h/2 alpha with alpha = torque / I (the
+// same product the second half formed), then the torque is cleared for the coming force evaluation (its
+// line is in the cache already). No prediction of w(t + h): the torques all act on the half-step spin.
+template <int S>
+void half_kick_spin(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
+                    double* __restrict w) {
 #pragma omp simd
-  for (std::size_t k = 0; k < n; ++k) w[k] += 0.5 * h * alpha[k];
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < S; ++c) {
+      const std::size_t k = i * S + c;
+      const double alpha = inverse_inertia[i] * torque[k];
+      w[k] += 0.5 * h * alpha;
+      torque[k] = 0;
+    }
 }
 
 // 2D orientations: theta += h w over n disks.
@@ -61,8 +70,9 @@ void turn(std::size_t n, double h, const double* w, double* q);
 
 // Second half over n particles of C components: a = f / m; v = (v + h/2 a) keep, keep = exp(-gamma h)
 // for a drag of rate gamma (1 without: x * 1 is x exactly). Returns the sum of the new v (in any
-// order, like drift's: a sum in loop order would chain every add and keep the loop scalar).
-template <int C>
+// order, like drift's: a sum in loop order would chain every add and keep the loop scalar). Store_a =
+// false keeps a in a register only (the spins: half_kick_spin forms it again from the torque).
+template <int C, bool Store_a = true>
 double kick(std::size_t n, double h, double keep, const double* __restrict inverse_mass, const double* __restrict f,
             double* __restrict a, double* __restrict v) {
   double witness = 0;
@@ -70,8 +80,9 @@ double kick(std::size_t n, double h, double keep, const double* __restrict inver
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < C; ++c) {
       const std::size_t k = i * C + c;
-      a[k] = inverse_mass[i] * f[k];
-      v[k] = (v[k] + 0.5 * h * a[k]) * keep;
+      const double ak = inverse_mass[i] * f[k];
+      if constexpr (Store_a) a[k] = ak;
+      v[k] = (v[k] + 0.5 * h * ak) * keep;
       witness += v[k];
     }
   return witness;
@@ -82,22 +93,24 @@ double kick(std::size_t n, double h, double keep, const double* __restrict inver
 // First half over the particles [b, e), one thread's share (core/thread_share.hpp): the step runs it
 // inside a parallel region it shares with the other per-particle work of the step's first half.
 // Rotate = false skips every angular array: a scene without torques and without initial spin
-// never reads or writes them (half the memory traffic of the step). Both halves are memory-bound:
-// each array is read or written once. Returns the sum of the new positions' components, a cheap
-// witness: it is finite exactly when every position is.
+// never reads or writes them (half the memory traffic of the step). With Rotate the torques are
+// cleared here (half_kick_spin). Both halves are memory-bound: each array is read or written once.
+// Returns the sum of the new positions' components, a cheap witness: it is finite exactly when every
+// position is.
 // Orient = false leaves the orientations alone (particles.track_orientation = false).
 template <int D, bool Rotate, bool Orient = true>
 double kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e) {
   using namespace integrator_detail;
   const double witness = drift(D * (e - b), h, flat(P.position) + D * b, flat(P.velocity) + D * b,
                                flat(P.velocity_predicted) + D * b, flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
-  if constexpr (Rotate && D == 3) {
+  constexpr int S = Spin<D>::SizeAtCompileTime;
+  if constexpr (Rotate)
+    half_kick_spin<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
+  if constexpr (Rotate && Orient && D == 3) {
     static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
-    half_kick(3 * (e - b), h, flat(P.angular_velocity) + 3 * b, flat(P.angular_accel) + 3 * b);
-    if constexpr (Orient) turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
-  } else if constexpr (Rotate) {   // 2D: the angle simply advances
-    half_kick(e - b, h, flat(P.angular_velocity) + b, flat(P.angular_accel) + b);
-    if constexpr (Orient) advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
+    turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
+  } else if constexpr (Rotate && Orient) {   // 2D: the angle simply advances
+    advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
   }
   return witness;
 }
@@ -117,8 +130,8 @@ double finish_kick(Particles<D>& P, double h, int threads, double keep = 1.0) {
     const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
     witness += kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.accel) + D * b, flat(P.velocity) + D * b);
     if constexpr (Rotate)
-      witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_accel) + S * b,
-                         flat(P.angular_velocity) + S * b);
+      witness += kick<S, false>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, nullptr,
+                                flat(P.angular_velocity) + S * b);
   }
   return witness;
 }

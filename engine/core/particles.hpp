@@ -15,7 +15,9 @@ struct Particles {
   std::vector<V> accel, accel_prev;          // a_n and a_{n-1}: the velocity predictor uses both
   std::vector<V> velocity_predicted;         // v(t_{n+1}) estimate used by the dashpots
   // No predicted spin: every torque acts on the half-step spin (the tangential spring and the rolling parts).
-  std::vector<S> angular_velocity, torque, angular_accel;
+  // No angular acceleration either: the torque, kept from one force evaluation to the next step's first
+  // half, gives it (a stored copy was one more array to stream through the caches each step).
+  std::vector<S> angular_velocity, torque;
   std::vector<Orientation<D>> orientation;
   std::vector<double> radius, mass, inv_mass, inertia, inv_inertia;
 
@@ -23,8 +25,7 @@ struct Particles {
 
   void resize(std::size_t n) {
     for (auto* v : {&position, &velocity, &force, &accel, &accel_prev, &velocity_predicted}) v->assign(n, V::Zero());
-    for (auto* v : {&angular_velocity, &torque, &angular_accel})
-      v->assign(n, S::Zero());
+    for (auto* v : {&angular_velocity, &torque}) v->assign(n, S::Zero());
     if constexpr (D == 3) orientation.assign(n, Eigen::Quaterniond::Identity());
     else orientation.assign(n, 0.0);
     for (auto* v : {&radius, &mass, &inv_mass, &inertia, &inv_inertia}) v->assign(n, 0.0);

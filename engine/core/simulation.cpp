@@ -139,10 +139,7 @@ class SimulationImpl final : public Simulation {
     P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)
     compute_forces();
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
-    for (std::size_t i = 0; i < N; ++i) {
-      P.accel[i] = P.accel_prev[i] = P.inv_mass[i] * P.force[i];
-      P.angular_accel[i] = P.inv_inertia[i] * P.torque[i];
-    }
+    for (std::size_t i = 0; i < N; ++i) P.accel[i] = P.accel_prev[i] = P.inv_mass[i] * P.force[i];
     check_finite("the initial state");
     track_aggregation();
     if (network_) reference_contacts_ = contact_keys(interactions());
@@ -202,8 +199,9 @@ class SimulationImpl final : public Simulation {
 
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
-  // unused spin prediction read; 4: the drag.rate control). States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e04;
+  // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
+  // give). States of builds before the word start with D (2, 3).
+  static constexpr std::uint32_t state_format = 0x47524e05;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -211,7 +209,7 @@ class SimulationImpl final : public Simulation {
     w.put(state_format), w.put<int>(D), w.put<std::uint64_t>(P.size());
     w.put(sys_.time), w.put(sys_.step);
     w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.accel),
-        w.put_vector(P.accel_prev), w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.angular_accel),
+        w.put_vector(P.accel_prev), w.put_vector(P.angular_velocity), w.put_vector(P.torque),
         w.put_vector(P.orientation);
     sys_.neighbours.save(w);
     for (const auto& m : modules_) m->save(w);
@@ -244,7 +242,7 @@ class SimulationImpl final : public Simulation {
       throw SimulationError("the saved state belongs to a scene of another dimension or particle count");
     sys_.time = r.get<double>(), sys_.step = r.get<long>();
     r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.accel),
-        r.get_vector(P.accel_prev), r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.angular_accel),
+        r.get_vector(P.accel_prev), r.get_vector(P.angular_velocity), r.get_vector(P.torque),
         r.get_vector(P.orientation);
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
@@ -487,10 +485,11 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->after_rebuild(sys_.neighbours);
   }
 
-  void clear_forces(std::size_t b, std::size_t e) {
+  // torques = false: the caller has cleared them (the first half's spin kick does).
+  void clear_forces(std::size_t b, std::size_t e, bool torques = true) {
     auto& P = sys_.particles;
     std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());
-    if (rotate_) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
+    if (rotate_ && torques) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
   }
 
   // `cleared`: the step's first half has already zeroed the forces, each thread its own share.
@@ -517,7 +516,7 @@ class SimulationImpl final : public Simulation {
                            : kick_drift_predict<D, true, false>(P, h, b, e);
       if (cell_moves) follow_cell(scale, b, e);
       if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
-      clear_forces(b, e);
+      clear_forces(b, e, false);   // the torques: kick_drift_predict has
     }
     moved = largest;
     return witness;
