@@ -485,17 +485,15 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->after_rebuild(sys_.neighbours);
   }
 
-  // torques = false: the caller has cleared them (the first half's spin kick does).
-  void clear_forces(std::size_t b, std::size_t e, bool torques = true) {
+  void clear_forces() {
     auto& P = sys_.particles;
-    std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());
-    if (rotate_ && torques) std::fill(P.torque.begin() + b, P.torque.begin() + e, Spin<D>::Zero());   // else nothing ever sets a torque
+    std::fill(P.force.begin(), P.force.end(), Vec<D>::Zero());
+    if (rotate_) std::fill(P.torque.begin(), P.torque.end(), Spin<D>::Zero());   // else nothing ever sets a torque
   }
 
   // `cleared`: the step's first half has already zeroed the forces, each thread its own share.
   void compute_forces(bool cleared = false) {
-    auto& P = sys_.particles;
-    if (!cleared) clear_forces(0, P.size());
+    if (!cleared) clear_forces();
     sys_.virial.setZero();
     for (auto& m : modules_) m->add_forces(sys_);
   }
@@ -516,7 +514,7 @@ class SimulationImpl final : public Simulation {
                            : kick_drift_predict<D, true, false>(P, h, b, e);
       if (cell_moves) follow_cell(scale, b, e);
       if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
-      clear_forces(b, e, false);   // the torques: kick_drift_predict has
+      std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());   // the torques: kick_drift_predict has
     }
     moved = largest;
     return witness;

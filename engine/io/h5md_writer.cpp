@@ -2,8 +2,8 @@
 // step/time/value datasets; each frame appends one row and flushes, so a killed run leaves a
 // readable file holding every frame written so far. Observables are held in memory and written, a
 // block of rows per dataset, with the next flush, at most a second after the first of them: with some
-// forty observables recorded every 100 steps, writing and flushing each record took 10-30 % of the wall time of a
-// 1400-disk run (three HDF5 writes per observable per record).
+// forty observables recorded every 100 steps, writing and flushing each record (three HDF5 writes per
+// observable) took 10-30 % of the wall time of a 1400-disk run.
 #include "io/h5md_writer.hpp"
 
 #include <algorithm>
