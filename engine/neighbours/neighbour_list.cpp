@@ -8,6 +8,9 @@
 
 #include <omp.h>
 
+#include "interactions/pair_filter.hpp"   // avx512(): whether the AVX-512 pieces run
+#include "neighbours/candidate_test.hpp"
+
 namespace grains {
 
 template <int D>
@@ -26,12 +29,12 @@ std::array<int, D> NeighbourList<D>::Grid::coords(const Vec<D>& x) const {
 
 // Candidates of particle p (position xp, radius rp) in grid g: the 3^D cells around its own, each
 // visited once (a periodic axis of fewer than three cells has repeats), read as runs of cells that
-// are consecutive along x (consecutive in memory too). Slots below `first` are skipped: within its
-// own grid a particle only looks at the slots after its own, so each pair is found once.
+// are consecutive along x (consecutive in memory too), each run tested by candidate_test (`wide`: its
+// AVX-512 build). Slots below `first` are skipped: within its own grid a particle only looks at the
+// slots after its own, so each pair is found once.
 template <int D>
 void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp,
-                              const Box<D>& box, std::vector<Found>& out, std::size_t& used) const {
-  constexpr int images = D == 3 ? 27 : 9;
+                              const Box<D>& box, bool wide, Found& out, std::size_t& used) const {
   const auto home = g.coords(xp);
   std::array<std::array<int, 3>, D> cells;
   std::array<int, D> count;
@@ -62,17 +65,16 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
       if (runs > 0 && c[q] == run_hi[runs - 1] + 1) run_hi[runs - 1] = c[q];
       else run_lo[runs] = run_hi[runs] = c[q], ++runs;
   }
-  // Minimum image without a branch on the axis kind: open axes never shift.
-  Vec<D> half, period;
+  candidate_test::Probe<D> probe;
   for (int a = 0; a < D; ++a) {
-    half[a] = box.periodic[a] ? 0.5 * box.length[a] : std::numeric_limits<double>::infinity();
-    period[a] = box.periodic[a] ? box.length[a] : 0.0;
+    probe.x[a] = g.member_x[a].data();
+    probe.xp[a] = xp[a];
+    // Minimum image without a branch on the axis kind: open axes never shift.
+    probe.half[a] = box.periodic[a] ? 0.5 * box.length[a] : std::numeric_limits<double>::infinity();
+    probe.period[a] = box.periodic[a] ? box.length[a] : 0.0;
   }
-  const double reach_extra = range_ + skin_;
-  // Raw pointers and scalar arithmetic: the loop then keeps everything in registers.
-  const Vec<D>* position = g.member_position.data();
-  const double* radius = g.member_radius.data();
-  const std::uint32_t* member = g.members.data();
+  probe.radius = g.member_radius.data(), probe.member = g.members.data();
+  probe.p = p, probe.rp = rp, probe.reach_extra = range_ + skin_;
   std::array<int, D> idx{}, cc{};
   for (;;) {
     for (int a = 1; a < D; ++a) cc[a] = cells[a][idx[a]];
@@ -81,35 +83,14 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
       const int f = g.flat(cc);
       const std::uint32_t b = std::max(g.cell_start[f], first), e = g.cell_start[f + run_hi[u] - run_lo[u] + 1];
       if (b >= e) continue;
-      // Branch-free: every candidate is written at the end of `out`, which only advances on a hit.
-      if (used + (e - b) > out.size()) out.resize(std::max(2 * out.size(), used + (e - b)));
-      Found* const slot = out.data();
-      if (wraps) {
-        for (std::uint32_t s = b; s < e; ++s) {
-          double d2 = 0;
-          int img = 0;   // which image is taken, as an index into `shift`
-          for (int a = D - 1; a >= 0; --a) {   // positions are wrapped, so |r_a| < L_a
-            const double raw = position[s][a] - xp[a];
-            const bool below = raw < -half[a], above = raw > half[a];
-            const double r = raw + (below ? period[a] : 0.0) - (above ? period[a] : 0.0);
-            img = img * 3 + 1 + below - above;
-            d2 += r * r;
-          }
-          const double cut = rp + radius[s] + reach_extra;
-          const std::uint32_t q = member[s];
-          const bool reversed = q < p;   // stored under the lower index, with the negated shift
-          slot[used] = {reversed ? q : p, reversed ? p : q, std::uint8_t(reversed ? images - 1 - img : img)};
-          used += d2 < cut * cut;
-        }
-      } else {   // no cell wrapped: every pair in reach is its own nearest image (the box is over 2 reach long)
-        for (std::uint32_t s = b; s < e; ++s) {
-          const double d2 = (position[s] - xp).squaredNorm();
-          const double cut = rp + radius[s] + reach_extra;
-          const std::uint32_t q = member[s];
-          slot[used] = {std::min(p, q), std::max(p, q), std::uint8_t(images / 2)};
-          used += d2 < cut * cut;
-        }
+      // Every candidate may be written at the end of `out`, which only advances on a hit.
+      if (used + (e - b) + candidate_test::slack > out.i.size()) {
+        const std::size_t size = std::max(2 * out.i.size(), used + (e - b) + candidate_test::slack);
+        out.i.resize(size), out.j.resize(size), out.image.resize(size);
       }
+      const candidate_test::Finds finds{out.i.data(), out.j.data(), out.image.data()};
+      used = wide ? candidate_test::test_avx512<D>(probe, b, e, wraps, finds, used)
+                  : candidate_test::test_portable<D>(probe, b, e, wraps, finds, used);
     }
     int a = 1;
     while (a < D && ++idx[a] == count[a]) idx[a++] = 0;
@@ -170,7 +151,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     auto& g = grids_[c];
     std::partial_sum(g.cell_start.begin(), g.cell_start.end(), g.cell_start.begin());
     g.members.resize(g.cell_start.back());
-    g.member_position.resize(g.members.size());
+    for (auto& xa : g.member_x) xa.resize(g.members.size());
     g.member_radius.resize(g.members.size());
     visit_start[c + 1] = visit_start[c] + g.members.size();
   }
@@ -180,7 +161,8 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     for (std::size_t i = 0; i < N; ++i)
       if (class_of_[i] == c) {
         const auto m = fill_[cell_of_[i]]++;
-        g.members[m] = std::uint32_t(i), g.member_position[m] = x[i], g.member_radius[m] = radius[i];
+        g.members[m] = std::uint32_t(i), g.member_radius[m] = radius[i];
+        for (int a = 0; a < D; ++a) g.member_x[a][m] = x[i][a];
       }
   }
 
@@ -195,6 +177,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   const int nthreads = std::max(1, threads);
   found_.resize(nthreads);
   found_count_.assign(nthreads, 0);
+  const bool wide = pair_filter::avx512();
 #pragma omp parallel num_threads(nthreads)
   {
     auto& mine = found_[omp_get_thread_num()];
@@ -206,10 +189,11 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       const auto& g = grids_[c];
       const auto m = std::uint32_t(v - visit_start[c]);
       const std::uint32_t p = g.members[m];
-      const Vec<D> xp = g.member_position[m];
+      Vec<D> xp;
+      for (int a = 0; a < D; ++a) xp[a] = g.member_x[a][m];
       const double rp = g.member_radius[m];
-      search(g, m + 1, p, xp, rp, box, mine, used);   // own class: the slots after p's
-      for (int larger = c - 1; larger >= 0; --larger) search(grids_[larger], 0, p, xp, rp, box, mine, used);
+      search(g, m + 1, p, xp, rp, box, wide, mine, used);   // own class: the slots after p's
+      for (int larger = c - 1; larger >= 0; --larger) search(grids_[larger], 0, p, xp, rp, box, wide, mine, used);
     }
     found_count_[omp_get_thread_num()] = used;
   }
@@ -218,7 +202,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   previous_start_.swap(start), previous_partner_.swap(partner);
   start.assign(N + 1, 0);
   for (int t = 0; t < nthreads; ++t)
-    for (std::size_t n = 0; n < found_count_[t]; ++n) ++start[found_[t][n].i + 1];
+    for (std::size_t n = 0; n < found_count_[t]; ++n) ++start[found_[t].i[n] + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
   partner.resize(start[N]);
   image.resize(start[N]);
@@ -226,9 +210,9 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   fill_.assign(start.begin(), start.end() - 1);
   for (int t = 0; t < nthreads; ++t)
     for (std::size_t n = 0; n < found_count_[t]; ++n) {
-      const Found& pr = found_[t][n];
-      const auto k = fill_[pr.i]++;
-      partner[k] = pr.j, image[k] = pr.image;
+      const Found& f = found_[t];
+      const auto k = fill_[f.i[n]]++;
+      partner[k] = f.j[n], image[k] = f.image[n];
     }
   if (history_) {   // rows sorted by partner (insertion sort: rows are short), then a merge walk against the old rows
     previous_entry_.assign(partner.size(), -1);

@@ -79,20 +79,25 @@ class NeighbourList {
  private:
   void fill_owners();   // owner from start
   // One uniform grid of cells holding the particles of one size class, counting-sorted by cell, with
-  // positions and radii copied in cell order so that the candidate loop reads memory in sequence.
+  // positions (an array per axis) and radii copied in cell order so that the candidate test reads
+  // memory in sequence (candidate_test.hpp).
   struct Grid {
     Vec<D> origin, inverse_cell;
     std::array<int, D> n{};
     std::vector<std::uint32_t> cell_start, members;
-    std::vector<Vec<D>> member_position;
+    std::array<std::vector<double>, D> member_x;
     std::vector<double> member_radius;
     double max_radius = 0;
     int flat(const std::array<int, D>& c) const;
     std::array<int, D> coords(const Vec<D>& x) const;
   };
-  struct Found { std::uint32_t i, j; std::uint8_t image; };
+  // One thread's finds: pairs (i < j) with the image of j relative to i, in order of discovery.
+  struct Found {
+    std::vector<std::uint32_t> i, j;
+    std::vector<std::uint8_t> image;
+  };
   void search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp, const Box<D>& box,
-              std::vector<Found>& out, std::size_t& used) const;
+              bool wide, Found& out, std::size_t& used) const;
 
   double range_ = 0, skin_ = 0.1;
   bool history_ = false;
@@ -107,7 +112,7 @@ class NeighbourList {
   std::vector<Grid> grids_;
   std::vector<std::uint8_t> class_of_;
   std::vector<std::uint32_t> cell_of_, fill_;
-  std::vector<std::vector<Found>> found_;   // per thread: the first found_count_[t] entries are pairs
+  std::vector<Found> found_;   // per thread: the first found_count_[t] entries are pairs
   std::vector<std::size_t> found_count_;
 };
 

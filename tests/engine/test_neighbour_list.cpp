@@ -1,6 +1,7 @@
 // NeighbourList<D> against the O(N^2) brute force: the exact pair set (gap < skin) with the stored
 // periodic image, for size ratio up to 10 (uniform and bimodal), open and periodic boxes (including
-// small, non-cubic, offset ones), D = 2 and 3, several seeds, 1 and 2 threads (identical lists);
+// small, non-cubic, offset ones), D = 2 and 3, several seeds, 1 and 2 threads and the portable and
+// AVX-512 candidate tests (identical lists);
 // contacts stay listed while particles move less than skin/2; carry() maps per-pair values.
 #include <catch2/catch.hpp>
 
@@ -13,6 +14,7 @@
 #include <tuple>
 #include <vector>
 
+#include "interactions/pair_filter.hpp"
 #include "neighbours/neighbour_list.hpp"
 
 using namespace grains;
@@ -116,6 +118,15 @@ void check_exact(const Config<D>& c, double skin) {
   CHECK(one.start == two.start);
   CHECK(one.partner == two.partner);
   CHECK(one.image == two.image);
+  // The portable candidate test (what a processor without AVX-512 runs): the very same arrays too.
+  NeighbourList<D> portable;
+  portable.configure(0.0, skin);
+  pair_filter::prefer_portable(true);
+  portable.build(c.x, c.radius, c.box, 1);
+  pair_filter::prefer_portable(false);
+  CHECK(one.start == portable.start);
+  CHECK(one.partner == portable.partner);
+  CHECK(one.image == portable.image);
 }
 
 template <int D>
