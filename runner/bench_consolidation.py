@@ -2,7 +2,7 @@
 
     python runner/bench_consolidation.py throughput [--steps 20000]
     python runner/bench_consolidation.py cycle [--count 1400]
-    python runner/bench_consolidation.py settings [--count 300]
+    python runner/bench_consolidation.py settings [--count 300] [--seeds 3] [--jobs 2]
 
 throughput: particle-steps per second on the 1400 cohesive disks of models/consolidation-rr.toml
   (friction, rolling resistance, barostat on), with the barostat off, and with CVODE restarted every
@@ -10,12 +10,15 @@ throughput: particle-steps per second on the 1400 cohesive disks of models/conso
 cycle: one full type-2 preparation + loading + unloading cycle (models/consolidation.toml): stages,
   steps, particle-steps per second, the CVODE share, and stages that missed equilibrium.
 settings: what the equilibrium tolerance, the CVODE tolerance, I_a and n_c cost (wall time, steps) and
-  change (Phi at equilibrium) on a cohesionless packing, each against the tightest setting.
+  change (Phi at equilibrium) on cohesionless packings, each against the tightest setting on the same
+  samples (several seeds: one packing's path dependence is as large as the settings' effect).
 """
 import argparse
+import concurrent.futures
 import csv
 import pathlib
 import re
+import statistics
 import subprocess
 import tempfile
 import time
@@ -59,30 +62,51 @@ def cycle(a):
 
 
 def settings(a):
-    base = ["particles.count=%d" % a.count]
-    variants = [("tightest", ["cell.tolerance_force=1e-6", "cell.tolerance_torque=1e-6", "cell.tolerance_stress=1e-6",
-                              "cell.tolerance_kinetic=5e-9", "cell.rtol=1e-8", "cell.inertia_number=0.01",
-                              "time.steps_per_contact=100"]),
+    """Each setting on the same --seeds samples, --jobs runs at a time; Phi and its change against the
+    tightest setting per sample, so that the packings' own spread (path dependence) shows beside it."""
+    tight_tolerances = ["cell.tolerance_force=1e-6", "cell.tolerance_torque=1e-6", "cell.tolerance_stress=1e-6",
+                        "cell.tolerance_kinetic=5e-9"]
+    variants = [("tightest (all four tightened below)", tight_tolerances + ["cell.rtol=1e-8", "cell.inertia_number=0.01",
+                                                                        "time.steps_per_contact=100"]),
                 ("defaults", []),
+                ("equilibrium tolerances /10", tight_tolerances),
                 ("equilibrium tolerances x10", ["cell.tolerance_force=1e-4", "cell.tolerance_torque=1e-4",
                                                 "cell.tolerance_stress=1e-4", "cell.tolerance_kinetic=5e-7"]),
+                ("CVODE rtol 1e-8", ["cell.rtol=1e-8"]),
                 ("CVODE rtol 1e-4", ["cell.rtol=1e-4"]),
+                ("I_a = 0.01", ["cell.inertia_number=0.01"]),
                 ("I_a = 0.2", ["cell.inertia_number=0.2"]),
+                ("n_c = 100", ["time.steps_per_contact=100"]),
                 ("n_c = 25", ["time.steps_per_contact=25"])]
-    print("| setting | wall s | steps | Phi | Phi - Phi(tightest) |")
-    print("|---|---|---|---|---|")
-    reference = None
-    with tempfile.TemporaryDirectory() as d:
-        for name, extra in variants:
+    seeds = list(range(1, a.seeds + 1))
+
+    def one(job):
+        (name, extra), seed = job
+        with tempfile.TemporaryDirectory() as d:
             table = pathlib.Path(d) / "s.csv"
-            sets = [x for e in base + extra for x in ("--set", e)]
+            sets = [x for e in [f"particles.count={a.count}", f"particles.seed={seed}", *extra] for x in ("--set", e)]
             _, wall = grains(["consolidate", ROOT / "models" / "cohesionless.toml", "--quiet", "--table", table, "--out",
                               pathlib.Path(d) / "s.h5", *sets], a.grains)
             row = list(csv.DictReader(table.open()))[-1]
-            phi = float(row["phi"])
-            reference = phi if reference is None else reference
-            flag = "" if row["reached"] == "1" else " (not in equilibrium)"
-            print(f"| {name} | {wall:.1f} | {row['steps']} | {phi:.5f}{flag} | {phi - reference:+.5f} |")
+        print(f"  {name}, seed {seed}: {wall:.0f} s, {row['steps']} steps, Phi {float(row['phi']):.5f}"
+              f"{'' if row['reached'] == '1' else ' (not in equilibrium)'}", flush=True)
+        return float(row["phi"]), int(row["steps"]), wall, row["reached"] == "1"
+
+    jobs = [(v, seed) for v in variants for seed in seeds]
+    with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        results = {(v[0], seed): r for (v, seed), r in zip(jobs, pool.map(one, jobs))}
+    print(f"\n{a.count} cohesionless disks to P / K_N = 1e-5, seeds {seeds[0]}-{seeds[-1]}, {a.jobs} runs at a time; "
+          "mean over the seeds (sd of the per-seed change in brackets)")
+    print("| setting | wall s | steps | Phi | Phi - Phi(tightest) | not in equilibrium |")
+    print("|---|---|---|---|---|---|")
+    tight = [results[(variants[0][0], s)][0] for s in seeds]
+    for v in variants:
+        r = [results[(v[0], s)] for s in seeds]
+        change = [x[0] - t for x, t in zip(r, tight)]
+        spread = f" ({statistics.stdev(change):.4f})" if len(seeds) > 1 else ""
+        print(f"| {v[0]} | {statistics.mean(x[2] for x in r):.0f} | {statistics.mean(x[1] for x in r):,.0f} | "
+              f"{statistics.mean(x[0] for x in r):.4f} | {statistics.mean(change):+.4f}{spread} | "
+              f"{sum(not x[3] for x in r)} of {len(seeds)} |")
 
 
 def main():
@@ -90,6 +114,8 @@ def main():
     ap.add_argument("what", choices=["throughput", "cycle", "settings"])
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--count", type=int)
+    ap.add_argument("--seeds", type=int, default=3, help="settings: samples per setting (particles.seed 1, 2, ...)")
+    ap.add_argument("--jobs", type=int, default=2, help="settings: runs at a time (one thread each)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
     a = ap.parse_args()
     if a.count is None:

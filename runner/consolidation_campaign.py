@@ -38,24 +38,32 @@ PAPER = {
 RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02}
 
 
-def run_sample(grains, scene, seed, count, threads, overrides, out):
-    """Runs one sample unless its table exists; returns the path of its stage table."""
-    stem = out / f"{scene}-seed{seed}"
+def consolidate(grains, scene_file, overrides, stem, label):
+    """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
+    written as STEM.partial.csv and renamed when the programme ends (so a resume reruns an interrupted
+    run), the output goes to STEM.h5 and the console to STEM.log. Returns the path of the table."""
     table = stem.with_suffix(".csv")
     if table.exists():
         return table
-    partial = stem.with_suffix(".partial.csv")   # renamed when the programme ends, so a resume reruns it
-    cmd = [grains, "consolidate", ROOT / "models" / f"{scene}.toml", "--table", partial, "--out", stem.with_suffix(".h5"),
-           "--set", f"particles.seed={seed}", "--set", f"particles.count={count}", "--set", f"run.threads={threads}"]
+    partial = stem.with_suffix(".partial.csv")
+    stem.with_suffix(".h5").unlink(missing_ok=True)   # left by an interrupted run: grains never overwrites
+    cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", stem.with_suffix(".h5")]
     for o in overrides:
         cmd += ["--set", o]
     with stem.with_suffix(".log").open("w") as log:
         done = subprocess.run([str(c) for c in cmd], stdout=log, stderr=subprocess.STDOUT)
     if done.returncode != 0:
-        raise RuntimeError(f"{scene} seed {seed}: grains consolidate exited with {done.returncode}; see {stem}.log")
+        raise RuntimeError(f"{label}: grains consolidate exited with {done.returncode}; see {stem}.log")
     partial.rename(table)
-    print(f"  finished {scene} seed {seed}", flush=True)
+    print(f"  finished {label}", flush=True)
     return table
+
+
+def run_sample(grains, scene, seed, count, threads, overrides, out):
+    """Runs one sample unless its table exists; returns the path of its stage table."""
+    own = [f"particles.seed={seed}", f"particles.count={count}", f"run.threads={threads}"]
+    return consolidate(grains, ROOT / "models" / f"{scene}.toml", own + list(overrides), out / f"{scene}-seed{seed}",
+                       f"{scene} seed {seed}")
 
 
 def existing_table(out, scene, seed):
