@@ -59,6 +59,16 @@ def consolidate(grains, scene_file, overrides, stem, label):
     return table
 
 
+def check_arguments(ap, args):
+    """The checks shared with runner/initial_states.py: counts of at least 1, and a grains binary unless
+    only reporting."""
+    for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
+        if value < 1:
+            ap.error(f"{name} = {value}: must be at least 1")
+    if not args.report and not pathlib.Path(args.grains).is_file():
+        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
+
+
 def run_sample(grains, scene, seed, count, threads, overrides, out):
     """Runs one sample unless its table exists; returns the path of its stage table."""
     own = [f"particles.seed={seed}", f"particles.count={count}", f"run.threads={threads}"]
@@ -160,11 +170,7 @@ def main():
     ap.add_argument("--report", action="store_true",
                     help="run nothing: summarise the tables already in --out, unfinished ones included")
     args = ap.parse_args()
-    for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
-        if value < 1:
-            ap.error(f"{name} = {value}: must be at least 1")
-    if not args.report and not pathlib.Path(args.grains).is_file():
-        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
+    check_arguments(ap, args)
     threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     scenes = args.scene or list(PAPER)
     seeds = range(args.first_seed, args.first_seed + args.samples)

@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_campaign import ROOT, consolidate  # noqa: E402
+from consolidation_campaign import ROOT, check_arguments, consolidate  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
     "cohesionless": ("cohesionless", [], (0.811, 0.001)),
@@ -55,11 +55,7 @@ def main():
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
     ap.add_argument("--report", action="store_true", help="run nothing: summarise the tables already in --out")
     args = ap.parse_args()
-    for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
-        if value < 1:
-            ap.error(f"{name} = {value}: must be at least 1")
-    if not args.report and not pathlib.Path(args.grains).is_file():
-        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
+    check_arguments(ap, args)
     states = args.state or list(STATES)
     seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)
