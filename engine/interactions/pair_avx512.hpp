@@ -1,9 +1,9 @@
 // AVX-512 pieces shared by the pair loop's kernels (pair_filter_avx512.cpp, cohesive_contacts_avx512.cpp,
 // linear_contacts_avx512.cpp) and the neighbour build's candidate test (candidate_test_avx512.cpp): eight
 // doubles per vector, one lane per list entry or grid slot. They are compiled for AVX-512 whatever the
-// build flags (the binary stays portable x86-64): call them only from GRAINS_AVX512_PAIRS functions, and those only where pair_filter::avx512() is true. Include this header
-// only in files compiled without multiply-add contraction (engine/CMakeLists.txt), so that every lane does
-// the portable code's operations.
+// build flags (the binary stays portable x86-64): call them only from GRAINS_AVX512_PAIRS functions, and
+// those only where pair_filter::avx512() is true. Include this header only in files compiled without
+// multiply-add contraction (engine/CMakeLists.txt), so that every lane does the portable code's operations.
 #pragma once
 #include <cstddef>
 #include <cstdint>
