@@ -514,7 +514,7 @@ class SimulationImpl final : public Simulation {
                            : kick_drift_predict<D, true, false>(P, h, b, e);
       if (cell_moves) follow_cell(scale, b, e);
       if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
-      std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());   // the torques: kick_drift_predict has
+      std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());   // kick_drift_predict cleared the torques
     }
     moved = largest;
     return witness;
