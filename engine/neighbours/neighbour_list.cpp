@@ -208,12 +208,13 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   image.resize(start[N]);
   fill_owners();
   fill_.assign(start.begin(), start.end() - 1);
-  for (int t = 0; t < nthreads; ++t)
+  for (int t = 0; t < nthreads; ++t) {
+    const Found& f = found_[t];
     for (std::size_t n = 0; n < found_count_[t]; ++n) {
-      const Found& f = found_[t];
       const auto k = fill_[f.i[n]]++;
       partner[k] = f.j[n], image[k] = f.image[n];
     }
+  }
   if (history_) {   // rows sorted by partner (insertion sort: rows are short), then a merge walk against the old rows
     previous_entry_.assign(partner.size(), -1);
 #pragma omp parallel for num_threads(nthreads) schedule(static)
