@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <numbers>
 #include <random>
@@ -137,6 +138,18 @@ InitialState<D> make_initial_state(const Scene& s) {
   const std::string layout = s.text("particles.layout");
   std::mt19937_64 rng(std::uint64_t(s.integer("particles.seed")));
 
+  // Keys that only the other choices read: given here, they would be silently ignored.
+  const auto only_with = [&](const char* key, const char* choice_key, const std::string& choice, const char* needed) {
+    if (s.has(key) && choice != needed)
+      s.fail(key, fmt::format("is given, but {} = \"{}\" does not read it; it is used with {} = \"{}\"", choice_key,
+                              choice, choice_key, needed));
+  };
+  only_with("particles.positions", "particles.layout", layout, "list");
+  only_with("particles.diameters", "particles.layout", layout, "list");
+  only_with("particles.masses", "particles.layout", layout, "list");
+  only_with("particles.file", "particles.layout", layout, "file");
+  only_with("particles.velocities", "particles.velocity", s.text("particles.velocity"), "list");
+
   // --- count and explicit rows ---
   std::vector<std::vector<double>> rows;   // layout = file
   std::size_t N = 0;
@@ -153,7 +166,14 @@ InitialState<D> make_initial_state(const Scene& s) {
       if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
       std::istringstream ls(line);
       std::vector<double> r;
-      for (double v; ls >> v;) r.push_back(v);
+      for (std::string word; ls >> word;) {   // every word a number: a stray one is an error, not the row's end
+        char* end = nullptr;
+        const double v = std::strtod(word.c_str(), &end);
+        if (end == word.c_str() || *end != '\0')
+          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is not a number", path.string(), lineno,
+                                               r.size() + 1, word));
+        r.push_back(v);
+      }
       if (r.empty()) continue;
       if (r.size() != std::size_t(D + 2) && r.size() != std::size_t(2 * D + 2))
         s.fail("particles.file", fmt::format("{}:{}: {} columns; expected {} (x.. diameter mass) or {} (with velocity)",

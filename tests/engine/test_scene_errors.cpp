@@ -1,7 +1,10 @@
 // Every class of bad scene is refused with a grains::SceneError whose message names the key, the
 // offending value and what is allowed.
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -135,6 +138,42 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   REQUIRE_THROWS_WITH(build(good, vel), Contains("particles.velocities") && Contains("1 velocities for 2"));
   REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"list\"", "particles.positions=[[0,0],[2,0]]", "box.periodic=false"}),
                       Contains("particles.positions") && Contains("2 components") && Contains("3D scene needs 3"));
+}
+
+TEST_CASE("scene errors: a key that the chosen layout or velocity does not read is refused", "[scene][errors]") {
+  // Velocities without velocity = "list" were once dropped silently: the particles started at rest.
+  const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
+                                        "box.periodic=false", "particles.velocities=[[1,0,0],[-1,0,0]]"};
+  REQUIRE_THROWS_WITH(build(good, two), Contains("particles.velocities") && Contains("particles.velocity = \"zero\"") &&
+                                            Contains("particles.velocity = \"list\""));
+  auto listed = two;
+  listed.push_back("particles.velocity=\"list\"");
+  REQUIRE_NOTHROW(build(good, listed));
+  REQUIRE_THROWS_WITH(build(good, {"particles.positions=[[0,0,0]]"}),
+                      Contains("particles.positions") && Contains("particles.layout = \"lattice\"") &&
+                          Contains("particles.layout = \"list\""));
+  REQUIRE_THROWS_WITH(build(good, {"particles.diameters=[1.0]"}), Contains("particles.diameters") && Contains("\"list\""));
+  REQUIRE_THROWS_WITH(build(good, {"particles.masses=[1.0]"}), Contains("particles.masses") && Contains("\"list\""));
+  REQUIRE_THROWS_WITH(build(good, {"particles.file=\"rows.txt\""}),
+                      Contains("particles.file") && Contains("particles.layout = \"file\""));
+}
+
+TEST_CASE("scene errors: a particle file's word that is not a number is named with its line and column", "[scene][errors]") {
+  const auto path = std::filesystem::temp_directory_path() / "grains-bad-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass\n0 0 0 1 1\n2 0 0 1 1\n4 0 0 1 np.float64(1.0)\n";
+  }
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.periodic=false"};
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
+                                             Contains("column 5") && Contains("'np.float64(1.0)' is not a number"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1\n2 0 0 1 1\n";
+  }
+  REQUIRE_NOTHROW(build(good, file));
+  std::filesystem::remove(path);
 }
 
 TEST_CASE("scene errors: a bad --set override is named", "[scene][errors]") {
