@@ -68,9 +68,10 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V minus_kt = neg(kt);
   V ft = sub(mul(minus_kt, xi), mul(ct, vt));
   const __mmask8 slides = _mm512_mask_cmp_pd_mask(m, abs(ft), bound, _CMP_GT_OQ);
-  if (slides) {
+  if (slides) {   // cap the force; shorten the spring only if it alone passes the bound
     ft = _mm512_mask_blend_pd(slides, ft, copysign(bound, ft));
-    xi = _mm512_mask_div_pd(xi, slides, ft, minus_kt);
+    const __mmask8 shortened = _mm512_mask_cmp_pd_mask(slides, abs(mul(kt, xi)), bound, _CMP_GT_OQ);
+    xi = _mm512_mask_div_pd(xi, shortened, copysign(bound, xi), kt);
   }
   _mm512_mask_i32scatter_pd(in.tangential, m, k, xi, 8);
   _mm512_mask_storeu_pd(out.torque_j + q, m, mul(arm_j, ft));

@@ -60,11 +60,14 @@ GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmas
   }
   const V mag2 = dot(ft, ft);
   const __mmask8 slides = _mm512_mask_cmp_pd_mask(m, mag2, mul(bound, bound), _CMP_GT_OQ);
-  if (slides) {
+  if (slides) {   // cap the force; shorten the spring only if it alone passes the bound
     const V cap = _mm512_mask_div_pd(all(1.0), slides, bound, _mm512_mask_sqrt_pd(all(1.0), slides, mag2));
-    for (int a = 0; a < 3; ++a) {
-      ft[a] = _mm512_mask_mul_pd(ft[a], slides, ft[a], cap);
-      xi[a] = _mm512_mask_div_pd(xi[a], slides, ft[a], minus_kt);
+    for (int a = 0; a < 3; ++a) ft[a] = _mm512_mask_mul_pd(ft[a], slides, ft[a], cap);
+    const V reach = _mm512_mask_div_pd(all(1.0), slides, bound, kt), stretch2 = dot(xi, xi);
+    const __mmask8 shortened = _mm512_mask_cmp_pd_mask(slides, stretch2, mul(reach, reach), _CMP_GT_OQ);
+    if (shortened) {
+      const V scale = _mm512_mask_div_pd(all(1.0), shortened, reach, _mm512_mask_sqrt_pd(all(1.0), shortened, stretch2));
+      for (int a = 0; a < 3; ++a) xi[a] = _mm512_mask_mul_pd(xi[a], shortened, xi[a], scale);
     }
   }
   for (int a = 0; a < 3; ++a) _mm512_mask_i32scatter_pd(in.tangential + a, m, k3, xi[a], 8);

@@ -12,8 +12,11 @@
 //    reverses exactly (tangential restitution beta = -1), J_t = 2 m_t v_t0, and |F_t| / F_n stays
 //    (k_t / k_n) v_t0 / |v_n| throughout, below mu = 0.5.
 // The contact is short (t_c = 1e-4) so the line of centres turns by only ~1e-4 during it.
+// A third case turns the line of centres far (impact parameters up to 0.85 d, t_c = 0.05) with a
+// tangential dashpot: the contact must never gain energy.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -96,4 +99,39 @@ TEST_CASE("frictional collision: sticking throughout reverses the slip (beta = -
     CHECK(o.spin_j == Approx(o.spin_i).epsilon(1e-12));
     CHECK(o.tangential_change == Approx(2 * mt * 0.5 / mstar).epsilon(2e-3));
   }
+}
+
+TEST_CASE("frictional collision: with a tangential dashpot an oblique contact never gains energy", "[friction][energy]") {
+  // Until 2026-12-02 a sliding contact's spring was stretched to the Coulomb bound whenever the spring and
+  // the dashpot together passed it: at b = 0.7 d (3D, c_t = c_n / 2) the total energy rose by 15 % during
+  // loading and the pair left with 1.7 % more than it came with.
+  for (int dim : {2, 3})
+    for (double b : {0.3, 0.5, 0.7, 0.85})
+      for (double damping : {0.5, 1.0}) {
+        ListedParticles p = head_on_pair(dim, 0.2);
+        p.positions[0][1] = -b / 2, p.positions[1][1] = b / 2;
+        const double ratio = dim == 3 ? 2.0 / 7.0 : 1.0 / 3.0;
+        const std::string text = listed_scene(dim, p, {0.9, 0.05, 50}) +
+                                 fmt::format("[friction]\ncoefficient = 0.5\nstiffness_ratio = {:.17g}\ndamping_ratio = {}\n",
+                                             ratio, damping);
+        auto sim = Simulation::create(Scene::from_string(text, "oblique-damped"));
+        const double dt = sim->get("time.dt");
+        auto energy = [&] { return sim->get("kinetic_energy") + sim->get("elastic_energy"); };
+        const double start = energy();
+        double last = start, largest_rise = 0;
+        bool touched = false;
+        for (int k = 0; k < 1200; ++k) {
+          sim->step(dt);
+          touched = touched || sim->get("contacts") > 0;
+          const double now = energy();
+          largest_rise = std::max(largest_rise, now - last);
+          last = now;
+        }
+        INFO(dim << "D, b = " << b << ", c_t / c_n = " << damping << ": largest rise in a step " << largest_rise
+                 << ", energy after / before " << last / start);
+        REQUIRE(touched);
+        REQUIRE(sim->get("contacts") == 0.0);
+        CHECK(largest_rise <= 1e-12 * start);
+        CHECK(last < 0.95 * start);   // e = 0.9 alone takes 19 % of the normal part
+      }
 }
