@@ -27,65 +27,59 @@ template <class V> const double* flat(const std::vector<V>& v) {
   return reinterpret_cast<const double*>(v.data());
 }
 
+// The kernels below are compiled for AVX-512, AVX2 and the baseline, picked at run time
+// (integrator.cpp). Every clone does the same operations in the same order (no multiply-add
+// contraction), so the results do not depend on the processor; only the order of the witness sums does.
+
 // First half over n components: v += h/2 a; x += h v; vp = v + h/2 (7/4 a - 3/4 a_prev).
 // Returns the sum of the new x (only its finiteness matters, so the order of the sum is free).
-inline double drift(std::size_t n, double h, double* __restrict x, double* __restrict v, double* __restrict vp,
-                    const double* __restrict a, const double* __restrict a_prev) {
-  double witness = 0;
-#pragma omp simd reduction(+ : witness)
-  for (std::size_t k = 0; k < n; ++k) {
-    v[k] += 0.5 * h * a[k];
-    x[k] += h * v[k];
-    vp[k] = v[k] + 0.5 * h * (1.75 * a[k] - 0.75 * a_prev[k]);
-    witness += x[k];
-  }
-  return witness;
+double drift_any(std::size_t n, double h, double* __restrict x, double* __restrict v, double* __restrict vp,
+                 const double* __restrict a, const double* __restrict a_prev);
+inline double drift(std::size_t n, double h, double* x, double* v, double* vp, const double* a, const double* a_prev) {
+  return drift_any(n, h, x, v, vp, a, a_prev);
 }
 
-// First half for the spins of n particles of S components: w += h/2 alpha with alpha = torque / I (the
-// same product the second half formed), then the torque is cleared for the coming force evaluation (its
-// line is in the cache already). No prediction of w(t + h): the torques all act on the half-step spin.
+// First half for the spins of n particles of S components (1: disks, 3: spheres): w += h/2 alpha with
+// alpha = torque / I (the same product the second half formed), then the torque is cleared for the
+// coming force evaluation (its line is in the cache already). No prediction of w(t + h): the torques
+// all act on the half-step spin.
+void half_kick_spin_1(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
+                      double* __restrict w);
+void half_kick_spin_3(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
+                      double* __restrict w);
 template <int S>
-void half_kick_spin(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
-                    double* __restrict w) {
-#pragma omp simd
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < S; ++c) {
-      const std::size_t k = i * S + c;
-      const double alpha = inverse_inertia[i] * torque[k];
-      w[k] += 0.5 * h * alpha;
-      torque[k] = 0;
-    }
+void half_kick_spin(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w) {
+  static_assert(S == 1 || S == 3);
+  if constexpr (S == 1) half_kick_spin_1(n, h, inverse_inertia, torque, w);
+  else half_kick_spin_3(n, h, inverse_inertia, torque, w);
 }
 
 // 2D orientations: theta += h w over n disks.
-inline void advance(std::size_t n, double h, double* __restrict theta, const double* __restrict w) {
-#pragma omp simd
-  for (std::size_t k = 0; k < n; ++k) theta[k] += h * w[k];
-}
+void advance_any(std::size_t n, double h, double* __restrict theta, const double* __restrict w);
+inline void advance(std::size_t n, double h, double* theta, const double* w) { advance_any(n, h, theta, w); }
 
-// Turn n orientations q (quaternions stored x, y, z, w) by the rotations of angle |w| h about w
-// (integrator.cpp).
+// Turn n orientations q (quaternions stored x, y, z, w) by the rotations of angle |w| h about w.
 void turn(std::size_t n, double h, const double* w, double* q);
 
 // Second half over n particles of C components: a = f / m; v = (v + h/2 a) keep, keep = exp(-gamma h)
 // for a drag of rate gamma (1 without: x * 1 is x exactly). Returns the sum of the new v (in any
 // order, like drift's: a sum in loop order would chain every add and keep the loop scalar). Store_a =
 // false keeps a in a register only (the spins: half_kick_spin forms it again from the torque).
+#define GRAINS_KICK(NAME)                                                                                     \
+  double NAME(std::size_t n, double h, double keep, const double* __restrict inverse_mass,                         \
+              const double* __restrict f, double* __restrict a, double* __restrict v);
+GRAINS_KICK(kick_2)        // 2D translation, a stored
+GRAINS_KICK(kick_3)        // 3D translation, a stored
+GRAINS_KICK(kick_spin_1)   // 2D spins, a not stored
+GRAINS_KICK(kick_spin_3)   // 3D spins, a not stored
+#undef GRAINS_KICK
 template <int C, bool Store_a = true>
-double kick(std::size_t n, double h, double keep, const double* __restrict inverse_mass, const double* __restrict f,
-            double* __restrict a, double* __restrict v) {
-  double witness = 0;
-#pragma omp simd reduction(+ : witness)
-  for (std::size_t i = 0; i < n; ++i)
-    for (int c = 0; c < C; ++c) {
-      const std::size_t k = i * C + c;
-      const double ak = inverse_mass[i] * f[k];
-      if constexpr (Store_a) a[k] = ak;
-      v[k] = (v[k] + 0.5 * h * ak) * keep;
-      witness += v[k];
-    }
-  return witness;
+double kick(std::size_t n, double h, double keep, const double* inverse_mass, const double* f, double* a, double* v) {
+  static_assert((C == 2 && Store_a) || C == 3 || (C == 1 && !Store_a));
+  if constexpr (C == 2) return kick_2(n, h, keep, inverse_mass, f, a, v);
+  else if constexpr (C == 3 && Store_a) return kick_3(n, h, keep, inverse_mass, f, a, v);
+  else if constexpr (C == 1) return kick_spin_1(n, h, keep, inverse_mass, f, a, v);
+  else return kick_spin_3(n, h, keep, inverse_mass, f, a, v);
 }
 
 }  // namespace integrator_detail
