@@ -8,8 +8,9 @@ of reduced density 1.05, gran/hooke/history with k_n = 1e5, gamma_n = 50, mu = 0
 grains runs the same disks (positions, masses, dt, skin, Gaussian velocities of the same temperature)
 with the consolidation law at the paper's Table I values in units a = F0 = 1: adhesion (K_N = 1e5,
 D0 = 1e-3, e_N = 0.015), friction mu = 0.5, K_T = K_N, and rolling resistance mu_R = 0.005, K_R = 1e-4
-K_N a^2; then without rolling, and with the plain frictional spring-dashpot (no adhesion), to show
-what each module costs. LAMMPS has neither adhesion nor rolling in gran/hooke/history, so its pair
+K_N a^2; then without rolling, and with the peer's own law (the frictional spring-dashpot, no adhesion:
+k_n = 1e5 and gamma_n = 50 as e = 0.839 and t_c = 0.00704, k_t = 2/7 k_n, c_t = c_n / 2), to show what
+each module costs. LAMMPS has neither adhesion nor rolling in gran/hooke/history, so its pair
 work per contact is smaller. Both codes on one core, then two. Machines here are shared and noisy:
 compare ratios within one run.
 """
@@ -39,6 +40,20 @@ def hex_lattice(cells_x, cells_y):
     return np.array(x), (cells_x * a, cells_y * a * math.sqrt(3))
 
 
+def peer_disk_law():
+    """(e, t_c) of disks2d.lmp's gran/hooke/history (k_n = 1e5, gamma_n = 50) for m* = 1/2: LAMMPS' dashpot is
+    m* gamma_n v_n, so zeta = m* gamma_n / (2 sqrt(m* k_n)), e = exp(-pi zeta / sqrt(1 - zeta^2)) and
+    t_c = pi / (sqrt(k_n / m*) sqrt(1 - zeta^2)); grains' calibration from (e, t_c) gives back k_n and c_n."""
+    kn, gamma_n, mstar = 1e5, 50.0, 0.5
+    zeta = mstar * gamma_n / (2 * math.sqrt(mstar * kn))
+    root = math.sqrt(1 - zeta * zeta)
+    return math.exp(-math.pi * zeta / root), math.pi / (math.sqrt(kn / mstar) * root)
+
+
+# The peer's tangential law: k_t = 2/7 k_n (kt = NULL), gamma_t = gamma_n / 2 (NULL), mu = 0.5.
+PEER_FRICTION = "[friction]\ncoefficient = 0.5\nstiffness_ratio = 0.2857142857142857\ndamping_ratio = 0.5\n"
+
+
 def grains_scene(work, cells_x, variant):
     centres, lengths = hex_lattice(cells_x, 20)
     rng = np.random.default_rng(4928459)
@@ -51,7 +66,7 @@ def grains_scene(work, cells_x, variant):
     law = {
         "adhesion+friction+rolling": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n[rolling]\ncoefficient = 0.005\n",
         "adhesion+friction": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n",
-        "spring-dashpot+friction": "[contact]\nrestitution = 0.5\nduration = 0.007\n[friction]\ncoefficient = 0.5\n",
+        "spring-dashpot+friction": "[contact]\nrestitution = {!r}\nduration = {!r}\n".format(*peer_disk_law()) + PEER_FRICTION,
     }[variant]
     scene = work / f"{variant}-{cells_x}.toml"
     scene.write_text(f"""[scene]

@@ -12,6 +12,10 @@
    cooling rate is proportional to this dissipation (Haff's law, T(t) = T0 / (1 + t / tau)^2), so its
    ratio between the codes predicts the ratio of their gas temperatures.
 
+3. The 2D disks of ../shared/peers/disks2d.lmp (1400 disks on its hexagonal lattice, gran/hooke/history
+   k_n = 1e5, gamma_n = 50, k_t = 2/7 k_n, gamma_t = gamma_n / 2, mu = 0.5, nve/sphere disc, dt = 1e-4)
+   from one state with Gaussian velocities of temperature 0.01: both energies every 1000 steps.
+
 The models differ in two places. (a) physics.md section 2's non-adhesion clamp: grains never lets the
 dashpot pull (F_n = max(0, k delta - c v_n)); LAMMPS' gran/hooke does, at the end of each contact, so
 the clamped contact returns more energy (a head-on e = 0.9 collision realises e = 0.902). (b) A sliding
@@ -34,6 +38,8 @@ import tempfile
 
 import h5py
 import numpy as np
+
+from bench_cohesive import PEER_FRICTION, hex_lattice, peer_disk_law
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DIAMETER, MASS = 1.0, 1.0
@@ -172,6 +178,82 @@ def pair_ensemble():
     return np.array(x), np.array(v)
 
 
+DISK_CELLS, DISK_STEPS, DISK_DT, DISK_EVERY = 35, 20000, 1e-4, 1000
+
+
+def disks(binary, work):
+    """Part 3: disks2d.lmp's law and lattice, one initial state, (step, translational, rotational) per code."""
+    centres, lengths = hex_lattice(DISK_CELLS, 20)
+    rng = np.random.default_rng(4928459)
+    v = rng.standard_normal(centres.shape) * math.sqrt(0.01)   # kT = m <v_x^2>, m = 1
+    v -= v.mean(axis=0)
+    with open(work / "disks.txt", "w") as f:
+        for (x, y), (vx, vy) in zip(centres, v):
+            f.write(f"{x:.17g} {y:.17g} 1 1 {vx:.17g} {vy:.17g}\n")
+    density = 1.0 / (math.pi / 6)   # read_data makes the mass density * 4/3 pi r^3, in 2D too: unit mass
+    with open(work / "disks.data", "w") as f:
+        f.write(f"grains compare_lammps disks\n\n{len(centres)} atoms\n1 atom types\n\n0 {lengths[0]!r} xlo xhi\n"
+                f"0 {lengths[1]!r} ylo yhi\n-0.5 0.5 zlo zhi\n\nAtoms\n\n")
+        for i, (x, y) in enumerate(centres, 1):
+            f.write(f"{i} 1 1.0 {density!r} {x:.17g} {y:.17g} 0\n")
+        f.write("\nVelocities\n\n")
+        for i, (vx, vy) in enumerate(v, 1):
+            f.write(f"{i} {vx:.17g} {vy:.17g} 0 0 0 0\n")
+    (work / "disks.lmp").write_text(f"""units lj
+dimension 2
+atom_style sphere
+boundary p p p
+comm_modify vel yes
+read_data disks.data
+pair_style gran/hooke/history 100000.0 NULL 50.0 NULL 0.5 0
+pair_coeff * *
+neighbor 0.1 bin
+neigh_modify every 1 delay 0
+timestep {DISK_DT!r}
+fix 3 all nve/sphere disc
+fix 4 all enforce2d
+# erotate/sphere would use a sphere's I = 2/5 m r^2; the disks turn with I = 1/2 m r^2 (nve/sphere disc)
+compute disc all property/atom radius omegaz
+variable spin atom 0.25*mass*c_disc[1]^2*c_disc[2]^2
+compute rot all reduce sum v_spin
+thermo_style custom step ke c_rot
+thermo_modify norm no format float %.15g
+thermo {DISK_EVERY}
+run {DISK_STEPS}
+""")
+    text = run(["lmp", "-in", "disks.lmp", "-log", "none"], work)
+    rows = re.findall(r"^\s+(\d+)\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s*$", text, re.MULTILINE)
+    lmp = np.array(rows, dtype=float)
+    e, tc = peer_disk_law()
+    scene = work / "disks.toml"
+    scene.write_text(f"""[scene]
+name = "disks"
+dimension = 2
+[particles]
+layout = "file"
+file = "disks.txt"
+[box]
+lengths = [{lengths[0]!r}, {lengths[1]!r}]
+[contact]
+restitution = {e!r}
+duration = {tc!r}
+overlap_limit = 1.0
+[time]
+dt = {DISK_DT!r}
+steps = {DISK_STEPS}
+[neighbours]
+skin = 0.1
+[output]
+observables_every = {DISK_EVERY}
+snapshots_every = 0
+xdmf = false
+{PEER_FRICTION}""")
+    g = grains_energies(binary, work, scene)
+    if len(lmp) != len(g) or not np.array_equal(lmp[:, 0], g[:, 0]):
+        raise RuntimeError("disks: the two codes' output steps differ")
+    return g, lmp, len(centres)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=5000, help="gas steps (dt = 0.001)")
@@ -179,6 +261,7 @@ def main():
     ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     args = ap.parse_args()
+    args.binary = args.binary.resolve()   # the runs start in a scratch directory
     if not shutil.which("lmp"):
         sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps.py installs it")
     if not (args.peers / "gas_data.py").exists():
@@ -240,6 +323,16 @@ def main():
                    "| law | dt | grains | LAMMPS | grains / LAMMPS |", "|---|---|---|---|---|"]
         for (friction, dt), (g, lmp) in rows.items():
             report.append(f"| {'frictional' if friction else 'frictionless'} | {dt:g} | {g:.5f} | {lmp:.5f} | {g / lmp:.4f} |")
+
+        # 3. The 2D disks.
+        dg, dl, nd = disks(args.binary, work)
+        report += ["", f"## The 2D disks of disks2d.lmp, {nd} disks, one initial state, kinetic energy per disk", "",
+                   "| t | grains: translational | rotational | LAMMPS: translational | rotational | grains / LAMMPS: "
+                   "translational | rotational |", "|---|---|---|---|---|---|---|"]
+        for k in range(len(dg)):
+            rot = dg[k, 2] / dl[k, 2] if dl[k, 2] > 0 else float("nan")
+            report.append(f"| {dg[k, 0] * DISK_DT:.2f} | {dg[k, 1] / nd:.6f} | {dg[k, 2] / nd:.6f} | {dl[k, 1] / nd:.6f} | "
+                          f"{dl[k, 2] / nd:.6f} | {dg[k, 1] / dl[k, 1]:.4f} | {rot:.4f} |")
 
     # Haff's law with the measured ratio of the dissipation per collision (at the gas's dt) predicts the
     # ratio of the frictionless gases' energies: T = T0 / (1 + t / tau)^2, 1 / tau proportional to it.
