@@ -44,8 +44,8 @@ void CollisionLog<D>::after_step(const System<D>& s, double h) {
       if (p.phase == unknown) {
         // A pair new to the list (it may enter at the very step it touches): its state before this
         // step, from the positions it moved by h v(t + h/2) and the velocities v(t).
-        auto half = [&](std::size_t m) { return Vec<D>(P.velocity[m] - 0.5 * h * P.accel[m]); };
-        auto start = [&](std::size_t m) { return Vec<D>(half(m) - 0.5 * h * P.accel_prev[m]); };
+        auto half = [&](std::size_t m) { return Vec<D>(P.velocity[m] - 0.5 * h * (P.inv_mass[m] * P.force[m])); };
+        auto start = [&](std::size_t m) { return Vec<D>(half(m) - 0.5 * h * (P.inv_mass[m] * P.force_prev[m])); };
         const Vec<D> r0 = r - h * (half(j) - half(i));
         const double d0 = r0.norm();
         p.gap = d0 - P.radius[i] - P.radius[j];

@@ -56,18 +56,33 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 // baseline build's two-double vectors left most of the time in instructions.
 #define GRAINS_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 
-GRAINS_VECTOR_CLONES
-double drift_any(std::size_t n, double h, double* __restrict x, double* __restrict v, double* __restrict vp,
-                 const double* __restrict a, const double* __restrict a_prev) {
+template <int D>
+[[gnu::always_inline]] inline double drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
+                                                double* __restrict x, double* __restrict v, double* __restrict vp,
+                                                const double* __restrict f, double* __restrict f_prev) {
   double witness = 0;
 #pragma omp simd reduction(+ : witness)
-  for (std::size_t k = 0; k < n; ++k) {
-    v[k] += 0.5 * h * a[k];
-    x[k] += h * v[k];
-    vp[k] = v[k] + 0.5 * h * (1.75 * a[k] - 0.75 * a_prev[k]);
-    witness += x[k];
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < D; ++c) {
+      const std::size_t k = i * D + c;
+      const double a = inverse_mass[i] * f[k], a_prev = inverse_mass[i] * f_prev[k];
+      v[k] += 0.5 * h * a;
+      x[k] += h * v[k];
+      vp[k] = v[k] + 0.5 * h * (1.75 * a - 0.75 * a_prev);
+      f_prev[k] = 0;
+      witness += x[k];
+    }
   return witness;
+}
+GRAINS_VECTOR_CLONES
+double drift_2(std::size_t n, double h, const double* __restrict m, double* __restrict x, double* __restrict v,
+               double* __restrict vp, const double* __restrict f, double* __restrict f_prev) {
+  return drift_body<2>(n, h, m, x, v, vp, f, f_prev);
+}
+GRAINS_VECTOR_CLONES
+double drift_3(std::size_t n, double h, const double* __restrict m, double* __restrict x, double* __restrict v,
+               double* __restrict vp, const double* __restrict f, double* __restrict f_prev) {
+  return drift_body<3>(n, h, m, x, v, vp, f, f_prev);
 }
 
 template <int S>
@@ -97,30 +112,28 @@ void advance_any(std::size_t n, double h, double* __restrict theta, const double
   for (std::size_t k = 0; k < n; ++k) theta[k] += h * w[k];
 }
 
-template <int C, bool Store_a>
+template <int C>
 [[gnu::always_inline]] inline double kick_body(std::size_t n, double h, double keep, const double* __restrict inverse_mass,
-                                               const double* __restrict f, double* __restrict a, double* __restrict v) {
+                                               const double* __restrict f, double* __restrict v) {
   double witness = 0;
 #pragma omp simd reduction(+ : witness)
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < C; ++c) {
       const std::size_t k = i * C + c;
       const double ak = inverse_mass[i] * f[k];
-      if constexpr (Store_a) a[k] = ak;
       v[k] = (v[k] + 0.5 * h * ak) * keep;
       witness += v[k];
     }
   return witness;
 }
-#define GRAINS_KICK(C, STORE, NAME)                                                                                 \
-  GRAINS_VECTOR_CLONES double NAME(std::size_t n, double h, double keep, const double* __restrict m,              \
-                                   const double* __restrict f, double* __restrict a, double* __restrict v) {      \
-    return kick_body<C, STORE>(n, h, keep, m, f, a, v);                                                           \
+#define GRAINS_KICK(C)                                                                                              \
+  GRAINS_VECTOR_CLONES double kick_##C(std::size_t n, double h, double keep, const double* __restrict m,           \
+                                       const double* __restrict f, double* __restrict v) {                          \
+    return kick_body<C>(n, h, keep, m, f, v);                                                                       \
   }
-GRAINS_KICK(2, true, kick_2)
-GRAINS_KICK(3, true, kick_3)
-GRAINS_KICK(1, false, kick_spin_1)
-GRAINS_KICK(3, false, kick_spin_3)
+GRAINS_KICK(1)
+GRAINS_KICK(2)
+GRAINS_KICK(3)
 #undef GRAINS_KICK
 
 void turn(std::size_t n, double h, const double* w, double* q) {

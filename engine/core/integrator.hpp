@@ -2,6 +2,8 @@
 // Between the two halves, `velocity` holds v(t + h/2) (which moved the positions and feeds the
 // tangential springs) and `velocity_predicted` a third-order estimate of v(t + h) for the dashpots:
 //   v(t+h) ~ v(t+h/2) + h/2 (7/4 a_n - 3/4 a_{n-1}).
+// The accelerations are never stored: a = f / m is formed where it is used, from `force` (f_n) and
+// `force_prev` (f_{n-1}); the two arrays swap roles every step, so no array is copied or cleared apart.
 #pragma once
 #include <cmath>
 #include <utility>
@@ -31,12 +33,20 @@ template <class V> const double* flat(const std::vector<V>& v) {
 // (integrator.cpp). Every clone does the same operations in the same order (no multiply-add
 // contraction), so the results do not depend on the processor; only the order of the witness sums does.
 
-// First half over n components: v += h/2 a; x += h v; vp = v + h/2 (7/4 a - 3/4 a_prev).
-// Returns the sum of the new x (only its finiteness matters, so the order of the sum is free).
-double drift_any(std::size_t n, double h, double* __restrict x, double* __restrict v, double* __restrict vp,
-                 const double* __restrict a, const double* __restrict a_prev);
-inline double drift(std::size_t n, double h, double* x, double* v, double* vp, const double* a, const double* a_prev) {
-  return drift_any(n, h, x, v, vp, a, a_prev);
+// First half over n particles of D components: a = f / m, a_prev = f_prev / m; v += h/2 a; x += h v;
+// vp = v + h/2 (7/4 a - 3/4 a_prev); then f_prev is cleared: it collects the coming force evaluation
+// (its line is in the cache already). Returns the sum of the new x (only its finiteness matters, so the
+// order of the sum is free).
+double drift_2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+               double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev);
+double drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+               double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev);
+template <int D>
+double drift(std::size_t n, double h, const double* inverse_mass, double* x, double* v, double* vp, const double* f,
+             double* f_prev) {
+  static_assert(D == 2 || D == 3);
+  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev);
+  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev);
 }
 
 // First half for the spins of n particles of S components (1: disks, 3: spheres): w += h/2 alpha with
@@ -61,25 +71,22 @@ inline void advance(std::size_t n, double h, double* theta, const double* w) { a
 // Turn n orientations q (quaternions stored x, y, z, w) by the rotations of angle |w| h about w.
 void turn(std::size_t n, double h, const double* w, double* q);
 
-// Second half over n particles of C components: a = f / m; v = (v + h/2 a) keep, keep = exp(-gamma h)
-// for a drag of rate gamma (1 without: x * 1 is x exactly). Returns the sum of the new v (in any
-// order, like drift's: a sum in loop order would chain every add and keep the loop scalar). Store_a =
-// false keeps a in a register only (the spins: half_kick_spin forms it again from the torque).
-#define GRAINS_KICK(NAME)                                                                                     \
-  double NAME(std::size_t n, double h, double keep, const double* __restrict inverse_mass,                         \
-              const double* __restrict f, double* __restrict a, double* __restrict v);
-GRAINS_KICK(kick_2)        // 2D translation, a stored
-GRAINS_KICK(kick_3)        // 3D translation, a stored
-GRAINS_KICK(kick_spin_1)   // 2D spins, a not stored
-GRAINS_KICK(kick_spin_3)   // 3D spins, a not stored
-#undef GRAINS_KICK
-template <int C, bool Store_a = true>
-double kick(std::size_t n, double h, double keep, const double* inverse_mass, const double* f, double* a, double* v) {
-  static_assert((C == 2 && Store_a) || C == 3 || (C == 1 && !Store_a));
-  if constexpr (C == 2) return kick_2(n, h, keep, inverse_mass, f, a, v);
-  else if constexpr (C == 3 && Store_a) return kick_3(n, h, keep, inverse_mass, f, a, v);
-  else if constexpr (C == 1) return kick_spin_1(n, h, keep, inverse_mass, f, a, v);
-  else return kick_spin_3(n, h, keep, inverse_mass, f, a, v);
+// Second half over n particles of C components: v = (v + h/2 f / m) keep, keep = exp(-gamma h) for a drag
+// of rate gamma (1 without: x * 1 is x exactly); m: the mass or, for spins, the moment of inertia.
+// Returns the sum of the new v (in any order, like drift's: a sum in loop order would chain every add
+// and keep the loop scalar).
+double kick_1(std::size_t n, double h, double keep, const double* __restrict inverse_mass, const double* __restrict f,
+              double* __restrict v);
+double kick_2(std::size_t n, double h, double keep, const double* __restrict inverse_mass, const double* __restrict f,
+              double* __restrict v);
+double kick_3(std::size_t n, double h, double keep, const double* __restrict inverse_mass, const double* __restrict f,
+              double* __restrict v);
+template <int C>
+double kick(std::size_t n, double h, double keep, const double* inverse_mass, const double* f, double* v) {
+  static_assert(C >= 1 && C <= 3);
+  if constexpr (C == 1) return kick_1(n, h, keep, inverse_mass, f, v);
+  else if constexpr (C == 2) return kick_2(n, h, keep, inverse_mass, f, v);
+  else return kick_3(n, h, keep, inverse_mass, f, v);
 }
 
 }  // namespace integrator_detail
@@ -95,8 +102,8 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 template <int D, bool Rotate, bool Orient = true>
 double kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e) {
   using namespace integrator_detail;
-  const double witness = drift(D * (e - b), h, flat(P.position) + D * b, flat(P.velocity) + D * b,
-                               flat(P.velocity_predicted) + D * b, flat(P.accel) + D * b, flat(P.accel_prev) + D * b);
+  const double witness = drift<D>(e - b, h, P.inv_mass.data() + b, flat(P.position) + D * b, flat(P.velocity) + D * b,
+                                  flat(P.velocity_predicted) + D * b, flat(P.force) + D * b, flat(P.force_prev) + D * b);
   constexpr int S = Spin<D>::SizeAtCompileTime;
   if constexpr (Rotate)
     half_kick_spin<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
@@ -109,23 +116,20 @@ double kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t 
   return witness;
 }
 
-// Second half kick from the new forces (a_n becomes a_{n-1} by swapping the arrays, not copying),
-// velocities and spins then multiplied by `keep` (a drag, see kick). Returns the sum of all
-// velocities' components: finite exactly when every velocity is.
+// Second half kick from the new forces, velocities and spins then multiplied by `keep` (a drag, see
+// kick). Returns the sum of all velocities' components: finite exactly when every velocity is.
 template <int D, bool Rotate>
 double finish_kick(Particles<D>& P, double h, int threads, double keep = 1.0) {
   using namespace integrator_detail;
   const std::size_t N = P.size();
   constexpr int S = Spin<D>::SizeAtCompileTime;
   double witness = 0;
-  P.accel.swap(P.accel_prev);
 #pragma omp parallel num_threads(threads) reduction(+ : witness)
   {
     const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
-    witness += kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.accel) + D * b, flat(P.velocity) + D * b);
+    witness += kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.velocity) + D * b);
     if constexpr (Rotate)
-      witness += kick<S, false>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, nullptr,
-                                flat(P.angular_velocity) + S * b);
+      witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
   }
   return witness;
 }

@@ -12,7 +12,9 @@ struct Particles {
   using V = Vec<D>;
   using S = Spin<D>;
   std::vector<V> position, velocity, force;
-  std::vector<V> accel, accel_prev;          // a_n and a_{n-1}: the velocity predictor uses both
+  // The force of the evaluation before `force`'s: the velocity predictor needs a_n and a_{n-1}, and forms
+  // both from the forces (core/integrator.hpp); between steps the two arrays swap roles.
+  std::vector<V> force_prev;
   std::vector<V> velocity_predicted;         // v(t_{n+1}) estimate used by the dashpots
   // No predicted spin: every torque acts on the half-step spin (the tangential spring and the rolling parts).
   // No angular acceleration either: the torque, kept from one force evaluation to the next step's first
@@ -24,7 +26,7 @@ struct Particles {
   std::size_t size() const { return radius.size(); }
 
   void resize(std::size_t n) {
-    for (auto* v : {&position, &velocity, &force, &accel, &accel_prev, &velocity_predicted}) v->assign(n, V::Zero());
+    for (auto* v : {&position, &velocity, &force, &force_prev, &velocity_predicted}) v->assign(n, V::Zero());
     for (auto* v : {&angular_velocity, &torque}) v->assign(n, S::Zero());
     if constexpr (D == 3) orientation.assign(n, Eigen::Quaterniond::Identity());
     else orientation.assign(n, 0.0);

@@ -139,7 +139,7 @@ class SimulationImpl final : public Simulation {
     P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)
     compute_forces();
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
-    for (std::size_t i = 0; i < N; ++i) P.accel[i] = P.accel_prev[i] = P.inv_mass[i] * P.force[i];
+    P.force_prev = P.force;   // a_{-1} = a_0 for the first step's velocity predictor
     check_finite("the initial state");
     track_aggregation();
     if (network_) reference_contacts_ = contact_keys(interactions());
@@ -200,17 +200,17 @@ class SimulationImpl final : public Simulation {
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
-  // give). States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e05;
+  // give; 6: the previous force instead of both accelerations). States of builds before the word start
+  // with D (2, 3).
+  static constexpr std::uint32_t state_format = 0x47524e06;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
     const auto& P = sys_.particles;
     w.put(state_format), w.put<int>(D), w.put<std::uint64_t>(P.size());
     w.put(sys_.time), w.put(sys_.step);
-    w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.accel),
-        w.put_vector(P.accel_prev), w.put_vector(P.angular_velocity), w.put_vector(P.torque),
-        w.put_vector(P.orientation);
+    w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.force_prev),
+        w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.orientation);
     sys_.neighbours.save(w);
     for (const auto& m : modules_) m->save(w);
     if (analysis_) w.put(aggregation_time_);
@@ -241,9 +241,8 @@ class SimulationImpl final : public Simulation {
     if (r.get<int>() != D || r.get<std::uint64_t>() != P.size())
       throw SimulationError("the saved state belongs to a scene of another dimension or particle count");
     sys_.time = r.get<double>(), sys_.step = r.get<long>();
-    r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.accel),
-        r.get_vector(P.accel_prev), r.get_vector(P.angular_velocity), r.get_vector(P.torque),
-        r.get_vector(P.orientation);
+    r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.force_prev),
+        r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.orientation);
     sys_.neighbours.load(r);
     for (auto& m : modules_) m->load(r);
     if (analysis_) aggregation_time_ = r.get<double>();
@@ -514,8 +513,9 @@ class SimulationImpl final : public Simulation {
                            : kick_drift_predict<D, true, false>(P, h, b, e);
       if (cell_moves) follow_cell(scale, b, e);
       if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
-      std::fill(P.force.begin() + b, P.force.begin() + e, Vec<D>::Zero());   // kick_drift_predict cleared the torques
     }
+    // kick_drift_predict cleared the previous forces and the torques: the coming evaluation adds into them.
+    P.force.swap(P.force_prev);
     moved = largest;
     return witness;
   }
