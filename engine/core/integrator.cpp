@@ -56,13 +56,15 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 // baseline build's two-double vectors left most of the time in instructions.
 #define GRAINS_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 
-template <int D>
-[[gnu::always_inline]] inline double drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
-                                                double* __restrict x, double* __restrict v, double* __restrict vp,
-                                                const double* __restrict f, double* __restrict f_prev) {
-  double witness = 0;
-#pragma omp simd reduction(+ : witness)
-  for (std::size_t i = 0; i < n; ++i)
+template <int D, bool Measure>
+[[gnu::always_inline]] inline DriftSums drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
+                                                   double* __restrict x, double* __restrict v, double* __restrict vp,
+                                                   const double* __restrict f, double* __restrict f_prev,
+                                                   const double* __restrict reference) {
+  double witness = 0, largest = 0;
+#pragma omp simd reduction(+ : witness) reduction(max : largest)
+  for (std::size_t i = 0; i < n; ++i) {
+    double moved = 0;
     for (int c = 0; c < D; ++c) {
       const std::size_t k = i * D + c;
       const double a = inverse_mass[i] * f[k], a_prev = inverse_mass[i] * f_prev[k];
@@ -71,19 +73,25 @@ template <int D>
       vp[k] = v[k] + 0.5 * h * (1.75 * a - 0.75 * a_prev);
       f_prev[k] = 0;
       witness += x[k];
+      if constexpr (Measure) {   // (x - x_ref).squaredNorm() as NeighbourList::largest_move sums it
+        const double dx = x[k] - reference[k];
+        moved = c == 0 ? dx * dx : moved + dx * dx;
+      }
     }
-  return witness;
+    if constexpr (Measure) largest = std::max(largest, moved);
+  }
+  return {witness, largest};
 }
-GRAINS_VECTOR_CLONES
-double drift_2(std::size_t n, double h, const double* __restrict m, double* __restrict x, double* __restrict v,
-               double* __restrict vp, const double* __restrict f, double* __restrict f_prev) {
-  return drift_body<2>(n, h, m, x, v, vp, f, f_prev);
-}
-GRAINS_VECTOR_CLONES
-double drift_3(std::size_t n, double h, const double* __restrict m, double* __restrict x, double* __restrict v,
-               double* __restrict vp, const double* __restrict f, double* __restrict f_prev) {
-  return drift_body<3>(n, h, m, x, v, vp, f, f_prev);
-}
+#define GRAINS_DRIFT(D)                                                                                             \
+  GRAINS_VECTOR_CLONES DriftSums drift_##D(std::size_t n, double h, const double* __restrict m, double* __restrict x, \
+                                           double* __restrict v, double* __restrict vp, const double* __restrict f,   \
+                                           double* __restrict f_prev, const double* __restrict reference) {          \
+    return reference ? drift_body<D, true>(n, h, m, x, v, vp, f, f_prev, reference)                                \
+                     : drift_body<D, false>(n, h, m, x, v, vp, f, f_prev, nullptr);                                 \
+  }
+GRAINS_DRIFT(2)
+GRAINS_DRIFT(3)
+#undef GRAINS_DRIFT
 
 template <int S>
 [[gnu::always_inline]] inline void half_kick_spin_body(std::size_t n, double h, const double* __restrict inverse_inertia,

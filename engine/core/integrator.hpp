@@ -36,17 +36,24 @@ template <class V> const double* flat(const std::vector<V>& v) {
 // First half over n particles of D components: a = f / m, a_prev = f_prev / m; v += h/2 a; x += h v;
 // vp = v + h/2 (7/4 a - 3/4 a_prev); then f_prev is cleared: it collects the coming force evaluation
 // (its line is in the cache already). Returns the sum of the new x (only its finiteness matters, so the
-// order of the sum is free).
-double drift_2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
-               double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev);
-double drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
-               double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev);
+// order of the sum is free) and, given the neighbour list's reference positions (else null), the
+// largest squared displacement from them, as NeighbourList::largest_move computes it: one pass over the
+// positions instead of two.
+struct DriftSums {
+  double witness = 0, largest_move = 0;
+};
+DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+                  double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
+                  const double* __restrict reference);
+DriftSums drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+                  double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
+                  const double* __restrict reference);
 template <int D>
-double drift(std::size_t n, double h, const double* inverse_mass, double* x, double* v, double* vp, const double* f,
-             double* f_prev) {
+DriftSums drift(std::size_t n, double h, const double* inverse_mass, double* x, double* v, double* vp, const double* f,
+                double* f_prev, const double* reference) {
   static_assert(D == 2 || D == 3);
-  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev);
-  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev);
+  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev, reference);
+  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev, reference);
 }
 
 // First half for the spins of n particles of S components (1: disks, 3: spheres): w += h/2 alpha with
@@ -99,11 +106,16 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 // Returns the sum of the new positions' components, a cheap witness: it is finite exactly when every
 // position is.
 // Orient = false leaves the orientations alone (particles.track_orientation = false).
+// reference: the neighbour list's reference positions (NeighbourList::unscaled_reference) or null; the
+// result's largest_move is then measured against them.
 template <int D, bool Rotate, bool Orient = true>
-double kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e) {
+integrator_detail::DriftSums kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e,
+                                                const Vec<D>* reference) {
   using namespace integrator_detail;
-  const double witness = drift<D>(e - b, h, P.inv_mass.data() + b, flat(P.position) + D * b, flat(P.velocity) + D * b,
-                                  flat(P.velocity_predicted) + D * b, flat(P.force) + D * b, flat(P.force_prev) + D * b);
+  const DriftSums sums =
+      drift<D>(e - b, h, P.inv_mass.data() + b, flat(P.position) + D * b, flat(P.velocity) + D * b,
+               flat(P.velocity_predicted) + D * b, flat(P.force) + D * b, flat(P.force_prev) + D * b,
+               reference ? reinterpret_cast<const double*>(reference) + D * b : nullptr);
   constexpr int S = Spin<D>::SizeAtCompileTime;
   if constexpr (Rotate)
     half_kick_spin<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
@@ -113,7 +125,7 @@ double kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t 
   } else if constexpr (Rotate && Orient) {   // 2D: the angle simply advances
     advance(e - b, h, P.orientation.data() + b, flat(P.angular_velocity) + b);
   }
-  return witness;
+  return sums;
 }
 
 // Second half kick from the new forces, velocities and spins then multiplied by `keep` (a drag, see

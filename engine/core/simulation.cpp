@@ -505,14 +505,18 @@ class SimulationImpl final : public Simulation {
     auto& P = sys_.particles;
     const std::size_t N = P.size();
     double witness = 0, largest = 0;
+    // Where the particles do not follow the cell, the drift measures their moves as it makes them.
+    const Vec<D>* reference = uses_list_ && !cell_moves ? sys_.neighbours.unscaled_reference(N) : nullptr;
 #pragma omp parallel num_threads(sys_.threads) reduction(+ : witness) reduction(max : largest)
     {
       const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
-      witness += !rotate_ ? kick_drift_predict<D, false>(P, h, b, e)
-                 : orient_ ? kick_drift_predict<D, true>(P, h, b, e)
-                           : kick_drift_predict<D, true, false>(P, h, b, e);
+      const auto sums = !rotate_ ? kick_drift_predict<D, false>(P, h, b, e, reference)
+                        : orient_ ? kick_drift_predict<D, true>(P, h, b, e, reference)
+                                  : kick_drift_predict<D, true, false>(P, h, b, e, reference);
+      witness += sums.witness;
       if (cell_moves) follow_cell(scale, b, e);
-      if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
+      if (reference) largest = std::max(largest, sums.largest_move);
+      else if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
     }
     // kick_drift_predict cleared the previous forces and the torques: the coming evaluation adds into them.
     P.force.swap(P.force_prev);

@@ -34,6 +34,12 @@ class NeighbourList {
   // particle count changed), stale_after judges the largest over all shares.
   double largest_move(const std::vector<Vec<D>>& position, std::size_t b, std::size_t e) const;
   bool stale_after(double largest_move) const;
+  // The reference positions when largest_move would compare with them unscaled (the cell has not
+  // deformed since the build and the particle count is the list's), else null: the integrator then
+  // measures the displacements in the pass that moves the particles (core/integrator.hpp).
+  const Vec<D>* unscaled_reference(std::size_t particles) const {
+    return reference_.size() == particles && strain_since_build_ == Vec<D>::Ones() ? reference_.data() : nullptr;
+  }
   // The periodic cell was rescaled by `scale` per axis about box.lower and the particles followed
   // affinely: image shifts follow the new lengths and the reference positions the affine map, so
   // largest_move() sees only the motion relative to the cell. A pair's separation changes by at most
