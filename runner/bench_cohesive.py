@@ -54,7 +54,9 @@ def peer_disk_law():
 PEER_FRICTION = "[friction]\ncoefficient = 0.5\nstiffness_ratio = 0.2857142857142857\ndamping_ratio = 0.5\n"
 
 
-def grains_scene(work, cells_x, variant):
+def disk_state(work, cells_x):
+    """The peer's disks (its lattice, unit diameter and mass) with Gaussian velocities of its temperature,
+    written as a grains particle table: (table, centres, velocities, box lengths)."""
     centres, lengths = hex_lattice(cells_x, 20)
     rng = np.random.default_rng(4928459)
     v = rng.standard_normal(centres.shape) * math.sqrt(TEMPERATURE)   # kT = m <v_x^2>, m = 1
@@ -63,6 +65,11 @@ def grains_scene(work, cells_x, variant):
     with open(table, "w") as f:
         for (x, y), (vx, vy) in zip(centres, v):
             f.write(f"{x:.17g} {y:.17g} 1 1 {vx:.17g} {vy:.17g}\n")
+    return table, centres, v, lengths
+
+
+def grains_scene(work, cells_x, variant):
+    table, centres, _, lengths = disk_state(work, cells_x)
     law = {
         "adhesion+friction+rolling": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n[rolling]\ncoefficient = 0.005\n",
         "adhesion+friction": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n",

@@ -39,7 +39,7 @@ import tempfile
 import h5py
 import numpy as np
 
-from bench_cohesive import PEER_FRICTION, hex_lattice, peer_disk_law
+from bench_cohesive import PEER_FRICTION, disk_state, peer_disk_law
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DIAMETER, MASS = 1.0, 1.0
@@ -97,34 +97,37 @@ def lammps_energies(work, name, data, friction, boundary, steps, every, dt):
     return np.array(rows, dtype=float)
 
 
-def grains_scene(work, name, table, lengths, periodic, friction, steps, every, dt):
-    law = "".join(f"{k} = {v!r}\n" for k, v in FRICTION.items()) if friction else ""
+def grains_scene(work, name, table, lengths, periodic, law, steps, every, dt, skin):
+    """A grains scene of the particles in `table` (file layout), the contact law given as scene text."""
     scene = work / f"{name}.toml"
     scene.write_text(f"""[scene]
 name = "{name}"
-dimension = 3
+dimension = {len(lengths)}
 [particles]
 layout = "file"
 file = "{table.name}"
 [box]
 periodic = {str(periodic).lower()}
-lengths = [{lengths[0]!r}, {lengths[1]!r}, {lengths[2]!r}]
-[contact]
-restitution = {E!r}
-duration = {TC!r}
-overlap_limit = 1.0
+lengths = [{", ".join(repr(float(l)) for l in lengths)}]
 [time]
 dt = {dt!r}
 steps = {steps}
 [neighbours]
-skin = 0.2
+skin = {skin!r}
 [output]
 observables_every = {every}
 snapshots_every = 0
 xdmf = false
-{"[friction]" if friction else ""}
 {law}""")
     return scene
+
+
+def gas_law(friction):
+    """gas.lmp's law (and the peer README's frictional variant) as grains scene text."""
+    law = f"[contact]\nrestitution = {E!r}\nduration = {TC!r}\noverlap_limit = 1.0\n"
+    if friction:
+        law += "[friction]\n" + "".join(f"{k} = {v!r}\n" for k, v in FRICTION.items())
+    return law
 
 
 def grains_energies(binary, work, scene):
@@ -183,22 +186,10 @@ DISK_CELLS, DISK_STEPS, DISK_DT, DISK_EVERY = 35, 20000, 1e-4, 1000
 
 def disks(binary, work):
     """Part 3: disks2d.lmp's law and lattice, one initial state, (step, translational, rotational) per code."""
-    centres, lengths = hex_lattice(DISK_CELLS, 20)
-    rng = np.random.default_rng(4928459)
-    v = rng.standard_normal(centres.shape) * math.sqrt(0.01)   # kT = m <v_x^2>, m = 1
-    v -= v.mean(axis=0)
-    with open(work / "disks.txt", "w") as f:
-        for (x, y), (vx, vy) in zip(centres, v):
-            f.write(f"{x:.17g} {y:.17g} 1 1 {vx:.17g} {vy:.17g}\n")
-    density = 1.0 / (math.pi / 6)   # read_data makes the mass density * 4/3 pi r^3, in 2D too: unit mass
-    with open(work / "disks.data", "w") as f:
-        f.write(f"grains compare_lammps disks\n\n{len(centres)} atoms\n1 atom types\n\n0 {lengths[0]!r} xlo xhi\n"
-                f"0 {lengths[1]!r} ylo yhi\n-0.5 0.5 zlo zhi\n\nAtoms\n\n")
-        for i, (x, y) in enumerate(centres, 1):
-            f.write(f"{i} 1 1.0 {density!r} {x:.17g} {y:.17g} 0\n")
-        f.write("\nVelocities\n\n")
-        for i, (vx, vy) in enumerate(v, 1):
-            f.write(f"{i} {vx:.17g} {vy:.17g} 0 0 0 0\n")
+    table, centres, v, lengths = disk_state(work, DISK_CELLS)
+    # In 2D too read_data gives a sphere's mass (density 4/3 pi r^3): lammps_data's density makes it 1.
+    flat = lambda a: np.c_[a, np.zeros(len(a))]   # z = 0
+    lammps_data(work / "disks.data", flat(centres), flat(v), (0.0, 0.0, -0.5), (lengths[0], lengths[1], 0.5))
     (work / "disks.lmp").write_text(f"""units lj
 dimension 2
 atom_style sphere
@@ -225,29 +216,8 @@ run {DISK_STEPS}
     rows = re.findall(r"^\s+(\d+)\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s*$", text, re.MULTILINE)
     lmp = np.array(rows, dtype=float)
     e, tc = peer_disk_law()
-    scene = work / "disks.toml"
-    scene.write_text(f"""[scene]
-name = "disks"
-dimension = 2
-[particles]
-layout = "file"
-file = "disks.txt"
-[box]
-lengths = [{lengths[0]!r}, {lengths[1]!r}]
-[contact]
-restitution = {e!r}
-duration = {tc!r}
-overlap_limit = 1.0
-[time]
-dt = {DISK_DT!r}
-steps = {DISK_STEPS}
-[neighbours]
-skin = 0.1
-[output]
-observables_every = {DISK_EVERY}
-snapshots_every = 0
-xdmf = false
-{PEER_FRICTION}""")
+    law = f"[contact]\nrestitution = {e!r}\nduration = {tc!r}\noverlap_limit = 1.0\n" + PEER_FRICTION
+    scene = grains_scene(work, "disks", table, lengths, True, law, DISK_STEPS, DISK_EVERY, DISK_DT, 0.1)
     g = grains_energies(binary, work, scene)
     if len(lmp) != len(g) or not np.array_equal(lmp[:, 0], g[:, 0]):
         raise RuntimeError("disks: the two codes' output steps differ")
@@ -283,8 +253,8 @@ def main():
         for friction in (False, True):
             name = "gas-friction" if friction else "gas"
             lmp = lammps_energies(work, name, "gas.data", friction, "p p p", args.steps, EVERY, DT)
-            g = grains_energies(args.binary, work, grains_scene(work, name, work / "gas.txt", [length] * 3, True, friction,
-                                                                args.steps, EVERY, DT))
+            g = grains_energies(args.binary, work, grains_scene(work, name, work / "gas.txt", [length] * 3, True, gas_law(friction),
+                                                                args.steps, EVERY, DT, 0.2))
             if len(lmp) != len(g) or not np.array_equal(lmp[:, 0], g[:, 0]):
                 raise RuntimeError(f"{name}: the two codes' output steps differ")
             gas[name] = (g, lmp)
@@ -315,8 +285,8 @@ def main():
                 name = f"pairs-{'friction' if friction else 'plain'}-{steps}"
                 lmp = lammps_energies(work, name, "pairs.data", friction, "f f f", steps, steps, dt)[-1]
                 g = grains_energies(args.binary, work, grains_scene(work, name, work / "pairs.txt",
-                                                                    [hi[a] - lo[a] for a in range(3)], False, friction,
-                                                                    steps, steps, dt))[-1]
+                                                                    [hi[a] - lo[a] for a in range(3)], False,
+                                                                    gas_law(friction), steps, steps, dt, 0.2))[-1]
                 rows[(friction, dt)] = ((initial - g[1] - g[2]) / initial, (initial - lmp[1] - lmp[2]) / initial)
         report += ["", f"## One collision, {PAIRS} pairs, impact parameters uniform in b^2, relative speed 1", "",
                    "Fraction of the kinetic energy dissipated (translational + rotational).", "",
