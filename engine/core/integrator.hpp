@@ -101,13 +101,13 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 // First half over the particles [b, e), one thread's share (core/thread_share.hpp): the step runs it
 // inside a parallel region it shares with the other per-particle work of the step's first half.
 // Rotate = false skips every angular array: a scene without torques and without initial spin
-// never reads or writes them (half the memory traffic of the step). With Rotate the torques are
-// cleared here (half_kick_spin). Both halves are memory-bound: each array is read or written once.
-// Returns the sum of the new positions' components, a cheap witness: it is finite exactly when every
-// position is.
+// never reads or writes them (half the memory traffic of the step). The older forces and, with Rotate,
+// the torques are cleared here for the coming evaluation; the caller then swaps force and force_prev.
+// Both halves are memory-bound: each array is read or written once.
+// Returns the sum of the new positions' components, a cheap witness (finite exactly when every position
+// is), and, given the neighbour list's reference positions (NeighbourList::unscaled_reference; else
+// null), the largest squared move from them.
 // Orient = false leaves the orientations alone (particles.track_orientation = false).
-// reference: the neighbour list's reference positions (NeighbourList::unscaled_reference) or null; the
-// result's largest_move is then measured against them.
 template <int D, bool Rotate, bool Orient = true>
 integrator_detail::DriftSums kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e,
                                                 const Vec<D>* reference) {
