@@ -128,7 +128,7 @@ def main():
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     ap.add_argument("--threads", default="1,2")
     ap.add_argument("--repeat", type=int, default=1,
-                    help="rounds (LAMMPS, then the grains laws, each round); medians and the range of the ratios")
+                    help="rounds (each grains law right after a LAMMPS run, each round); medians and the range of the ratios")
     args = ap.parse_args()
     have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
     if not have_lammps:
@@ -138,8 +138,10 @@ def main():
         work = pathlib.Path(tmp)
         for r in range(max(1, args.repeat)):
             for threads in (int(t) for t in args.threads.split(",")):
-                lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
                 for variant in ("adhesion+friction+rolling", "adhesion+friction", "spring-dashpot+friction"):
+                    # LAMMPS right before each grains run: on this noisy host a rate measured a minute
+                    # earlier can be half or twice the one of the moment.
+                    lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
                     scene, n = grains_scene(work, args.cells, variant)
                     g, contacts = grains_rate(args.binary, scene, args.steps, threads, work)
                     runs.setdefault((variant, threads), []).append((g, lmp, contacts))
