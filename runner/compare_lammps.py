@@ -89,12 +89,17 @@ run {steps}
 """
 
 
-def lammps_energies(work, name, data, friction, boundary, steps, every, dt):
-    """(step, translational, rotational) totals from LAMMPS' thermo output."""
-    (work / f"{name}.lmp").write_text(lammps_script(data, friction, boundary, steps, every, dt))
+def lammps_thermo(work, name, script):
+    """Runs a LAMMPS script whose thermo output is `step <translational> <rotational>`; their rows as an array."""
+    (work / f"{name}.lmp").write_text(script)
     text = run(["lmp", "-in", f"{name}.lmp", "-log", "none"], work)
     rows = re.findall(r"^\s+(\d+)\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s*$", text, re.MULTILINE)
     return np.array(rows, dtype=float)
+
+
+def lammps_energies(work, name, data, friction, boundary, steps, every, dt):
+    """(step, translational, rotational) totals from LAMMPS' thermo output."""
+    return lammps_thermo(work, name, lammps_script(data, friction, boundary, steps, every, dt))
 
 
 def grains_scene(work, name, table, lengths, periodic, law, steps, every, dt, skin):
@@ -190,7 +195,7 @@ def disks(binary, work):
     # In 2D too read_data gives a sphere's mass (density 4/3 pi r^3): lammps_data's density makes it 1.
     flat = lambda a: np.c_[a, np.zeros(len(a))]   # z = 0
     lammps_data(work / "disks.data", flat(centres), flat(v), (0.0, 0.0, -0.5), (lengths[0], lengths[1], 0.5))
-    (work / "disks.lmp").write_text(f"""units lj
+    lmp = lammps_thermo(work, "disks", f"""units lj
 dimension 2
 atom_style sphere
 boundary p p p
@@ -212,9 +217,6 @@ thermo_modify norm no format float %.15g
 thermo {DISK_EVERY}
 run {DISK_STEPS}
 """)
-    text = run(["lmp", "-in", "disks.lmp", "-log", "none"], work)
-    rows = re.findall(r"^\s+(\d+)\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s*$", text, re.MULTILINE)
-    lmp = np.array(rows, dtype=float)
     e, tc = peer_disk_law()
     law = f"[contact]\nrestitution = {e!r}\nduration = {tc!r}\noverlap_limit = 1.0\n" + PEER_FRICTION
     scene = grains_scene(work, "disks", table, lengths, True, law, DISK_STEPS, DISK_EVERY, DISK_DT, 0.1)
