@@ -56,18 +56,25 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 // baseline build's two-double vectors left most of the time in instructions.
 #define GRAINS_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 
-template <int D, bool Measure>
+// Kick: the last step's second half (kick_body's operations, with its step hk and drag factor keep) is
+// done first, in the same pass (a pending kick, see PendingKick); its velocities are summed into
+// kick_witness.
+template <int D, bool Measure, bool Kick>
 [[gnu::always_inline]] inline DriftSums drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
                                                    double* __restrict x, double* __restrict v, double* __restrict vp,
                                                    const double* __restrict f, double* __restrict f_prev,
-                                                   const double* __restrict reference) {
-  double witness = 0, largest = 0;
-#pragma omp simd reduction(+ : witness) reduction(max : largest)
+                                                   const double* __restrict reference, double hk, double keep) {
+  double witness = 0, largest = 0, kicked = 0;
+#pragma omp simd reduction(+ : witness, kicked) reduction(max : largest)
   for (std::size_t i = 0; i < n; ++i) {
     double moved = 0;
     for (int c = 0; c < D; ++c) {
       const std::size_t k = i * D + c;
       const double a = inverse_mass[i] * f[k], a_prev = inverse_mass[i] * f_prev[k];
+      if constexpr (Kick) {
+        v[k] = (v[k] + 0.5 * hk * a) * keep;
+        kicked += v[k];
+      }
       v[k] += 0.5 * h * a;
       x[k] += h * v[k];
       vp[k] = v[k] + 0.5 * h * (1.75 * a - 0.75 * a_prev);
@@ -80,39 +87,52 @@ template <int D, bool Measure>
     }
     if constexpr (Measure) largest = std::max(largest, moved);
   }
-  return {witness, largest};
+  return {witness, largest, kicked};
 }
 #define GRAINS_DRIFT(D)                                                                                             \
   GRAINS_VECTOR_CLONES DriftSums drift_##D(std::size_t n, double h, const double* __restrict m, double* __restrict x, \
                                            double* __restrict v, double* __restrict vp, const double* __restrict f,   \
-                                           double* __restrict f_prev, const double* __restrict reference) {          \
-    return reference ? drift_body<D, true>(n, h, m, x, v, vp, f, f_prev, reference)                                \
-                     : drift_body<D, false>(n, h, m, x, v, vp, f, f_prev, nullptr);                                 \
+                                           double* __restrict f_prev, const double* __restrict reference,            \
+                                           const PendingKick* kick) {                                                \
+    if (kick)                                                                                                       \
+      return reference ? drift_body<D, true, true>(n, h, m, x, v, vp, f, f_prev, reference, kick->h, kick->keep)   \
+                       : drift_body<D, false, true>(n, h, m, x, v, vp, f, f_prev, nullptr, kick->h, kick->keep);   \
+    return reference ? drift_body<D, true, false>(n, h, m, x, v, vp, f, f_prev, reference, 0, 1)                   \
+                     : drift_body<D, false, false>(n, h, m, x, v, vp, f, f_prev, nullptr, 0, 1);                   \
   }
 GRAINS_DRIFT(2)
 GRAINS_DRIFT(3)
 #undef GRAINS_DRIFT
 
-template <int S>
-[[gnu::always_inline]] inline void half_kick_spin_body(std::size_t n, double h, const double* __restrict inverse_inertia,
-                                                       double* __restrict torque, double* __restrict w) {
-#pragma omp simd
+// Kick: as in drift_body, the last step's pending second half first; returns the sum of those spins.
+template <int S, bool Kick>
+[[gnu::always_inline]] inline double half_kick_spin_body(std::size_t n, double h, const double* __restrict inverse_inertia,
+                                                         double* __restrict torque, double* __restrict w, double hk,
+                                                         double keep) {
+  double kicked = 0;
+#pragma omp simd reduction(+ : kicked)
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < S; ++c) {
       const std::size_t k = i * S + c;
       const double alpha = inverse_inertia[i] * torque[k];
+      if constexpr (Kick) {
+        w[k] = (w[k] + 0.5 * hk * alpha) * keep;
+        kicked += w[k];
+      }
       w[k] += 0.5 * h * alpha;
       torque[k] = 0;
     }
+  return kicked;
 }
-GRAINS_VECTOR_CLONES
-void half_kick_spin_1(std::size_t n, double h, const double* __restrict ii, double* __restrict t, double* __restrict w) {
-  half_kick_spin_body<1>(n, h, ii, t, w);
-}
-GRAINS_VECTOR_CLONES
-void half_kick_spin_3(std::size_t n, double h, const double* __restrict ii, double* __restrict t, double* __restrict w) {
-  half_kick_spin_body<3>(n, h, ii, t, w);
-}
+#define GRAINS_HALF_KICK_SPIN(S)                                                                                     \
+  GRAINS_VECTOR_CLONES double half_kick_spin_##S(std::size_t n, double h, const double* __restrict ii,               \
+                                                 double* __restrict t, double* __restrict w, const PendingKick* kick) { \
+    return kick ? half_kick_spin_body<S, true>(n, h, ii, t, w, kick->h, kick->keep)                                 \
+                : half_kick_spin_body<S, false>(n, h, ii, t, w, 0, 1);                                              \
+  }
+GRAINS_HALF_KICK_SPIN(1)
+GRAINS_HALF_KICK_SPIN(3)
+#undef GRAINS_HALF_KICK_SPIN
 
 GRAINS_VECTOR_CLONES
 void advance_any(std::size_t n, double h, double* __restrict theta, const double* __restrict w) {

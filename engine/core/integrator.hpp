@@ -12,6 +12,7 @@
 #include <omp.h>
 
 #include "core/particles.hpp"
+#include "core/pending_kick.hpp"
 #include "core/thread_share.hpp"
 
 namespace grains {
@@ -38,37 +39,39 @@ template <class V> const double* flat(const std::vector<V>& v) {
 // (its line is in the cache already). Returns the sum of the new x (only its finiteness matters, so the
 // order of the sum is free) and, given the neighbour list's reference positions (else null), the
 // largest squared displacement from them, as NeighbourList::largest_move computes it: one pass over the
-// positions instead of two.
+// positions instead of two. Given a pending kick (else null), the last step's second half (kick, below)
+// is done first in the same pass, and the sum of its velocities returned as kick_witness.
 struct DriftSums {
-  double witness = 0, largest_move = 0;
+  double witness = 0, largest_move = 0, kick_witness = 0;
 };
 DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
-                  const double* __restrict reference);
+                  const double* __restrict reference, const PendingKick* kick);
 DriftSums drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
-                  const double* __restrict reference);
+                  const double* __restrict reference, const PendingKick* kick);
 template <int D>
 DriftSums drift(std::size_t n, double h, const double* inverse_mass, double* x, double* v, double* vp, const double* f,
-                double* f_prev, const double* reference) {
+                double* f_prev, const double* reference, const PendingKick* kick) {
   static_assert(D == 2 || D == 3);
-  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev, reference);
-  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev, reference);
+  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev, reference, kick);
+  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev, reference, kick);
 }
 
 // First half for the spins of n particles of S components (1: disks, 3: spheres): w += h/2 alpha with
 // alpha = torque / I (the same product the second half formed), then the torque is cleared for the
 // coming force evaluation (its line is in the cache already). No prediction of w(t + h): the torques
-// all act on the half-step spin.
-void half_kick_spin_1(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
-                      double* __restrict w);
-void half_kick_spin_3(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
-                      double* __restrict w);
+// all act on the half-step spin. Given a pending kick, as drift: returns the sum of its spins (else 0).
+double half_kick_spin_1(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
+                        double* __restrict w, const PendingKick* kick);
+double half_kick_spin_3(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
+                        double* __restrict w, const PendingKick* kick);
 template <int S>
-void half_kick_spin(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w) {
+double half_kick_spin(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w,
+                      const PendingKick* kick) {
   static_assert(S == 1 || S == 3);
-  if constexpr (S == 1) half_kick_spin_1(n, h, inverse_inertia, torque, w);
-  else half_kick_spin_3(n, h, inverse_inertia, torque, w);
+  if constexpr (S == 1) return half_kick_spin_1(n, h, inverse_inertia, torque, w, kick);
+  else return half_kick_spin_3(n, h, inverse_inertia, torque, w, kick);
 }
 
 // 2D orientations: theta += h w over n disks.
@@ -106,19 +109,21 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 // Both halves are memory-bound: each array is read or written once.
 // Returns the sum of the new positions' components, a cheap witness (finite exactly when every position
 // is), and, given the neighbour list's reference positions (NeighbourList::unscaled_reference; else
-// null), the largest squared move from them.
+// null), the largest squared move from them. Given a pending kick (else null), the last step's second
+// half is done first, in the same pass, and the sum of its velocities and spins returned as kick_witness.
 // Orient = false leaves the orientations alone (particles.track_orientation = false).
 template <int D, bool Rotate, bool Orient = true>
 integrator_detail::DriftSums kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e,
-                                                const Vec<D>* reference) {
+                                                const Vec<D>* reference, const PendingKick* kick = nullptr) {
   using namespace integrator_detail;
-  const DriftSums sums =
+  DriftSums sums =
       drift<D>(e - b, h, P.inv_mass.data() + b, flat(P.position) + D * b, flat(P.velocity) + D * b,
                flat(P.velocity_predicted) + D * b, flat(P.force) + D * b, flat(P.force_prev) + D * b,
-               reference ? reinterpret_cast<const double*>(reference) + D * b : nullptr);
+               reference ? reinterpret_cast<const double*>(reference) + D * b : nullptr, kick);
   constexpr int S = Spin<D>::SizeAtCompileTime;
   if constexpr (Rotate)
-    half_kick_spin<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
+    sums.kick_witness += half_kick_spin<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b,
+                                           flat(P.angular_velocity) + S * b, kick);
   if constexpr (Rotate && Orient && D == 3) {
     static_assert(sizeof(Eigen::Quaterniond) == 4 * sizeof(double));
     turn(e - b, h, flat(P.angular_velocity) + 3 * b, reinterpret_cast<double*>(P.orientation.data()) + 4 * b);
@@ -128,22 +133,41 @@ integrator_detail::DriftSums kick_drift_predict(Particles<D>& P, double h, std::
   return sums;
 }
 
-// Second half kick from the new forces, velocities and spins then multiplied by `keep` (a drag, see
-// kick). Returns the sum of all velocities' components: finite exactly when every velocity is.
+// Second half kick of the particles [b, e) from the new forces, velocities and spins then multiplied by
+// `keep` (a drag, see kick). Returns the sum of their velocities' and spins' components: finite exactly
+// when every one is.
+template <int D, bool Rotate>
+double kick_range(Particles<D>& P, double h, double keep, std::size_t b, std::size_t e) {
+  using namespace integrator_detail;
+  constexpr int S = Spin<D>::SizeAtCompileTime;
+  double witness = kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.velocity) + D * b);
+  if constexpr (Rotate)
+    witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
+  return witness;
+}
+
+// Second half kick of every particle, each thread its share (kick_range).
 template <int D, bool Rotate>
 double finish_kick(Particles<D>& P, double h, int threads, double keep = 1.0) {
-  using namespace integrator_detail;
   const std::size_t N = P.size();
-  constexpr int S = Spin<D>::SizeAtCompileTime;
   double witness = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : witness)
   {
     const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
-    witness += kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.velocity) + D * b);
-    if constexpr (Rotate)
-      witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
+    witness += kick_range<D, Rotate>(P, h, keep, b, e);
   }
   return witness;
+}
+
+// Particle p's velocity (or spin) is about to change while a kick is pending: it is kicked now, as the
+// pending kick would have kicked it (kick_range on it alone), and left out of that kick later.
+template <int D>
+void kick_early(Particles<D>& P, PendingKick& pending, std::size_t p) {
+  if (!pending.active || pending.kicked[p]) return;
+  pending.early_witness += pending.spins ? kick_range<D, true>(P, pending.h, pending.keep, p, p + 1)
+                                         : kick_range<D, false>(P, pending.h, pending.keep, p, p + 1);
+  pending.kicked[p] = 1;
+  pending.early.push_back(std::uint32_t(p));
 }
 
 }  // namespace grains

@@ -151,17 +151,21 @@ class SimulationImpl final : public Simulation {
       throw SimulationError(fmt::format("step: duration {} is not allowed: a finite value >= 0", duration));
     const double target = sys_.time + duration;
     const long whole = long(std::floor(duration / dt_ * (1 + 1e-12)));
-    for (long k = 0; k < whole; ++k) one_step(dt_);
-    // The remainder is judged on the duration itself, not on the accumulated time (whose rounding
-    // grows with t): a duration that is a whole number of dt takes exactly those steps, the same as
-    // step_n, and keeps the same time values; otherwise one shorter step lands on t + duration.
-    if (duration - double(whole) * dt_ > 1e-9 * dt_) {
-      one_step(target - sys_.time);
-      sys_.time = target;
-    }
+    run_steps([&] {
+      for (long k = 0; k < whole; ++k) one_step(dt_);
+      // The remainder is judged on the duration itself, not on the accumulated time (whose rounding
+      // grows with t): a duration that is a whole number of dt takes exactly those steps, the same as
+      // step_n, and keeps the same time values; otherwise one shorter step lands on t + duration.
+      if (duration - double(whole) * dt_ > 1e-9 * dt_) {
+        one_step(target - sys_.time);
+        sys_.time = target;
+      }
+    });
   }
   void step_n(long n) override {
-    for (long k = 0; k < n; ++k) one_step(dt_);
+    run_steps([&] {
+      for (long k = 0; k < n; ++k) one_step(dt_);
+    });
   }
 
   double time() const override { return sys_.time; }
@@ -503,25 +507,98 @@ class SimulationImpl final : public Simulation {
   // and every region that opens and joins costs a few of them. Returns the integrator's witness.
   double first_half(double h, bool cell_moves, const Vec<D>& scale, double& moved) {
     auto& P = sys_.particles;
+    auto& pending = sys_.pending_kick;
     const std::size_t N = P.size();
-    double witness = 0, largest = 0;
+    double witness = 0, largest = 0, kicked = 0;
     // Where the particles do not follow the cell, the drift measures their moves as it makes them.
     const Vec<D>* reference = uses_list_ && !cell_moves ? sys_.neighbours.unscaled_reference(N) : nullptr;
-#pragma omp parallel num_threads(sys_.threads) reduction(+ : witness) reduction(max : largest)
+    // A pending kick is done in the same pass, except on the particles kicked early (in runs between them).
+    const PendingKick* kick = pending.active ? &pending : nullptr;
+    std::sort(pending.early.begin(), pending.early.end());
+#pragma omp parallel num_threads(sys_.threads) reduction(+ : witness, kicked) reduction(max : largest)
     {
       const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
-      const auto sums = !rotate_ ? kick_drift_predict<D, false>(P, h, b, e, reference)
-                        : orient_ ? kick_drift_predict<D, true>(P, h, b, e, reference)
-                                  : kick_drift_predict<D, true, false>(P, h, b, e, reference);
-      witness += sums.witness;
-      if (cell_moves) follow_cell(scale, b, e);
-      if (reference) largest = std::max(largest, sums.largest_move);
-      else if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, b, e));
+      const auto pass = [&](std::size_t from, std::size_t to, const PendingKick* with) {
+        const auto sums = !rotate_ ? kick_drift_predict<D, false>(P, h, from, to, reference, with)
+                          : orient_ ? kick_drift_predict<D, true>(P, h, from, to, reference, with)
+                                    : kick_drift_predict<D, true, false>(P, h, from, to, reference, with);
+        witness += sums.witness, kicked += sums.kick_witness;
+        if (cell_moves) follow_cell(scale, from, to);
+        if (reference) largest = std::max(largest, sums.largest_move);
+        else if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, from, to));
+      };
+      each_run_between(pending.early, b, e, [&](std::size_t from, std::size_t to) { pass(from, to, kick); },
+                       [&](std::size_t p) { pass(p, p + 1, nullptr); });
     }
     // kick_drift_predict cleared the previous forces and the torques: the coming evaluation adds into them.
     P.force.swap(P.force_prev);
     moved = largest;
+    if (pending.active) {   // the kick belonged to the step before this one
+      const double kick_witness = kicked + pending.early_witness;
+      clear_pending_kick();
+      if (!std::isfinite(kick_witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+    }
     return witness;
+  }
+
+  // Calls run(from, to) on the runs of [b, e) between the sorted particles `skip`, and single(p) on each of those.
+  template <class Run, class Single>
+  static void each_run_between(const std::vector<std::uint32_t>& skip, std::size_t b, std::size_t e, Run run, Single single) {
+    std::size_t from = b;
+    for (auto it = std::lower_bound(skip.begin(), skip.end(), std::uint32_t(b)); it != skip.end() && *it < e; ++it) {
+      if (*it > from) run(from, std::size_t(*it));
+      single(std::size_t(*it));
+      from = std::size_t(*it) + 1;
+    }
+    if (from < e) run(from, e);
+  }
+
+  void clear_pending_kick() {
+    auto& pending = sys_.pending_kick;
+    for (const std::uint32_t p : pending.early) pending.kicked[p] = 0;
+    pending.early.clear();
+    pending.early_witness = 0;
+    pending.active = false;
+  }
+
+  // Leaves a step's second half kick pending for the next step's first pass (core/pending_kick.hpp).
+  void defer_kick(double h, double keep) {
+    auto& pending = sys_.pending_kick;
+    pending.kicked.resize(sys_.particles.size(), 0);
+    pending.active = true, pending.h = h, pending.keep = keep, pending.spins = rotate_;
+  }
+
+  // Does a pending kick (on every particle not kicked early), so that nothing is pending between runs.
+  void settle() {
+    auto& pending = sys_.pending_kick;
+    if (!pending.active) return;
+    auto& P = sys_.particles;
+    std::sort(pending.early.begin(), pending.early.end());
+    double witness = 0;
+#pragma omp parallel num_threads(sys_.threads) reduction(+ : witness)
+    {
+      const auto [b, e] = thread_share(P.size(), omp_get_thread_num(), omp_get_num_threads());
+      each_run_between(pending.early, b, e, [&](std::size_t from, std::size_t to) {
+          witness += rotate_ ? kick_range<D, true>(P, pending.h, pending.keep, from, to)
+                             : kick_range<D, false>(P, pending.h, pending.keep, from, to);
+        }, [](std::size_t) {});
+    }
+    witness += pending.early_witness;
+    clear_pending_kick();
+    if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+  }
+
+  // Runs steps with each step's second half kick deferred to the next one's first pass where nothing
+  // reads the velocities between steps; the last kick is done before returning (also on an error).
+  template <class Steps>
+  void run_steps(Steps steps) {
+    try {
+      steps();
+    } catch (...) {
+      try { settle(); } catch (...) {}   // the first error is the one to report
+      throw;
+    }
+    settle();
   }
 
   void one_step(double h) {
@@ -549,7 +626,10 @@ class SimulationImpl final : public Simulation {
     sys_.dt = h;
     compute_forces(true);
     const double keep = drag_ > 0 ? std::exp(-drag_ * h) : 1.0;
-    witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads, keep) : finish_kick<D, false>(P, h, sys_.threads, keep);
+    // The kick waits for the next step's first pass, unless something reads the velocities before it:
+    // the collision log after each step, the barostat's kinetic stress before the next.
+    if (!collisions_ && !cell_moves) defer_kick(h, keep);
+    else witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads, keep) : finish_kick<D, false>(P, h, sys_.threads, keep);
     for (auto& m : modules_) m->finish_step(sys_);
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;

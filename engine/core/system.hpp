@@ -2,6 +2,7 @@
 #pragma once
 #include "core/box.hpp"
 #include "core/particles.hpp"
+#include "core/pending_kick.hpp"
 #include "neighbours/neighbour_list.hpp"
 
 namespace grains {
@@ -29,6 +30,10 @@ struct System {
   Vec<D> strain_rate = Vec<D>::Zero();
   Vec<D> cell_scale = Vec<D>::Ones();   // L(t + dt) / L(t) of the step being taken
   Eigen::Matrix<double, D, D> virial = Eigen::Matrix<double, D, D>::Zero();
+  // The last step's second half kick, while a run of steps defers it to the next step's first pass
+  // (core/pending_kick.hpp). A module that changes a velocity or spin between steps (begin_step,
+  // finish_step) first calls kick_early (core/integrator.hpp) on that particle.
+  PendingKick pending_kick;
 };
 
 }  // namespace grains

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <omp.h>
 
+#include "core/integrator.hpp"
 #include "core/thread_share.hpp"
 #include "interactions/force_module.hpp"
 #include "interactions/adhesive_contact_law.hpp"
@@ -151,14 +152,20 @@ class ContactForces final : public ForceModule<D> {
   // lag. Central impulses keep momentum and angular momentum exactly (the second acts along the pair's
   // new direction), and between steps no velocity carries them. The step's dashpots see the velocities
   // without them (the pair's true relative velocity).
+  // Between steps, the step's second half kick may still be pending (core/pending_kick.hpp): the pair
+  // is kicked first, so that its impulse comes after the kick, as it always has.
   void begin_step(System<D>& s, double h) override {
     active_.swap(pending_);
     pending_.clear();
-    for (const OnsetLag& o : active_) kick_apart(s.particles, s.particles.velocity, o, o.n * (o.lag / h));
+    for (const OnsetLag& o : active_) {
+      kick_early(s.particles, s.pending_kick, o.i), kick_early(s.particles, s.pending_kick, o.j);
+      kick_apart(s.particles, s.particles.velocity, o, o.n * (o.lag / h));
+    }
   }
   void finish_step(System<D>& s) override {
     auto& P = s.particles;
     for (const OnsetLag& o : active_) {
+      kick_early(P, s.pending_kick, o.i), kick_early(P, s.pending_kick, o.j);
       const Vec<D> r = s.box.minimum_image(P.position[o.j] - P.position[o.i]);
       kick_apart(P, P.velocity, o, r * (-o.lag / (s.dt * r.norm())));
     }
