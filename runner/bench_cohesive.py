@@ -150,14 +150,16 @@ def main():
     rounds = max(1, args.repeat)
     print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps" +
           (f", medians of {rounds} rounds" if rounds > 1 else ""))
-    print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS | range |")
-    print("|---|---|---|---|---|---|")
+    # best / best: each code's fastest run (the host's noise only ever slows a run down).
+    print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS | range | best / best |")
+    print("|---|---|---|---|---|---|---|")
     for (variant, threads), results in runs.items():
         ratios = [g / lmp for g, lmp, _ in results]
         g = statistics.median(x for x, _, _ in results)
         lmp = statistics.median(x for _, x, _ in results)
+        best = max(x for x, _, _ in results) / max(x for _, x, _ in results)
         print(f"| {variant} | {threads} | {g:.3g} | {lmp:.3g} | {statistics.median(ratios):.2f} | "
-              f"{min(ratios):.2f}-{max(ratios):.2f} |")
+              f"{min(ratios):.2f}-{max(ratios):.2f} | {best:.2f} |")
 
 if __name__ == "__main__":
     main()
