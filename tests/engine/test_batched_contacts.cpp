@@ -15,45 +15,11 @@
 #include "core/simulation.hpp"
 #include "interactions/pair_filter.hpp"
 #include "io/scene.hpp"
+#include "packing_scenes.hpp"
 
 using namespace grains;
 
 namespace {
-
-Scene compressed_packing(int threads, double rolling, bool affine) {
-  return Scene::from_string(fmt::format(R"(
-[scene]
-dimension = 2
-[particles]
-layout = "random"
-count = 300
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-density = 1.273239544735163
-solid_fraction = 0.36
-velocity = "gaussian"
-kinetic_energy = 0.02
-seed = 5
-[box]
-periodic = true
-[contact]
-overlap_limit = 0.5
-[adhesion]
-enabled = true
-[friction]
-coefficient = 0.5
-[rolling]
-coefficient = {}
-damping_ratio = 0.01
-[cell]
-enabled = true
-active = {}
-pressure = 0.05
-[run]
-threads = {}
-)", rolling, affine, threads), "batched");
-}
 
 struct Outcome {
   std::vector<std::byte> state;
@@ -89,43 +55,6 @@ TEST_CASE("batched contacts, cohesive disks: bit-identical to the portable pair 
         CHECK(batched.state == portable.state);
       }
 }
-
-namespace {
-
-Scene hot_spheres(int threads, bool cell, double mu) {
-  return Scene::from_string(fmt::format(R"(
-[scene]
-dimension = 3
-[particles]
-layout = "random"
-count = 500
-size_distribution = "uniform"
-diameter_min = 0.6
-diameter_max = 1.0
-solid_fraction = 0.3
-velocity = "gaussian"
-kinetic_energy = 1.5
-seed = 9
-[box]
-periodic = true
-[contact]
-restitution = 0.6
-duration = 0.05
-overlap_limit = 0.05
-[friction]
-coefficient = {}
-stiffness_ratio = 0.2857142857142857
-damping_ratio = 0.5
-[cell]
-enabled = {}
-force_unit = 0
-pressure = 1e-3
-[run]
-threads = {}
-)", mu, cell, threads), "batched-linear");
-}
-
-}  // namespace
 
 TEST_CASE("batched contacts, spheres with and without friction: bit-identical to the portable pair loop", "[contacts][batched]") {
   pair_filter::prefer_portable(false);
