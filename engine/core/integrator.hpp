@@ -4,6 +4,7 @@
 //   v(t+h) ~ v(t+h/2) + h/2 (7/4 a_n - 3/4 a_{n-1}).
 // The accelerations are never stored: a = f / m is formed where it is used, from `force` (f_n) and
 // `force_prev` (f_{n-1}); the two arrays swap roles every step, so no array is copied or cleared apart.
+// Inside a run of steps the second half kick is done by the next step's first pass (core/pending_kick.hpp).
 #pragma once
 #include <cmath>
 #include <utility>
@@ -143,19 +144,6 @@ double kick_range(Particles<D>& P, double h, double keep, std::size_t b, std::si
   double witness = kick<D>(e - b, h, keep, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.velocity) + D * b);
   if constexpr (Rotate)
     witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
-  return witness;
-}
-
-// Second half kick of every particle, each thread its share (kick_range).
-template <int D, bool Rotate>
-double finish_kick(Particles<D>& P, double h, int threads, double keep = 1.0) {
-  const std::size_t N = P.size();
-  double witness = 0;
-#pragma omp parallel num_threads(threads) reduction(+ : witness)
-  {
-    const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
-    witness += kick_range<D, Rotate>(P, h, keep, b, e);
-  }
   return witness;
 }
 

@@ -568,10 +568,11 @@ class SimulationImpl final : public Simulation {
     pending.active = true, pending.h = h, pending.keep = keep, pending.spins = rotate_;
   }
 
-  // Does a pending kick (on every particle not kicked early), so that nothing is pending between runs.
-  void settle() {
+  // Does the pending kick (on every particle not kicked early, each thread its share); returns the sum of
+  // the kicked velocities and spins (finite exactly when every one is).
+  double do_pending_kick() {
     auto& pending = sys_.pending_kick;
-    if (!pending.active) return;
+    if (!pending.active) return 0;
     auto& P = sys_.particles;
     std::sort(pending.early.begin(), pending.early.end());
     double witness = 0;
@@ -585,7 +586,12 @@ class SimulationImpl final : public Simulation {
     }
     witness += pending.early_witness;
     clear_pending_kick();
-    if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+    return witness;
+  }
+
+  // Nothing is pending between runs: a run's last kick is done before it returns.
+  void settle() {
+    if (!std::isfinite(do_pending_kick())) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
   }
 
   // Runs steps with each step's second half kick deferred to the next one's first pass where nothing
@@ -602,7 +608,6 @@ class SimulationImpl final : public Simulation {
   }
 
   void one_step(double h) {
-    auto& P = sys_.particles;
     Vec<D> scale = Vec<D>::Ones();
     const bool cell_moves = barostat_ && cell_active_;
     if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
@@ -628,8 +633,8 @@ class SimulationImpl final : public Simulation {
     const double keep = drag_ > 0 ? std::exp(-drag_ * h) : 1.0;
     // The kick waits for the next step's first pass, unless something reads the velocities before it:
     // the collision log after each step, the barostat's kinetic stress before the next.
-    if (!collisions_ && !cell_moves) defer_kick(h, keep);
-    else witness += rotate_ ? finish_kick<D, true>(P, h, sys_.threads, keep) : finish_kick<D, false>(P, h, sys_.threads, keep);
+    defer_kick(h, keep);
+    if (collisions_ || cell_moves) witness += do_pending_kick();
     for (auto& m : modules_) m->finish_step(sys_);
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
