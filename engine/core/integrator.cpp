@@ -56,6 +56,10 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 // baseline build's two-double vectors left most of the time in instructions.
 #define GRAINS_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 
+// The second half kick of one component, (v + h/2 a) keep: every kick, deferred to the next step's
+// first pass or not, goes through it, so a deferred kick is bit-identical to the one it replaces.
+[[gnu::always_inline]] inline double second_half(double v, double h, double a, double keep) { return (v + 0.5 * h * a) * keep; }
+
 // Kick: the last step's second half (kick_body's operations, with its step hk and drag factor keep) is
 // done first, in the same pass (a pending kick, see PendingKick); its velocities are summed into
 // kick_witness.
@@ -72,7 +76,7 @@ template <int D, bool Measure, bool Kick>
       const std::size_t k = i * D + c;
       const double a = inverse_mass[i] * f[k], a_prev = inverse_mass[i] * f_prev[k];
       if constexpr (Kick) {
-        v[k] = (v[k] + 0.5 * hk * a) * keep;
+        v[k] = second_half(v[k], hk, a, keep);
         kicked += v[k];
       }
       v[k] += 0.5 * h * a;
@@ -116,7 +120,7 @@ template <int S, bool Kick>
       const std::size_t k = i * S + c;
       const double alpha = inverse_inertia[i] * torque[k];
       if constexpr (Kick) {
-        w[k] = (w[k] + 0.5 * hk * alpha) * keep;
+        w[k] = second_half(w[k], hk, alpha, keep);
         kicked += w[k];
       }
       w[k] += 0.5 * h * alpha;
@@ -149,7 +153,7 @@ template <int C>
     for (int c = 0; c < C; ++c) {
       const std::size_t k = i * C + c;
       const double ak = inverse_mass[i] * f[k];
-      v[k] = (v[k] + 0.5 * h * ak) * keep;
+      v[k] = second_half(v[k], h, ak, keep);
       witness += v[k];
     }
   return witness;
