@@ -24,7 +24,9 @@ class ForceModule {
   // Add this module's forces and torques into particles.force / particles.torque.
   virtual void add_forces(System<D>& s) = 0;
   // A step of length h begins (before its first half kick and drift) / ends (after its second half
-  // kick): for corrections that act within one step (a contact's onset lag, contact_forces.hpp).
+  // kick): for corrections that act within one step (a contact's onset lag, contact_forces.hpp). Inside a
+  // run of steps that second half kick may still be pending (core/pending_kick.hpp): call kick_early on a
+  // particle before changing its velocity or spin here.
   virtual void begin_step(System<D>&, double /*h*/) {}
   virtual void finish_step(System<D>&) {}
   // The neighbour list was rebuilt: re-index per-pair history.
