@@ -57,7 +57,8 @@ class SimulationImpl final : public Simulation {
     sys_.threads = threads > 0 ? int(threads) : std::clamp(int(N / 2000), 1, std::max(1, omp_get_num_procs()));
     sys_.thread_force.assign(sys_.threads, std::vector<Vec<D>>(N, Vec<D>::Zero()));
     sys_.thread_torque.assign(sys_.threads, std::vector<Spin<D>>(N, Spin<D>::Zero()));
-    sys_.thread_force[0].clear(), sys_.thread_torque[0].clear();   // thread 0 writes P.force itself
+    // The last thread's partners are all among its own particles: it never writes its slot.
+    sys_.thread_force.back().clear(), sys_.thread_torque.back().clear();
     if (sys_.threads == 1) sys_.thread_force.clear(), sys_.thread_torque.clear();
 
     const double rmin = *std::min_element(P.radius.begin(), P.radius.end());

@@ -15,8 +15,9 @@ struct System {
   double time = 0, dt = 0;   // dt: length of the step being taken (0 for the initial force evaluation)
   long step = 0;
   int threads = 1;
-  // Per-thread force/torque buffers, reused across steps (pair loops add into their thread's slot; thread 0
-  // adds straight into the particles' arrays, so its slot stays empty).
+  // Per-thread force/torque buffers, reused across steps: a pair loop's thread adds its own particles'
+  // shares straight into the particles' arrays and those of partners beyond them into its slot (the last
+  // thread has no partners beyond, and an empty slot).
   std::vector<std::vector<Vec<D>>> thread_force;
   std::vector<std::vector<Spin<D>>> thread_torque;
   // Contact virial W = sum over pairs of F_ij (x) r_ij (F_ij: force on j, r_ij = x_j - x_i): the contact

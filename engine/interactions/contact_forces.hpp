@@ -107,36 +107,38 @@ class ContactForces final : public ForceModule<D> {
       if (pair_filter::avx512()) batched_linear = linear_batch_input(s);
     const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr};
     if (T == 1) {
-      clamped_now = loop<Virial>(s, 0, N, P.force.data(), P.torque.data(), s.virial, gathered_[0], batch);
+      clamped_now = loop<Virial>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
     } else {
       // One virial per thread, summed in thread order afterwards: deterministic for a thread count.
       std::vector<Mat> thread_virial(Virial ? T : 0, Mat::Zero());
 #pragma omp parallel num_threads(T) reduction(+ : clamped_now)
       {
         const int t = omp_get_thread_num();
+        Gathered& g = gathered_[t];
+        for (const std::uint32_t j : g.far) g.far_seen[j] = 0;   // the last evaluation's, merged since
+        g.far.clear();
+        g.far_seen.resize(N, 0);
         Mat local = Mat::Zero();
         // Each thread takes a contiguous range of rows with about as many listed pairs as the others
-        // (core/thread_share.hpp), close to the particles it integrates: a slab of space when the
-        // particles are numbered along a space-filling curve (initial_state), so its partners are mostly
-        // its own particles too and few cache lines change cores. Thread 0 adds straight into the force
-        // arrays; the others into their own, zero on entry (see below).
-        Vec<D>* f = t == 0 ? P.force.data() : s.thread_force[t].data();
-        Spin<D>* q = t == 0 ? P.torque.data() : s.thread_torque[t].data();
-        const auto [b, e] = thread_share(N, t, T);
+        // (core/thread_share.hpp): a slab of space when the particles are numbered along a space-filling
+        // curve (initial_state), so its partners are mostly its own particles too. It adds straight into
+        // the forces and torques of its rows' particles, and into its own arrays (zero on entry) those of
+        // partners beyond its rows, listing them; a pair is stored under its lower index, so no partner lies
+        // before its rows.
         const auto [rb, re] = row_share(s.neighbours.start, t, T);
-        clamped_now += loop<Virial>(s, rb, re, f, q, local, gathered_[t], batch);
+        clamped_now += loop<Virial>(s, rb, re, s.thread_force[t].data(), s.thread_torque[t].data(), local, g, batch);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp barrier
-        // Each thread collects its own particles' shares from the other threads' arrays, in thread
-        // order (deterministic for a thread count), and zeroes what it read: the arrays are zero again
-        // for the next evaluation, and their lines stay with the thread that reads them.
-        for (std::size_t i = b; i < e; ++i)
-          for (int u = 1; u < T; ++u) {
-            P.force[i] += s.thread_force[u][i];
-            s.thread_force[u][i].setZero();
+        // Each thread adds the earlier threads' shares of its particles, in thread order (deterministic
+        // for a thread count), and zeroes what it read: the arrays are zero again for the next evaluation.
+        for (int u = 0; u < t; ++u)
+          for (const std::uint32_t j : gathered_[u].far) {
+            if (j < rb || j >= re) continue;
+            P.force[j] += s.thread_force[u][j];
+            s.thread_force[u][j].setZero();
             if constexpr (torques_) {
-              P.torque[i] += s.thread_torque[u][i];
-              s.thread_torque[u][i].setZero();
+              P.torque[j] += s.thread_torque[u][j];
+              s.thread_torque[u][j].setZero();
             }
           }
       }
@@ -296,6 +298,8 @@ class ContactForces final : public ForceModule<D> {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint8_t> image;        // ... and its periodic image
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
+    std::vector<std::uint32_t> far;         // partners beyond the thread's rows it wrote forces for (several threads)
+    std::vector<std::uint8_t> far_seen;     // per particle: listed in far
     // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
     std::vector<double> fx, fy, fz, torque_i[3], torque_j[3], moment, rx, ry, rz;   // torques: 2D only [0]
     std::vector<std::uint8_t> steady;
@@ -369,8 +373,10 @@ class ContactForces final : public ForceModule<D> {
     v[o.i] -= (mj / (mi + mj)) * dv;
   }
 
+  // The rows [row_begin, row_end): their particles' forces and torques go straight into the particles'
+  // arrays, those of partners beyond row_end into far_force and far_torque, the partners listed in g.far.
   template <bool Virial>
-  long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* force, Spin<D>* torque,
+  long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* far_force, Spin<D>* far_torque,
             Eigen::Matrix<double, D, D>& virial, Gathered& g, const Batch& batch) {
     auto& P = s.particles;
     const auto& nl = s.neighbours;
@@ -379,6 +385,15 @@ class ContactForces final : public ForceModule<D> {
     // kept an Eigen matrix in memory) and added to virial at the end.
     double w[D * D] = {};
     // Plain pointers: stores into the force arrays cannot then make the compiler reload them.
+    Vec<D>* const force = P.force.data();
+    Spin<D>* const torque = P.torque.data();
+    // Where partner j's force and torque go (every partner's force is added, so force_of lists it).
+    const auto force_of = [&](std::uint32_t j) {
+      if (j < row_end) return force;
+      if (!g.far_seen[j]) g.far_seen[j] = 1, g.far.push_back(j);
+      return far_force;
+    };
+    const auto torque_of = [&](std::uint32_t j) { return j < row_end ? torque : far_torque; };
     const Vec<D>* const position = P.position.data();
     const double* const radius = P.radius.data();
     const std::uint32_t* const start = nl.start.data();
@@ -436,7 +451,7 @@ class ContactForces final : public ForceModule<D> {
       Spin<D> ti = Spin<D>::Zero();
       // A pair's force f on j (r: from i to j) into the sums, as Eigen's fi -= f and w += f r^T would.
       const auto take = [&](std::uint32_t j, const Vec<D>& f, const Vec<D>& r) {
-        force[j] += f;
+        force_of(j)[j] += f;
         for (int a = 0; a < D; ++a) fi[a] -= f[a];
         if constexpr (Virial)
           for (int b = 0; b < D; ++b)
@@ -454,16 +469,17 @@ class ContactForces final : public ForceModule<D> {
           if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
             Vec<D> f, r;
             if constexpr (batched_) {
-              torque[j][0] -= gtj[0][q];
+              Spin<D>* const tj = torque_of(j);
+              tj[j][0] -= gtj[0][q];
               ti[0] -= gti[0][q];
               if constexpr (Rolling::enabled) {
-                torque[j][0] += gmoment[q];
+                tj[j][0] += gmoment[q];
                 ti[0] -= gmoment[q];
               }
               f = Vec<D>(gfx[q], gfy[q]), r = Vec<D>(grx[q], gry[q]);
             } else {
               if constexpr (Friction::enabled) {
-                torque[j] += Spin<D>(gtj[0][q], gtj[1][q], gtj[2][q]);
+                torque_of(j)[j] += Spin<D>(gtj[0][q], gtj[1][q], gtj[2][q]);
                 ti += Spin<D>(gti[0][q], gti[1][q], gti[2][q]);
               }
               f = Vec<D>(gfx[q], gfy[q], gfz[q]), r = Vec<D>(grx[q], gry[q], grz[q]);
@@ -485,7 +501,7 @@ class ContactForces final : public ForceModule<D> {
         }
         // Through a copy: ti, never address-taken, can then stay in a register on the batched path.
         Spin<D> ti_copy = ti;
-        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque, ti_copy, clamped, g.lags);   // on j
+        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque_of(j), ti_copy, clamped, g.lags);   // on j
         ti = ti_copy;
         take(j, f, r);
       }
