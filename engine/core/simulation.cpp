@@ -482,7 +482,7 @@ class SimulationImpl final : public Simulation {
     if (!uses_list_) return;
     auto& P = sys_.particles;
     for (const auto& x : P.position)   // never grid a non-finite position
-      if (!x.allFinite()) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step + 1, sys_.time));
+      if (!x.allFinite()) check_finite_at_step(sys_.step + 1);
     for (auto& x : P.position) x = sys_.box.wrap(x);
     sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
     for (auto& m : modules_) m->after_rebuild(sys_.neighbours);
@@ -537,7 +537,7 @@ class SimulationImpl final : public Simulation {
     if (pending.active) {   // the kick belonged to the step before this one
       const double kick_witness = kicked + pending.early_witness;
       clear_pending_kick();
-      if (!std::isfinite(kick_witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+      if (!std::isfinite(kick_witness)) check_finite_at_step(sys_.step);
     }
     return witness;
   }
@@ -592,7 +592,7 @@ class SimulationImpl final : public Simulation {
 
   // Nothing is pending between runs: a run's last kick is done before it returns.
   void settle() {
-    if (!std::isfinite(do_pending_kick())) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+    if (!std::isfinite(do_pending_kick())) check_finite_at_step(sys_.step);
   }
 
   // Runs steps with each step's second half kick deferred to the next one's first pass where nothing
@@ -640,7 +640,7 @@ class SimulationImpl final : public Simulation {
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
     ++sys_.step;
-    if (!std::isfinite(witness)) check_finite(fmt::format("step {} (t = {:.9g})", sys_.step, sys_.time));
+    if (!std::isfinite(witness)) check_finite_at_step(sys_.step);
     if (analysis_ && sys_.step % analysis_every_ == 0) track_aggregation();
     if (collisions_) collisions_->after_step(sys_, h);
   }
@@ -686,6 +686,7 @@ class SimulationImpl final : public Simulation {
     if (clusters().largest_fraction >= aggregation_threshold_) aggregation_time_ = sys_.time;
   }
 
+  void check_finite_at_step(long step) const { check_finite(fmt::format("step {} (t = {:.9g})", step, sys_.time)); }
   void check_finite(const std::string& when) const {
     const auto& P = sys_.particles;
     for (std::size_t i = 0; i < P.size(); ++i) {
