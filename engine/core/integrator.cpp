@@ -62,12 +62,19 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 
 // Kick: the last step's second half (kick_body's operations, with its step hk and drag factor keep) is
 // done first, in the same pass (a pending kick, see PendingKick); its velocities are summed into
-// kick_witness.
-template <int D, bool Measure, bool Kick>
+// kick_witness. Follow: the particle then follows the cell (DriftGeometry). Measure: the squared distance
+// of the new position from the reference position as it is (1) or as the cell has carried it (2), summed
+// over the axes in order (0: none).
+template <int D, int Measure, bool Follow, bool Kick>
 [[gnu::always_inline]] inline DriftSums drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
                                                    double* __restrict x, double* __restrict v, double* __restrict vp,
                                                    const double* __restrict f, double* __restrict f_prev,
-                                                   const double* __restrict reference, double hk, double keep) {
+                                                   const DriftGeometry& geometry, double hk, double keep) {
+  const double* __restrict reference = geometry.reference;
+  double lower[D], scale[D], reference_lower[D], strain[D];   // in registers, not reloaded through geometry
+  for (int c = 0; c < D; ++c)
+    lower[c] = geometry.lower[c], scale[c] = geometry.scale[c], reference_lower[c] = geometry.reference_lower[c],
+    strain[c] = geometry.strain[c];
   double witness = 0, largest = 0, kicked = 0;
 #pragma omp simd reduction(+ : witness, kicked) reduction(max : largest)
   for (std::size_t i = 0; i < n; ++i) {
@@ -84,25 +91,40 @@ template <int D, bool Measure, bool Kick>
       vp[k] = v[k] + 0.5 * h * (1.75 * a - 0.75 * a_prev);
       f_prev[k] = 0;
       witness += x[k];
-      if constexpr (Measure) {   // (x - x_ref).squaredNorm() as NeighbourList::largest_move sums it
-        const double dx = x[k] - reference[k];
+      if constexpr (Follow) x[k] = lower[c] + (x[k] - lower[c]) * scale[c];
+      if constexpr (Measure > 0) {   // (x - x_ref).squaredNorm(), in Eigen's order
+        const double r = Measure == 2 ? reference_lower[c] + (reference[k] - reference_lower[c]) * strain[c] : reference[k];
+        const double dx = x[k] - r;
         moved = c == 0 ? dx * dx : moved + dx * dx;
       }
     }
-    if constexpr (Measure) largest = std::max(largest, moved);
+    if constexpr (Measure > 0) largest = std::max(largest, moved);
   }
   return {witness, largest, kicked};
+}
+template <int D, bool Follow, bool Kick>
+[[gnu::always_inline]] inline DriftSums drift_measured(std::size_t n, double h, const double* __restrict m,
+                                                       double* __restrict x, double* __restrict v, double* __restrict vp,
+                                                       const double* __restrict f, double* __restrict f_prev,
+                                                       const DriftGeometry& g, double hk, double keep) {
+  if (!g.reference) return drift_body<D, 0, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
+  if (g.carried) return drift_body<D, 2, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
+  return drift_body<D, 1, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
+}
+template <int D, bool Kick>
+[[gnu::always_inline]] inline DriftSums drift_any(std::size_t n, double h, const double* __restrict m, double* __restrict x,
+                                                  double* __restrict v, double* __restrict vp, const double* __restrict f,
+                                                  double* __restrict f_prev, const DriftGeometry& g, double hk, double keep) {
+  return g.follow ? drift_measured<D, true, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep)
+                  : drift_measured<D, false, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
 }
 #define GRAINS_DRIFT(D)                                                                                             \
   GRAINS_VECTOR_CLONES DriftSums drift_##D(std::size_t n, double h, const double* __restrict m, double* __restrict x, \
                                            double* __restrict v, double* __restrict vp, const double* __restrict f,   \
-                                           double* __restrict f_prev, const double* __restrict reference,            \
+                                           double* __restrict f_prev, const DriftGeometry& geometry,                 \
                                            const PendingKick* kick) {                                                \
-    if (kick)                                                                                                       \
-      return reference ? drift_body<D, true, true>(n, h, m, x, v, vp, f, f_prev, reference, kick->h, kick->keep)   \
-                       : drift_body<D, false, true>(n, h, m, x, v, vp, f, f_prev, nullptr, kick->h, kick->keep);   \
-    return reference ? drift_body<D, true, false>(n, h, m, x, v, vp, f, f_prev, reference, 0, 1)                   \
-                     : drift_body<D, false, false>(n, h, m, x, v, vp, f, f_prev, nullptr, 0, 1);                   \
+    return kick ? drift_any<D, true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)                  \
+                : drift_any<D, false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);                               \
   }
 GRAINS_DRIFT(2)
 GRAINS_DRIFT(3)
@@ -167,6 +189,30 @@ GRAINS_KICK(1)
 GRAINS_KICK(2)
 GRAINS_KICK(3)
 #undef GRAINS_KICK
+
+// In particle order and without vectors across particles: the sums must be kinetic_stress's own.
+template <int D>
+void add_kinetic_stress_body(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                             const double* v, const PendingKick* kick, double* s) {
+  for (std::size_t i = 0; i < n; ++i) {
+    double u[D], mu[D];
+    for (int c = 0; c < D; ++c) {
+      const std::size_t k = i * D + c;
+      u[c] = kick ? second_half(v[k], kick->h, inverse_mass[i] * f[k], kick->keep) : v[k];
+      mu[c] = mass[i] * u[c];
+    }
+    for (int c = 0; c < D; ++c)
+      for (int r = 0; r < D; ++r) s[r + D * c] += mu[r] * u[c];
+  }
+}
+void add_kinetic_stress_2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                          const double* v, const PendingKick* kick, double* s) {
+  add_kinetic_stress_body<2>(n, mass, inverse_mass, f, v, kick, s);
+}
+void add_kinetic_stress_3(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                          const double* v, const PendingKick* kick, double* s) {
+  add_kinetic_stress_body<3>(n, mass, inverse_mass, f, v, kick, s);
+}
 
 void turn(std::size_t n, double h, const double* w, double* q) {
   constexpr std::size_t block = 64;

@@ -35,28 +35,41 @@ template <class V> const double* flat(const std::vector<V>& v) {
 // (integrator.cpp). Every clone does the same operations in the same order (no multiply-add
 // contraction), so the results do not depend on the processor; only the order of the witness sums does.
 
+// What the first half also does with the positions it moves, for a particle pass (per axis, up to 3).
+struct DriftGeometry {
+  // The particles follow a cell that has just been rescaled about `lower`: x = lower + (x - lower) scale.
+  bool follow = false;
+  double lower[3] = {}, scale[3] = {};
+  // Given the neighbour list's reference positions (else null): the largest squared displacement from
+  // them, as the cell has carried them (NeighbourList::Reference: reference_lower + (r - reference_lower)
+  // strain; r itself while `carried` is false, the strain being 1).
+  const double* reference = nullptr;
+  bool carried = false;
+  double reference_lower[3] = {}, strain[3] = {};
+};
+
 // First half over n particles of D components: a = f / m, a_prev = f_prev / m; v += h/2 a; x += h v;
 // vp = v + h/2 (7/4 a - 3/4 a_prev); then f_prev is cleared: it collects the coming force evaluation
-// (its line is in the cache already). Returns the sum of the new x (only its finiteness matters, so the
-// order of the sum is free) and, given the neighbour list's reference positions (else null), the
-// largest squared displacement from them, as NeighbourList::largest_move computes it: one pass over the
-// positions instead of two. Given a pending kick (else null), the last step's second half (kick, below)
-// is done first in the same pass, and the sum of its velocities returned as kick_witness.
+// (its line is in the cache already). Returns the sum of the drifted x (only its finiteness matters, so
+// the order of the sum is free). The same pass moves the particles with the cell and measures their
+// largest move (DriftGeometry): one pass over the positions instead of three. Given a pending kick (else
+// null), the last step's second half (kick, below) is done first in the same pass, and the sum of its
+// velocities returned as kick_witness.
 struct DriftSums {
   double witness = 0, largest_move = 0, kick_witness = 0;
 };
 DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
-                  const double* __restrict reference, const PendingKick* kick);
+                  const DriftGeometry& geometry, const PendingKick* kick);
 DriftSums drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
-                  const double* __restrict reference, const PendingKick* kick);
+                  const DriftGeometry& geometry, const PendingKick* kick);
 template <int D>
 DriftSums drift(std::size_t n, double h, const double* inverse_mass, double* x, double* v, double* vp, const double* f,
-                double* f_prev, const double* reference, const PendingKick* kick) {
+                double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
   static_assert(D == 2 || D == 3);
-  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev, reference, kick);
-  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev, reference, kick);
+  if constexpr (D == 2) return drift_2(n, h, inverse_mass, x, v, vp, f, f_prev, geometry, kick);
+  else return drift_3(n, h, inverse_mass, x, v, vp, f, f_prev, geometry, kick);
 }
 
 // First half for the spins of n particles of S components (1: disks, 3: spheres): w += h/2 alpha with
@@ -100,6 +113,15 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
   else return kick_3(n, h, keep, inverse_mass, f, v);
 }
 
+// Adds sum m u u^T over n particles into s (D x D, column-major), in particle order, u being the
+// velocity the pending kick will give (its second half, the operations of kick) or, without one, the
+// stored velocity: the same sums, bit for bit, as kinetic_stress (analysis/stress.hpp) of the kicked
+// velocities, so the barostat can read the kinetic stress while the kick is still pending.
+void add_kinetic_stress_2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                          const double* v, const PendingKick* kick, double* s);
+void add_kinetic_stress_3(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                          const double* v, const PendingKick* kick, double* s);
+
 }  // namespace integrator_detail
 
 // First half over the particles [b, e), one thread's share (core/thread_share.hpp): the step runs it
@@ -108,19 +130,21 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 // never reads or writes them (half the memory traffic of the step). The older forces and, with Rotate,
 // the torques are cleared here for the coming evaluation; the caller then swaps force and force_prev.
 // Both halves are memory-bound: each array is read or written once.
-// Returns the sum of the new positions' components, a cheap witness (finite exactly when every position
-// is), and, given the neighbour list's reference positions (NeighbourList::unscaled_reference; else
-// null), the largest squared move from them. Given a pending kick (else null), the last step's second
-// half is done first, in the same pass, and the sum of its velocities and spins returned as kick_witness.
-// Orient = false leaves the orientations alone (particles.track_orientation = false).
+// Returns the sum of the drifted positions' components, a cheap witness (finite exactly when every
+// position is), and with geometry.reference (the whole system's, indexed by particle) the largest squared
+// move from it; the particles follow the cell if geometry says so. Given a pending kick (else null), the
+// last step's second half is done first, in the same pass, and the sum of its velocities and spins
+// returned as kick_witness. Orient = false leaves the orientations alone (particles.track_orientation = false).
 template <int D, bool Rotate, bool Orient = true>
 integrator_detail::DriftSums kick_drift_predict(Particles<D>& P, double h, std::size_t b, std::size_t e,
-                                                const Vec<D>* reference, const PendingKick* kick = nullptr) {
+                                                const integrator_detail::DriftGeometry& geometry,
+                                                const PendingKick* kick = nullptr) {
   using namespace integrator_detail;
+  DriftGeometry range = geometry;
+  if (range.reference) range.reference += D * b;
   DriftSums sums =
       drift<D>(e - b, h, P.inv_mass.data() + b, flat(P.position) + D * b, flat(P.velocity) + D * b,
-               flat(P.velocity_predicted) + D * b, flat(P.force) + D * b, flat(P.force_prev) + D * b,
-               reference ? reinterpret_cast<const double*>(reference) + D * b : nullptr, kick);
+               flat(P.velocity_predicted) + D * b, flat(P.force) + D * b, flat(P.force_prev) + D * b, range, kick);
   constexpr int S = Spin<D>::SizeAtCompileTime;
   if constexpr (Rotate)
     sums.kick_witness += half_kick_spin<S>(e - b, h, P.inv_inertia.data() + b, flat(P.torque) + S * b,
@@ -145,6 +169,16 @@ double kick_range(Particles<D>& P, double h, double keep, std::size_t b, std::si
   if constexpr (Rotate)
     witness += kick<S>(e - b, h, keep, P.inv_inertia.data() + b, flat(P.torque) + S * b, flat(P.angular_velocity) + S * b);
   return witness;
+}
+
+// The kinetic stress sum (without the 1/V) of the particles [b, e), added into s, of the velocities
+// after the pending kick, if one is given (integrator_detail::add_kinetic_stress).
+template <int D>
+void add_kinetic_stress(const Particles<D>& P, std::size_t b, std::size_t e, const PendingKick* kick,
+                        Eigen::Matrix<double, D, D>& s) {
+  using namespace integrator_detail;
+  const auto add = D == 2 ? add_kinetic_stress_2 : add_kinetic_stress_3;
+  add(e - b, P.mass.data() + b, P.inv_mass.data() + b, flat(P.force) + D * b, flat(P.velocity) + D * b, kick, s.data());
 }
 
 // Particle p's velocity (or spin) is about to change while a kick is pending: it is kicked now, as the

@@ -152,20 +152,21 @@ class SimulationImpl final : public Simulation {
       throw SimulationError(fmt::format("step: duration {} is not allowed: a finite value >= 0", duration));
     const double target = sys_.time + duration;
     const long whole = long(std::floor(duration / dt_ * (1 + 1e-12)));
+    // The remainder is judged on the duration itself, not on the accumulated time (whose rounding
+    // grows with t): a duration that is a whole number of dt takes exactly those steps, the same as
+    // step_n, and keeps the same time values; otherwise one shorter step lands on t + duration.
+    const bool remainder = duration - double(whole) * dt_ > 1e-9 * dt_;
     run_steps([&] {
-      for (long k = 0; k < whole; ++k) one_step(dt_);
-      // The remainder is judged on the duration itself, not on the accumulated time (whose rounding
-      // grows with t): a duration that is a whole number of dt takes exactly those steps, the same as
-      // step_n, and keeps the same time values; otherwise one shorter step lands on t + duration.
-      if (duration - double(whole) * dt_ > 1e-9 * dt_) {
-        one_step(target - sys_.time);
+      for (long k = 0; k < whole; ++k) one_step(dt_, !remainder && k == whole - 1);
+      if (remainder) {
+        one_step(target - sys_.time, true);
         sys_.time = target;
       }
     });
   }
   void step_n(long n) override {
     run_steps([&] {
-      for (long k = 0; k < n; ++k) one_step(dt_);
+      for (long k = 0; k < n; ++k) one_step(dt_, k == n - 1);
     });
   }
 
@@ -457,7 +458,7 @@ class SimulationImpl final : public Simulation {
   double rate_cap(double reduced_pressure) const { return inertia_number_ / inertial_time(reduced_pressure); }
 
   // The cell takes its new lengths: the list's image shifts follow, and a cell too small for its
-  // particles stops the run. The particles follow in the step's first parallel region (follow_cell).
+  // particles stops the run. The particles follow in the step's first pass (DriftGeometry::follow).
   void resize_cell(const Vec<D>& scale) {
     sys_.box.length = barostat_->length();
     sys_.neighbours.follow_cell(scale, sys_.box);
@@ -468,15 +469,20 @@ class SimulationImpl final : public Simulation {
             "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles",
             sys_.step + 1, sys_.box.length[a], a, cell_list_reach_));
   }
-  // Particles [b, e) move with the cell, affinely about its lower corner; velocities are left as they
-  // are: relative to the affine flow.
-  void follow_cell(const Vec<D>& scale, std::size_t b, std::size_t e) {
-    auto& P = sys_.particles;
-    const Vec<D> lower = sys_.box.lower;
-    for (std::size_t i = b; i < e; ++i) P.position[i] = lower + (P.position[i] - lower).cwiseProduct(scale);
-  }
-
   Tensor<D> stress() const { return contact_stress_ + kinetic_stress<D>(sys_.particles, sys_.box.volume()); }
+  // The stress the barostat reads between the steps of a run: while the last kick is pending, its
+  // kinetic part is that of the velocities the kick will give (bit for bit: integrator.hpp).
+  Tensor<D> stress_between_steps() {
+    auto& pending = sys_.pending_kick;
+    if (!pending.active) return stress();
+    const auto& P = sys_.particles;
+    Tensor<D> kinetic = Tensor<D>::Zero();
+    std::sort(pending.early.begin(), pending.early.end());
+    each_run_between(pending.early, 0, P.size(), [&](std::size_t from, std::size_t to) {
+        add_kinetic_stress<D>(P, from, to, &pending, kinetic);
+      }, [&](std::size_t p) { add_kinetic_stress<D>(P, p, p + 1, nullptr, kinetic); });
+    return contact_stress_ + kinetic / sys_.box.volume();
+  }
 
   void rebuild() {
     if (!uses_list_) return;
@@ -503,16 +509,26 @@ class SimulationImpl final : public Simulation {
   }
 
   // Kick, drift and predict; follow the cell; measure how far the particles moved since the list was
-  // built; clear the forces: all per particle, so one parallel region does them, each thread its own
-  // share (core/thread_share.hpp). On a few thousand particles a step takes some tens of microseconds,
+  // built; clear the forces: all per particle, so one pass does them, each thread its own share
+  // (core/thread_share.hpp), in one parallel region. On a few thousand particles a step takes some tens of microseconds,
   // and every region that opens and joins costs a few of them. Returns the integrator's witness.
   double first_half(double h, bool cell_moves, const Vec<D>& scale, double& moved) {
     auto& P = sys_.particles;
     auto& pending = sys_.pending_kick;
     const std::size_t N = P.size();
     double witness = 0, largest = 0, kicked = 0;
-    // Where the particles do not follow the cell, the drift measures their moves as it makes them.
-    const Vec<D>* reference = uses_list_ && !cell_moves ? sys_.neighbours.unscaled_reference(N) : nullptr;
+    integrator_detail::DriftGeometry geometry;
+    if (cell_moves) {
+      geometry.follow = true;
+      for (int a = 0; a < D; ++a) geometry.lower[a] = sys_.box.lower[a], geometry.scale[a] = scale[a];
+    }
+    // The list's reference positions, to measure the moves against; none: a new particle count, a new list.
+    const auto reference = uses_list_ ? sys_.neighbours.reference(N) : typename NeighbourList<D>::Reference{};
+    if (reference.position) {
+      geometry.reference = reinterpret_cast<const double*>(reference.position);
+      geometry.carried = reference.strain != Vec<D>::Ones();
+      for (int a = 0; a < D; ++a) geometry.reference_lower[a] = reference.lower[a], geometry.strain[a] = reference.strain[a];
+    }
     // A pending kick is done in the same pass, except on the particles kicked early (in runs between them).
     const PendingKick* kick = pending.active ? &pending : nullptr;
     std::sort(pending.early.begin(), pending.early.end());
@@ -520,20 +536,18 @@ class SimulationImpl final : public Simulation {
     {
       const auto [b, e] = thread_share(N, omp_get_thread_num(), omp_get_num_threads());
       const auto pass = [&](std::size_t from, std::size_t to, const PendingKick* with) {
-        const auto sums = !rotate_ ? kick_drift_predict<D, false>(P, h, from, to, reference, with)
-                          : orient_ ? kick_drift_predict<D, true>(P, h, from, to, reference, with)
-                                    : kick_drift_predict<D, true, false>(P, h, from, to, reference, with);
+        const auto sums = !rotate_ ? kick_drift_predict<D, false>(P, h, from, to, geometry, with)
+                          : orient_ ? kick_drift_predict<D, true>(P, h, from, to, geometry, with)
+                                    : kick_drift_predict<D, true, false>(P, h, from, to, geometry, with);
         witness += sums.witness, kicked += sums.kick_witness;
-        if (cell_moves) follow_cell(scale, from, to);
-        if (reference) largest = std::max(largest, sums.largest_move);
-        else if (uses_list_) largest = std::max(largest, sys_.neighbours.largest_move(P.position, from, to));
+        largest = std::max(largest, sums.largest_move);
       };
       each_run_between(pending.early, b, e, [&](std::size_t from, std::size_t to) { pass(from, to, kick); },
                        [&](std::size_t p) { pass(p, p + 1, nullptr); });
     }
     // kick_drift_predict cleared the previous forces and the torques: the coming evaluation adds into them.
     P.force.swap(P.force_prev);
-    moved = largest;
+    moved = uses_list_ && !reference.position ? std::numeric_limits<double>::infinity() : largest;
     if (pending.active) {   // the kick belonged to the step before this one
       const double kick_witness = kicked + pending.early_witness;
       clear_pending_kick();
@@ -608,13 +622,17 @@ class SimulationImpl final : public Simulation {
     settle();
   }
 
-  void one_step(double h) {
+  // `last`: the run's last step, after which a host, an observer or a moving cell may read the stress.
+  void one_step(double h, bool last) {
     Vec<D> scale = Vec<D>::Ones();
     const bool cell_moves = barostat_ && cell_active_;
+    // The contact virial is summed where the stress will be read: for the barostat at every step while
+    // the cell moves, else after the run's last step (a held cell, as in a type-2 aggregation, saves it).
+    sys_.want_virial = barostat_ && (cell_moves || last);
     if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
       if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0)
         barostat_->set_contact_damping(contact_damping_ * affine_contact_damping<D>(sys_, cn_));
-      const Tensor<D> sigma = stress();   // outside the clock: cvode_seconds is the integrator's own time
+      const Tensor<D> sigma = stress_between_steps();   // outside the clock: cvode_seconds is the integrator's own time
       const auto start = std::chrono::steady_clock::now();
       scale = barostat_->advance(sys_.time, h, sigma);
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -632,12 +650,12 @@ class SimulationImpl final : public Simulation {
     sys_.dt = h;
     compute_forces(true);
     const double keep = drag_ > 0 ? std::exp(-drag_ * h) : 1.0;
-    // The kick waits for the next step's first pass, unless something reads the velocities before it:
-    // the collision log after each step, the barostat's kinetic stress before the next.
+    // The kick waits for the next step's first pass, unless the collision log reads the velocities after
+    // each step (the barostat reads the kinetic stress of the kick to come: stress_between_steps).
     defer_kick(h, keep);
-    if (collisions_ || cell_moves) witness += do_pending_kick();
+    if (collisions_) witness += do_pending_kick();
     for (auto& m : modules_) m->finish_step(sys_);
-    if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
+    if (sys_.want_virial) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
     sys_.time += h;
     ++sys_.step;
     if (!std::isfinite(witness)) check_finite_at_step(sys_.step);

@@ -21,8 +21,8 @@ struct System {
   std::vector<std::vector<Vec<D>>> thread_force;
   std::vector<std::vector<Spin<D>>> thread_torque;
   // Contact virial W = sum over pairs of F_ij (x) r_ij (F_ij: force on j, r_ij = x_j - x_i): the contact
-  // stress is W / V. Pair loops accumulate it only while want_virial is set (the barostat, stress
-  // observables), so scenes that never read it pay nothing.
+  // stress is W / V. Pair loops accumulate it only while want_virial is set (the barostat while the cell
+  // moves, the stress observables after a run), so steps whose stress nobody reads pay nothing.
   bool want_virial = false;
   // While the cell deforms, particles ride the affine flow x_a -> lower_a + (x_a - lower_a) * cell_scale_a
   // over the step, and their stored velocities are relative to it. A pair's dashpots must still see

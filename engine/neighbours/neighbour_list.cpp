@@ -243,24 +243,6 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 }
 
 template <int D>
-double NeighbourList<D>::largest_move(const std::vector<Vec<D>>& x, std::size_t b, std::size_t e) const {
-  if (reference_.size() != x.size()) return std::numeric_limits<double>::infinity();
-  // The reference positions as the cell has carried them since the build (scale 1 in a fixed box).
-  // Reduced without a branch: the loop vectorises.
-  const Vec<D> lower = reference_lower_, scale = strain_since_build_;
-  double largest = 0;
-  if (scale == Vec<D>::Ones()) {
-#pragma omp simd reduction(max : largest)
-    for (std::size_t i = b; i < e; ++i) largest = std::max(largest, (x[i] - reference_[i]).squaredNorm());
-  } else {
-#pragma omp simd reduction(max : largest)
-    for (std::size_t i = b; i < e; ++i)
-      largest = std::max(largest, (x[i] - (lower + (reference_[i] - lower).cwiseProduct(scale))).squaredNorm());
-  }
-  return largest;
-}
-
-template <int D>
 bool NeighbourList<D>::stale_after(double largest_move) const {
   const double strain = (strain_since_build_.array() - 1).abs().maxCoeff();
   const double allowance = 0.5 * (skin_ - strain * list_reach_);   // per particle
@@ -272,7 +254,7 @@ void NeighbourList<D>::follow_cell(const Vec<D>& scale, const Box<D>& box) {
   constexpr int images = D == 3 ? 27 : 9;
   for (int s = 0; s < images; ++s)
     for (int a = 0, r = s; a < D; ++a, r /= 3) shift[s][a] = (r % 3 - 1) * box.length[a];
-  reference_lower_ = box.lower;   // the reference positions follow in stale(): no pass over them here
+  reference_lower_ = box.lower;   // the reference positions follow where the moves are measured: no pass over them here
   strain_since_build_ = strain_since_build_.cwiseProduct(scale);
 }
 

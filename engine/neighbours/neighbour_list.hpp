@@ -28,21 +28,24 @@ class NeighbourList {
   // match_previous(); with history, also maps every entry to the previous list for carry().
   void build(const std::vector<Vec<D>>& position, const std::vector<double>& radius, const Box<D>& box, int threads);
   // The list is stale once some particle has moved more than skin/2 since the last build (less the part
-  // of the skin that the cell deformation since the build has used up, see follow_cell). The test is in
-  // two parts so that each thread measures its own share of particles inside the step's first parallel
-  // region: largest_move gives the largest squared displacement over particles [b, e) (infinite if the
-  // particle count changed), stale_after judges the largest over all shares.
-  double largest_move(const std::vector<Vec<D>>& position, std::size_t b, std::size_t e) const;
+  // of the skin that the cell deformation since the build has used up, see follow_cell). The pass that
+  // moves the particles measures their largest squared displacement from the reference positions, each
+  // thread over its own share (core/integrator.hpp, DriftGeometry); stale_after judges the largest over
+  // all shares.
   bool stale_after(double largest_move) const;
-  // The reference positions when largest_move would compare with them unscaled (the cell has not
-  // deformed since the build and the particle count is the list's), else null: the integrator then
-  // measures the displacements in the pass that moves the particles (core/integrator.hpp).
-  const Vec<D>* unscaled_reference(std::size_t particles) const {
-    return reference_.size() == particles && strain_since_build_ == Vec<D>::Ones() ? reference_.data() : nullptr;
+  // The positions at the last build, as the cell has carried them since: lower + (x - lower) * strain
+  // per axis (strain 1: x itself). Null positions when the particle count is not the list's.
+  struct Reference {
+    const Vec<D>* position = nullptr;
+    Vec<D> lower = Vec<D>::Zero(), strain = Vec<D>::Ones();
+  };
+  Reference reference(std::size_t particles) const {
+    if (reference_.size() != particles) return {};
+    return {reference_.data(), reference_lower_, strain_since_build_};
   }
   // The periodic cell was rescaled by `scale` per axis about box.lower and the particles followed
   // affinely: image shifts follow the new lengths and the reference positions the affine map, so
-  // largest_move() sees only the motion relative to the cell. A pair's separation changes by at most
+  // the measured moves are relative to the cell. A pair's separation changes by at most
   // |scale - 1| times the list reach, which the staleness test charges against the skin.
   void follow_cell(const Vec<D>& scale, const Box<D>& box);
 

@@ -1,11 +1,14 @@
 // The integrator's first half (core/integrator.hpp) on random particles: the velocity Verlet update
 // and the velocity predictor against their formulas written out here, the previous forces cleared for
-// the coming evaluation, and the displacement it measures while moving the particles equal to the
-// neighbour list's own largest_move, which decides when the list is rebuilt.
+// the coming evaluation, the particles following a rescaled cell, and the largest move it measures
+// (which decides when the neighbour list is rebuilt) against the list's reference positions, as they
+// are and as the cell has carried them. And the kinetic stress the barostat reads while a kick is
+// pending: bit for bit the kinetic stress after that kick.
 #include <catch2/catch.hpp>
 
 #include <random>
 
+#include "analysis/stress.hpp"
 #include "core/integrator.hpp"
 #include "neighbours/neighbour_list.hpp"
 
@@ -34,9 +37,14 @@ void first_half_case(unsigned seed) {
   nl.build(P.position, P.radius, box, 1);
   const Particles<D> before = P;
   const double h = 0.01;
-  const auto sums = kick_drift_predict<D, false>(P, h, 0, N, nl.unscaled_reference(N));
-  double witness = 0;
-  for (std::size_t i = 0; i < N; ++i)
+  const auto reference = nl.reference(N);
+  REQUIRE(reference.position);
+  integrator_detail::DriftGeometry fixed;
+  fixed.reference = reinterpret_cast<const double*>(reference.position);
+  const auto sums = kick_drift_predict<D, false>(P, h, 0, N, fixed);
+  double witness = 0, largest = 0;
+  std::vector<Vec<D>> drifted(N);
+  for (std::size_t i = 0; i < N; ++i) {
     for (int a = 0; a < D; ++a) {
       const double acc = P.inv_mass[i] * before.force[i][a], acc_prev = P.inv_mass[i] * before.force_prev[i][a];
       const double v = before.velocity[i][a] + 0.5 * h * acc;
@@ -47,19 +55,85 @@ void first_half_case(unsigned seed) {
       CHECK(P.force[i][a] == before.force[i][a]);
       witness += P.position[i][a];
     }
+    drifted[i] = P.position[i];
+    largest = std::max(largest, (P.position[i] - reference.position[i]).squaredNorm());
+  }
   CHECK(sums.witness == Approx(witness).epsilon(1e-12));
   REQUIRE(sums.largest_move > 0);
-  CHECK(sums.largest_move == nl.largest_move(P.position, 0, N));
-  // Without the reference (a deforming cell, or no list) nothing is measured.
+  CHECK(sums.largest_move == largest);
+  // Without the reference (no list) nothing is measured.
   P = before;
-  CHECK(kick_drift_predict<D, false>(P, h, 0, N, nullptr).largest_move == 0.0);
+  CHECK(kick_drift_predict<D, false>(P, h, 0, N, integrator_detail::DriftGeometry{}).largest_move == 0.0);
+
+  // A deforming cell: rescaled about its lower corner, the list told so; the particles follow it in the
+  // same pass, their moves measured from the reference positions the cell has carried.
+  Vec<D> scale;
+  for (int a = 0; a < D; ++a) scale[a] = 1 + 1e-3 * (a + 1) * (a % 2 ? -1 : 1);
+  Box<D> rescaled = box;
+  rescaled.length = box.length.cwiseProduct(scale);
+  nl.follow_cell(scale, rescaled);
+  const auto carried = nl.reference(N);
+  REQUIRE(carried.strain == scale);
+  integrator_detail::DriftGeometry moving;
+  moving.follow = true, moving.carried = true;
+  moving.reference = reinterpret_cast<const double*>(carried.position);
+  for (int a = 0; a < D; ++a)
+    moving.lower[a] = box.lower[a], moving.scale[a] = scale[a], moving.reference_lower[a] = carried.lower[a],
+    moving.strain[a] = carried.strain[a];
+  P = before;
+  const auto followed = kick_drift_predict<D, false>(P, h, 0, N, moving);
+  largest = 0;
+  for (std::size_t i = 0; i < N; ++i) {
+    CHECK(P.position[i] == Vec<D>(box.lower + (drifted[i] - box.lower).cwiseProduct(scale)));
+    const Vec<D> r = carried.lower + (carried.position[i] - carried.lower).cwiseProduct(carried.strain);
+    largest = std::max(largest, (P.position[i] - r).squaredNorm());
+  }
+  REQUIRE(followed.largest_move > 0);
+  CHECK(followed.largest_move == largest);
+}
+
+// The kinetic stress of the velocities a pending kick will give, summed in two runs as the step does
+// around particles kicked early, equals kinetic_stress after the kick, bit for bit.
+template <int D>
+void pending_kinetic_stress_case(unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::size_t N = 203;
+  Particles<D> P;
+  P.resize(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    P.set_mass_and_radius(i, 1.0 + 0.5 * (u(rng) + 1), 0.5);
+    for (int a = 0; a < D; ++a) P.velocity[i][a] = u(rng), P.force[i][a] = 30 * u(rng);
+  }
+  PendingKick kick;
+  kick.active = true, kick.h = 1e-3, kick.keep = 0.999;
+  Eigen::Matrix<double, D, D> pending = Eigen::Matrix<double, D, D>::Zero();
+  add_kinetic_stress<D>(P, 0, 77, &kick, pending);
+  add_kinetic_stress<D>(P, 77, N, &kick, pending);
+  kick_range<D, false>(P, kick.h, kick.keep, 0, N);
+  const double volume = 1.7;
+  const Tensor<D> after = kinetic_stress<D>(P, volume);
+  const Tensor<D> before_kick = pending / volume;
+  for (int r = 0; r < D; ++r)
+    for (int c = 0; c < D; ++c) CHECK(before_kick(r, c) == after(r, c));
+  // Without a kick: the stored velocities.
+  Eigen::Matrix<double, D, D> stored = Eigen::Matrix<double, D, D>::Zero();
+  add_kinetic_stress<D>(P, 0, N, nullptr, stored);
+  CHECK((stored / volume - after).norm() == 0.0);
 }
 
 }  // namespace
 
-TEST_CASE("integrator: the first half's update, prediction and measured move (2D and 3D)", "[integrator]") {
+TEST_CASE("integrator: the first half's update, prediction, cell following and measured move (2D and 3D)", "[integrator]") {
   for (unsigned seed : {1u, 2u, 3u}) {
     first_half_case<2>(seed);
     first_half_case<3>(seed);
+  }
+}
+
+TEST_CASE("integrator: the kinetic stress of a pending kick is the kinetic stress after it (2D and 3D)", "[integrator]") {
+  for (unsigned seed : {1u, 2u}) {
+    pending_kinetic_stress_case<2>(seed);
+    pending_kinetic_stress_case<3>(seed);
   }
 }
