@@ -1,6 +1,7 @@
 #include "core/simulation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -44,6 +45,9 @@ namespace {
 
 template <int D>
 class SimulationImpl final : public Simulation {
+  // Outputs are computed in groups, each when one of its outputs is read (refresh).
+  enum class OutputGroup : std::uint8_t { general, cell, network, bonds, moduli };
+
  public:
   explicit SimulationImpl(const Scene& scene) {
     auto init = make_initial_state<D>(scene);
@@ -186,8 +190,7 @@ class SimulationImpl final : public Simulation {
     if (index >= vars_.size()) throw SimulationError(fmt::format("unknown variable index {}", index));
     if (auto c = controls_.find(index); c != controls_.end()) return c->second.get();
     if (index < parameter_values_.size()) return parameter_values_[index];
-    refresh_observables();
-    if (index >= moduli_first_ && index < moduli_end_) refresh_moduli();   // only on request: a sparse solve
+    refresh(index < output_group_.size() ? output_group_[index] : OutputGroup::general);
     return observable_values_.at(vars_[index].name);
   }
   void set(std::size_t index, double value) override {
@@ -200,7 +203,7 @@ class SimulationImpl final : public Simulation {
     if (!std::isfinite(value) || value < v.min || value > v.max)
       throw SimulationError(fmt::format("{} = {} is not allowed: a finite value in [{}, {}]", v.name, value, v.min, v.max));
     c->second.set(value);
-    cache_step_ = moduli_step_ = -1;
+    for (auto& stamp : refreshed_) stamp = {};
   }
 
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
@@ -261,7 +264,7 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->load(r);
     for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
-    cache_step_ = moduli_step_ = -1;
+    for (auto& stamp : refreshed_) stamp = {};
   }
 
  public:
@@ -752,6 +755,8 @@ class SimulationImpl final : public Simulation {
     }
     auto out = [&](std::string name, std::string unit, std::string doc) {
       vars_.push_back({std::move(name), std::move(unit), Causality::output, Variability::continuous, std::move(doc)});
+      output_group_.resize(vars_.size(), OutputGroup::general);
+      output_group_.back() = describing_;
     };
     out("time", "s", "simulated time");
     out("step", "", "internal steps taken");
@@ -770,7 +775,11 @@ class SimulationImpl final : public Simulation {
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) out(name, "", "see the README's observable table");
-    if (barostat_) describe_cell_variables(out);
+    if (barostat_) {
+      describing_ = OutputGroup::cell;
+      describe_cell_variables(out);
+      describing_ = OutputGroup::general;
+    }
     if (analysis_) {
       out("cluster_count", "", "N_c: clusters of the contact graph (d < R_i + R_j + tol), isolated particles included");
       out("cluster_index", "", "N_c / N: 1 = all isolated, 1/N = one aggregate");
@@ -782,6 +791,7 @@ class SimulationImpl final : public Simulation {
       out("aggregation_time", "s", "first time f_max >= analysis.aggregation_threshold, checked every analysis.every steps; NaN until then");
     }
     if (network_) {
+      describing_ = OutputGroup::network;
       out("coordination", "", "z = 2 (contacts + distant bonds) / N");
       out("coordination_compressive", "", "z+: the part of z carried by compressive forces");
       out("coordination_tensile", "", "z-: the part of z carried by tensile forces (distant bonds included)");
@@ -789,7 +799,9 @@ class SimulationImpl final : public Simulation {
       out("rattler_fraction", "", "x0: fraction of grains none of whose interactions carries a force");
       out("backbone_coordination", "", "z* = z / (1 - x0)");
       out("distant_bonds", "", "pairs attracting across a gap 0 <= h < D0");
+      describing_ = OutputGroup::bonds;   // alone: a type-2 aggregation asks for it at every check
       out("bonded_clusters", "", "connected components of the contact + distant-bond graph (1: one aggregate holds every grain)");
+      describing_ = OutputGroup::network;
       out("contacts_kept", "", "contacts (h < 0) present both now and at the last network.mark");
       out("contacts_lost", "", "contacts at the last network.mark that are open now");
       out("contacts_gained", "", "contacts now that were open at the last network.mark");
@@ -798,7 +810,9 @@ class SimulationImpl final : public Simulation {
             b < network_bins_ ? fmt::format("fraction of interactions with F_N / F0 in [{:g}, {:g}) (the first bin also holds "
                                             "what is below)", -1 + 0.5 * b, -0.5 + 0.5 * b)
                               : fmt::format("fraction of interactions with F_N / F0 >= {:g}", -1 + 0.5 * network_bins_));
+      describing_ = OutputGroup::moduli;
       if (moduli_) describe_moduli_variables(out);
+      describing_ = OutputGroup::general;
       VariableInfo mark{"network.mark", "", Causality::input, Variability::continuous,
                         "setting a new value makes the current contacts the reference of contacts_kept / lost / gained "
                         "(e.g. the stage number of a compression programme)"};
@@ -815,7 +829,6 @@ class SimulationImpl final : public Simulation {
   // Elastic moduli (analysis/elastic_moduli.hpp), computed only when one of them is read.
   template <class Out>
   void describe_moduli_variables(Out& out) {
-    moduli_first_ = vars_.size();
     out("B", "Pa", "bulk modulus of the contact network: sum_ab C_ab / D^2 (2D: (C11 + C12) / 2)");
     out("G", "Pa", "shear modulus for the cell's pure shears: (tr C - sum_ab C_ab / D) / (2 (D - 1)) (2D: (C11 - C12) / 2)");
     const char* digits = "123";
@@ -830,11 +843,9 @@ class SimulationImpl final : public Simulation {
     out("moduli_mechanisms", "", "strain directions the contact network does not resist (B or G is then 0 within round-off)");
     out("moduli_unstable_modes", "", "negative stiffness directions (distant bonds' -F0/D0 not held): the moduli are then NaN");
     out("moduli_floppy_modes", "", "zero modes of the grains at fixed strain (rigid translations, rolling on one contact, ...)");
-    moduli_end_ = vars_.size();
   }
 
   void refresh_moduli() const {
-    if (moduli_step_ == sys_.step && moduli_time_ == sys_.time) return;
     std::vector<ElasticSpring<D>> springs;
     for (const auto& m : modules_) m->list_springs(sys_, springs);
     double mean_force = 0;   // the contact network's zero-force threshold
@@ -852,8 +863,6 @@ class SimulationImpl final : public Simulation {
     o["moduli_mechanisms"] = e.mechanisms;
     o["moduli_unstable_modes"] = e.unstable_modes;
     o["moduli_floppy_modes"] = e.floppy_modes;
-    moduli_step_ = sys_.step;
-    moduli_time_ = sys_.time;
   }
 
   template <class Out>
@@ -939,8 +948,23 @@ class SimulationImpl final : public Simulation {
     o["cvode_seconds"] = cvode_seconds_;
   }
 
-  void refresh_observables() const {
-    if (cache_step_ == sys_.step && cache_time_ == sys_.time) return;
+  // Computes the outputs of one group, unless they are already those of this step: a programme's checks
+  // read a few outputs every hundred steps, and the others (the contact network's analysis, the energies)
+  // are computed only when asked for.
+  void refresh(OutputGroup group) const {
+    Stamp& stamp = refreshed_[std::size_t(group)];
+    if (stamp.step == sys_.step && stamp.time == sys_.time) return;
+    switch (group) {
+      case OutputGroup::general: refresh_general(); break;
+      case OutputGroup::cell: refresh_cell_observables(); break;
+      case OutputGroup::network: refresh_network(); break;
+      case OutputGroup::bonds: observable_values_["bonded_clusters"] = double(count_bonded_clusters(sys_.particles.size(), interactions())); break;
+      case OutputGroup::moduli: refresh_moduli(); break;
+    }
+    stamp = {sys_.step, sys_.time};
+  }
+
+  void refresh_general() const {
     const auto& P = sys_.particles;
     auto& o = observable_values_;
     double kt = 0, kr = 0;
@@ -969,7 +993,6 @@ class SimulationImpl final : public Simulation {
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) o[name] = value;
-    if (barostat_) refresh_cell_observables();
     if (analysis_) {
       const ClusterStats cs = clusters();
       const double N = double(P.size());
@@ -986,7 +1009,19 @@ class SimulationImpl final : public Simulation {
       o["fractal_dimension"] = fractal_dimension<D>(x, r, m);
       o["aggregation_time"] = aggregation_time_;
     }
-    if (network_) {
+    if (collisions_) {
+      const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
+      o["collision_count"] = n;
+      o["adhesive_collision_count"] = a;
+      o["adhesive_collision_fraction"] = n > 0 ? a / n : std::numeric_limits<double>::quiet_NaN();
+      o["open_collision_count"] = double(collisions_->open());
+    }
+  }
+
+  void refresh_network() const {
+    const auto& P = sys_.particles;
+    auto& o = observable_values_;
+    {
       const auto list = interactions();
       double mean_force = 0;
       for (const auto& c : list) mean_force += std::abs(c.normal_force);
@@ -1004,22 +1039,12 @@ class SimulationImpl final : public Simulation {
       o["rattler_fraction"] = net.rattler_fraction;
       o["backbone_coordination"] = net.z_star;
       o["distant_bonds"] = double(net.distant_bonds);
-      o["bonded_clusters"] = double(count_bonded_clusters(P.size(), list));
       const ContactChanges ch = compare_contacts(reference_contacts_, contact_keys(list));
       o["contacts_kept"] = double(ch.kept);
       o["contacts_lost"] = double(ch.lost);
       o["contacts_gained"] = double(ch.gained);
       for (int b = 0; b <= network_bins_; ++b) o[fmt::format("force_histogram_{:02}", b)] = net.histogram[b];
     }
-    if (collisions_) {
-      const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
-      o["collision_count"] = n;
-      o["adhesive_collision_count"] = a;
-      o["adhesive_collision_fraction"] = n > 0 ? a / n : std::numeric_limits<double>::quiet_NaN();
-      o["open_collision_count"] = double(collisions_->open());
-    }
-    cache_step_ = sys_.step;
-    cache_time_ = sys_.time;
   }
 
   System<D> sys_;
@@ -1056,12 +1081,14 @@ class SimulationImpl final : public Simulation {
   static constexpr long contact_damping_every_ = 10;  // steps between its updates (one pass over the list)
   double cvode_seconds_ = 0;
   mutable std::map<std::string, double> observable_values_;
-  mutable long cache_step_ = -1;
+  std::vector<OutputGroup> output_group_;                // per variable index (parameters and inputs: general)
+  OutputGroup describing_ = OutputGroup::general;        // the group of the outputs being described
+  struct Stamp {
+    long step = -1;
+    double time = -1;
+  };
+  mutable std::array<Stamp, 5> refreshed_{};             // when each group was last computed
   bool moduli_ = false;                                  // analysis.elastic_moduli, adhesion scenes in a periodic box
-  std::size_t moduli_first_ = 0, moduli_end_ = 0;        // their outputs' indices in vars_
-  mutable long moduli_step_ = -1;
-  mutable double moduli_time_ = -1;
-  mutable double cache_time_ = -1;
 };
 
 }  // namespace
