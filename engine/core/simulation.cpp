@@ -513,8 +513,9 @@ class SimulationImpl final : public Simulation {
 
   // Kick, drift and predict; follow the cell; measure how far the particles moved since the list was
   // built; clear the forces: all per particle, so one pass does them, each thread its own share
-  // (core/thread_share.hpp), in one parallel region. On a few thousand particles a step takes some tens of microseconds,
-  // and every region that opens and joins costs a few of them. Returns the integrator's witness.
+  // (core/thread_share.hpp), in one parallel region. On a few thousand particles a step takes some tens
+  // of microseconds, and every region that opens and joins costs a few of them. Returns the integrator's
+  // witness.
   double first_half(double h, bool cell_moves, const Vec<D>& scale, double& moved) {
     auto& P = sys_.particles;
     auto& pending = sys_.pending_kick;
@@ -958,7 +959,7 @@ class SimulationImpl final : public Simulation {
       case OutputGroup::general: refresh_general(); break;
       case OutputGroup::cell: refresh_cell_observables(); break;
       case OutputGroup::network: refresh_network(); break;
-      case OutputGroup::bonds: observable_values_["bonded_clusters"] = double(count_bonded_clusters(sys_.particles.size(), interactions())); break;
+      case OutputGroup::bonds: refresh_bonds(); break;
       case OutputGroup::moduli: refresh_moduli(); break;
     }
     stamp = {sys_.step, sys_.time};
@@ -1018,33 +1019,35 @@ class SimulationImpl final : public Simulation {
     }
   }
 
+  void refresh_bonds() const {
+    observable_values_["bonded_clusters"] = double(count_bonded_clusters(sys_.particles.size(), interactions()));
+  }
+
   void refresh_network() const {
     const auto& P = sys_.particles;
     auto& o = observable_values_;
-    {
-      const auto list = interactions();
-      double mean_force = 0;
-      for (const auto& c : list) mean_force += std::abs(c.normal_force);
-      if (!list.empty()) mean_force /= double(list.size());
-      const double scale = std::max(attraction_, mean_force);
-      ContactNetworkOptions opt;
-      opt.zero_force = zero_force_ * scale;
-      opt.force_scale = attraction_ > 0 ? attraction_ : (mean_force > 0 ? mean_force : 1.0);
-      opt.histogram_bins = network_bins_;
-      const ContactNetwork net = analyse_contact_network(P.size(), list, opt);
-      o["coordination"] = net.z;
-      o["coordination_compressive"] = net.z_plus;
-      o["coordination_tensile"] = net.z_minus;
-      o["coordination_zero"] = net.z_zero;
-      o["rattler_fraction"] = net.rattler_fraction;
-      o["backbone_coordination"] = net.z_star;
-      o["distant_bonds"] = double(net.distant_bonds);
-      const ContactChanges ch = compare_contacts(reference_contacts_, contact_keys(list));
-      o["contacts_kept"] = double(ch.kept);
-      o["contacts_lost"] = double(ch.lost);
-      o["contacts_gained"] = double(ch.gained);
-      for (int b = 0; b <= network_bins_; ++b) o[fmt::format("force_histogram_{:02}", b)] = net.histogram[b];
-    }
+    const auto list = interactions();
+    double mean_force = 0;
+    for (const auto& c : list) mean_force += std::abs(c.normal_force);
+    if (!list.empty()) mean_force /= double(list.size());
+    const double scale = std::max(attraction_, mean_force);
+    ContactNetworkOptions opt;
+    opt.zero_force = zero_force_ * scale;
+    opt.force_scale = attraction_ > 0 ? attraction_ : (mean_force > 0 ? mean_force : 1.0);
+    opt.histogram_bins = network_bins_;
+    const ContactNetwork net = analyse_contact_network(P.size(), list, opt);
+    o["coordination"] = net.z;
+    o["coordination_compressive"] = net.z_plus;
+    o["coordination_tensile"] = net.z_minus;
+    o["coordination_zero"] = net.z_zero;
+    o["rattler_fraction"] = net.rattler_fraction;
+    o["backbone_coordination"] = net.z_star;
+    o["distant_bonds"] = double(net.distant_bonds);
+    const ContactChanges ch = compare_contacts(reference_contacts_, contact_keys(list));
+    o["contacts_kept"] = double(ch.kept);
+    o["contacts_lost"] = double(ch.lost);
+    o["contacts_gained"] = double(ch.gained);
+    for (int b = 0; b <= network_bins_; ++b) o[fmt::format("force_histogram_{:02}", b)] = net.histogram[b];
   }
 
   System<D> sys_;
