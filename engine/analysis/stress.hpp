@@ -3,6 +3,7 @@
 // the contact part from the virial the pair loops accumulate (System::virial), the kinetic part from
 // the velocities (relative to the affine flow of a deforming cell). V is the area in 2D.
 #pragma once
+#include "core/integrator.hpp"
 #include "core/particles.hpp"
 
 namespace grains {
@@ -14,10 +15,12 @@ Tensor<D> contact_stress(const Tensor<D>& virial, double volume) {
   return virial / volume;
 }
 
+// The sum in particle order, by the integrator's add_kinetic_stress: the barostat reads the same sum
+// (of the velocities a pending kick will give) between the steps of a run.
 template <int D>
 Tensor<D> kinetic_stress(const Particles<D>& P, double volume) {
   Tensor<D> s = Tensor<D>::Zero();
-  for (std::size_t i = 0; i < P.size(); ++i) s.noalias() += P.mass[i] * P.velocity[i] * P.velocity[i].transpose();
+  add_kinetic_stress<D>(P, 0, P.size(), nullptr, s);
   return s / volume;
 }
 

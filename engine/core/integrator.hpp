@@ -115,8 +115,8 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 
 // Adds sum m u u^T over n particles into s (D x D, column-major), in particle order, u being the
 // velocity the pending kick will give (its second half, the operations of kick) or, without one, the
-// stored velocity: the same sums, bit for bit, as kinetic_stress (analysis/stress.hpp) of the kicked
-// velocities, so the barostat can read the kinetic stress while the kick is still pending.
+// stored velocity: the barostat reads the kinetic stress while the kick is still pending, bit for bit
+// the kinetic_stress (analysis/stress.hpp) of the kicked velocities.
 void add_kinetic_stress_2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s);
 void add_kinetic_stress_3(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
