@@ -65,6 +65,15 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 // kick_witness. Follow: the particle then follows the cell (DriftGeometry). Measure: the squared distance
 // of the new position from the reference position as it is (1) or as the cell has carried it (2), summed
 // over the axes in order (0: none).
+// Component c of particle-array entry k's move from the reference position, as it is (Measure 1) or as
+// the cell has carried it (Measure 2): the drift's measure and largest_move's, one expression.
+template <int Measure>
+[[gnu::always_inline]] inline double move_component(double x, const double* __restrict reference, std::size_t k,
+                                                    double reference_lower, double strain) {
+  const double r = Measure == 2 ? reference_lower + (reference[k] - reference_lower) * strain : reference[k];
+  return x - r;
+}
+
 template <int D, int Measure, bool Follow, bool Kick>
 [[gnu::always_inline]] inline DriftSums drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
                                                    double* __restrict x, double* __restrict v, double* __restrict vp,
@@ -93,8 +102,7 @@ template <int D, int Measure, bool Follow, bool Kick>
       witness += x[k];
       if constexpr (Follow) x[k] = lower[c] + (x[k] - lower[c]) * scale[c];
       if constexpr (Measure > 0) {   // (x - x_ref).squaredNorm(), in Eigen's order
-        const double r = Measure == 2 ? reference_lower[c] + (reference[k] - reference_lower[c]) * strain[c] : reference[k];
-        const double dx = x[k] - r;
+        const double dx = move_component<Measure>(x[k], reference, k, reference_lower[c], strain[c]);
         moved = c == 0 ? dx * dx : moved + dx * dx;
       }
     }
@@ -129,6 +137,33 @@ template <int D, bool Kick>
 GRAINS_DRIFT(2)
 GRAINS_DRIFT(3)
 #undef GRAINS_DRIFT
+
+// The drift's measure alone, over positions that have already moved.
+template <int D, int Measure>
+[[gnu::always_inline]] inline double largest_move_body(std::size_t n, const double* __restrict x, const DriftGeometry& g) {
+  const double* __restrict reference = g.reference;
+  double reference_lower[D], strain[D];
+  for (int c = 0; c < D; ++c) reference_lower[c] = g.reference_lower[c], strain[c] = g.strain[c];
+  double largest = 0;
+#pragma omp simd reduction(max : largest)
+  for (std::size_t i = 0; i < n; ++i) {
+    double moved = 0;
+    for (int c = 0; c < D; ++c) {
+      const std::size_t k = i * D + c;
+      const double dx = move_component<Measure>(x[k], reference, k, reference_lower[c], strain[c]);
+      moved = c == 0 ? dx * dx : moved + dx * dx;
+    }
+    largest = std::max(largest, moved);
+  }
+  return largest;
+}
+#define GRAINS_LARGEST_MOVE(D)                                                                            \
+  GRAINS_VECTOR_CLONES double largest_move_##D(std::size_t n, const double* __restrict x, const DriftGeometry& g) { \
+    return g.carried ? largest_move_body<D, 2>(n, x, g) : largest_move_body<D, 1>(n, x, g);               \
+  }
+GRAINS_LARGEST_MOVE(2)
+GRAINS_LARGEST_MOVE(3)
+#undef GRAINS_LARGEST_MOVE
 
 // Kick: as in drift_body, the last step's pending second half first; returns the sum of those spins.
 template <int S, bool Kick>

@@ -58,6 +58,10 @@ struct DriftGeometry {
 struct DriftSums {
   double witness = 0, largest_move = 0, kick_witness = 0;
 };
+// The drift's largest squared move alone (geometry.reference set; follow unused), over n particles'
+// positions x: the same value the drift that moved them to x would have measured.
+double largest_move_2(std::size_t n, const double* x, const DriftGeometry& geometry);
+double largest_move_3(std::size_t n, const double* x, const DriftGeometry& geometry);
 DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                   const DriftGeometry& geometry, const PendingKick* kick);

@@ -112,6 +112,12 @@ class SimulationImpl final : public Simulation {
     const double skin = scene.has("neighbours.skin") ? scene.real("neighbours.skin") : 0.4 * rmin;
     // Sorted rows for the collision log's per-pair history (the contact modules carry theirs without them).
     sys_.neighbours.configure(std::max(0.0, range), skin, bool(collisions_));
+    // Without a thickness given, the shell adapts its own, starting from a tenth of the skin.
+    sys_.shell.configure(scene.has("neighbours.shell") ? scene.real("neighbours.shell") : 0.1 * skin, !scene.has("neighbours.shell"), skin);
+    if (sys_.shell.thickness() > 0 && sys_.shell.thickness() >= skin)
+      scene.fail("neighbours.shell", fmt::format("{:.6g} is not below the skin {:.6g}: the shell selects pairs among the "
+                                                 "listed ones, so it must be thinner than the skin (0 turns it off)",
+                                                 sys_.shell.thickness(), skin));
     for (int a = 0; a < D; ++a)
       if (sys_.box.periodic[a] && 2 * rmax + std::max(0.0, range) + skin > 0.5 * sys_.box.length[a])
         scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than twice the "
@@ -209,9 +215,9 @@ class SimulationImpl final : public Simulation {
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
-  // give; 6: the previous force instead of both accelerations). States of builds before the word start
-  // with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e06;
+  // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact).
+  // States of builds before the word start with D (2, 3).
+  static constexpr std::uint32_t state_format = 0x47524e07;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -221,6 +227,7 @@ class SimulationImpl final : public Simulation {
     w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.force_prev),
         w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.orientation);
     sys_.neighbours.save(w);
+    sys_.shell.save(w);
     for (const auto& m : modules_) m->save(w);
     if (analysis_) w.put(aggregation_time_);
     if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
@@ -253,6 +260,7 @@ class SimulationImpl final : public Simulation {
     r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.force_prev),
         r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.orientation);
     sys_.neighbours.load(r);
+    sys_.shell.load(r);
     for (auto& m : modules_) m->load(r);
     if (analysis_) aggregation_time_ = r.get<double>();
     if (network_) r.get_vector(reference_contacts_), network_mark_ = r.get<double>();
@@ -465,6 +473,7 @@ class SimulationImpl final : public Simulation {
   void resize_cell(const Vec<D>& scale) {
     sys_.box.length = barostat_->length();
     sys_.neighbours.follow_cell(scale, sys_.box);
+    sys_.shell.follow_cell(scale, sys_.box);
     for (int a = 0; a < D; ++a)
       if (!(sys_.box.length[a] > 2 * cell_list_reach_))
         throw SimulationError(fmt::format(
@@ -494,8 +503,46 @@ class SimulationImpl final : public Simulation {
       if (!x.allFinite()) check_finite_at_step(sys_.step + 1);
     for (auto& x : P.position) x = sys_.box.wrap(x);
     sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
+    if (sys_.shell.enabled()) sys_.shell.build(sys_.neighbours, P.position, P.radius, 0.0, sys_.step, false);
     for (auto& m : modules_) m->after_rebuild(sys_.neighbours);
     if (collisions_) collisions_->after_rebuild(sys_.neighbours);
+  }
+
+  // After a step's first pass: rebuilds the list where it is stale, else the shell where it is (or
+  // where it is not built yet). `moved` is the largest squared move the pass measured: from the shell's
+  // reference positions if the shell is built, else from the list's. The list is rebuilt exactly when
+  // it would be without a shell: by its own measure, taken where the shell's bound cannot rule it out.
+  void refresh_lists(double moved) {
+    if (!uses_list_) return;
+    auto& shell = sys_.shell;
+    if (!shell.built()) {
+      if (sys_.neighbours.stale_after(moved)) rebuild();
+      else if (shell.enabled())
+        shell.build(sys_.neighbours, sys_.particles.position, sys_.particles.radius, std::sqrt(moved), sys_.step, false);
+      return;
+    }
+    double list_move = -1;   // not measured
+    if (sys_.neighbours.stale_after(shell.list_move_bound(moved))) {
+      list_move = list_largest_move();
+      if (sys_.neighbours.stale_after(list_move)) return rebuild();
+    }
+    if (shell.stale_after(moved))
+      shell.build(sys_.neighbours, sys_.particles.position, sys_.particles.radius,
+                  std::sqrt(list_move >= 0 ? list_move : list_largest_move()), sys_.step, true);
+  }
+
+  // The largest squared move from the list's reference positions, as the first pass would have
+  // measured it against them (infinite for a list of another particle count).
+  double list_largest_move() const {
+    const auto& P = sys_.particles;
+    const auto reference = sys_.neighbours.reference(P.size());
+    if (!reference.position) return std::numeric_limits<double>::infinity();
+    integrator_detail::DriftGeometry g;
+    g.reference = reinterpret_cast<const double*>(reference.position);
+    g.carried = reference.strain != Vec<D>::Ones();
+    for (int a = 0; a < D; ++a) g.reference_lower[a] = reference.lower[a], g.strain[a] = reference.strain[a];
+    const double* x = reinterpret_cast<const double*>(P.position.data());
+    return D == 2 ? integrator_detail::largest_move_2(P.size(), x, g) : integrator_detail::largest_move_3(P.size(), x, g);
   }
 
   void clear_forces() {
@@ -526,8 +573,11 @@ class SimulationImpl final : public Simulation {
       geometry.follow = true;
       for (int a = 0; a < D; ++a) geometry.lower[a] = sys_.box.lower[a], geometry.scale[a] = scale[a];
     }
-    // The list's reference positions, to measure the moves against; none: a new particle count, a new list.
-    const auto reference = uses_list_ ? sys_.neighbours.reference(N) : typename NeighbourList<D>::Reference{};
+    // The reference positions to measure the moves against, the shell's if built (refresh_lists); none:
+    // a new particle count, a new list.
+    const auto reference = !uses_list_          ? typename NeighbourList<D>::Reference{}
+                           : sys_.shell.built() ? sys_.shell.reference(N)
+                                                : sys_.neighbours.reference(N);
     if (reference.position) {
       geometry.reference = reinterpret_cast<const double*>(reference.position);
       geometry.carried = reference.strain != Vec<D>::Ones();
@@ -650,7 +700,7 @@ class SimulationImpl final : public Simulation {
       sys_.cell_scale = scale;
       sys_.strain_rate = barostat_->rate().cwiseQuotient(sys_.box.length);
     }
-    if (uses_list_ && sys_.neighbours.stale_after(moved)) rebuild();
+    refresh_lists(moved);
     sys_.dt = h;
     compute_forces(true);
     const double keep = drag_ > 0 ? std::exp(-drag_ * h) : 1.0;
@@ -773,6 +823,9 @@ class SimulationImpl final : public Simulation {
     }
     out("neighbour_builds", "", "neighbour-list builds so far");
     out("neighbour_pairs", "", "pairs in the neighbour list");
+    out("shell_builds", "", "selections of the shell of listed pairs near contact so far (neighbours.shell)");
+    out("shell_pairs", "", "listed pairs in the shell the pair loop tests (0: no shell, every listed pair tested)");
+    out("shell_thickness", "m", "thickness of the shell now (adaptive unless neighbours.shell is set)");
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) out(name, "", "see the README's observable table");
@@ -991,6 +1044,9 @@ class SimulationImpl final : public Simulation {
     for (int a = (D == 3 ? 0 : 2); a < 3; ++a) o[fmt::format("angular_momentum_{}", "xyz"[a])] = L[a];
     o["neighbour_builds"] = double(sys_.neighbours.builds());
     o["neighbour_pairs"] = double(sys_.neighbours.pair_count());
+    o["shell_builds"] = double(sys_.shell.builds());
+    o["shell_pairs"] = double(sys_.shell.built() ? sys_.shell.pair_count() : 0);
+    o["shell_thickness"] = sys_.shell.thickness();
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
     for (const auto& [name, value] : module_obs) o[name] = value;

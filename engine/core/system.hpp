@@ -4,6 +4,7 @@
 #include "core/particles.hpp"
 #include "core/pending_kick.hpp"
 #include "neighbours/neighbour_list.hpp"
+#include "neighbours/shell_list.hpp"
 
 namespace grains {
 
@@ -12,6 +13,7 @@ struct System {
   Particles<D> particles;
   Box<D> box;
   NeighbourList<D> neighbours;
+  ShellList<D> shell;   // the listed pairs near contact, which the pair loops test (when built)
   double time = 0, dt = 0;   // dt: length of the step being taken (0 for the initial force evaluation)
   long step = 0;
   int threads = 1;

@@ -396,12 +396,18 @@ class ContactForces final : public ForceModule<D> {
     const auto torque_of = [&](std::uint32_t j) { return j < row_end ? torque : far_torque; };
     const Vec<D>* const position = P.position.data();
     const double* const radius = P.radius.data();
-    const std::uint32_t* const start = nl.start.data();
     const std::uint32_t* const partner = nl.partner.data();
     const std::uint8_t* const image = nl.image.data();
     const Vec<D>* const shift = nl.shift.data();
-    // law_.reach() is 0 without an attractive tail: then exactly Rsum in the filter.
-    const pair_filter::Geometry<D> geometry{position, radius, partner, nl.owner.data(), image, shift, law_.reach()};
+    // The filter tests the shell's entries where it is built (neighbours/shell_list.hpp), else every
+    // listed pair; either way it writes the list's entries k. law_.reach() is 0 without an attractive
+    // tail: then exactly Rsum in the filter.
+    const auto& shell = s.shell;
+    const std::uint32_t* const start = shell.built() ? shell.start.data() : nl.start.data();
+    const pair_filter::Geometry<D> geometry =
+        shell.built() ? pair_filter::Geometry<D>{position, radius, shell.partner.data(), shell.owner.data(), shell.image.data(),
+                                                 shift, law_.reach(), shell.entry.data()}
+                      : pair_filter::Geometry<D>{position, radius, partner, nl.owner.data(), image, shift, law_.reach()};
     for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
       const std::size_t e = std::min(row_end, b + block_rows_);
       const std::size_t pairs = start[e] - start[b] + pair_filter::slack;

@@ -22,11 +22,16 @@ struct Geometry {
   const std::uint8_t* image;      // index into shift
   const Vec<D>* shift;            // 3^D periodic image shifts, indexed by sum (k_a + 1) 3^a
   double tail_reach;              // gap up to which a pair interacts (0: touching only)
+  // Null: the entries are the Verlet list's own, and entry m is list entry m. Else the arrays above
+  // hold a selection of its entries (neighbours/shell_list.hpp), entry m being list entry `entry[m]`:
+  // the entries written to pairs[] are always the list's.
+  const std::uint32_t* entry = nullptr;
 };
 
 // Writes the interacting entries k of rows [row_begin, row_end) (entries start[row_begin] ..
-// start[row_end]) to pairs[], their rows to rows[] and their images to images[], in list order; returns
-// how many. The arrays must hold the run's entries plus `slack` (the AVX-512 build stores whole vectors).
+// start[row_end] of g's arrays) to pairs[], their rows to rows[] and their images to images[], in list
+// order; returns how many. The arrays must hold the run's entries plus `slack` (the AVX-512 build
+// stores whole vectors).
 inline constexpr std::size_t slack = 8;
 
 template <int D>
@@ -37,17 +42,17 @@ std::size_t gather_portable(const Geometry<D>& g, const std::uint32_t* start, st
     const Vec<D> xi = g.position[i];
     const double Ri = g.radius[i];
     const std::uint32_t end = start[i + 1];
-    for (std::uint32_t k = start[i]; k < end; ++k) {   // without a branch: store, then count if it interacts
-      const Vec<D> r = g.position[g.partner[k]] + g.shift[g.image[k]] - xi;
-      const double reach = Ri + g.radius[g.partner[k]] + g.tail_reach;
-      rows[n] = std::uint32_t(i), pairs[n] = k, images[n] = g.image[k];
+    for (std::uint32_t m = start[i]; m < end; ++m) {   // without a branch: store, then count if it interacts
+      const Vec<D> r = g.position[g.partner[m]] + g.shift[g.image[m]] - xi;
+      const double reach = Ri + g.radius[g.partner[m]] + g.tail_reach;
+      rows[n] = std::uint32_t(i), pairs[n] = g.entry ? g.entry[m] : m, images[n] = g.image[m];
       n += r.squaredNorm() < reach * reach;
     }
   }
   return n;
 }
 
-// The AVX-512 build (pair_filter_avx512.cpp); only where avx512() is true.
+// The AVX-512 build (pair_filter_avx512.cpp) over entries [k_begin, k_end) of g's arrays; only where avx512() is true.
 template <int D>
 std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
                           std::uint32_t* pairs, std::uint8_t* images);

@@ -30,7 +30,7 @@ void prefer_portable(bool yes) { portable_preferred.store(yes, std::memory_order
 
 namespace {
 
-template <int D>
+template <int D, bool Selection>
 GRAINS_AVX512_PAIRS std::size_t select(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
                                         std::uint32_t* pairs, std::uint8_t* images) {
   using namespace pair_avx512;
@@ -55,9 +55,9 @@ GRAINS_AVX512_PAIRS std::size_t select(const Geometry<D>& g, std::uint32_t k_beg
     }
     const V reach = add(add(gather(g.radius, i, live), gather(g.radius, j, live)), tail);
     const __mmask8 hit = _mm512_mask_cmp_pd_mask(live, d2, mul(reach, reach), _CMP_LT_OQ);
+    const __m256i entry = Selection ? _mm256_maskz_loadu_epi32(live, g.entry + k) : _mm256_add_epi32(_mm256_set1_epi32(int(k)), iota);
     // Whole vectors stored, `slack` past the run at most; the count moves on by the hits only.
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(pairs + n),
-                        _mm256_maskz_compress_epi32(hit, _mm256_add_epi32(_mm256_set1_epi32(int(k)), iota)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(pairs + n), _mm256_maskz_compress_epi32(hit, entry));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(rows + n), _mm256_maskz_compress_epi32(hit, i));
     _mm_storel_epi64(reinterpret_cast<__m128i*>(images + n), _mm256_cvtepi32_epi8(_mm256_maskz_compress_epi32(hit, s)));
     n += std::size_t(__builtin_popcount(hit));
@@ -70,7 +70,7 @@ GRAINS_AVX512_PAIRS std::size_t select(const Geometry<D>& g, std::uint32_t k_beg
 template <int D>
 std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
                           std::uint32_t* pairs, std::uint8_t* images) {
-  return select<D>(g, k_begin, k_end, rows, pairs, images);
+  return g.entry ? select<D, true>(g, k_begin, k_end, rows, pairs, images) : select<D, false>(g, k_begin, k_end, rows, pairs, images);
 }
 
 template std::size_t gather_avx512<2>(const Geometry<2>&, std::uint32_t, std::uint32_t, std::uint32_t*, std::uint32_t*,

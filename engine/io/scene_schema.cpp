@@ -258,6 +258,12 @@ const std::vector<SchemaEntry>& scene_schema() {
       // --- neighbour search ---
       {"neighbours.skin", K::real, "", 0, inf, true, false, "",
        "Verlet skin (length); default 0.2 * smallest diameter. Lists are rebuilt when a particle has moved skin/2."},
+      {"neighbours.shell", K::real, "", 0, inf, false, false, "",
+       "Thickness (length) of the shell of listed pairs the pair loop tests each step: the listed pairs whose gap "
+       "is below the interaction range + shell, selected again from the list when a particle has moved shell/2. "
+       "Default: adaptive, starting from skin / 10, each selection choosing the next thickness from the last one's "
+       "life (a cost model: pairs tested per step against selections per step); a value fixes it; 0 tests every listed "
+       "pair. Results do not depend on it (bit for bit); only the speed does."},
 
       // --- execution ---
       {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = automatic: every core, at most one thread per 2000 particles. Results are deterministic for a given thread count."},

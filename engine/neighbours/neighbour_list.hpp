@@ -50,6 +50,11 @@ class NeighbourList {
   void follow_cell(const Vec<D>& scale, const Box<D>& box);
 
   std::size_t pair_count() const { return partner.size(); }
+  // The largest centre distance a listed pair may have: 2 R_max + range + skin.
+  double reach() const { return list_reach_; }
+  double range() const { return range_; }
+  // The cell's strain since the last build, per axis (1: none).
+  const Vec<D>& strain_since_build() const { return strain_since_build_; }
   long builds() const { return builds_; }
 
   // Move per-pair values from the previous list to the current one; new pairs get `fresh`.
