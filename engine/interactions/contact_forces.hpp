@@ -475,13 +475,17 @@ class ContactForces final : public ForceModule<D> {
           if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
             Vec<D> f, r;
             if constexpr (batched_) {
-              Spin<D>* const tj = torque_of(j);
-              tj[j][0] -= gtj[0][q];
+              // j's torque through a local: one load and one store (through the array, the compiler
+              // stored it after each operation, since the results could alias it).
+              double& tj = torque_of(j)[j][0];
+              double t = tj;
+              t -= gtj[0][q];
               ti[0] -= gti[0][q];
               if constexpr (Rolling::enabled) {
-                tj[j][0] += gmoment[q];
+                t += gmoment[q];
                 ti[0] -= gmoment[q];
               }
+              tj = t;
               f = Vec<D>(gfx[q], gfy[q]), r = Vec<D>(grx[q], gry[q]);
             } else {
               if constexpr (Friction::enabled) {
