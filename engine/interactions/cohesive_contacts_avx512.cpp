@@ -20,6 +20,10 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
   const __mmask8 m = c.steady;
   out.steady[q / 8] = m;   // q is a multiple of 8
+  if (out.interacting) {   // the pair filter's test: d^2 < ((R_i + R_j) + tail)^2
+    const V reach = add(Rsum, all(in.tail_reach));
+    out.interacting[q / 8] = _mm512_mask_cmp_pd_mask(live, d2, mul(reach, reach), _CMP_LT_OQ);
+  }
   if (!m) return 0;
 
   const V d = _mm512_sqrt_pd(d2);

@@ -36,14 +36,19 @@ struct Input {
   // A deforming cell: the pair's flow velocity (strain rate times r) counts in v_n and v_t.
   bool affine;
   double strain_rate_x, strain_rate_y;
+  // The gap up to which a pair interacts (the pair filter's tail reach), for Output::interacting.
+  double tail_reach;
 };
 
 // Per gathered pair q: whether it was evaluated here (a steady contact), and then its force on j, the
 // tangential force's torques (subtracted from i's and j's), the rolling moment (added to j's and
-// subtracted from i's) and the pair vector (for the virial).
+// subtracted from i's) and the pair vector (for the virial). Given `interacting` (else null: the pairs
+// are the pair filter's selection), the pairs are any listed ones, and a bit per pair tells whether it
+// interacts, by the pair filter's own test.
 struct Output {
   std::uint8_t* steady;
   double *fx, *fy, *torque_i, *torque_j, *moment, *rx, *ry;
+  std::uint8_t* interacting = nullptr;
 };
 
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]): their forces

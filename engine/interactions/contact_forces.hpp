@@ -108,6 +108,7 @@ class ContactForces final : public ForceModule<D> {
     const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr};
     if (T == 1) {
       clamped_now = loop<Virial>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
+      note_selection(s);
     } else {
       // One virial per thread, summed in thread order afterwards: deterministic for a thread count.
       std::vector<Mat> thread_virial(Virial ? T : 0, Mat::Zero());
@@ -144,8 +145,19 @@ class ContactForces final : public ForceModule<D> {
       }
       if constexpr (Virial)
         for (const Mat& w : thread_virial) s.virial += w;
+      note_selection(s);
     }
     return clamped_now;
+  }
+
+  // Where nearly every pair of the shell interacts (a dense cohesive packing), the batched kernel runs
+  // over the shell's entries directly and tests them itself: the filter's pass and its compaction cost
+  // more than the few open pairs the kernel then carries. Decided from the last evaluation's share; the
+  // results are the same either way, bit for bit.
+  void note_selection(const System<D>& s) {
+    std::size_t tested = 0, selected = 0;
+    for (const Gathered& g : gathered_) tested += g.tested, selected += g.selected;
+    direct_ = s.shell.built() && 10 * selected >= 9 * tested;
   }
 
   // The onset lag (contact_step.hpp) of a contact that began in the last step is made up in the next
@@ -288,6 +300,7 @@ class ContactForces final : public ForceModule<D> {
   // second runs the costly arithmetic of consecutive contacts back to back. Pairs are evaluated in
   // list order, as a single pass would.
   static constexpr std::size_t block_rows_ = 256;
+  bool direct_ = false;   // see note_selection
   // A contact's first step ended too deep by `lag` (contact_step.hpp, onset_lag), made up in the next step.
   struct OnsetLag {
     std::uint32_t i, j;
@@ -303,6 +316,8 @@ class ContactForces final : public ForceModule<D> {
     // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
     std::vector<double> fx, fy, fz, torque_i[3], torque_j[3], moment, rx, ry, rz;   // torques: 2D only [0]
     std::vector<std::uint8_t> steady;
+    std::vector<std::uint8_t> interacting;   // the kernel's test per pair where it ran over the shell directly
+    std::size_t tested = 0, selected = 0;    // this evaluation: pairs tested, pairs that interact
   };
 
   // The batched kernel of this combination, if it has one and the processor runs it (else both null).
@@ -362,6 +377,7 @@ class ContactForces final : public ForceModule<D> {
     }
     in.affine = s.affine_flow;
     in.strain_rate_x = s.strain_rate[0], in.strain_rate_y = s.strain_rate[1];
+    in.tail_reach = law_.reach();
     return in;
   }
 
@@ -408,15 +424,30 @@ class ContactForces final : public ForceModule<D> {
         shell.built() ? pair_filter::Geometry<D>{position, radius, shell.partner.data(), shell.owner.data(), shell.image.data(),
                                                  shift, law_.reach(), shell.entry.data()}
                       : pair_filter::Geometry<D>{position, radius, partner, nl.owner.data(), image, shift, law_.reach()};
+    // The batched cohesive kernel over the shell's entries, without the filter (note_selection).
+    const bool direct = batched_ && batch.cohesive && direct_ && shell.built();
+    g.tested = g.selected = 0;
     for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
       const std::size_t e = std::min(row_end, b + block_rows_);
       const std::size_t pairs = start[e] - start[b] + pair_filter::slack;
-      if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs), g.image.resize(pairs);
-      std::uint32_t* const gathered_row = g.row.data();
-      std::uint32_t* const gathered_pair = g.pair.data();
-      const std::size_t n = pair_filter::gather<D>(geometry, start, b, e, gathered_row, gathered_pair, g.image.data());
+      g.tested += start[e] - start[b];
+      const std::uint32_t* gathered_row;
+      const std::uint32_t* gathered_pair;
+      const std::uint8_t* gathered_image;
+      std::size_t n;
+      if (direct) {
+        gathered_row = shell.owner.data() + start[b], gathered_pair = shell.entry.data() + start[b];
+        gathered_image = shell.image.data() + start[b];
+        n = start[e] - start[b];
+      } else {
+        if (g.pair.size() < pairs) g.row.resize(pairs), g.pair.resize(pairs), g.image.resize(pairs);
+        n = pair_filter::gather<D>(geometry, start, b, e, g.row.data(), g.pair.data(), g.image.data());
+        gathered_row = g.row.data(), gathered_pair = g.pair.data(), gathered_image = g.image.data();
+        g.selected += n;
+      }
       // Batched: the steady contacts evaluated first, their results added below in list order.
       const std::uint8_t* batched = nullptr;
+      const std::uint8_t* interacting = nullptr;   // direct: which of the entries interact
       if constexpr (batched_ || batched_linear_) {
         if (batch.cohesive || batch.linear) {
           const std::size_t room = n + 8;
@@ -424,14 +455,16 @@ class ContactForces final : public ForceModule<D> {
                           &g.torque_j[1], &g.torque_j[2], &g.moment, &g.rx, &g.ry, &g.rz})
             if (v->size() < room) v->resize(room);
           if (g.steady.size() < room / 8) g.steady.resize(room / 8);
-          if (batch.cohesive)
-            clamped += cohesive_contacts_avx512::evaluate(
-                *batch.cohesive, gathered_row, gathered_pair, g.image.data(), n,
-                {g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i[0].data(), g.torque_j[0].data(), g.moment.data(),
-                 g.rx.data(), g.ry.data()});
+          if (direct && g.interacting.size() < room / 8) g.interacting.resize(room / 8);
+          if (batch.cohesive) {
+            cohesive_contacts_avx512::Output out{g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i[0].data(),
+                                                 g.torque_j[0].data(), g.moment.data(), g.rx.data(), g.ry.data()};
+            if (direct) out.interacting = g.interacting.data(), interacting = g.interacting.data();
+            clamped += cohesive_contacts_avx512::evaluate(*batch.cohesive, gathered_row, gathered_pair, gathered_image, n, out);
+          }
           else
             clamped += linear_contacts_avx512::evaluate(
-                *batch.linear, gathered_row, gathered_pair, g.image.data(), n,
+                *batch.linear, gathered_row, gathered_pair, gathered_image, n,
                 {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data(),
                  {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()},
                  {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()}});
@@ -465,6 +498,10 @@ class ContactForces final : public ForceModule<D> {
       };
       double Ri = 0;
       for (std::size_t q = 0; q < n; ++q) {
+        if (interacting) {   // the kernel ran over every entry of the shell: only the interacting ones count
+          if (!(interacting[q >> 3] >> (q & 7) & 1)) continue;
+          ++g.selected;
+        }
         if (gathered_row[q] != i) {
           if (i != row_end) add_row(force, torque, i, fi, ti);
           i = gathered_row[q], xi = position[i], Ri = radius[i], ti.setZero();
