@@ -12,18 +12,11 @@
 
 #include "interactions/pair_filter.hpp"
 #include "neighbours/neighbour_list.hpp"
+#include "random_packing.hpp"
 
 using namespace grains;
 
 namespace {
-
-template <int D>
-struct Packing {
-  std::vector<Vec<D>> x;
-  std::vector<double> radius;
-  Box<D> box;
-  NeighbourList<D> list;
-};
 
 template <int D>
 pair_filter::Geometry<D> geometry(const Packing<D>& p, double tail) {
@@ -91,40 +84,12 @@ void check_definition(const Packing<D>& p, double tail, const Selection& s) {
   CHECK(q == s.n);
 }
 
-// Random diameters in [0.1, 1], dense enough for many contacts; the list is built, then every particle
-// moves by up to 0.45 skin (not re-wrapped, as between two builds in the engine).
-template <int D>
-Packing<D> random_packing(bool periodic, double tail, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  Packing<D> p;
-  const std::size_t n = D == 3 ? 1500 : 900;
-  const double edge = D == 3 ? 8.0 : 24.0;
-  for (int a = 0; a < D; ++a) p.box.length[a] = edge * (1 + 0.1 * a), p.box.lower[a] = -1.5 + a, p.box.periodic[a] = periodic;
-  for (std::size_t i = 0; i < n; ++i) {
-    Vec<D> x;
-    for (int a = 0; a < D; ++a) x[a] = p.box.lower[a] + u(rng) * p.box.length[a];
-    p.x.push_back(x);
-    p.radius.push_back(0.5 * (0.1 + 0.9 * u(rng)));
-  }
-  const double skin = 0.2;
-  p.list.configure(tail, skin);
-  p.list.build(p.x, p.radius, p.box, 1);
-  std::normal_distribution<double> g(0, 1);
-  for (auto& x : p.x) {
-    Vec<D> d;
-    for (int a = 0; a < D; ++a) d[a] = g(rng);
-    x += 0.45 * skin * u(rng) * d.normalized();
-  }
-  return p;
-}
-
 template <int D>
 void random_cases() {
   for (unsigned seed : {1u, 2u, 3u})
     for (bool periodic : {false, true})
       for (double tail : {0.0, 1e-3, 0.05}) {
-        const auto p = random_packing<D>(periodic, tail, seed);
+        const auto p = random_packing<D>(periodic, tail, seed, 0.45 * 0.2);   // moved up to 0.45 skin
         INFO("D = " << D << ", seed " << seed << ", periodic " << periodic << ", tail " << tail);
         for (std::size_t block : {1, 7, 256, 100000}) {
           const Selection s = compare_builds(p, tail, block);

@@ -15,46 +15,12 @@
 #include "io/scene.hpp"
 #include "neighbours/shell_list.hpp"
 #include "packing_scenes.hpp"
+#include "random_packing.hpp"
 
 using namespace grains;
 using Catch::Contains;
 
 namespace {
-
-template <int D>
-struct Packing {
-  std::vector<Vec<D>> x;
-  std::vector<double> radius;
-  Box<D> box;
-  NeighbourList<D> list;
-};
-
-// Random diameters in [0.1, 1] in a periodic box, the list built with skin 0.2, then every particle
-// moved by up to `move` (not re-wrapped, as between two builds in the engine).
-template <int D>
-Packing<D> random_packing(double range, unsigned seed, double move) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  Packing<D> p;
-  const std::size_t n = D == 3 ? 1500 : 900;
-  const double edge = D == 3 ? 8.0 : 24.0;
-  for (int a = 0; a < D; ++a) p.box.length[a] = edge * (1 + 0.1 * a), p.box.lower[a] = -1.5 + a, p.box.periodic[a] = true;
-  for (std::size_t i = 0; i < n; ++i) {
-    Vec<D> x;
-    for (int a = 0; a < D; ++a) x[a] = p.box.lower[a] + u(rng) * p.box.length[a];
-    p.x.push_back(x);
-    p.radius.push_back(0.5 * (0.1 + 0.9 * u(rng)));
-  }
-  p.list.configure(range, 0.2);
-  p.list.build(p.x, p.radius, p.box, 1);
-  std::normal_distribution<double> g(0, 1);
-  for (auto& x : p.x) {
-    Vec<D> d;
-    for (int a = 0; a < D; ++a) d[a] = g(rng);
-    x += move * u(rng) * d.normalized();
-  }
-  return p;
-}
 
 template <int D>
 void check_selection(const Packing<D>& p, const ShellList<D>& shell, double thickness) {
@@ -84,7 +50,7 @@ void selection_cases() {
     pair_filter::prefer_portable(portable);
     for (double range : {0.0, 1e-3})
       for (double thickness : {0.005, 0.05}) {
-        const auto p = random_packing<D>(range, 3, 0.09);
+        const auto p = random_packing<D>(true, range, 3, 0.09);
         ShellList<D> shell;
         shell.configure(thickness, false, 0.2);
         shell.build(p.list, p.x, p.radius, 0.09, 0, false);
@@ -129,7 +95,7 @@ void advance(Packing<D>& p, ShellList<D>& shell, double move, const Vec<D>& scal
 template <int D>
 void bound_cases() {
   std::mt19937_64 rng(11);
-  auto p = random_packing<D>(1e-3, 5, 0.0);
+  auto p = random_packing<D>(true, 1e-3, 5, 0.0);
   ShellList<D> shell;
   shell.configure(0.01, false, 0.2);
   shell.build(p.list, p.x, p.radius, 0.0, 0, false);
