@@ -60,11 +60,6 @@ void turn_small(std::size_t n, double h, const double* __restrict w, double* __r
 // first pass or not, goes through it, so a deferred kick is bit-identical to the one it replaces.
 [[gnu::always_inline]] inline double second_half(double v, double h, double a, double keep) { return (v + 0.5 * h * a) * keep; }
 
-// Kick: the last step's second half (kick_body's operations, with its step hk and drag factor keep) is
-// done first, in the same pass (a pending kick, see PendingKick); its velocities are summed into
-// kick_witness. Follow: the particle then follows the cell (DriftGeometry). Measure: the squared distance
-// of the new position from the reference position as it is (1) or as the cell has carried it (2), summed
-// over the axes in order (0: none).
 // Component c of particle-array entry k's move from the reference position, as it is (Measure 1) or as
 // the cell has carried it (Measure 2): the drift's measure and largest_move's, one expression.
 template <int Measure>
@@ -74,6 +69,11 @@ template <int Measure>
   return x - r;
 }
 
+// Kick: the last step's second half (kick_body's operations, with its step hk and drag factor keep) is
+// done first, in the same pass (a pending kick, see PendingKick); its velocities are summed into
+// kick_witness. Follow: the particle then follows the cell (DriftGeometry). Measure: the squared distance
+// of the new position from the reference position as it is (1) or as the cell has carried it (2), summed
+// over the axes in order (0: none).
 template <int D, int Measure, bool Follow, bool Kick>
 [[gnu::always_inline]] inline DriftSums drift_body(std::size_t n, double h, const double* __restrict inverse_mass,
                                                    double* __restrict x, double* __restrict v, double* __restrict vp,

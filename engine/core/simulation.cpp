@@ -531,6 +531,13 @@ class SimulationImpl final : public Simulation {
                   std::sqrt(list_move >= 0 ? list_move : list_largest_move()), sys_.step, true);
   }
 
+  // The moves are measured from `reference` (a list's or the shell's), as the cell has carried it.
+  static void measure_from(const typename NeighbourList<D>::Reference& reference, integrator_detail::DriftGeometry& g) {
+    g.reference = reinterpret_cast<const double*>(reference.position);
+    g.carried = reference.strain != Vec<D>::Ones();
+    for (int a = 0; a < D; ++a) g.reference_lower[a] = reference.lower[a], g.strain[a] = reference.strain[a];
+  }
+
   // The largest squared move from the list's reference positions, as the first pass would have
   // measured it against them (infinite for a list of another particle count).
   double list_largest_move() const {
@@ -538,9 +545,7 @@ class SimulationImpl final : public Simulation {
     const auto reference = sys_.neighbours.reference(P.size());
     if (!reference.position) return std::numeric_limits<double>::infinity();
     integrator_detail::DriftGeometry g;
-    g.reference = reinterpret_cast<const double*>(reference.position);
-    g.carried = reference.strain != Vec<D>::Ones();
-    for (int a = 0; a < D; ++a) g.reference_lower[a] = reference.lower[a], g.strain[a] = reference.strain[a];
+    measure_from(reference, g);
     const double* x = reinterpret_cast<const double*>(P.position.data());
     return D == 2 ? integrator_detail::largest_move_2(P.size(), x, g) : integrator_detail::largest_move_3(P.size(), x, g);
   }
@@ -578,11 +583,7 @@ class SimulationImpl final : public Simulation {
     const auto reference = !uses_list_          ? typename NeighbourList<D>::Reference{}
                            : sys_.shell.built() ? sys_.shell.reference(N)
                                                 : sys_.neighbours.reference(N);
-    if (reference.position) {
-      geometry.reference = reinterpret_cast<const double*>(reference.position);
-      geometry.carried = reference.strain != Vec<D>::Ones();
-      for (int a = 0; a < D; ++a) geometry.reference_lower[a] = reference.lower[a], geometry.strain[a] = reference.strain[a];
-    }
+    if (reference.position) measure_from(reference, geometry);
     // A pending kick is done in the same pass, except on the particles kicked early (in runs between them).
     const PendingKick* kick = pending.active ? &pending : nullptr;
     std::sort(pending.early.begin(), pending.early.end());

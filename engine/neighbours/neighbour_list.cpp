@@ -244,9 +244,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 
 template <int D>
 bool NeighbourList<D>::stale_after(double largest_move) const {
-  const double strain = (strain_since_build_.array() - 1).abs().maxCoeff();
-  const double allowance = 0.5 * (skin_ - strain * list_reach_);   // per particle
-  return allowance <= 0 || largest_move > allowance * allowance;
+  return margin_used_up<D>(skin_, strain_since_build_, list_reach_, largest_move);
 }
 
 template <int D>

@@ -16,6 +16,16 @@
 
 namespace grains {
 
+// The staleness test of a Verlet list and of its shell: a margin (skin or shell thickness) is used up
+// once some particle has moved more than margin/2 since the build, less what the cell strain since has
+// used of it (charged over the largest centre distance `reach` a listed pair may have).
+template <int D>
+bool margin_used_up(double margin, const Vec<D>& strain_since_build, double reach, double largest_move) {
+  const double strain = (strain_since_build.array() - 1).abs().maxCoeff();
+  const double allowance = 0.5 * (margin - strain * reach);   // per particle
+  return allowance <= 0 || largest_move > allowance * allowance;
+}
+
 template <int D>
 class NeighbourList {
  public:

@@ -47,9 +47,7 @@ void ShellList<D>::build(const NeighbourList<D>& list, const std::vector<Vec<D>>
 
 template <int D>
 bool ShellList<D>::stale_after(double largest_move) const {
-  const double strain = (strain_since_build_.array() - 1).abs().maxCoeff();
-  const double allowance = 0.5 * (thickness_ - strain * list_reach_);
-  return allowance <= 0 || largest_move > allowance * allowance;
+  return margin_used_up<D>(thickness_, strain_since_build_, list_reach_, largest_move);
 }
 
 template <int D>
