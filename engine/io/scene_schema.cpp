@@ -224,6 +224,12 @@ const std::vector<SchemaEntry>& scene_schema() {
        "normal motion only: its loose networks keep slow collective modes (ringing with periods of 5-40 T, decaying "
        "by about 2 % a period) far longer than a stage's budget. 0: no drag quench. The stage table's `quench_start` "
        "says when the quench began."},
+      {"programme.background_drag", K::real, "0.0", 0, inf, false, false, "",
+       "gamma T of a weak drag on every grain (as `drag.rate`, T the output `inertial_time`) in every stage under "
+       "pressure -- the compression to the start pressure, loading and unloading; not the aggregation or the "
+       "relaxation at P* = 0 -- beneath the quench, which raises it to `quench_drag` and returns to it. Not in the "
+       "paper's law, whose tangential and rolling motions are undamped: the inertia of a loose network collapsing "
+       "under its first pressure then compacts it beyond the paper's states (README, Reproduction). 0: none."},
       {"programme.quench_drag_min", K::real, "0.125", 0, inf, false, false, "",
        "gamma T to which the quench's drag may step down: while a stage is quenched, the smallest force ratio "
        "(`equilibrium_force`) of each window of `quench_patience` checks is compared with the previous window's, and "

@@ -25,6 +25,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   // The rolling dashpot belongs to the consolidation law; the drag serves any law.
   p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
   p.quench.drag = scene.real("programme.quench_drag");
+  p.background_drag = scene.real("programme.background_drag");
   p.quench.drag_min = scene.real("programme.quench_drag_min");
   p.quench.patience = scene.integer("programme.quench_patience");
   p.quench.settle_ratio = scene.real("programme.settle_ratio");
@@ -39,11 +40,12 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   // A damper the scene keeps on throughout cannot also be the quench the programme switches.
   const auto refuse_both = [&](const char* key, const char* what, const char* quench_key, double quench) {
     if (quench > 0 && scene.real(key) > 0)
-      scene.fail(key, fmt::format("value {} keeps the {} on throughout, but {} = {} switches it on and off in every "
-                                  "stage: set one of them to 0", scene.real(key), what, quench_key, quench));
+      scene.fail(key, fmt::format("value {} keeps the {} on throughout, but {} = {} sets it in the programme's "
+                                  "stages: set one of them to 0", scene.real(key), what, quench_key, quench));
   };
   refuse_both("rolling.damping_ratio", "rolling dashpot", "programme.quench_damping", p.quench.damping);
   refuse_both("drag.rate", "drag", "programme.quench_drag", p.quench.drag);
+  refuse_both("drag.rate", "drag", "programme.background_drag", p.background_drag);
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
@@ -126,7 +128,7 @@ class Runner {
 
   void equilibrate(const std::string& phase, double target) {
     s_.set("cell.pressure", target);
-    StageQuench quench(s_, p_.quench);
+    StageQuench quench(s_, p_.quench.over(target > 0 ? p_.background_drag : 0.0));
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();

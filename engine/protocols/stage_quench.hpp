@@ -9,7 +9,9 @@
 // rearrangements and change the packing. Once the four criteria hold both are switched off again,
 // and the stage counts as in equilibrium only if they then hold at confirm_checks checks in a row
 // without them: an equilibrium of the paper's law. While quenched, the drag steps down when it holds
-// a creeping stage back (drag_schedule.hpp).
+// a creeping stage back (drag_schedule.hpp). A background drag (programme.background_drag), if asked
+// for, acts beneath the quench from the stage's start: the quench raises the drag and returns it there,
+// and the confirming checks run with it (at rest it exerts no force).
 // All state but the counters lives in the Simulation (its tunable parameters).
 #pragma once
 #include <cmath>
@@ -24,6 +26,7 @@ struct QuenchSettings {
   // 5-40 T); a stage of seed 4 at P* = 0.01 that the rolling dashpot alone left ringing for 7 million
   // steps reached equilibrium 300,000 steps into the quench with gamma T = 0.5 or 2. 0: no drag.
   double drag = 1.0;
+  double background = 0.0;   // gamma T of the drag while the quench is off (0: none; in stages the programme says)
   double drag_min = 0.125;   // the drag steps down to this (gamma T) while it holds a creep back ...
   long patience = 1000;      // ... judged over windows of this many checks (0: never)
   // beta of the rolling dashpot, on top of the drag (the quench of earlier versions); 0: not used.
@@ -36,6 +39,12 @@ struct QuenchSettings {
   long confirm_checks = 5;     // consecutive checks the criteria must hold for the stage to be in equilibrium
 
   bool any() const { return drag > 0 || damping > 0; }
+  // This quench with the background drag (gamma T) beneath it.
+  QuenchSettings over(double background_drag) const {
+    QuenchSettings q = *this;
+    q.background = background_drag;
+    return q;
+  }
 };
 
 class StageQuench {
@@ -71,8 +80,11 @@ class StageQuench {
     return false;
   }
 
-  // Leaves the paper's law for whatever follows the stage.
-  void end() { switch_quench(false); }
+  // Leaves the paper's law (and the background drag) for whatever follows the stage.
+  void end() {
+    switch_quench(false);
+    if (q_.background > 0) s_.set("drag.rate", 0.0);
+  }
 
   long start() const { return start_; }   // steps into the stage at the first switch-on; -1: never
   bool on() const { return on_; }
@@ -81,7 +93,8 @@ class StageQuench {
  private:
   // What is not used is left alone: the scene's own drag.rate or rolling.damping_ratio then stays.
   void switch_quench(bool on) {
-    if (q_.drag > 0) s_.set("drag.rate", on ? drag_.value() / s_.get("inertial_time") : 0.0);
+    if (q_.drag > 0 || q_.background > 0)
+      s_.set("drag.rate", (on && q_.drag > 0 ? drag_.value() : q_.background) / s_.get("inertial_time"));
     if (q_.damping > 0) s_.set("rolling.damping_ratio", on ? q_.damping : 0.0);
     if (!on) drag_.restart();
     on_ = on && q_.any();

@@ -4,6 +4,8 @@
 // them get clear errors.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
@@ -163,10 +165,11 @@ TEST_CASE("quench: bad values and conflicting keys are named", "[quench][program
 
 namespace {
 
-// A stand-in Simulation whose equilibrium readings the test scripts, to drive StageQuench alone.
+// A stand-in Simulation whose equilibrium readings the test scripts, to drive StageQuench alone (not in
+// equilibrium unless the test says so).
 class ScriptedReadings final : public Simulation {
  public:
-  double kinetic = 1, stress = 1, phi = 0.4, drag = 0, beta = 0;
+  double equilibrium = 0, kinetic = 1, stress = 1, phi = 0.4, drag = 0, beta = 0;
   static constexpr double inertial_time = 4;
   void step(double) override {}
   void step_n(long) override {}
@@ -178,7 +181,7 @@ class ScriptedReadings final : public Simulation {
   std::size_t particle_count() const override { return 0; }
   const std::vector<VariableInfo>& variables() const override { return variables_; }
   double get(std::size_t k) const override {
-    const double values[] = {0.0, kinetic, stress, phi, inertial_time, drag, beta};   // never in equilibrium here
+    const double values[] = {equilibrium, kinetic, stress, phi, inertial_time, drag, beta};
     return values[k];
   }
   void set(std::size_t k, double value) override {
@@ -240,4 +243,49 @@ TEST_CASE("quench: a packing still compacting at its target pressure is not quen
   }
   CHECK(t.drag == q.drag / ScriptedReadings::inertial_time);
   CHECK(t.beta == q.damping);
+}
+
+TEST_CASE("quench: a background drag lies beneath the quench and leaves with the stage", "[quench]") {
+  constexpr double T = ScriptedReadings::inertial_time;
+  ScriptedReadings s;
+  QuenchSettings q;   // quench drag gamma T = 1
+  StageQuench quench(s, q.over(0.05));
+  CHECK(s.drag == 0.05 / T);   // from the stage's first step
+  for (int check = 0; check < 20; ++check) quench.in_equilibrium(100 * check);   // settled: quenched at the 20th
+  CHECK(s.drag == 1.0 / T);
+  s.equilibrium = 1;
+  CHECK_FALSE(quench.in_equilibrium(2000));   // the criteria hold: the quench goes, the background stays
+  CHECK(s.drag == 0.05 / T);
+  for (int check = 1; check < 5; ++check) CHECK_FALSE(quench.in_equilibrium(2000 + 100 * check));
+  CHECK(quench.in_equilibrium(2500));   // confirmed over 5 checks beneath the background drag
+  quench.end();
+  CHECK(s.drag == 0.0);
+  // Without a quench the background drag alone stays throughout the stage.
+  ScriptedReadings t;
+  QuenchSettings none;
+  none.drag = 0;
+  StageQuench background_only(t, none.over(0.05));
+  for (int check = 0; check < 40; ++check) background_only.in_equilibrium(100 * check);
+  CHECK(t.drag == 0.05 / T);
+  background_only.end();
+  CHECK(t.drag == 0.0);
+}
+
+TEST_CASE("quench: the programme's background drag acts in its stages under pressure only", "[quench][programme]") {
+  auto scene = type1_packing(12, 3, 1.0, 0.0, 200000);
+  scene.set_value("programme.background_drag", "0.05");
+  auto s = Simulation::create(scene);
+  double least = 1e300;
+  const auto stages = run_programme(*s, ProgrammeSettings::from_scene(scene), {},
+                                    [&](const StageRecord&, long) { least = std::min(least, s->get("drag.rate")); });
+  REQUIRE(stages.size() == 1);
+  CHECK(stages[0].reached);
+  CHECK(least == Approx(0.05 / s->get("inertial_time")).epsilon(1e-12));   // never below it in the stage
+  CHECK(s->get("drag.rate") == 0.0);                                       // gone with the programme
+  // A drag kept on throughout cannot also be the programme's background.
+  auto dragging = type1_packing(12, 3, 0.0, 0.0, 1000);
+  dragging.set_value("drag.rate", "0.5");
+  dragging.set_value("programme.background_drag", "0.05");
+  CHECK_THROWS_WITH(ProgrammeSettings::from_scene(dragging),
+                    Catch::Contains("drag.rate") && Catch::Contains("programme.background_drag"));
 }
