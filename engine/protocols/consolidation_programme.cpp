@@ -25,7 +25,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   // The rolling dashpot belongs to the consolidation law; the drag serves any law.
   p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
   p.quench.drag = scene.real("programme.quench_drag");
-  p.background_drag = scene.real("programme.background_drag");
+  p.quench.background = scene.real("programme.background_drag");
   p.quench.drag_min = scene.real("programme.quench_drag_min");
   p.quench.patience = scene.integer("programme.quench_patience");
   p.quench.settle_ratio = scene.real("programme.settle_ratio");
@@ -45,7 +45,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   };
   refuse_both("rolling.damping_ratio", "rolling dashpot", "programme.quench_damping", p.quench.damping);
   refuse_both("drag.rate", "drag", "programme.quench_drag", p.quench.drag);
-  refuse_both("drag.rate", "drag", "programme.background_drag", p.background_drag);
+  refuse_both("drag.rate", "drag", "programme.background_drag", p.quench.background);
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
@@ -128,7 +128,9 @@ class Runner {
 
   void equilibrate(const std::string& phase, double target) {
     s_.set("cell.pressure", target);
-    StageQuench quench(s_, p_.quench.over(target > 0 ? p_.background_drag : 0.0));
+    QuenchSettings q = p_.quench;
+    if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
+    StageQuench quench(s_, q);
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();

@@ -28,7 +28,6 @@ struct ProgrammeSettings {
   long stage_budget = 2'000'000;      // steps per stage
   long aggregation_budget = 20'000'000;
   QuenchSettings quench;              // the drag (and rolling dashpot) switched on once a stage has settled
-  double background_drag = 0;         // gamma T of the drag beneath the quench in the stages under pressure
 
   static ProgrammeSettings from_scene(const Scene& scene);
 };

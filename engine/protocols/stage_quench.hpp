@@ -26,7 +26,7 @@ struct QuenchSettings {
   // 5-40 T); a stage of seed 4 at P* = 0.01 that the rolling dashpot alone left ringing for 7 million
   // steps reached equilibrium 300,000 steps into the quench with gamma T = 0.5 or 2. 0: no drag.
   double drag = 1.0;
-  double background = 0.0;   // gamma T of the drag while the quench is off (0: none; in stages the programme says)
+  double background = 0.0;   // gamma T of the drag while the quench is off (0: none; the programme's stages under pressure)
   double drag_min = 0.125;   // the drag steps down to this (gamma T) while it holds a creep back ...
   long patience = 1000;      // ... judged over windows of this many checks (0: never)
   // beta of the rolling dashpot, on top of the drag (the quench of earlier versions); 0: not used.
@@ -39,12 +39,6 @@ struct QuenchSettings {
   long confirm_checks = 5;     // consecutive checks the criteria must hold for the stage to be in equilibrium
 
   bool any() const { return drag > 0 || damping > 0; }
-  // This quench with the background drag (gamma T) beneath it.
-  QuenchSettings over(double background_drag) const {
-    QuenchSettings q = *this;
-    q.background = background_drag;
-    return q;
-  }
 };
 
 class StageQuench {

@@ -249,7 +249,8 @@ TEST_CASE("quench: a background drag lies beneath the quench and leaves with the
   constexpr double T = ScriptedReadings::inertial_time;
   ScriptedReadings s;
   QuenchSettings q;   // quench drag gamma T = 1
-  StageQuench quench(s, q.over(0.05));
+  q.background = 0.05;
+  StageQuench quench(s, q);
   CHECK(s.drag == 0.05 / T);   // from the stage's first step
   for (int check = 0; check < 20; ++check) quench.in_equilibrium(100 * check);   // settled: quenched at the 20th
   CHECK(s.drag == 1.0 / T);
@@ -263,8 +264,8 @@ TEST_CASE("quench: a background drag lies beneath the quench and leaves with the
   // Without a quench the background drag alone stays throughout the stage.
   ScriptedReadings t;
   QuenchSettings none;
-  none.drag = 0;
-  StageQuench background_only(t, none.over(0.05));
+  none.drag = 0, none.background = 0.05;
+  StageQuench background_only(t, none);
   for (int check = 0; check < 40; ++check) background_only.in_equilibrium(100 * check);
   CHECK(t.drag == 0.05 / T);
   background_only.end();
