@@ -8,9 +8,11 @@ models/consolidation-rr.toml) and each sample seed (1..samples unless --first-se
 `grains consolidate` (preparation, loading to P* = 13.33, unloading), `--jobs` samples at a time (Dask, one thread each unless --threads
 says otherwise). A sample whose stage table already exists in --out is not run again, so an interrupted
 campaign resumes. Then it fits each sample's loading branch (runner/consolidation_fit.py) and prints
-Phi and z at the first loading stage (P* = 0.01), lambda and Phimax, as mean +- sample standard deviation,
-against the paper's values (physics.md section 9 table). A value passes when the mean lies within twice
-the paper's error bar (where the paper gives none, within 2 % for Phi and 5 % for z and lambda). The
+Phi and z at the first loading stage (P* = 0.01), lambda and Phimax, and the fractal dimension d_F of the
+density correlations at P* = 0 and 0.01 (runner/density_correlations.py, from each sample's HDF5 file), as
+mean +- sample standard deviation, against the paper's values (physics.md section 9 table and the paper's
+section IV). A value passes when the mean lies within twice the paper's error bar (where the paper gives
+none, within 2 % for Phi and 5 % for z, lambda and d_F). The
 table goes to OUT/summary.md and a plot of every sample's Phi(P*) to OUT/campaign.png.
 
 With --report nothing is run: the summary is made from the tables already in --out, the finished ones and
@@ -28,14 +30,19 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import fit_crossover, fit_regime_two  # noqa: E402
+from density_correlations import analyse, loading_frame, read_frames  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # value, error bar (None: the paper gives only "about" or no bar)
+# d_F: fractal dimension of the density correlations at P* = 0 and 0.01 (paper, section IV: 1.52 with
+# rolling resistance at both; about 1.9 without, with blob sizes behaving "similarly" under load)
 PAPER = {
-    "consolidation": {"phi_0.01": (0.472, 0.008), "z_0.01": (3.1, None), "lambda": (0.349, 0.019), "phi_max": (0.7808, None)},
-    "consolidation-rr": {"phi_0.01": (0.524, 0.008), "z_0.01": (3.0, None), "lambda": (0.194, 0.004), "phi_max": (0.7745, None)},
+    "consolidation": {"phi_0.01": (0.472, 0.008), "z_0.01": (3.1, None), "lambda": (0.349, 0.019), "phi_max": (0.7808, None),
+                      "d_F_0": (1.9, None), "d_F_0.01": (1.9, None)},
+    "consolidation-rr": {"phi_0.01": (0.524, 0.008), "z_0.01": (3.0, None), "lambda": (0.194, 0.004), "phi_max": (0.7745, None),
+                         "d_F_0": (1.52, None), "d_F_0.01": (1.52, None)},
 }
-RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02}
+RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02, "d_F_0": 0.05, "d_F_0.01": 0.05}
 
 
 def consolidate(grains, scene_file, overrides, stem, label):
@@ -106,13 +113,31 @@ def summarise(table):
         result.update({"lambda": crossover["lambda"], "phi_max": crossover["phi_max"]})
     except (ValueError, RuntimeError) as error:   # too few equilibrated stages, or no convergence
         print(f"  {table.name}: no fit ({error})", flush=True)
+    result.update(fractal_dimensions(table))
     return result
+
+
+def fractal_dimensions(table):
+    """d_F of the sample's snapshots at P* = 0 and 0.01 (runner/density_correlations.py, default fit),
+    from the HDF5 file beside its table; NaN where the file or the stage is missing or unreadable (a
+    sample still running)."""
+    h5 = table.parent / (table.name.split(".")[0] + ".h5")
+    found = {"d_F_0": math.nan, "d_F_0.01": math.nan}
+    try:
+        positions, radii, edges, p_star, _ = read_frames(h5)
+    except (OSError, KeyError, ValueError):
+        return found
+    for key, target in (("d_F_0", 0.0), ("d_F_0.01", 0.01)):
+        i = loading_frame(p_star, target)
+        if i is not None:
+            found[key] = analyse([(positions[i], radii[i], edges[i])])["d_F"]
+    return found
 
 
 def table_lines(scene, results):
     lines = []
     for key, (value, bar) in PAPER[scene].items():
-        x = np.array([r[key] for r in results], float)
+        x = np.array([r.get(key, math.nan) for r in results], float)
         x = x[np.isfinite(x)]
         if x.size == 0:
             lines.append(f"| {scene} | {key} | no sample | {value} | – |")

@@ -41,6 +41,9 @@ def test_first_loading_stage_is_reported_even_when_not_in_equilibrium(tmp_path):
     # The fits use the reached loading stages only and recover the synthetic curve's parameters (to the
     # resolution of the fit's P0* scan; with the missed rows lambda would be 0.68).
     assert abs(s["lambda"] - 0.3) < 0.01 and abs(s["phi_max"] - 0.78) < 0.003
+    # No HDF5 file beside the table: no fractal dimension, and the summary says so.
+    assert math.isnan(s["d_F_0"]) and math.isnan(s["d_F_0.01"])
+    assert any("| d_F_0 | no sample |" in l for l in campaign.table_lines("consolidation", [s]))
 
 
 def test_verdicts_use_twice_the_paper_bar(tmp_path):
@@ -70,3 +73,25 @@ def test_report_reads_unfinished_samples_and_skips_those_still_aggregating(tmp_p
     first["partial"] = True
     assert any("| samples whose programme had not finished | 1 of 1 |" in l
                for l in campaign.table_lines("consolidation", [first]))
+
+
+def test_fractal_dimensions_come_from_the_snapshots_beside_the_table(tmp_path):
+    """d_F at P* = 0 and 0.01 are the density-correlation fits of the stages file's frames at those
+    targets (an unfinished sample's table, SCENE-seedN.partial.csv, pairs with SCENE-seedN.h5)."""
+    from test_density_correlations import write_stages
+    import density_correlations as dc
+    rng = np.random.default_rng(6)
+    edge = np.array([150.0, 150.0])
+
+    def random_walks():   # 8 chains of 300 touching unit disks at random angles: a finite d_F
+        angles = rng.uniform(0, 2 * math.pi, (8, 300))
+        steps = np.stack([np.cos(angles), np.sin(angles)], axis=2)
+        return (rng.uniform(0, 150.0, (8, 1, 2)) + np.cumsum(steps, axis=1)).reshape(-1, 2)
+
+    chains = [random_walks() for _ in range(4)]
+    frames = [(c, np.full(len(c), 0.5), edge, p) for c, p in zip(chains, (0.02, 1e-4, 2e-8, 0.0101))]
+    write_stages(tmp_path / "consolidation-seed1.h5", frames)
+    found = campaign.fractal_dimensions(tmp_path / "consolidation-seed1.partial.csv")
+    for key, frame in (("d_F_0", 2), ("d_F_0.01", 3)):
+        expected = dc.analyse([frames[frame][:3]])["d_F"]
+        assert np.isfinite(expected) and found[key] == expected

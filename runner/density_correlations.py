@@ -1,0 +1,284 @@
+"""Density correlations of a disk packing (physics.md section 9; consolidation paper, section IV):
+the scattering intensity I(k), its fractal dimension d_F and the blob size xi.
+
+    python runner/density_correlations.py STAGES.h5 [--frames F ...] [-o intensity.png] [--table out.csv]
+
+STAGES is the HDF5 file of `grains consolidate` (one snapshot per stage, observables beside it), or
+any H5MD file of 2D disks. For each chosen frame (default: every stage up to P* = 1):
+  - the density field chi (1 inside a disk, 0 outside) is sampled on a periodic grid of spacing
+    a / --points-per-diameter (a: the largest diameter), at the grid points' centres;
+  - I(k) = |chi^(k)|^2 / A, chi^(k) = sum over the grid of chi e^(-i k.r) dA (A: the cell's area), is
+    averaged over directions in logarithmic shells of k;
+  - the fractal blob form I(k) = I0 [1 + (k xi / 2 pi)^2]^(-d_F / 2) is fitted to log I for
+    2 pi / L <= k <= --k-max (default pi / a): flat below the crossover 2 pi / xi, slope -d_F above it.
+    The paper fits the form of its "paper I", which its text does not give; this one has the paper's two
+    features (plateau below k = 2 pi / xi, power law k^-d_F for a << 2 pi / k << xi), so d_F is
+    comparable, while xi carries the form's own constant.
+The paper's values (1400 disks, type 2): d_F ~ 1.52-1.55 with rolling resistance at P* = 0 and 0.01
+(xi = 9.3 +- 0.4 a and 5.1 +- 0.2 a there), ~ 1.9 without; no fractal range left at P* = 1.
+"""
+import argparse
+import csv
+import math
+import pathlib
+import sys
+import warnings
+
+import numpy as np
+from scipy.optimize import OptimizeWarning, curve_fit
+
+
+def density_field(positions, radii, edges, spacing):
+    """chi on a periodic grid covering the cell [0, L_x) x [0, L_y): 1 where a grid point's centre
+    lies inside a disk. Returns chi (n_x by n_y) and the grid's actual spacings (L / n per axis)."""
+    edges = np.asarray(edges, float)
+    n = np.maximum(np.ceil(edges / spacing).astype(int), 1)
+    h = edges / n
+    chi = np.zeros(n, dtype=bool)
+    wrapped = np.mod(positions, edges)
+    for (x, y), r in zip(wrapped, radii):
+        ix = np.arange(math.floor((x - r) / h[0] - 0.5), math.ceil((x + r) / h[0] - 0.5) + 1)
+        iy = np.arange(math.floor((y - r) / h[1] - 0.5), math.ceil((y + r) / h[1] - 0.5) + 1)
+        dx = (ix + 0.5) * h[0] - x
+        dy = (iy + 0.5) * h[1] - y
+        inside = dx[:, None] ** 2 + dy[None, :] ** 2 <= r * r
+        chi[np.ix_(np.mod(ix, n[0]), np.mod(iy, n[1]))] |= inside
+    return chi, h
+
+
+def scattering_intensity(chi, h):
+    """|chi^(k)|^2 / A on the grid of wave vectors, with their moduli; k = 0 is left out."""
+    area_element = h[0] * h[1]
+    area = chi.size * area_element
+    amplitude = np.fft.fft2(chi.astype(float)) * area_element
+    intensity = np.abs(amplitude) ** 2 / area
+    kx = 2 * np.pi * np.fft.fftfreq(chi.shape[0], d=h[0])
+    ky = 2 * np.pi * np.fft.fftfreq(chi.shape[1], d=h[1])
+    k = np.hypot(kx[:, None], ky[None, :])
+    keep = k > 0
+    return k[keep], intensity[keep]
+
+
+def shell_average(k, intensity, k_min, k_max, shells_per_decade=10):
+    """Mean I in logarithmic shells of k between k_min and k_max, with the number of wave vectors in
+    each; empty shells are dropped. Returns the shells' mean k, mean I and counts."""
+    bounds = np.logspace(math.log10(k_min), math.log10(k_max),
+                         max(int(round(shells_per_decade * math.log10(k_max / k_min))), 1) + 1)
+    which = np.digitize(k, bounds) - 1
+    inside = (which >= 0) & (which < len(bounds) - 1)
+    counts = np.bincount(which[inside], minlength=len(bounds) - 1)
+    k_sum = np.bincount(which[inside], weights=k[inside], minlength=len(bounds) - 1)
+    i_sum = np.bincount(which[inside], weights=intensity[inside], minlength=len(bounds) - 1)
+    full = counts > 0
+    return k_sum[full] / counts[full], i_sum[full] / counts[full], counts[full]
+
+
+def blob_form(k, log_i0, d_f, log_xi):
+    """log I of the fractal blob form I0 [1 + (k xi / 2 pi)^2]^(-d_F / 2)."""
+    return log_i0 - 0.5 * d_f * np.log1p((k * np.exp(log_xi) / (2 * np.pi)) ** 2)
+
+
+def fit_blob(k, intensity, counts, k_min, k_max):
+    """Fit the blob form to the shells' log I over k_min <= k <= k_max. A single wave vector's intensity
+    scatters like an exponential variable (relative spread 1) and chi^(-k) repeats chi^(k), so a shell's
+    mean of n wave vectors has a relative spread sqrt(2 / n): the fit's weights. Returns d_F, xi, I0 and
+    the standard errors of d_F and xi from the fit's covariance. When the crossover 2 pi / xi does not
+    lie below k_max / 2 (less than an octave of power law inside the range: a flat, homogeneous signal)
+    there is no fractal range: d_F and xi are NaN and I0 is the mean level."""
+    sel = (k >= k_min * (1 - 1e-12)) & (k <= k_max * (1 + 1e-12)) & (intensity > 0)
+    if sel.sum() < 4:
+        raise ValueError(f"blob fit: {sel.sum()} shells with {k_min:.3g} <= k <= {k_max:.3g}; need at least 4")
+    x, y, sigma = k[sel], np.log(intensity[sel]), np.sqrt(2.0 / counts[sel])
+    start = (y[0], 1.5, math.log(2 * np.pi / math.sqrt(x[0] * x[-1])))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OptimizeWarning)
+        params, cov = curve_fit(blob_form, x, y, p0=start, sigma=sigma, absolute_sigma=False, maxfev=20000)
+    errors = np.sqrt(np.diag(cov))
+    xi = math.exp(params[2])
+    if not (2 * np.pi / xi < k_max / 2 and np.all(np.isfinite(errors)) and 0 < params[1] < 3):
+        level = math.exp(np.average(y, weights=1 / sigma ** 2))
+        return {"fractal_range": False, "d_F": math.nan, "d_F_error": math.nan, "xi": math.nan,
+                "xi_error": math.nan, "I0": level}
+    return {"fractal_range": True, "d_F": params[1], "d_F_error": errors[1], "xi": xi,
+            "xi_error": xi * errors[2], "I0": math.exp(params[0])}
+
+
+def wave_vectors(positions, radii, edges, points_per_diameter=8):
+    """(k, I) of every wave vector of one 2D configuration, k = 0 left out; a is the largest diameter."""
+    a = 2 * float(np.max(radii))
+    chi, h = density_field(positions, radii, edges, a / points_per_diameter)
+    return scattering_intensity(chi, h)
+
+
+def analyse(configurations, points_per_diameter=8, k_max=None):
+    """I(k) in shells, pooled over configurations (positions, radii, edges) of one state, and the blob
+    fit over 2 pi / L <= k <= k_max (default 2 pi / a; L: the largest cell edge, a: the largest
+    diameter). Lengths in the input's units. Returns the shells (k, I, counts), the fit, a, L."""
+    ks, intensities = [], []
+    for positions, radii, edges in configurations:
+        k, intensity = wave_vectors(positions, radii, edges, points_per_diameter)
+        ks.append(k)
+        intensities.append(intensity)
+    a = 2 * max(float(np.max(radii)) for _, radii, _ in configurations)
+    length = max(float(np.max(edges)) for _, _, edges in configurations)
+    k_max = 2 * np.pi / a if k_max is None else k_max
+    k_top = min(2 * k_max, np.pi * points_per_diameter / a)   # shells to twice k_max, below the grid's Nyquist limit
+    k_s, i_s, c_s = shell_average(np.concatenate(ks), np.concatenate(intensities), 2 * np.pi / length, k_top)
+    fit = fit_blob(k_s, i_s, c_s, 2 * np.pi / length, k_max)
+    return {"k": k_s, "I": i_s, "counts": c_s, "a": a, "L": length, "k_max": k_max, **fit}
+
+
+def read_frames(path):
+    """Snapshots of an H5MD file: positions, radii and cell edges per frame, with each frame's reduced
+    pressure and solid fraction where the file records them (else NaN)."""
+    import h5py
+    with h5py.File(path, "r") as f:
+        group = f["particles/all"]
+        positions = group["position/value"][()]
+        if positions.ndim != 3 or positions.shape[2] != 2:
+            raise ValueError(f"{path}: particles/all/position has shape {positions.shape}; density correlations need 2D disks")
+        radii = group["radius/value"][()] if "value" in group["radius"] else np.broadcast_to(group["radius"][()], positions.shape[:2])
+        edges = group["box/edges/value"][()] if "value" in group["box/edges"] else np.broadcast_to(group["box/edges"][()], (len(positions), 2))
+        steps = group["position/step"][()]
+
+        def observable(name):
+            if f"observables/{name}/value" not in f:
+                return np.full(len(steps), np.nan)
+            obs_steps, values = f[f"observables/{name}/step"][()], f[f"observables/{name}/value"][()]
+            lookup = dict(zip(obs_steps.tolist(), values.tolist()))
+            return np.array([lookup.get(s, np.nan) for s in steps.tolist()])
+
+        p_star, phi = observable("pressure_reduced"), observable("solid_fraction")
+    return positions, radii, edges, stage_targets(path, p_star), phi
+
+
+def stage_targets(path, measured):
+    """The programme's target P* per frame, from the stage table beside the file (`grains consolidate`
+    writes STEM.h5 and STEM.csv: frame 0 is the initial state, frame s + 1 the end of stage s), so a
+    stage that ended short of its target is still found by it; the measured P* where there is no table."""
+    table = path.with_suffix(".csv")
+    if not table.is_file():
+        return measured
+    with open(table, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if len(rows) + 1 != len(measured) or "target_pressure" not in (rows[0] if rows else {}):
+        return measured
+    targets = np.array([float("nan")] + [float(row["target_pressure"]) for row in rows])
+    return np.where(np.isfinite(targets), targets, measured)
+
+
+def loading_frame(p_star, target):
+    """Index of the loading-branch frame (up to the largest P*) at the target reduced pressure: for
+    target 0, the last frame under |P*| < 1e-3 before loading starts (the equilibrated P* = 0 state of a
+    type-2 programme); otherwise the frame nearest in ln P*, within a factor 10^(1/16) (half a stage of
+    the programme). None if there is none."""
+    top = 1 + int(np.nanargmax(p_star[1:]))   # frame 0 is the initial gas
+    if target == 0:
+        relaxed = [i for i in range(1, top + 1) if abs(p_star[i]) < 1e-3]
+        return relaxed[-1] if relaxed else None
+    candidates = [i for i in range(1, top + 1) if p_star[i] > 0]
+    if not candidates:
+        return None
+    best = min(candidates, key=lambda i: abs(math.log(p_star[i] / target)))
+    return best if abs(math.log(p_star[best] / target)) <= math.log(10) / 16 else None
+
+
+def plot(results, out, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    colours = plt.cm.viridis(np.linspace(0, 0.85, len(results)))
+    for (label, r), colour in zip(results, colours):
+        a = r["a"]
+        fit_k = r["k"][r["k"] <= r["k_max"] * (1 + 1e-12)]
+        if r["fractal_range"]:
+            label = f"{label}: d_F = {r['d_F']:.2f}, xi = {r['xi'] / a:.1f} a"
+            fitted = np.exp(blob_form(fit_k, math.log(r["I0"]), r["d_F"], math.log(r["xi"])))
+            ax.axvline(2 * np.pi * a / r["xi"], color=colour, ls=":", lw=0.8)
+        else:
+            label = f"{label}: no fractal range"
+            fitted = np.full(len(fit_k), r["I0"])
+        ax.plot(r["k"] * a, r["I"] / a ** 2, "o", ms=3, color=colour, label=label)
+        ax.plot(fit_k * a, fitted / a ** 2, color=colour, lw=1.2)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("k a  (a: largest diameter)")
+    ax.set_ylabel("I(k) / a^2")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Scattering intensity I(k), fractal dimension d_F and blob size xi of 2D disk packings (physics.md section 9).")
+    ap.add_argument("h5", nargs="+", help="stages files of `grains consolidate` (samples of one programme: their I(k) are pooled)")
+    ap.add_argument("--pressures", type=float, nargs="+", default=[0.0, 0.01, 0.178, 1.0],
+                    help="reduced pressures of the loading branch to analyse (default: 0 0.01 0.178 1, the paper's)")
+    ap.add_argument("--points-per-diameter", type=int, default=8, help="grid points per largest diameter a (default 8)")
+    ap.add_argument("--k-max", type=float, default=2 * math.pi, help="largest k of the fit, in 1/a (default 2 pi)")
+    ap.add_argument("-o", "--out", help="plot file (PNG); default: beside the first input, <name>-intensity.png")
+    ap.add_argument("--table", help="CSV of the fits (default: beside the first input, <name>-intensity.csv)")
+    args = ap.parse_args(argv)
+    if args.points_per_diameter < 4:
+        ap.error(f"--points-per-diameter: {args.points_per_diameter}; need at least 4 grid points per diameter")
+    if not args.k_max > 0:
+        ap.error(f"--k-max: {args.k_max}; must be positive")
+    if any(not (p >= 0) for p in args.pressures):
+        ap.error(f"--pressures: {args.pressures}; reduced pressures must be >= 0")
+    samples = []
+    for name in args.h5:
+        path = pathlib.Path(name)
+        if not path.is_file():
+            ap.error(f"h5: no file {path}")
+        try:
+            samples.append((path, *read_frames(path)))
+        except (OSError, KeyError, ValueError) as err:
+            ap.error(f"h5: {path}: not a 2D H5MD stages file ({err})")
+    results, rows = [], []
+    for target in args.pressures:
+        states = []   # (configuration, Phi) of each sample at this stage
+        for path, positions, radii, edges, p_star, phi in samples:
+            i = loading_frame(p_star, target)
+            if i is None:
+                print(f"{path.name}: no loading stage at P* = {target:g}; left out", file=sys.stderr)
+                continue
+            states.append(((positions[i], radii[i], edges[i]), phi[i]))
+        if not states:
+            continue
+        configurations = [c for c, _ in states]
+        a = 2 * max(float(np.max(radii)) for _, radii, _ in configurations)
+        r = analyse(configurations, args.points_per_diameter, args.k_max / a)
+        results.append((f"P* = {target:g}", r))
+        # the samples' own fits, for the spread between samples beside the pooled fit's error
+        single = [analyse([c], args.points_per_diameter, args.k_max / a)["d_F"] for c in configurations] if len(states) > 1 else []
+        finite = [d for d in single if np.isfinite(d)]   # samples with no fractal range of their own are left out
+        spread = float(np.std(finite, ddof=1)) if len(finite) > 1 else math.nan
+        rows.append({"P_star": target, "samples": len(states), "phi_mean": float(np.mean([p for _, p in states])),
+                     "fractal_range": r["fractal_range"], "d_F": r["d_F"], "d_F_error": r["d_F_error"],
+                     "d_F_sample_sd": spread, "xi_over_a": r["xi"] / a, "xi_error_over_a": r["xi_error"] / a})
+        if r["fractal_range"]:
+            print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  d_F {r['d_F']:.3f} +- {r['d_F_error']:.3f}"
+                  + (f" (sd of the samples' own fits {spread:.3f})" if len(single) > 1 else "")
+                  + f"  xi/a {r['xi'] / a:.2f} +- {r['xi_error'] / a:.2f}")
+        else:
+            print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  no fractal range (flat I(k))")
+    if not rows:
+        ap.error(f"--pressures: none of {args.pressures} is a loading stage of the input")
+    stem = samples[0][0].with_suffix("")
+    table = pathlib.Path(args.table) if args.table else stem.parent / f"{stem.name}-intensity.csv"
+    with open(table, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    out = pathlib.Path(args.out) if args.out else stem.parent / f"{stem.name}-intensity.png"
+    first = samples[0][0].name + (f" and {len(samples) - 1} more" if len(samples) > 1 else "")
+    plot(results, out, f"Scattering intensity of {first}, pooled\nlines: blob fits; dotted: 2 pi / xi")
+    print(f"wrote {table} and {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

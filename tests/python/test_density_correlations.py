@@ -1,0 +1,145 @@
+"""Density correlations (physics.md section 9): the scattering intensity of a single disk against its
+closed form, the fractal dimension of objects whose dimension is known, no fractal range in a
+homogeneous packing, and the command on a stages file with its errors for bad input."""
+import csv
+import math
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from scipy.special import j1
+
+from conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "runner"))
+import density_correlations as dc  # noqa: E402
+
+
+def test_single_disk_matches_its_fourier_transform():
+    """|chi^(k)|^2 / A of one disk of radius R is (2 pi R^2 J1(kR) / (kR))^2 / A. Sampled at 16 points
+    per diameter the grid keeps it within 5 % for k R < 2 (and the area within 1 %); at 32 points the
+    worst error falls at least threefold."""
+    radius, edge = 0.5, 20.0
+    worst = []
+    for points in (16, 32):
+        chi, h = dc.density_field(np.array([[7.3, 11.1]]), np.array([radius]), np.array([edge, edge]), 2 * radius / points)
+        assert chi.sum() * h[0] * h[1] == pytest.approx(math.pi * radius ** 2, rel=0.01)
+        k, intensity = dc.scattering_intensity(chi, h)
+        x = k * radius
+        exact = (2 * math.pi * radius ** 2 * j1(x) / x) ** 2 / edge ** 2
+        low = x < 2.0
+        assert low.sum() > 300
+        worst.append(np.max(np.abs(intensity[low] / exact[low] - 1)))
+    assert worst[0] < 0.05
+    assert worst[1] < worst[0] / 3
+
+
+def test_disks_across_the_periodic_boundary_are_wrapped():
+    """A disk straddling a corner of the cell is the same set of grid points as the disk moved inside."""
+    corner, _ = dc.density_field(np.array([[9.9, -0.2]]), np.array([0.5]), np.array([10.0, 10.0]), 1 / 16)
+    shifted, _ = dc.density_field(np.array([[4.9, 4.8]]), np.array([0.5]), np.array([10.0, 10.0]), 1 / 16)
+    assert corner.sum() == shifted.sum()
+    assert np.array_equal(np.roll(shifted, (80, -80), axis=(0, 1)), corner)   # 5 = 80 grid spacings
+
+
+def rods(rng, count, length, edge):
+    """Straight chains of touching unit disks, random positions and directions."""
+    out = []
+    for _ in range(count):
+        angle = rng.uniform(0, 2 * math.pi)
+        out.append(rng.uniform(0, edge, 2) + np.outer(np.arange(length) - length / 2, [math.cos(angle), math.sin(angle)]))
+    return np.concatenate(out)
+
+
+def test_straight_chains_have_dimension_one():
+    """I(k) of rods of length l falls as k^-1 for 2 pi / l << k << 1 / a: d_F = 1."""
+    positions = rods(np.random.default_rng(2), 20, 60, 300.0)
+    fit = dc.analyse([(positions, np.full(len(positions), 0.5), np.array([300.0, 300.0]))], 8, k_max=1.0)
+    assert fit["fractal_range"]
+    assert fit["d_F"] == pytest.approx(1.0, abs=0.05)
+
+
+def test_fit_recovers_the_blob_form():
+    """Shells drawn from the blob form with the scatter of a finite number of wave vectors: the fit
+    returns d_F and xi within three of its standard errors, which are below 0.05 and 20 %."""
+    rng = np.random.default_rng(5)
+    k = np.logspace(math.log10(0.15), math.log10(6.3), 16)
+    counts = np.round(200 * k ** 2).astype(int) + 4
+    d_f, xi = 1.55, 9.3
+    mean = np.exp(dc.blob_form(k, math.log(2.0), d_f, math.log(xi)))
+    noisy = mean * np.array([rng.exponential(1.0, max(n // 2, 1)).mean() for n in counts])
+    fit = dc.fit_blob(k, noisy, counts, k[0], k[-1])
+    assert fit["fractal_range"]
+    assert fit["d_F_error"] < 0.05 and fit["xi_error"] < 0.2 * fit["xi"]
+    assert abs(fit["d_F"] - d_f) < 3 * fit["d_F_error"]
+    assert abs(fit["xi"] - xi) < 3 * fit["xi_error"]
+
+
+def random_sequential_disks(rng, count, edge, radius):
+    """Disks added one by one at random positions where they overlap none placed before (periodic)."""
+    placed = np.empty((0, 2))
+    while len(placed) < count:
+        trial = rng.uniform(0, edge, 2)
+        d = placed - trial
+        d -= edge * np.round(d / edge)
+        if not len(placed) or np.min(np.einsum("ij,ij->i", d, d)) >= (2 * radius) ** 2:
+            placed = np.vstack([placed, trial])
+    return placed
+
+
+def test_a_homogeneous_packing_has_no_fractal_range():
+    """Disks placed at random without overlap (solid fraction 0.4) scatter flatly below k = 2 pi / a."""
+    edge, radius = 40.0, 0.5
+    count = int(0.4 * edge ** 2 / (math.pi * radius ** 2))
+    positions = random_sequential_disks(np.random.default_rng(3), count, edge, radius)
+    fit = dc.analyse([(positions, np.full(count, radius), np.array([edge, edge]))])
+    assert not fit["fractal_range"] and math.isnan(fit["d_F"])
+
+
+def write_stages(path, frames):
+    """A minimal stages file and its table as `grains consolidate` writes them: frame 0 the initial
+    state, frame s + 1 the end of stage s."""
+    steps = np.arange(len(frames)) * 1000
+    with h5py.File(path, "w") as f:
+        group = f.create_group("particles/all")
+        for name, values in (("position", [p for p, _, _, _ in frames]), ("radius", [r for _, r, _, _ in frames]),
+                             ("box/edges", [e for _, _, e, _ in frames])):
+            group[f"{name}/value"] = np.array(values)
+            group[f"{name}/step"] = steps
+        f["observables/pressure_reduced/value"] = np.array([p for *_, p in frames])
+        f["observables/pressure_reduced/step"] = steps
+        f["observables/solid_fraction/value"] = np.full(len(frames), 0.4)
+        f["observables/solid_fraction/step"] = steps
+    with open(path.with_suffix(".csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["stage", "target_pressure", "P_star"])
+        for s, (*_, p) in enumerate(frames[1:]):
+            writer.writerow([s, "nan" if s == 0 else [0.0, 0.01][s - 1], p])
+
+
+def test_command_writes_its_table_and_plot_and_names_bad_input(tmp_path):
+    rng = np.random.default_rng(4)
+    edge, radius = 40.0, 0.5
+    count = int(0.4 * edge ** 2 / (math.pi * radius ** 2))
+    frames = [(random_sequential_disks(rng, count, edge, radius), np.full(count, radius), np.array([edge, edge]), p)
+              for p in (0.02, 1e-4, 2e-8, 0.013)]   # gas, aggregated, relaxed at P* = 0, stage short of 0.01
+    stages = tmp_path / "sample.h5"
+    write_stages(stages, frames)
+    run = subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), str(stages),
+                          "--pressures", "0", "0.01"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    with open(tmp_path / "sample-intensity.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [float(r["P_star"]) for r in rows] == [0.0, 0.01]   # found by the table's targets
+    assert (tmp_path / "sample-intensity.png").stat().st_size > 10000
+    for args, message in ((["--points-per-diameter", "2"], "--points-per-diameter: 2"),
+                          (["--pressures", "-1"], "--pressures"),
+                          (["--pressures", "5"], "none of [5.0]")):
+        bad = subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), str(stages), *args],
+                             capture_output=True, text=True)
+        assert bad.returncode == 2 and message in bad.stderr, bad.stderr
+    missing = subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), str(tmp_path / "none.h5")],
+                             capture_output=True, text=True)
+    assert missing.returncode == 2 and "no file" in missing.stderr
