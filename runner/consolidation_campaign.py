@@ -13,7 +13,9 @@ density correlations at P* = 0 and 0.01 (runner/density_correlations.py, from ea
 mean +- sample standard deviation, against the paper's values (physics.md section 9 table and the paper's
 section IV). A value passes when the mean lies within twice the paper's error bar (where the paper gives
 none, within 2 % for Phi and 5 % for z, lambda and d_F). The
-table goes to OUT/summary.md and a plot of every sample's Phi(P*) to OUT/campaign.png.
+table goes to OUT/summary.md, a plot of every sample's Phi(P*) to OUT/campaign.png, and the finished
+samples' scattering intensity I(k) at P* = 0, 0.01, 0.178 and 1, pooled per scene, to
+OUT/SCENE-intensity.png and .csv.
 
 With --report nothing is run: the summary is made from the tables already in --out, the finished ones and
 the unfinished ones (SCENE-seedN.partial.csv, written stage by stage), which the table marks as partial.
@@ -30,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import fit_crossover, fit_regime_two  # noqa: E402
+import density_correlations  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -106,7 +109,8 @@ def summarise(table):
     result = {"phi_0.01": float(first["phi"]), "z_0.01": float(first["coordination"]),
               "first_reached": first["reached"] == "1", "lambda": math.nan, "phi_max": math.nan,
               "unreached": sum(r["reached"] != "1" for r in rows if r["phase"] != "aggregation"), "p": p, "phi": phi,
-              "all_p": np.array([float(r["P_star"]) for r in loading]), "all_phi": np.array([float(r["phi"]) for r in loading])}
+              "all_p": np.array([target_pressure(r) for r in loading]), "all_phi": np.array([float(r["phi"]) for r in loading]),
+              "all_reached": np.array([r["reached"] == "1" for r in loading])}
     try:
         regime2 = fit_regime_two(p, phi)
         crossover = fit_crossover(p, phi, guess=(1 / regime2["phi0"], regime2["lambda"], phi.max() * 1.01, 1.0))
@@ -115,6 +119,13 @@ def summarise(table):
         print(f"  {table.name}: no fit ({error})", flush=True)
     result.update(fractal_dimensions(table))
     return result
+
+
+def target_pressure(row):
+    """The stage's target P* (so that the plot puts a stage short of its target where the programme
+    meant it); the measured P* in tables without the column."""
+    target = float(row.get("target_pressure") or "nan")
+    return target if math.isfinite(target) else float(row["P_star"])
 
 
 def fractal_dimensions(table):
@@ -163,10 +174,10 @@ def plot(summaries, path):
     colours = {"consolidation": "tab:blue", "consolidation-rr": "tab:red"}
     for scene, results in summaries.items():
         for k, r in enumerate(results):
-            label = f"{scene} (open: not in equilibrium)" if k == 0 else None
+            label = f"{scene} (open: not in equilibrium, at its target P*)" if k == 0 else None
             ax.plot(r["all_p"], r["all_phi"], "-", color=colours.get(scene), alpha=0.4, lw=1)
             ax.plot(r["p"], r["phi"], "o", color=colours.get(scene), ms=3, label=label)
-            missed = ~np.isin(r["all_p"], r["p"])
+            missed = ~r["all_reached"]
             ax.plot(r["all_p"][missed], r["all_phi"][missed], "o", mfc="none", color=colours.get(scene), ms=4)
         value, bar = PAPER[scene]["phi_0.01"]
         ax.errorbar([0.01], [value], yerr=[2 * bar], fmt="s", color=colours.get(scene), capsize=4, mfc="white",
@@ -236,6 +247,18 @@ def main():
     (out / "summary.md").write_text(text + "\n")
     plot(summaries, out / "campaign.png")
     print(f"wrote {out / 'summary.md'} and {out / 'campaign.png'}")
+    for scene in scenes:   # the samples' density correlations, pooled: OUT/SCENE-intensity.{csv,png}
+        samples = []
+        for seed in seeds:
+            h5 = out / f"{scene}-seed{seed}.h5"
+            if (scene, seed) in tables and (scene, seed) not in partial and h5.is_file():
+                try:
+                    samples.append((h5, *read_frames(h5)))
+                except (OSError, KeyError, ValueError) as error:
+                    print(f"  {h5.name}: no density correlations ({error})", flush=True)
+        if samples:
+            density_correlations.report(samples, [0.0, 0.01, 0.178, 1.0], out=out / f"{scene}-intensity.png",
+                                        table=out / f"{scene}-intensity.csv")
 
 
 if __name__ == "__main__":

@@ -237,8 +237,20 @@ def main(argv=None):
             samples.append((path, *read_frames(path)))
         except (OSError, KeyError, ValueError) as err:
             ap.error(f"h5: {path}: not a 2D H5MD stages file ({err})")
+    rows = report(samples, args.pressures, args.points_per_diameter, args.k_max,
+                  pathlib.Path(args.out) if args.out else None, pathlib.Path(args.table) if args.table else None)
+    if not rows:
+        ap.error(f"--pressures: none of {args.pressures} is a loading stage of the input")
+    return 0
+
+
+def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=None, table=None):
+    """Pooled fits of the samples (path, positions, radii, edges, P*, Phi: read_frames' arrays) at each
+    loading-branch pressure: prints a line each, writes the table (CSV) and the plot of I(k) (default:
+    beside the first sample, <name>-intensity.csv and .png) and returns the table's rows ([] and
+    nothing written when no sample has any of the pressures). k_max in units of 1/a."""
     results, rows = [], []
-    for target in args.pressures:
+    for target in pressures:
         states = []   # (configuration, Phi) of each sample at this stage
         for path, positions, radii, edges, p_star, phi in samples:
             i = loading_frame(p_star, target)
@@ -250,10 +262,10 @@ def main(argv=None):
             continue
         configurations = [c for c, _ in states]
         a = 2 * max(float(np.max(radii)) for _, radii, _ in configurations)
-        r = analyse(configurations, args.points_per_diameter, args.k_max / a)
+        r = analyse(configurations, points_per_diameter, k_max / a)
         results.append((f"P* = {target:g}", r))
         # the samples' own fits, for the spread between samples beside the pooled fit's error
-        single = [analyse([c], args.points_per_diameter, args.k_max / a)["d_F"] for c in configurations] if len(states) > 1 else []
+        single = [analyse([c], points_per_diameter, k_max / a)["d_F"] for c in configurations] if len(states) > 1 else []
         finite = [d for d in single if np.isfinite(d)]   # samples with no fractal range of their own are left out
         spread = float(np.std(finite, ddof=1)) if len(finite) > 1 else math.nan
         rows.append({"P_star": target, "samples": len(states), "phi_mean": float(np.mean([p for _, p in states])),
@@ -266,18 +278,18 @@ def main(argv=None):
         else:
             print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  no fractal range (flat I(k))")
     if not rows:
-        ap.error(f"--pressures: none of {args.pressures} is a loading stage of the input")
+        return rows
     stem = samples[0][0].with_suffix("")
-    table = pathlib.Path(args.table) if args.table else stem.parent / f"{stem.name}-intensity.csv"
+    table = table or stem.parent / f"{stem.name}-intensity.csv"
     with open(table, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    out = pathlib.Path(args.out) if args.out else stem.parent / f"{stem.name}-intensity.png"
+    out = out or stem.parent / f"{stem.name}-intensity.png"
     first = samples[0][0].name + (f" and {len(samples) - 1} more" if len(samples) > 1 else "")
     plot(results, out, f"Scattering intensity of {first}, pooled\nlines: blob fits; dotted: 2 pi / xi")
     print(f"wrote {table} and {out}")
-    return 0
+    return rows
 
 
 if __name__ == "__main__":

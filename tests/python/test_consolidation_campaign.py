@@ -95,3 +95,11 @@ def test_fractal_dimensions_come_from_the_snapshots_beside_the_table(tmp_path):
     for key, frame in (("d_F_0", 2), ("d_F_0.01", 3)):
         expected = dc.analyse([frames[frame][:3]])["d_F"]
         assert np.isfinite(expected) and found[key] == expected
+
+
+def test_plot_puts_a_stage_at_its_target_pressure():
+    """A stage that ended short of its target (P* = 0.0162 measured for 0.01) is drawn at 0.01; the
+    aggregation (no target) and tables without the column use the measured P*."""
+    assert campaign.target_pressure({"target_pressure": "0.01", "P_star": "0.0162"}) == 0.01
+    assert campaign.target_pressure({"target_pressure": "nan", "P_star": "0.0011"}) == 0.0011
+    assert campaign.target_pressure({"P_star": "0.02"}) == 0.02
