@@ -103,7 +103,7 @@ int run_scene(const RunOptions& opt) {
   // Whatever of these the scene's modules provide.
   for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds",
                            "gravity_potential_energy", "virial_ratio", "time_over_free_fall", "cluster_count",
-                           "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension",
+                           "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension", "normalised_stiffness",
                            "collision_count", "adhesive_collision_count", "adhesive_collision_fraction",
                            "open_collision_count"}) {
     try {

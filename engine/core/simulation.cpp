@@ -748,6 +748,13 @@ class SimulationImpl final : public Simulation {
     c /= M;
     for (std::size_t i = 0; i < P.size(); ++i) R0 = std::max(R0, (P.position[i] - c).norm());
     free_fall_time_ = std::sqrt(R0 * R0 * R0 / (scene.real("gravity.G") * M));
+    // Gravitational stiffness scale k_g = G m^2 / (4 R^3) (physics.md section 2) of the mean grain: the
+    // contact-point attraction G m^2 / (2R)^2 of two such grains over a deformation R.
+    double mean_radius = 0;
+    for (std::size_t i = 0; i < P.size(); ++i) mean_radius += P.radius[i];
+    mean_radius /= double(P.size());
+    const double mean_mass = M / double(P.size());
+    gravity_stiffness_ = scene.real("gravity.G") * mean_mass * mean_mass / (4 * std::pow(mean_radius, 3));
   }
   ClusterStats clusters() const {
     const auto& P = sys_.particles;
@@ -844,6 +851,9 @@ class SimulationImpl final : public Simulation {
       out("time_over_free_fall", "", "t / t_ff");
       out("fractal_dimension", "", "mass-radius D_f of the largest cluster (NaN when it is too small)");
       out("aggregation_time", "s", "first time f_max >= analysis.aggregation_threshold, checked every analysis.every steps; NaN until then");
+      if (kn_ > 0)
+        out("normalised_stiffness", "", "k* = k_n / k_g, k_g = G m^2 / (4 R^3) of the mean grain (m, R), k_n the calibration's "
+                                        "(the lightest pair's in per-pair mode)");
     }
     if (network_) {
       describing_ = OutputGroup::network;
@@ -1066,6 +1076,7 @@ class SimulationImpl final : public Simulation {
         if (cs.label[i] == cs.largest) x.push_back(P.position[i]), r.push_back(P.radius[i]), m.push_back(P.mass[i]);
       o["fractal_dimension"] = fractal_dimension<D>(x, r, m);
       o["aggregation_time"] = aggregation_time_;
+      if (kn_ > 0) o["normalised_stiffness"] = kn_ / gravity_stiffness_;
     }
     if (collisions_) {
       const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
@@ -1115,7 +1126,7 @@ class SimulationImpl final : public Simulation {
   bool orient_ = true;   // particles.track_orientation
   double dt_ = 0, kn_ = 0, cn_ = 0;
   bool analysis_ = false;   // gravity scenes only
-  double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0;
+  double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0, gravity_stiffness_ = 0;
   long analysis_every_ = 100;
   bool network_ = false;   // adhesion scenes: contact-network outputs
   double attraction_ = 0, zero_force_ = 1e-5, network_mark_ = 0;

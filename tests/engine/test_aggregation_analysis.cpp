@@ -159,6 +159,9 @@ threads = 2
   CHECK(std::isnan(sim->get("aggregation_time")));
   CHECK(sim->get("virial_ratio") == 0.0);
   CHECK(sim->get("time_over_free_fall") == 0.0);
+  // k* = k_n / k_g: k_n = m* (pi^2 + ln^2 e) / t_c^2 with m* = 1/2, e = 0.1, t_c = 0.01; k_g = G m^2 / (4 R^3) = 2.
+  const double ln_e = std::log(0.1), pi = std::acos(-1.0);
+  CHECK(sim->get("normalised_stiffness") == Approx(0.5 * (pi * pi + ln_e * ln_e) / 1e-4 / 2.0).epsilon(1e-12));
   const double f0 = sim->get("largest_cluster_fraction");
 
   const auto start = std::chrono::steady_clock::now();

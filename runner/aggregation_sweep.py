@@ -1,0 +1,377 @@
+"""The aggregation paper's campaigns: the cold cloud of models/aggregation.toml swept over the contact
+damping ratio zeta and the normalised stiffness k* = k_n / k_g (physics.md sections 2, 8; not part of
+the test suite: minutes to an hour of run time).
+
+    python runner/aggregation_sweep.py [--damping Z ...] [--stiffness K ...] [--fixed-stiffness K]
+                                       [--fixed-damping auto|Z] [--map] [--seeds 1] [--jobs 2] [--out sweep]
+                                       [--set key=value ...] [--report]
+
+Three sweeps, each point a `grains run` of the scene to its end (3 t_ff) with its own seed(s):
+  - damping: zeta over --damping at k* = --fixed-stiffness (default: the scene's own, ~6.5e3);
+  - stiffness: k* over --stiffness at zeta = --fixed-damping; `auto` (default) takes, as the paper does,
+    the smallest swept zeta whose cloud ends as a dense aggregate (final N_c / N <= 0.05);
+  - with --map, every (zeta, k*) pair, for the map of the fractal dimension.
+zeta sets the restitution e = exp(-pi zeta / sqrt(1 - zeta^2)) (0 <= zeta < 1) and k* the contact
+duration t_c = sqrt(m* (pi^2 + ln^2 e) / (k* k_g)), m* = m / 2 and k_g = G m^2 / (4 R^3) of the scene's
+grains (one size), so that the calibration (physics.md section 2) gives k_n = k* k_g; every run's own
+k* (the `normalised_stiffness` observable) is checked against it. The time step stays t_c / n_c, so
+stiffer contacts cost more steps (about sqrt(k*)).
+
+Per point (median over seeds): t_agg / t_ff, final N_c / N and f_max, D_f of the largest cluster, the
+virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.csv, OUT/summary.md (the
+paper's qualitative findings, each with what the sweep shows), OUT/damping.png, OUT/stiffness.png and,
+with --map, OUT/map.png. A run whose output is complete is not run again, so an interrupted sweep
+resumes; --report runs nothing.
+"""
+import argparse
+import csv
+import math
+import os
+import pathlib
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SCENE = ROOT / "models" / "aggregation.toml"
+DAMPING = [0.0, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 0.9]
+STIFFNESS = [1e1, 1e2, 1e3, 1e4, 1e5, 1e6]
+DENSE = 0.05   # final N_c / N at or below which the cloud counts as one dense aggregate
+
+
+def restitution(zeta):
+    """e of the linear spring-dashpot with damping ratio zeta < 1 (physics.md section 2, inverted)."""
+    return math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
+
+
+def damping_ratio(e):
+    return -math.log(e) / math.sqrt(math.pi ** 2 + math.log(e) ** 2)
+
+
+def grain(scene):
+    """(m*, k_g) of the scene's grains: the sweep converts k* for one grain size only."""
+    p = scene["particles"]
+    if p.get("size_distribution", "constant") != "constant":
+        raise ValueError("particles: the sweep needs one grain size (particles.diameter), not a size distribution")
+    m, radius, g = float(p.get("mass", 1.0)), float(p.get("diameter", 1.0)) / 2, float(scene["gravity"].get("G", 1.0))
+    return m / 2, g * m * m / (4 * radius ** 3)
+
+
+def contact_duration(zeta, k_star, m_star, k_g):
+    ln_e = math.log(restitution(zeta))
+    return math.sqrt(m_star * (math.pi ** 2 + ln_e ** 2) / (k_star * k_g))
+
+
+def scene_point(scene, m_star, k_g):
+    """(zeta, k*) of the scene as written."""
+    e, t_c = float(scene["contact"]["restitution"]), float(scene["contact"]["duration"])
+    return damping_ratio(e), m_star * (math.pi ** 2 + math.log(e) ** 2) / t_c ** 2 / k_g
+
+
+def run_name(zeta, k_star, seed):
+    """File stem of a run, without dots (zeta 0.05, k* 6468.8, seed 1: z0p05-k6469-s1)."""
+    return f"z{zeta:g}-k{k_star:.4g}-s{seed}".replace(".", "p")
+
+
+def complete(h5):
+    import h5py
+    try:
+        with h5py.File(h5, "r") as f:
+            return f["grains"].attrs.get("status") in ("complete", b"complete")
+    except (OSError, KeyError):
+        return False
+
+
+def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out):
+    """One run unless its complete output exists; returns the path of its HDF5 file."""
+    stem = out / run_name(zeta, k_star, seed)
+    h5 = out / f"{stem.name}.h5"
+    if h5.exists() and complete(h5):
+        return h5
+    h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
+    settings = [f"contact.restitution={restitution(zeta):.17g}",
+                f"contact.duration={contact_duration(zeta, k_star, m_star, k_g):.17g}",
+                f"particles.seed={seed}", f"run.threads={threads}", "output.snapshots_every=0", *overrides]
+    cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
+    for s in settings:
+        cmd += ["--set", s]
+    with (out / f"{stem.name}.log").open("w") as log:
+        done = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if done.returncode != 0:
+        raise RuntimeError(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {done.returncode}; see {stem}.log")
+    print(f"  finished zeta {zeta:g}, k* {k_star:g}, seed {seed}", flush=True)
+    return h5
+
+
+def virial_peaks(t, q):
+    """The first peak of Q(t / t_ff) (its height and time) and the height of a second one: the point after
+    the first peak that stands highest above the lowest Q between them, counted as a peak when it rises
+    at least 20 % above that low and reaches 1 % of the first peak (else 0: a decay, or noise at the
+    level of a frozen aggregate)."""
+    t, q = np.asarray(t, float), np.asarray(q, float)
+    first = int(np.argmax(q))
+    after = q[first:]
+    lowest = np.minimum.accumulate(after)
+    rise = np.divide(after, lowest, out=np.ones_like(after), where=lowest > 0)
+    j = int(np.argmax(rise))
+    second = after[j] if rise[j] >= 1.2 and after[j] >= 0.01 * q[first] else 0.0
+    return q[first], t[first], float(second)
+
+
+def measure(h5, k_star):
+    """The point's observables from one run's HDF5 file."""
+    import h5py
+    with h5py.File(h5, "r") as f:
+        o = f["observables"]
+
+        def series(name):
+            return o[name]["value"][()]
+
+        achieved = float(series("normalised_stiffness")[-1])
+        if not math.isclose(achieved, k_star, rel_tol=1e-6):
+            raise ValueError(f"{h5.name}: the run's k* is {achieved:.6g}, not the requested {k_star:.6g}")
+        t_ff = float(series("free_fall_time")[-1])
+        q1, t1, q2 = virial_peaks(series("time_over_free_fall"), series("virial_ratio"))
+        return {"t_agg_over_t_ff": float(series("aggregation_time")[-1]) / t_ff,
+                "cluster_index": float(series("cluster_index")[-1]),
+                "largest_cluster_fraction": float(series("largest_cluster_fraction")[-1]),
+                "fractal_dimension": float(series("fractal_dimension")[-1]),
+                "q_first_peak": float(q1), "q_first_peak_time": float(t1), "q_second_peak": float(q2),
+                "t": series("time_over_free_fall"), "q": series("virial_ratio")}
+
+
+def median_point(runs):
+    """Medians over seeds (NaN aggregation times count as never: the median is NaN when half or more are)."""
+    keys = ["t_agg_over_t_ff", "cluster_index", "largest_cluster_fraction", "fractal_dimension", "q_first_peak",
+            "q_first_peak_time", "q_second_peak"]
+    point = {}
+    for k in keys:
+        values = np.array([r[k] for r in runs], float)
+        if k == "t_agg_over_t_ff":
+            values = np.where(np.isnan(values), np.inf, values)
+            m = float(np.median(values))
+            point[k] = m if math.isfinite(m) else math.nan
+        else:
+            point[k] = float(np.nanmedian(values)) if np.any(np.isfinite(values)) else math.nan
+    point["seeds"] = len(runs)
+    point["t"], point["q"] = runs[0]["t"], runs[0]["q"]
+    return point
+
+
+def spearman(x, y):
+    """Rank correlation of the finite pairs (NaN with fewer than 3)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    keep = np.isfinite(x) & np.isfinite(y)
+    if keep.sum() < 3:
+        return math.nan
+    rx, ry = np.argsort(np.argsort(x[keep])), np.argsort(np.argsort(y[keep]))
+    return float(np.corrcoef(rx, ry)[0, 1])
+
+
+def findings(damping, stiffness, fixed_stiffness, fixed_damping):
+    """The paper's qualitative findings (physics.md section 8), each with what the sweep shows."""
+    lines = ["| paper's finding | this sweep | holds |", "|---|---|---|"]
+    z = [p["zeta"] for p in damping]
+    t_agg = [p["t_agg_over_t_ff"] for p in damping]
+    index = [p["cluster_index"] for p in damping]
+    rho = spearman(z, t_agg)   # rank correlation over the points that aggregate
+    defined = [(a, b) for a, b in zip(z, t_agg) if math.isfinite(b)]
+    lines.append(f"| t_agg / t_ff falls as damping grows (k* = {fixed_stiffness:.3g}) | rank correlation with zeta {rho:+.2f} over "
+                 f"{len(defined)} points where the cloud aggregates; {', '.join(f'{b:.2f} (zeta {a:g})' for a, b in defined)} "
+                 f"| {'yes' if rho < -0.5 else 'no'} |")
+    rises = max((b - a for a, b in zip(index, index[1:])), default=0.0)
+    crossing = next((f"{z[i]:g}–{z[i + 1]:g}" for i in range(len(z) - 1) if index[i] > 0.5 >= index[i + 1]), "none")
+    lines.append(f"| N_c / N falls (logistically) from ~1 to ~0 with damping | {', '.join(f'{b:.3f} (zeta {a:g})' for a, b in zip(z, index))}; "
+                 f"crosses 0.5 between zeta {crossing}; largest rise between neighbours {rises:+.3f} "
+                 f"| {'yes' if index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05 else 'no'} |")
+    second = [p["q_second_peak"] > 0 for p in damping]
+    lines.append(f"| Q: a first peak in every run, a second for all but the strongest damping | first peaks "
+                 f"{min(p['q_first_peak'] for p in damping):.3g}–{max(p['q_first_peak'] for p in damping):.3g}; "
+                 f"a second peak at zeta {', '.join(f'{a:g}' for a, s in zip(z, second) if s) or 'none'} "
+                 f"| {'yes' if all(second[:-1]) and not second[-1] else 'no'} |")
+    if stiffness:
+        k = [p["k_star"] for p in stiffness]
+        ki = [p["cluster_index"] for p in stiffness]
+        kt = [p["t_agg_over_t_ff"] for p in stiffness]
+        low = int(np.argmin(ki))
+        lines.append(f"| vs k* (zeta = {fixed_damping:g}): N_c / N high when soft, lowest at an intermediate k* "
+                     f"| {', '.join(f'{b:.3f} (k* {a:.3g})' for a, b in zip(k, ki))} "
+                     f"| {'yes' if 0 < low < len(k) - 1 and ki[0] > 0.5 and ki[-1] > ki[low] else 'no'} |")
+        lines.append(f"| ... and rising toward ~0.6 for very stiff contacts | {ki[-1]:.3f} at k* {k[-1]:.3g} "
+                     f"| {'yes' if ki[-1] >= 0.3 else 'no'} |")
+        finite = [i for i, v in enumerate(kt) if math.isfinite(v)]
+        best = min(finite, key=lambda i: kt[i]) if finite else None
+        lines.append(f"| t_agg / t_ff has a minimum at an intermediate k* | "
+                     f"{', '.join(f'{kt[i]:.2f} (k* {k[i]:.3g})' for i in finite) or 'no aggregation'} "
+                     f"| {'yes' if best is not None and 0 < best < len(k) - 1 and math.isfinite(kt[0]) and math.isfinite(kt[-1]) else 'no'} |")
+    return lines
+
+
+def pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_sweep(points, x_key, title, path):
+    """N_c / N and t_agg / t_ff against the swept parameter; for the damping sweep also Q(t / t_ff)."""
+    plt = pyplot()
+    damping = x_key == "zeta"
+    fig, axes = plt.subplots(1, 3 if damping else 2, figsize=(13 if damping else 9, 4))
+    x = [p[x_key] for p in points]
+    for ax, key, label in zip(axes, ("cluster_index", "t_agg_over_t_ff"), ("final N_c / N", "t_agg / t_ff")):
+        ax.plot(x, [p[key] for p in points], "o-")
+        ax.set_ylabel(label)
+        ax.set_xlabel("damping ratio ζ" if damping else "k* = k_n / k_g")
+        if damping:
+            ax.set_xscale("symlog", linthresh=0.01)   # zeta = 0 and the small zeta of the transition both visible
+        else:
+            ax.set_xscale("log")
+    if damping:
+        for p, colour in zip(points, plt.cm.viridis(np.linspace(0, 0.9, len(points)))):
+            axes[2].plot(p["t"], p["q"], color=colour, lw=1, label=f"ζ = {p['zeta']:g}")
+        axes[2].set_yscale("log")
+        axes[2].set_xlabel("t / t_ff")
+        axes[2].set_ylabel("Q = K / |W| (first seed)")
+        axes[2].legend(fontsize=6, ncol=2)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_map(points, damping, stiffness, path):
+    """Maps over (k*, zeta) of D_f of the largest cluster and of the final N_c / N."""
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    for ax, key, label, limits in ((axes[0], "fractal_dimension", "D_f of the largest cluster (blank: none)", (1, 3)),
+                                   (axes[1], "cluster_index", "final N_c / N", (0, 1))):
+        grid = np.full((len(damping), len(stiffness)), np.nan)
+        for p in points:
+            grid[damping.index(p["zeta"]), stiffness.index(p["k_star"])] = p[key]
+        image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis", vmin=limits[0], vmax=limits[1])
+        ax.set_xticks(range(len(stiffness)), [f"{k:.0e}" for k in stiffness], rotation=45)
+        ax.set_yticks(range(len(damping)), [f"{z:g}" for z in damping])
+        ax.set_xlabel("k*")
+        ax.set_ylabel("ζ")
+        fig.colorbar(image, ax=ax, label=label)
+    fig.suptitle("At 3 t_ff, median of the seeds")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def stiffness_shapes(grid, damping, stiffness):
+    """The map's rows (one zeta each) where N_c / N has the paper's shape against k*: above 0.5 at the
+    softest, lowest at an intermediate k*, back above 0.3 at the stiffest; a finding line."""
+    rows = []
+    for z in dict.fromkeys(damping):
+        row = sorted((p for p in grid if p["zeta"] == z), key=lambda p: p["k_star"])
+        ki = [p["cluster_index"] for p in row]
+        low = int(np.argmin(ki))
+        if 0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] >= 0.3:
+            rows.append(f"zeta {z:g} ({', '.join(f'{v:.3f}' for v in ki)})")
+    return (f"| the same shape anywhere on the map (k* {', '.join(f'{k:.0e}' for k in dict.fromkeys(stiffness))}) "
+            f"| {'; '.join(rows) or 'no row'} | {'yes' if rows else 'no'} |")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--damping", type=float, nargs="+", default=DAMPING, help="damping ratios zeta in [0, 1)")
+    ap.add_argument("--stiffness", type=float, nargs="+", default=STIFFNESS, help="normalised stiffnesses k* > 0")
+    ap.add_argument("--fixed-stiffness", type=float, help="k* of the damping sweep (default: the scene's)")
+    ap.add_argument("--fixed-damping", default="auto", help="zeta of the stiffness sweep, or auto (default)")
+    ap.add_argument("--map", action="store_true", help="also every (zeta, k*) pair, for the fractal-dimension map")
+    ap.add_argument("--seeds", type=int, default=1, help="seeds per point, 1..N (default 1)")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at once (default: the cores)")
+    ap.add_argument("--threads", type=int, default=0, help="threads per run (default: cores / jobs, at least 1)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scene override for every run")
+    ap.add_argument("--out", default="sweep", help="folder for the runs, table, summary and plots (default sweep)")
+    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
+    ap.add_argument("--report", action="store_true", help="run nothing: summarise the runs already in --out")
+    args = ap.parse_args(argv)
+    for z in args.damping:
+        if not 0 <= z < 1:
+            ap.error(f"--damping: {z} is outside [0, 1) (zeta >= 1 has no restitution above 0)")
+    for k in args.stiffness + ([args.fixed_stiffness] if args.fixed_stiffness is not None else []):
+        if not k > 0:
+            ap.error(f"--stiffness / --fixed-stiffness: {k}; k* must be positive")
+    if args.fixed_damping != "auto":
+        try:
+            fixed = float(args.fixed_damping)
+        except ValueError:
+            ap.error(f"--fixed-damping: {args.fixed_damping!r}; give auto or a number in [0, 1)")
+        if not 0 <= fixed < 1:
+            ap.error(f"--fixed-damping: {fixed} is outside [0, 1)")
+    for name, value in (("--seeds", args.seeds), ("--jobs", args.jobs)):
+        if value < 1:
+            ap.error(f"{name} = {value}: must be at least 1")
+    if not args.report and not pathlib.Path(args.grains).is_file():
+        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
+    scene = tomllib.loads(SCENE.read_text())
+    m_star, k_g = grain(scene)
+    fixed_stiffness = args.fixed_stiffness or scene_point(scene, m_star, k_g)[1]
+    threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    seeds = range(1, args.seeds + 1)
+
+    def points(pairs):
+        """Runs (or, with --report, finds) every seed of each (zeta, k*) pair; returns the measured points."""
+        pairs = list(dict.fromkeys(pairs))
+        if args.report:
+            files = {(z, k, s): out / f"{run_name(z, k, s)}.h5" for z, k in pairs for s in seeds}
+            missing = [str(f) for f in files.values() if not complete(f)]
+            if missing:
+                ap.error(f"--report: no complete run {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
+        else:
+            import dask
+            tasks = {(z, k, s): dask.delayed(run_point)(args.grains, z, k, s, m_star, k_g, threads, args.set, out)
+                     for z, k in pairs for s in seeds}
+            files = dict(zip(tasks, dask.compute(*tasks.values(), scheduler="threads", num_workers=args.jobs)))
+        measured = []
+        for z, k in pairs:
+            point = median_point([measure(files[(z, k, s)], k) for s in seeds])
+            measured.append({"zeta": z, "restitution": restitution(z), "k_star": k, **point})
+        return measured
+
+    print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
+    damping = points([(z, fixed_stiffness) for z in args.damping])
+    if args.fixed_damping == "auto":
+        dense = [p["zeta"] for p in damping if p["cluster_index"] <= DENSE]
+        if not dense:
+            ap.error(f"--fixed-damping auto: no swept zeta ends as a dense aggregate (final N_c / N <= {DENSE}); give one")
+        fixed_damping = min(dense)
+    else:
+        fixed_damping = float(args.fixed_damping)
+    print(f"stiffness sweep: {len(args.stiffness)} points at zeta = {fixed_damping:g}", flush=True)
+    stiffness = points([(fixed_damping, k) for k in args.stiffness])
+    grid = points([(z, k) for z in args.damping for k in args.stiffness]) if args.map else []
+
+    fields = ["sweep", "zeta", "restitution", "k_star", "seeds", "t_agg_over_t_ff", "cluster_index",
+              "largest_cluster_fraction", "fractal_dimension", "q_first_peak", "q_first_peak_time", "q_second_peak"]
+    with (out / "sweep.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        for name, rows in (("damping", damping), ("stiffness", stiffness), ("map", grid)):
+            for r in rows:
+                writer.writerow({"sweep": name, **r})
+    lines = findings(damping, stiffness, fixed_stiffness, fixed_damping)
+    if grid:
+        lines.append(stiffness_shapes(grid, args.damping, args.stiffness))
+    text = "\n".join(lines)
+    print(text)
+    (out / "summary.md").write_text(text + "\n")
+    plot_sweep(damping, "zeta", f"Damping sweep at k* = {fixed_stiffness:.3g}, median of {args.seeds} seed(s)", out / "damping.png")
+    plot_sweep(stiffness, "k_star", f"Stiffness sweep at ζ = {fixed_damping:g}, median of {args.seeds} seed(s)", out / "stiffness.png")
+    if grid:
+        plot_map(grid, list(dict.fromkeys(args.damping)), list(dict.fromkeys(args.stiffness)), out / "map.png")
+    print(f"wrote {out / 'sweep.csv'}, {out / 'summary.md'} and the plots in {out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,95 @@
+"""The aggregation sweep (runner/aggregation_sweep.py): its conversion of (zeta, k*) into the scene's
+restitution and contact duration, its reading of the virial ratio, its verdicts, and a small sweep run
+end to end through grains."""
+import csv
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+sys.path.insert(0, str(ROOT / "runner"))
+import aggregation_sweep as sweep  # noqa: E402
+
+
+def test_damping_ratio_and_restitution_are_inverse():
+    for zeta in (0.0, 0.002, 0.1, 0.5, 0.9):
+        assert sweep.damping_ratio(sweep.restitution(zeta)) == pytest.approx(zeta, abs=1e-12)
+    assert sweep.restitution(0.0) == 1.0
+
+
+def test_contact_duration_gives_the_requested_stiffness():
+    """k_n = m* (pi^2 + ln^2 e) / t_c^2 (physics.md section 2) equals k* k_g; the scene as written is
+    e = 0.5, t_c = 0.02 with m* = 1/2 and k_g = G m^2 / (4 R^3) = 2."""
+    m_star, k_g = 0.5, 2.0
+    for zeta, k_star in ((0.0, 10.0), (0.3, 6.5e3), (0.9, 1e6)):
+        t_c = sweep.contact_duration(zeta, k_star, m_star, k_g)
+        k_n = m_star * (math.pi ** 2 + math.log(sweep.restitution(zeta)) ** 2) / t_c ** 2
+        assert k_n == pytest.approx(k_star * k_g, rel=1e-12)
+    scene = {"particles": {"diameter": 1.0, "mass": 1.0}, "gravity": {"G": 1.0},
+             "contact": {"restitution": 0.5, "duration": 0.02}}
+    assert sweep.grain(scene) == (0.5, 2.0)
+    zeta, k_star = sweep.scene_point(scene, 0.5, 2.0)
+    assert zeta == pytest.approx(sweep.damping_ratio(0.5)) and k_star == pytest.approx(0.5 * (math.pi ** 2 + math.log(0.5) ** 2) / 4e-4 / 2)
+    with pytest.raises(ValueError, match="one grain size"):
+        sweep.grain({"particles": {"size_distribution": "uniform"}, "gravity": {}})
+
+
+def test_virial_peaks():
+    t = np.linspace(0, 3, 301)
+    collapse = np.exp(-((t - 0.6) / 0.15) ** 2)
+    q1, t1, q2 = sweep.virial_peaks(t, 0.5 * collapse + 1e-6)
+    assert q1 == pytest.approx(0.5, rel=1e-3) and t1 == pytest.approx(0.6, abs=0.01) and q2 == 0.0
+    rebound = 0.5 * collapse + 0.05 * np.exp(-((t - 1.8) / 0.3) ** 2) + 1e-4
+    assert sweep.virial_peaks(t, rebound)[2] == pytest.approx(0.05, rel=0.01)
+    # A rise in a frozen aggregate's noise, below 1 % of the first peak, is no peak.
+    assert sweep.virial_peaks(t, 0.5 * collapse + 1e-5 * (1 + np.sin(20 * t) ** 2))[2] == 0.0
+
+
+def test_medians_over_seeds_treat_a_missing_aggregation_as_never():
+    base = {"cluster_index": 0.1, "largest_cluster_fraction": 0.9, "fractal_dimension": 2.9, "q_first_peak": 0.5,
+            "q_first_peak_time": 0.6, "q_second_peak": 0.0, "t": [0], "q": [0]}
+    runs = [dict(base, t_agg_over_t_ff=v) for v in (1.0, math.nan, 2.0)]
+    assert sweep.median_point(runs)["t_agg_over_t_ff"] == 2.0
+    runs = [dict(base, t_agg_over_t_ff=v) for v in (1.0, math.nan, math.nan)]
+    assert math.isnan(sweep.median_point(runs)["t_agg_over_t_ff"])
+
+
+def point(zeta, k_star, index, t_agg, second=0.0):
+    return {"zeta": zeta, "k_star": k_star, "cluster_index": index, "t_agg_over_t_ff": t_agg,
+            "q_first_peak": 0.5, "q_second_peak": second}
+
+
+def test_findings_follow_the_measured_trends():
+    damping = [point(0.0, 100, 0.9, math.nan, 0.1), point(0.1, 100, 0.4, 2.0, 0.1), point(0.3, 100, 0.05, 1.2, 0.1),
+               point(0.5, 100, 0.01, 1.0)]
+    stiffness = [point(0.1, 10, 0.8, 1.5), point(0.1, 100, 0.01, 0.9), point(0.1, 1e4, 0.6, 2.5)]
+    lines = sweep.findings(damping, stiffness, 100, 0.1)
+    assert all(line.endswith("| yes |") for line in lines[2:]), lines
+    flat = [point(0.1, 10, 0.02, 1.0), point(0.1, 100, 0.01, 0.9), point(0.1, 1e4, 0.05, 2.5)]
+    lines = sweep.findings(damping, flat, 100, 0.1)
+    assert [line.rsplit("|", 2)[-2].strip() for line in lines[5:7]] == ["no", "no"]
+
+
+def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path):
+    small = ["--set", "particles.count=40", "--set", "time.duration=1.5", "--set", "analysis.every=20",
+             "--set", "output.observables_every=50"]
+    cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(tmp_path),
+           "--damping", "0.1", "0.5", "--stiffness", "100", "1000", "--fixed-damping", "0.5", "--jobs", "2", *small]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    rows = list(csv.DictReader((tmp_path / "sweep.csv").open()))
+    assert [(r["sweep"], float(r["zeta"]), float(r["k_star"])) for r in rows][2:] == [("stiffness", 0.5, 100.0),
+                                                                                     ("stiffness", 0.5, 1000.0)]
+    for name in ("summary.md", "damping.png", "stiffness.png"):
+        assert (tmp_path / name).stat().st_size > 100
+    again = subprocess.run(cmd[:-len(small)] + ["--report"], capture_output=True, text=True)   # nothing rerun
+    assert again.returncode == 0 and "finished" not in again.stdout
+    for args, message in ((["--damping", "1.0"], "--damping: 1.0"), (["--stiffness", "0"], "k* must be positive"),
+                          (["--fixed-damping", "soft"], "--fixed-damping: 'soft'")):
+        bad = subprocess.run([sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin,
+                              "--out", str(tmp_path / "bad"), *args], capture_output=True, text=True)
+        assert bad.returncode == 2 and message in bad.stderr, bad.stderr
