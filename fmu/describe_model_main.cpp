@@ -14,6 +14,7 @@
 #include "io/scene.hpp"
 #include "model_description.hpp"
 #include "model_variables.hpp"
+#include "protocols/run_length.hpp"
 
 namespace fs = std::filesystem;
 using namespace grains;
@@ -73,9 +74,8 @@ int main(int argc, char** argv) {
     info.description = scene.text("scene.description");
     info.version = argv[4];
     info.step_size = 100 * sim->dt();
-    info.stop_time = scene.has("time.duration") ? scene.real("time.duration")
-                     : scene.has("time.steps")  ? double(scene.integer("time.steps")) * sim->dt()
-                                                : 100 * info.step_size;
+    const std::optional<long> steps = run_steps(scene, *sim);
+    info.stop_time = steps ? double(*steps) * sim->dt() : 100 * info.step_size;
     const fs::path out = argv[3];
     write(out / "fmi2" / "modelDescription.xml", fmi2_model_description(table, info));
     write(out / "fmi3" / "modelDescription.xml", fmi3_model_description(table, info));

@@ -15,7 +15,9 @@ namespace {
 // variable table), or belong to the runner (run length, output files) rather than to the model.
 bool exposed_scene_key(std::string_view path, ValueKind kind) {
   if (kind != ValueKind::real && kind != ValueKind::integer && kind != ValueKind::boolean) return false;
-  if (path == "scene.dimension" || path == "box.periodic" || path == "time.duration" || path == "time.steps") return false;
+  if (path == "scene.dimension" || path == "box.periodic" || path == "time.duration" || path == "time.steps" ||
+      path == "time.free_fall_times" || path == "analysis.stop_at_aggregation")
+    return false;
   if (path.ends_with(".enabled") || path.starts_with("output.")) return false;
   return true;
 }

@@ -3,7 +3,7 @@ driving the FMI 2 and FMI 3 FMUs with a communication step of 100 internal steps
 every communication point), wall time ratio measured in one session, runs alternated; then the cost
 of an empty fmi2DoStep / fmi3DoStep (step size 0) through fmpy.
 
-    python runner/bench_fmu.py [--build build] [--duration 11.6] [--repeat 2]
+    python runner/bench_fmu.py [--build build] [--duration T] [--repeat 2]
 """
 import argparse
 import os
@@ -20,7 +20,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=str(ROOT / "build"))
-    ap.add_argument("--duration", type=float, default=None, help="simulated time (default: the scene's, 11.6 = 3 t_ff)")
+    ap.add_argument("--duration", type=float, default=None, help="simulated time (default: the scene's, 3 t_ff)")
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--calls", type=int, default=20000, help="empty doStep calls timed")
     ap.add_argument("--threads", type=int, default=None, help="run.threads for both (default: the scene's, 2)")
@@ -35,7 +35,8 @@ def main():
     probe = Unit(fmu_path("aggregation", 2))
     dt = probe.get("time.dt")
     probe.free()
-    steps = round((args.duration if args.duration else 11.6) / dt)
+    scene_length = fmpy.read_model_description(str(fmu_path("aggregation", 2))).defaultExperiment.stopTime
+    steps = round((args.duration if args.duration else float(scene_length)) / dt)
     steps -= steps % 100
     stop = steps * dt
     print(f"aggregation scene: {steps} steps of dt = {dt:.6g} (t = {stop:.6g}), communication step 100 dt")

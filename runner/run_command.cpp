@@ -11,6 +11,7 @@
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
 #include "progress.hpp"
+#include "protocols/run_length.hpp"
 
 namespace grains {
 namespace {
@@ -37,11 +38,14 @@ int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
   scene.validate();
-  long steps = 0;
   auto sim = Simulation::create(scene);
-  if (scene.has("time.steps")) steps = scene.integer("time.steps");
-  else if (scene.has("time.duration")) steps = std::lround(scene.real("time.duration") / sim->dt());
-  else scene.fail("time.duration", "give time.duration or time.steps: how long to run");
+  const std::optional<long> length = run_steps(scene, *sim);
+  if (!length) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
+  const long steps = *length;
+  const bool stop_at_aggregation = scene.boolean("analysis.stop_at_aggregation");
+  if (stop_at_aggregation && !scene.boolean("gravity.enabled"))
+    scene.fail("analysis.stop_at_aggregation", "value true needs the aggregation analysis of a self-gravitating cloud: "
+                                               "set gravity.enabled = true, or stop_at_aggregation = false");
   const long obs_every = scene.integer("output.observables_every");
   const long snap_every = scene.integer("output.snapshots_every");
 
@@ -62,15 +66,19 @@ int run_scene(const RunOptions& opt) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   Progress progress(steps, sim->particle_count());
-  const long chunk = std::max<long>(1, std::min(obs_every, snap_every > 0 ? snap_every : obs_every));
+  long chunk = std::max<long>(1, std::min(obs_every, snap_every > 0 ? snap_every : obs_every));
+  if (stop_at_aggregation) chunk = std::min<long>(chunk, scene.integer("analysis.every"));   // stop at the check that sees it
   long done = 0;
+  bool aggregated = false;
   const auto initial_energy = sim->get("kinetic_energy");
-  while (done < steps && !interrupted) {
+  while (done < steps && !interrupted && !aggregated) {
     long n = std::min(chunk - done % chunk, steps - done);
     sim->step_n(n);
     done += n;
-    if (done % obs_every == 0 || done == steps) write_observables(out, *sim);
-    if ((snap_every > 0 && done % snap_every == 0) || done == steps) write_frame(out, *sim);
+    aggregated = stop_at_aggregation && std::isfinite(sim->get("aggregation_time"));
+    const bool last = done == steps || aggregated;
+    if (done % obs_every == 0 || last) write_observables(out, *sim);
+    if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, *sim);
     if (!opt.quiet) progress.update(done);
   }
   progress.finish();
@@ -97,7 +105,7 @@ int run_scene(const RunOptions& opt) {
   fmt::print("grains {}: scene '{}' ({}D, {} particles)\n", GRAINS_VERSION, scene.text("scene.name"), sim->dimension(),
              sim->particle_count());
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim->step_count(), sim->dt(), sim->time(),
-             interrupted ? "  INTERRUPTED" : "");
+             interrupted ? "  INTERRUPTED" : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
   fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
   fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim->get("kinetic_energy"));
   // Whatever of these the scene's modules provide.

@@ -119,9 +119,23 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
     auto eq = o.find('=');
     if (eq == std::string::npos || eq == 0)
       throw SceneError(fmt::format("--set '{}': expected key.path=value, e.g. contact.restitution=0.5", o));
-    s.set_value(std::string_view(o).substr(0, eq), std::string_view(o).substr(eq + 1));
+    const std::string_view key = std::string_view(o).substr(0, eq);
+    s.replace_run_length(key);
+    s.set_value(key, std::string_view(o).substr(eq + 1));
   }
   return s;
+}
+
+// The run's length is one of three keys (protocols/run_length.hpp): an override giving one replaces
+// whichever the file gave, so `--set time.steps=100` shortens a scene written with free_fall_times.
+void Scene::replace_run_length(std::string_view key) {
+  static constexpr std::string_view lengths[] = {"duration", "steps", "free_fall_times"};
+  if (key.substr(0, 5) != "time.") return;
+  const std::string_view name = key.substr(5);
+  if (std::find(std::begin(lengths), std::end(lengths), name) == std::end(lengths)) return;
+  if (auto* time = table_["time"].as_table())
+    for (std::string_view other : lengths)
+      if (other != name) time->erase(other);
 }
 
 Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides) {

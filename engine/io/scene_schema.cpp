@@ -140,6 +140,10 @@ const std::vector<SchemaEntry>& scene_schema() {
        "`aggregation_time` is the first time the largest cluster holds at least this mass fraction."},
       {"analysis.every", K::integer, "100", 1, 9.2e18, false, false, "",
        "Steps between the checks of the largest-cluster fraction that set `aggregation_time` (gravity scenes)."},
+      {"analysis.stop_at_aggregation", K::boolean, "false", 0, 0, false, false, "",
+       "`grains run` ends the run at the first check (every `analysis.every` steps) that finds the largest cluster at "
+       "`aggregation_threshold` (gravity scenes): the run lasts until t_agg, or its length if that comes first. An FMU "
+       "host decides its own stop (`aggregation_time` turns finite)."},
       {"analysis.zero_force", K::real, "1e-5", 0, inf, false, false, "",
        "Contact-network outputs (adhesion scenes): an interaction whose static normal force is below "
        "value * max(F0, mean |F_N|) in magnitude counts as carrying no force (z0, rattlers)."},
@@ -258,8 +262,11 @@ const std::vector<SchemaEntry>& scene_schema() {
       // --- time stepping ---
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},
       {"time.steps_per_contact", K::real, "50", 1, inf, false, false, "", "n_c: steps per contact duration when dt is not given."},
-      {"time.duration", K::real, "", 0, inf, true, false, "", "Simulated time of a run (or give `steps`)."},
+      {"time.duration", K::real, "", 0, inf, true, false, "", "Simulated time of a run (or give `steps` or `free_fall_times`)."},
       {"time.steps", K::integer, "", 0, 9.2e18, false, false, "", "Number of steps of a run (or give `duration`)."},
+      {"time.free_fall_times", K::real, "", 0, inf, true, false, "",
+       "Length of a run in free-fall times t_ff = sqrt(R0^3 / (G M)) of the initial cloud (gravity scenes, physics.md "
+       "section 8), instead of `duration` or `steps`."},
 
       // --- neighbour search ---
       {"neighbours.skin", K::real, "", 0, inf, true, false, "",

@@ -5,6 +5,7 @@ import sys
 import time
 
 import h5py
+import numpy as np
 import pytest
 
 
@@ -149,3 +150,22 @@ def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path):
         assert records > 1, "no observable record flushed after the first one in 2.5 s"
         assert len(ke["value"]) == records and len(ke["time"]) == records
         assert list(ke["step"][:]) == sorted(ke["step"][:])
+
+
+def test_run_stops_at_the_aggregation_when_asked(grains_bin, root, tmp_path):
+    """analysis.stop_at_aggregation: the run ends at the check that first sees f_max >= threshold, well
+    before its length (free_fall_times = 3), and its last record holds that time as aggregation_time."""
+    out = tmp_path / "stop.h5"
+    r = run(grains_bin, "run", root / "models" / "aggregation.toml", "--out", out, "--quiet",
+            "--set", "particles.count=60", "--set", "analysis.every=20", "--set", "analysis.stop_at_aggregation=true")
+    assert r.returncode == 0, r.stderr
+    assert "stopped at the aggregation" in r.stdout
+    with h5py.File(out) as f:
+        o = f["observables"]
+        t_agg, t_end = o["aggregation_time/value"][-1], o["aggregation_time/time"][-1]
+        assert np.isfinite(t_agg) and t_end == t_agg
+        assert o["time_over_free_fall/value"][-1] < 3.0
+        assert f["grains"].attrs["status"] in ("complete", b"complete")
+    bad = run(grains_bin, "run", root / "models" / "gas.toml", "--out", tmp_path / "gas.h5", "--quiet",
+              "--set", "analysis.stop_at_aggregation=true")
+    assert bad.returncode != 0 and "analysis.stop_at_aggregation" in bad.stderr and "gravity.enabled" in bad.stderr

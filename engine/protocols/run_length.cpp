@@ -1,0 +1,28 @@
+#include "protocols/run_length.hpp"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace grains {
+
+std::optional<long> run_steps(const Scene& scene, const Simulation& sim) {
+  std::vector<std::string> given;
+  for (const char* key : {"time.duration", "time.steps", "time.free_fall_times"})
+    if (scene.has(key)) given.emplace_back(key);
+  if (given.empty()) return std::nullopt;
+  if (given.size() > 1)
+    scene.fail(given[1], fmt::format("given together with {}: give one of time.duration, time.steps and "
+                                     "time.free_fall_times", given[0]));
+  if (given[0] == "time.steps") return long(scene.integer("time.steps"));
+  if (given[0] == "time.duration") return std::lround(scene.real("time.duration") / sim.dt());
+  if (!scene.boolean("gravity.enabled"))
+    scene.fail("time.free_fall_times", fmt::format("value {} needs the free-fall time of a self-gravitating cloud: set "
+                                                   "gravity.enabled = true, or give time.duration",
+                                                   scene.real("time.free_fall_times")));
+  return std::lround(scene.real("time.free_fall_times") * sim.get("free_fall_time") / sim.dt());
+}
+
+}  // namespace grains

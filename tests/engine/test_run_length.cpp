@@ -1,0 +1,65 @@
+// The run's length (protocols/run_length.hpp): one of time.duration, time.steps, time.free_fall_times;
+// two refused naming both; free-fall times only with self-gravity; an override replaces the file's.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <string>
+
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "protocols/run_length.hpp"
+
+using namespace grains;
+using Catch::Contains;
+
+namespace {
+
+const std::string cloud = R"(
+[particles]
+layout = "random"
+count = 50
+diameter = 1.0
+mass = 1.0
+solid_fraction = 0.05
+seed = 3
+[box]
+periodic = false
+[contact]
+restitution = 0.5
+duration = 0.05
+[gravity]
+enabled = true
+[run]
+threads = 1
+)";
+
+std::optional<long> steps_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
+  const Scene scene = Scene::from_string(text, "cloud.toml", overrides);
+  return run_steps(scene, *Simulation::create(scene));
+}
+
+}  // namespace
+
+TEST_CASE("run length: duration, steps or free-fall times", "[scene][run_length]") {
+  CHECK_FALSE(steps_of(cloud).has_value());
+  CHECK(steps_of(cloud + "[time]\nsteps = 123\n") == 123);
+  const Scene scene = Scene::from_string(cloud, "cloud.toml");
+  const auto sim = Simulation::create(scene);
+  const double dt = sim->dt(), t_ff = sim->get("free_fall_time");
+  CHECK(steps_of(cloud + "[time]\nduration = 2.0\n") == std::lround(2.0 / dt));
+  CHECK(steps_of(cloud + "[time]\nfree_fall_times = 1.5\n") == std::lround(1.5 * t_ff / dt));
+}
+
+TEST_CASE("run length: two lengths are refused, an override replaces the file's", "[scene][run_length][errors]") {
+  CHECK_THROWS_WITH(steps_of(cloud + "[time]\nduration = 2.0\nfree_fall_times = 1.0\n"),
+                    Contains("time.free_fall_times") && Contains("given together with time.duration"));
+  CHECK(steps_of(cloud + "[time]\nfree_fall_times = 1.0\n", {"time.steps=40"}) == 40);
+  CHECK(steps_of(cloud + "[time]\nsteps = 40\n", {"time.free_fall_times=1.0"}).value() > 40);
+}
+
+TEST_CASE("run length: free-fall times need self-gravity", "[scene][run_length][errors]") {
+  std::string no_gravity = cloud;
+  no_gravity.replace(no_gravity.find("enabled = true"), 14, "enabled = false");
+  CHECK_THROWS_WITH(steps_of(no_gravity + "[time]\nfree_fall_times = 3.0\n"),
+                    Contains("time.free_fall_times") && Contains("gravity.enabled = true"));
+}
