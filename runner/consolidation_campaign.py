@@ -33,7 +33,7 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import fit_crossover, fit_regime_two  # noqa: E402
 import density_correlations  # noqa: E402
-from density_correlations import analyse, loading_frame, read_frames  # noqa: E402
+from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # value, error bar (None: the paper gives only "about" or no bar)
@@ -119,13 +119,6 @@ def summarise(table):
         print(f"  {table.name}: no fit ({error})", flush=True)
     result.update(fractal_dimensions(table))
     return result
-
-
-def target_pressure(row):
-    """The stage's target P* (so that the plot puts a stage short of its target where the programme
-    meant it); the measured P* in tables without the column."""
-    target = float(row.get("target_pressure") or "nan")
-    return target if math.isfinite(target) else float(row["P_star"])
 
 
 def fractal_dimensions(table):

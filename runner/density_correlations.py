@@ -161,10 +161,16 @@ def stage_targets(path, measured):
         return measured
     with open(table, newline="") as f:
         rows = list(csv.DictReader(f))
-    if len(rows) + 1 != len(measured) or "target_pressure" not in (rows[0] if rows else {}):
+    if len(rows) + 1 != len(measured):
         return measured
-    targets = np.array([float("nan")] + [float(row["target_pressure"]) for row in rows])
-    return np.where(np.isfinite(targets), targets, measured)
+    return np.array([measured[0]] + [target_pressure(row) for row in rows])
+
+
+def target_pressure(row):
+    """A stage table row's target P* (so that a stage short of its target is found and drawn where the
+    programme meant it); its measured P* where the table has no target (older tables, the aggregation)."""
+    target = float(row.get("target_pressure") or "nan")
+    return target if math.isfinite(target) else float(row["P_star"])
 
 
 def loading_frame(p_star, target):
