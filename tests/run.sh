@@ -11,4 +11,4 @@ cd "$GRAINS_BUILD"
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
 ctest --output-on-failure -j "$(nproc)"
 cd "$GRAINS_ROOT"
-GRAINS_BIN="$GRAINS_BUILD/runner/grains" "$GRAINS_VENV/bin/python" -m pytest -q tests/python
+GRAINS_BIN="$GRAINS_BUILD/runner/grains" "$GRAINS_VENV/bin/python" -m pytest -q -rs tests/python   # -rs: name any skipped test

@@ -12,7 +12,7 @@ def grains_bin():
     path = os.environ.get("GRAINS_BIN")
     if not path:
         pytest.skip("GRAINS_BIN is not set (tests/run.sh sets it)")
-    return path
+    return str(pathlib.Path(path).resolve())   # tests run commands from other folders
 
 
 @pytest.fixture(scope="session")

@@ -68,6 +68,16 @@ def test_crossover_tends_to_phimax_with_the_power_law_tail():
     assert cf.inverse_phi_crossover(np.array([P0]), 1 / PHI0, LAM, PHI_MAX, ALPHA, P0)[0] == pytest.approx(1 / PHI0, abs=1e-4)
 
 
+def test_crossover_at_p1_against_its_closed_form():
+    """physics.md section 9's form at P* = P1*, worked by hand: there (P1*/P*)^alpha = 1, so
+    1/Phi = 1/Phi0 - lambda ln(P1*/P0*) - (lambda/alpha) ln(1 - 1/e) = 1/Phimax - (lambda/alpha) ln(1 - 1/e);
+    with the paper's parameters P1* = 0.271832 and Phi = 0.686508."""
+    p1 = P0 * math.exp((1 / PHI0 - 1 / PHI_MAX) / LAM)
+    assert p1 == pytest.approx(0.271832, abs=1e-6)
+    inv = cf.inverse_phi_crossover(np.array([p1]), 1 / PHI0, LAM, PHI_MAX, ALPHA, P0)[0]
+    assert 1 / inv == pytest.approx(0.686508, abs=1e-6)
+
+
 def test_regime_two_line_and_its_start():
     p = programme()
     phi = 1 / np.where(p < P0, 1 / PHI0, 1 / PHI0 - LAM * np.log(np.maximum(p, P0) / P0))

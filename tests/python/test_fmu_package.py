@@ -92,6 +92,9 @@ def test_binary_exports_every_fmi_function_and_nothing_else(fmu):
 
 
 def test_reference_results_are_reproduced_exactly(fmu):
+    """The FMI cross-check files packed in the FMU (written at build time by the engine, stepped as a host
+    steps it) equal what fmpy gets from the packaged binary: the packaging and the host interface, not the
+    physics, which the restitution sweep (test_fmu_state.py) and the runner comparisons check."""
     model, version, path = fmu
     archive = zipfile.ZipFile(path)
     options = dict(line.split(", ") for line in archive.read(

@@ -8,6 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
+from head_on import clamped_restitution, clamped_separation_time
+
 
 def run(grains_bin, *args, cwd=None):
     return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True, cwd=cwd)
@@ -57,13 +59,14 @@ def test_run_writes_summary_and_complete_file(grains_bin, root, tmp_path):
     with h5py.File(out) as f:
         assert f["grains"].attrs["status"] in ("complete", b"complete")
         ke = f["observables/kinetic_energy/value"][:]
-        assert ke[-1] < ke[0]   # e = 0.5: the collision dissipates
+        # the disks' head-on collision (e = 0.5, no clamp) keeps the exact non-pulling restitution squared
+        assert ke[-1] / ke[0] == pytest.approx(clamped_restitution(0.5) ** 2, rel=2e-3)
 
 
 def test_collision_log_is_written_as_table_and_observables(grains_bin, root, tmp_path):
     out = tmp_path / "log.h5"
     r = run(grains_bin, "run", root / "models" / "collision.toml", "--out", out, "--quiet",
-            "--set", "analysis.collision_log=true", "--set", "time.duration=3.0")
+            "--set", "analysis.collision_log=true")
     assert r.returncode == 0, r.stderr
     assert "adhesive_collision_fraction" in r.stdout
     with h5py.File(out) as f:
@@ -76,6 +79,11 @@ def test_collision_log_is_written_as_table_and_observables(grains_bin, root, tmp
         assert row["adhesive"] == 0 and row["impact_speed"] == 1.0
         v = f["particles/all/velocity/value"][-1]   # after the collision: the rebound speed itself
         assert abs(row["rebound_speed"] - (v[1][0] - v[0][0])) < 1e-12
+        assert row["rebound_speed"] / row["impact_speed"] == pytest.approx(clamped_restitution(0.5), rel=1e-3)
+        # touching at t = 0.2, parted when the overlap is gone (the release, then the coast out of the overlap);
+        # the log sees both at the first step after them, dt = t_c / 50 = 0.002
+        assert row["start"] == pytest.approx(0.2, abs=0.002)
+        assert row["end"] - row["start"] == pytest.approx(clamped_separation_time(0.5, 0.1), abs=0.002)
         assert row["start"] < row["end"]
         assert f["observables/collision_count/value"][-1] == 1
         assert f["observables/adhesive_collision_fraction/value"][-1] == 0
