@@ -11,8 +11,10 @@
 
 #include "analysis/clusters.hpp"
 #include "analysis/fractal_dimension.hpp"
+#include "cloud_scene.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "plain_lattice_scene.hpp"
 
 using namespace grains;
 
@@ -129,29 +131,9 @@ TEST_CASE("fractal dimension: compact lattice ball ~3, straight chain ~1, tiny s
 
 TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; save/restore keeps aggregation_time",
           "[aggregation]") {
-  const std::string text = R"(
-[particles]
-layout = "random"
-count = 200
-diameter = 1.0
-mass = 1.0
-solid_fraction = 0.05
-seed = 3
-[box]
-periodic = false
-[contact]
-restitution = 0.1
-duration = 0.01
-[gravity]
-enabled = true
-G = 1.0
-softening = 0.1
-[analysis]
-aggregation_threshold = 0.9
-every = 50
-[run]
-threads = 2
-)";
+  const std::string text =
+      cloud_scene({.count = 200, .seed = 3, .restitution = 0.1, .duration = 0.01, .threads = 2},
+                  "[analysis]\naggregation_threshold = 0.9\nevery = 50\n");
   auto sim = Simulation::create(Scene::from_string(text, "cloud"));
   const double tff = sim->get("free_fall_time");
   CHECK(sim->get("cluster_count") > 150);
@@ -203,14 +185,7 @@ threads = 2
 }
 
 TEST_CASE("aggregation observables: absent without gravity; scene keys are validated", "[aggregation]") {
-  const std::string plain = R"(
-[particles]
-layout = "lattice"
-count = 8
-solid_fraction = 0.1
-[contact]
-duration = 0.01
-)";
+  const std::string plain = plain_lattice_scene();
   auto sim = Simulation::create(Scene::from_string(plain, "plain"));
   CHECK_THROWS(sim->index_of("cluster_count"));
   CHECK_THROWS(sim->index_of("aggregation_time"));

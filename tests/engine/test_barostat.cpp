@@ -9,6 +9,7 @@
 #include "cell/cell_length_ode.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "packed_cell_scene.hpp"
 
 using namespace grains;
 
@@ -72,34 +73,6 @@ TEST_CASE("cell ODE: the strain rate stays at its cap under a large stress exces
 }
 
 namespace {
-
-// A cohesionless polydisperse packing (diameters uniform in [a/2, a]) under pressure control.
-std::string packed_cell_scene(int dimension, int count, double pressure, const std::string& extra = "") {
-  return fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "random"
-count = {}
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-solid_fraction = {}
-seed = 3
-[contact]
-restitution = 0.1
-duration = 0.05
-[friction]
-coefficient = 0.3
-[cell]
-enabled = true
-force_unit = 0
-pressure = {}
-{}
-[run]
-threads = 1
-)", dimension, count, dimension == 2 ? 0.4 : 0.25, pressure, extra);
-}
 
 // Steps in chunks until the equilibrium test passes; returns the steps taken (or -1 past the budget).
 long run_to_equilibrium(Simulation& s, long budget, long chunk = 200) {

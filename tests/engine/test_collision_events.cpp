@@ -10,6 +10,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "head_on_scene.hpp"
+#include "plain_lattice_scene.hpp"
 
 using namespace grains;
 
@@ -138,29 +139,12 @@ threads = 1
 }
 
 TEST_CASE("collision log: off by default, and refused without contacts", "[collisions]") {
-  const std::string plain = R"(
-[particles]
-layout = "lattice"
-count = 8
-solid_fraction = 0.1
-[contact]
-duration = 0.01
-)";
+  const std::string plain = plain_lattice_scene();
   auto sim = make(plain);
   CHECK_THROWS(sim->index_of("collision_count"));
   CHECK(sim->collision_events().empty());
-  const std::string no_contacts = R"(
-[particles]
-layout = "lattice"
-count = 8
-solid_fraction = 0.1
-[contact]
-enabled = false
-[analysis]
-collision_log = true
-[time]
-dt = 0.01
-)";
+  const std::string no_contacts =
+      plain_lattice_scene("enabled = false") + "[analysis]\ncollision_log = true\n[time]\ndt = 0.01\n";
   try {
     make(no_contacts);
     FAIL("a collision log without contacts was accepted");

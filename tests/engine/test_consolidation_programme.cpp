@@ -9,6 +9,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "analysis/bonded_clusters.hpp"
+#include "packed_cell_scene.hpp"
 #include "protocols/consolidation_programme.hpp"
 
 using namespace grains;
@@ -30,34 +31,13 @@ TEST_CASE("programme: the paper's ladder, 0.01 to 13.33 by 10^(1/8), unloading b
 }
 
 namespace {
+// The barostat tests' 2D packing of 100 grains, through a short programme up to 4e-3.
 std::string small_programme(long stage_budget) {
-  return fmt::format(R"(
-[scene]
-dimension = 2
-[particles]
-layout = "random"
-count = 100
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-solid_fraction = 0.4
-seed = 3
-[contact]
-restitution = 0.1
-duration = 0.05
-[friction]
-coefficient = 0.3
-[cell]
-enabled = true
-force_unit = 0
-pressure = 1e-3
+  return packed_cell_scene(2, 100, 1e-3, fmt::format(R"(
 [programme]
 top_pressure = 4e-3
 stages_per_decade = 2
-stage_budget = {}
-[run]
-threads = 1
-)", stage_budget);
+stage_budget = {})", stage_budget));
 }
 double value(const StageRecord& r, const std::string& name) {
   for (const auto& [n, v] : r.values)

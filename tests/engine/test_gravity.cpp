@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "cloud_scene.hpp"
 #include "core/simulation.hpp"
 #include "interactions/gravity.hpp"
 #include "interactions/gravity_direct.hpp"
@@ -435,27 +436,10 @@ TEST_CASE("gravity: every direct kernel's pair term is round-off close over 80 d
 }
 
 TEST_CASE("gravity: total momentum is conserved with direct gravity and contacts", "[gravity]") {
-  auto sim = Simulation::create(Scene::from_string(R"(
-[particles]
-layout = "random"
-count = 40
-seed = 5
-diameter = 1.0
-mass = 1.0
-[box]
-lengths = [8, 8, 8]
-periodic = false
-[contact]
-restitution = 0.5
-duration = 0.05
-[gravity]
-enabled = true
-G = 1.0
-[time]
-steps_per_contact = 50
-[run]
-threads = 2
-)", "gravity-momentum"));
+  auto sim = Simulation::create(Scene::from_string(
+      cloud_scene({.count = 40, .seed = 5, .restitution = 0.5, .duration = 0.05, .threads = 2, .edge = 8},
+                  "[time]\nsteps_per_contact = 50\n"),
+      "gravity-momentum"));
   double worst = 0, min_gap = 1e9;
   for (int k = 0; k < 40; ++k) {
     sim->step(0.1);
@@ -767,26 +751,10 @@ threads = 1
   };
   const double e_ref = head_on(0.5, 1600).first;
   auto cloud_seconds = [](double nc) {
-    auto sim = Simulation::create(Scene::from_string(fmt::format(R"(
-[particles]
-layout = "random"
-count = 500
-diameter = 1.0
-mass = 1.0
-solid_fraction = 0.05
-seed = 5
-[box]
-periodic = false
-[contact]
-restitution = 0.5
-duration = 0.02
-[gravity]
-enabled = true
-[time]
-steps_per_contact = {}
-[run]
-threads = 2
-)", nc), "cloud"));
+    auto sim = Simulation::create(Scene::from_string(
+        cloud_scene({.count = 500, .seed = 5, .restitution = 0.5, .duration = 0.02, .threads = 2},
+                    fmt::format("[time]\nsteps_per_contact = {}\n", nc)),
+        "cloud"));
     const auto t0 = std::chrono::steady_clock::now();
     sim->step(0.05);
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -58,6 +58,21 @@ Config<D> make_config(std::size_t n, Sizes sizes, bool periodic, double edge, un
   return c;
 }
 
+// Moves a periodic configuration as between two list builds: a uniform drift across the periodic
+// boundary (images change, pairs persist), plus a random displacement of a third of the particles
+// (some pairs leave, some arrive).
+template <int D>
+void drift_and_jostle(Config<D>& c, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (std::size_t i = 0; i < c.x.size(); ++i) {
+    c.x[i][0] += 0.37 * c.box.length[0];
+    if (i % 3 == 0)
+      for (int a = 0; a < D; ++a) c.x[i][a] += 0.5 * u(rng);
+    c.x[i] = c.box.wrap(c.x[i]);
+  }
+}
+
 // A pair (i < j) and the integer periodic image k (pair vector = x_j - x_i + k L).
 using Entry = std::tuple<std::size_t, std::size_t, std::array<int, 3>>;
 
@@ -229,16 +244,7 @@ void carry_case(Sizes sizes, unsigned seed) {
   std::map<std::pair<std::size_t, std::size_t>, double> by_pair;
   for (std::size_t i = 0; i < c.x.size(); ++i)
     for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) value[k] = by_pair[{i, nl.partner[k]}] = 1000.0 + k;
-  // Move: a uniform drift across the periodic boundary (images change, pairs persist), plus a
-  // random displacement of a third of the particles (some pairs leave, some arrive).
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (std::size_t i = 0; i < c.x.size(); ++i) {
-    c.x[i][0] += 0.37 * c.box.length[0];
-    if (i % 3 == 0)
-      for (int a = 0; a < D; ++a) c.x[i][a] += 0.5 * u(rng);
-    c.x[i] = c.box.wrap(c.x[i]);
-  }
+  drift_and_jostle(c, seed);
   std::vector<std::uint8_t> old_image = nl.image;
   for (int threads : {1, 2}) {
     NeighbourList<D> again = nl;   // same previous list, rebuilt with 1 or 2 threads
@@ -300,14 +306,7 @@ void match_previous_case(unsigned seed) {
   std::vector<std::pair<std::size_t, std::size_t>> old_pair(nl.pair_count());
   for (std::size_t i = 0; i < c.x.size(); ++i)
     for (auto k = nl.start[i]; k < nl.start[i + 1]; ++k) old_pair[k] = {i, nl.partner[k]};
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (std::size_t i = 0; i < c.x.size(); ++i) {
-    c.x[i][0] += 0.37 * c.box.length[0];
-    if (i % 3 == 0)
-      for (int a = 0; a < D; ++a) c.x[i][a] += 0.5 * u(rng);
-    c.x[i] = c.box.wrap(c.x[i]);
-  }
+  drift_and_jostle(c, seed);
   nl.build(c.x, c.radius, c.box, 2);
   std::map<std::pair<std::size_t, std::size_t>, std::size_t> now;   // pair -> entry
   for (std::size_t i = 0; i < c.x.size(); ++i)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "cloud_scene.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "protocols/run_length.hpp"
@@ -14,24 +15,8 @@ using Catch::Contains;
 
 namespace {
 
-const std::string cloud = R"(
-[particles]
-layout = "random"
-count = 50
-diameter = 1.0
-mass = 1.0
-solid_fraction = 0.05
-seed = 3
-[box]
-periodic = false
-[contact]
-restitution = 0.5
-duration = 0.05
-[gravity]
-enabled = true
-[run]
-threads = 1
-)";
+const CloudScene small_cloud{.count = 50, .seed = 3, .restitution = 0.5, .duration = 0.05, .threads = 1};
+const std::string cloud = cloud_scene(small_cloud);
 
 std::optional<long> steps_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
   const Scene scene = Scene::from_string(text, "cloud.toml", overrides);
@@ -58,8 +43,8 @@ TEST_CASE("run length: two lengths are refused, an override replaces the file's"
 }
 
 TEST_CASE("run length: free-fall times need self-gravity", "[scene][run_length][errors]") {
-  std::string no_gravity = cloud;
-  no_gravity.replace(no_gravity.find("enabled = true"), 14, "enabled = false");
-  CHECK_THROWS_WITH(steps_of(no_gravity + "[time]\nfree_fall_times = 3.0\n"),
+  CloudScene no_gravity = small_cloud;
+  no_gravity.gravity = false;
+  CHECK_THROWS_WITH(steps_of(cloud_scene(no_gravity) + "[time]\nfree_fall_times = 3.0\n"),
                     Contains("time.free_fall_times") && Contains("gravity.enabled = true"));
 }
