@@ -2,10 +2,12 @@
 // observables (cluster counts, aggregation time, free-fall time) end to end.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -129,6 +131,42 @@ TEST_CASE("fractal dimension: compact lattice ball ~3, straight chain ~1, tiny s
   CHECK(std::isnan(fractal_dimension<3>(std::vector<Vec<3>>{Vec<3>::Zero()}, {0.5}, {1.0})));
 }
 
+namespace {
+
+// Largest distance of a particle from the centre of mass.
+double largest_distance_from_centre(const ParticleView& p) {
+  double centre[3] = {0, 0, 0}, mass = 0, largest = 0;
+  for (std::size_t i = 0; i < p.count; ++i) {
+    for (int a = 0; a < 3; ++a) centre[a] += p.mass[i] * p.position[3 * i + a];
+    mass += p.mass[i];
+  }
+  for (std::size_t i = 0; i < p.count; ++i) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) d2 += std::pow(p.position[3 * i + a] - centre[a] / mass, 2);
+    largest = std::max(largest, std::sqrt(d2));
+  }
+  return largest;
+}
+
+// Kinetic energy (translation and spin of solid spheres, I = 2/5 m R^2) and the softened gravitational
+// potential -sum_{i<j} G m_i m_j / sqrt(d^2 + eps^2), summed directly.
+std::pair<double, double> energies(const ParticleView& p, double G, double eps) {
+  double kinetic = 0, potential = 0;
+  for (std::size_t i = 0; i < p.count; ++i)
+    for (int a = 0; a < 3; ++a)
+      kinetic += 0.5 * p.mass[i] * (std::pow(p.velocity[3 * i + a], 2) +
+                                    0.4 * p.radius[i] * p.radius[i] * std::pow(p.angular_velocity[3 * i + a], 2));
+  for (std::size_t i = 0; i < p.count; ++i)
+    for (std::size_t j = i + 1; j < p.count; ++j) {
+      double d2 = eps * eps;
+      for (int a = 0; a < 3; ++a) d2 += std::pow(p.position[3 * j + a] - p.position[3 * i + a], 2);
+      potential -= G * p.mass[i] * p.mass[j] / std::sqrt(d2);
+    }
+  return {kinetic, potential};
+}
+
+}  // namespace
+
 TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; save/restore keeps aggregation_time",
           "[aggregation]") {
   const std::string text =
@@ -136,6 +174,8 @@ TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; sa
                   "[analysis]\naggregation_threshold = 0.9\nevery = 50\n");
   auto sim = Simulation::create(Scene::from_string(text, "cloud"));
   const double tff = sim->get("free_fall_time");
+  // t_ff = sqrt(R0^3 / (G M)), R0 the largest distance from the initial centre of mass (physics.md section 8)
+  CHECK(tff == Approx(std::sqrt(std::pow(largest_distance_from_centre(sim->particles()), 3) / (1.0 * 200))).epsilon(1e-13));
   CHECK(sim->get("cluster_count") > 150);
   CHECK(sim->get("cluster_index") == Approx(sim->get("cluster_count") / 200));
   CHECK(std::isnan(sim->get("aggregation_time")));
@@ -170,6 +210,9 @@ TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; sa
   CHECK(t_agg > t_saved);
   CHECK(t_agg <= sim->time());
   CHECK(sim->get("time_over_free_fall") == Approx(sim->time() / tff));
+  // Q = K / |W| from the particles themselves: translation and spin, softened pair potential (epsilon = 0.1 R_min)
+  const auto [kinetic, potential] = energies(sim->particles(), 1.0, 0.1 * 0.5);
+  CHECK(sim->get("virial_ratio") == Approx(kinetic / std::abs(potential)).epsilon(1e-10));
 
   // Restoring the pre-aggregation state brings back its undefined aggregation time; running on
   // reproduces the same aggregation time; restoring the end state brings it back.
