@@ -45,12 +45,7 @@ int main(int argc, char** argv) {
   try {
     if (*cmd_run) return grains::run_scene(run);
     if (*cmd_cons) return grains::consolidate_scene(cons);
-    if (*cmd_check) {
-      auto scene = grains::Scene::from_file(check_scene, check_overrides);
-      scene.validate();
-      fmt::print("{}", scene.resolved_toml());
-      return 0;
-    }
+    if (*cmd_check) return grains::check_scene(check_scene, check_overrides);
     if (*cmd_ref) {
       fmt::print("{}", grains::schema_reference_markdown());
       return 0;

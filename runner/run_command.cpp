@@ -3,6 +3,8 @@
 #include <csignal>
 #include <cmath>
 #include <filesystem>
+#include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -34,18 +36,48 @@ void write_observables(H5mdWriter& out, const Simulation& sim) {
       out.write_observable(vars[i].name, sim.step_count(), sim.time(), sim.get(i));
 }
 
+namespace {
+
+// What `run` checks before it opens the output file, shared with `check`: the scene, the simulation
+// built from it, and the run's length (none when the scene gives none: a programme's scene).
+struct PreparedRun {
+  std::unique_ptr<Simulation> sim;
+  std::optional<long> steps;
+  bool stop_at_aggregation;
+};
+
+PreparedRun prepare_run(const Scene& scene) {
+  scene.validate();
+  PreparedRun r{Simulation::create(scene), std::nullopt, scene.boolean("analysis.stop_at_aggregation")};
+  r.steps = run_steps(scene, *r.sim);
+  if (r.stop_at_aggregation && !scene.boolean("gravity.enabled"))
+    scene.fail("analysis.stop_at_aggregation", "value true needs the aggregation analysis of a self-gravitating cloud: "
+                                               "set gravity.enabled = true, or stop_at_aggregation = false");
+  return r;
+}
+
+}  // namespace
+
+int check_scene(const std::string& path, const std::vector<std::string>& overrides) {
+  const Scene scene = Scene::from_file(path, overrides);
+  const PreparedRun r = prepare_run(scene);
+  for (const auto& w : r.sim->warnings()) fmt::print(stderr, "warning: {}\n", w);
+  fmt::print("{}", scene.resolved_toml());
+  // Derived values, as TOML comments so the output still reads as a scene
+  fmt::print("\n# derived: time.dt = {}, {} particles", r.sim->dt(), r.sim->particle_count());
+  if (r.steps) fmt::print(", `grains run` takes {} steps", *r.steps);
+  fmt::print("\n");
+  return 0;
+}
+
 int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
-  scene.validate();
-  auto sim = Simulation::create(scene);
-  const std::optional<long> length = run_steps(scene, *sim);
-  if (!length) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
-  const long steps = *length;
-  const bool stop_at_aggregation = scene.boolean("analysis.stop_at_aggregation");
-  if (stop_at_aggregation && !scene.boolean("gravity.enabled"))
-    scene.fail("analysis.stop_at_aggregation", "value true needs the aggregation analysis of a self-gravitating cloud: "
-                                               "set gravity.enabled = true, or stop_at_aggregation = false");
+  PreparedRun prepared = prepare_run(scene);
+  auto& sim = prepared.sim;
+  if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
+  const long steps = *prepared.steps;
+  const bool stop_at_aggregation = prepared.stop_at_aggregation;
   const long obs_every = scene.integer("output.observables_every");
   const long snap_every = scene.integer("output.snapshots_every");
 

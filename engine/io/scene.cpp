@@ -115,12 +115,18 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
     throw SceneError(fmt::format("{}:{}:{}: TOML syntax error: {}", s.origin_, err.source().begin.line,
                                  err.source().begin.column, err.description()));
   }
+  std::string length_override;   // the run-length key an override gave, if any
   for (const auto& o : overrides) {
     auto eq = o.find('=');
     if (eq == std::string::npos || eq == 0)
       throw SceneError(fmt::format("--set '{}': expected key.path=value, e.g. contact.restitution=0.5", o));
     const std::string_view key = std::string_view(o).substr(0, eq);
-    s.replace_run_length(key);
+    if (s.replace_run_length(key)) {
+      if (!length_override.empty() && length_override != key)
+        throw SceneError(fmt::format("--set {}: given together with --set {}: give one of time.duration, time.steps and "
+                                     "time.free_fall_times", key, length_override));
+      length_override = key;
+    }
     s.set_value(key, std::string_view(o).substr(eq + 1));
   }
   return s;
@@ -128,14 +134,15 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
 
 // The run's length is one of three keys (protocols/run_length.hpp): an override giving one replaces
 // whichever the file gave, so `--set time.steps=100` shortens a scene written with free_fall_times.
-void Scene::replace_run_length(std::string_view key) {
+bool Scene::replace_run_length(std::string_view key) {
   static constexpr std::string_view lengths[] = {"duration", "steps", "free_fall_times"};
-  if (key.substr(0, 5) != "time.") return;
+  if (key.substr(0, 5) != "time.") return false;
   const std::string_view name = key.substr(5);
-  if (std::find(std::begin(lengths), std::end(lengths), name) == std::end(lengths)) return;
+  if (std::find(std::begin(lengths), std::end(lengths), name) == std::end(lengths)) return false;
   if (auto* time = table_["time"].as_table())
     for (std::string_view other : lengths)
       if (other != name) time->erase(other);
+  return true;
 }
 
 Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides) {

@@ -61,7 +61,7 @@ class Scene {
   [[noreturn]] void fail(std::string_view path, const std::string& what) const;
 
  private:
-  void replace_run_length(std::string_view key);
+  bool replace_run_length(std::string_view key);   // true: key is a run-length key
   toml::node_view<const toml::node> node(std::string_view path) const;
   const SchemaEntry& entry(std::string_view path) const;
   toml::table table_;

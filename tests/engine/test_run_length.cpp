@@ -1,5 +1,6 @@
 // The run's length (protocols/run_length.hpp): one of time.duration, time.steps, time.free_fall_times;
-// two refused naming both; free-fall times only with self-gravity; an override replaces the file's.
+// two refused naming both (in the file or in two overrides); free-fall times only with self-gravity; an
+// override replaces the file's.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -40,6 +41,10 @@ TEST_CASE("run length: two lengths are refused, an override replaces the file's"
                     Contains("time.free_fall_times") && Contains("given together with time.duration"));
   CHECK(steps_of(cloud + "[time]\nfree_fall_times = 1.0\n", {"time.steps=40"}) == 40);
   CHECK(steps_of(cloud + "[time]\nsteps = 40\n", {"time.free_fall_times=1.0"}).value() > 40);
+  // two overrides of different lengths: refused naming both (not the last one silently winning)
+  CHECK_THROWS_WITH(steps_of(cloud, {"time.steps=100", "time.duration=0.01"}),
+                    Contains("--set time.duration") && Contains("given together with --set time.steps"));
+  CHECK(steps_of(cloud, {"time.steps=100", "time.steps=50"}) == 50);   // the same key twice: the last one
 }
 
 TEST_CASE("run length: free-fall times need self-gravity", "[scene][run_length][errors]") {

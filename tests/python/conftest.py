@@ -5,6 +5,8 @@ import pathlib
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+if os.environ.get("GRAINS_BIN"):   # absolute, for the tests that run commands from other folders
+    os.environ["GRAINS_BIN"] = str(pathlib.Path(os.environ["GRAINS_BIN"]).resolve())
 
 
 @pytest.fixture(scope="session")
@@ -12,7 +14,7 @@ def grains_bin():
     path = os.environ.get("GRAINS_BIN")
     if not path:
         pytest.skip("GRAINS_BIN is not set (tests/run.sh sets it)")
-    return str(pathlib.Path(path).resolve())   # tests run commands from other folders
+    return path
 
 
 @pytest.fixture(scope="session")

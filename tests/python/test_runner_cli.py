@@ -45,6 +45,17 @@ def test_unknown_key_suggests_the_right_one(grains_bin, root, tmp_path):
     assert "contact.restitutoin" in r.stderr and "did you mean 'contact.restitution'" in r.stderr
 
 
+def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
+    """`check` builds the run as `run` does: two run lengths are refused there too, and it reports the
+    derived time step and the run's steps (dt = t_c / 50 = 0.002, duration 1)."""
+    scene = tmp_path / "two.toml"
+    scene.write_text((root / "models" / "collision.toml").read_text().replace("[time]\n", "[time]\nsteps = 5\n"))
+    r = run(grains_bin, "check", scene)
+    assert r.returncode != 0 and "time.steps: given together with time.duration" in r.stderr
+    r = run(grains_bin, "check", root / "models" / "collision.toml")
+    assert r.returncode == 0 and "# derived: time.dt = 0.002, 2 particles, `grains run` takes 500 steps" in r.stdout
+
+
 def test_every_shipped_scene_validates(grains_bin, root):
     for scene in sorted((root / "models").glob("*.toml")):
         r = run(grains_bin, "check", scene)
