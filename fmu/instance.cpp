@@ -37,8 +37,8 @@ const char* role_name(Role r) {
 std::string toml_value(ValueType type, double value) {
   if (type == ValueType::boolean) return value != 0 ? "true" : "false";
   if (type == ValueType::integer) return fmt::format("{}", static_cast<long long>(value));
-  std::string s = fmt::format("{}", value);
-  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  std::string s = fmt::format("{}", value);   // nan, inf, -inf are TOML floats as they are
+  if (std::isfinite(value) && s.find_first_of(".eE") == std::string::npos) s += ".0";
   return s;
 }
 
@@ -296,7 +296,9 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
   const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
   if (v.role != Role::scene_parameter && v.role != Role::control && v.role != Role::snapshot_option)
     return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", v.name, ref, role_name(v.role)));
-  if (!std::isfinite(value))
+  // a real scene key's NaN or inf goes on to the scene's schema, whose message gives the exact allowed range
+  const bool schema_judges = !v.scene_key.empty() && v.type == ValueType::real && before_steps;
+  if (!std::isfinite(value) && !schema_judges)
     return error(fmt::format("{} = {} is not allowed: a finite value{}", v.name, value,
                              std::isfinite(v.min) || std::isfinite(v.max) ? fmt::format(" in [{}, {}]", v.min, v.max) : ""));
   if (v.type == ValueType::integer && value != std::floor(value))

@@ -25,9 +25,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   const std::string name = scene.text("scene.name");
   std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  for (const auto& file : {path, table})
-    if (auto dir = std::filesystem::path(file).parent_path(); !dir.empty() && !std::filesystem::is_directory(dir))
-      throw SceneError(fmt::format("output directory '{}' does not exist (output file '{}')", dir.string(), file));
+  for (const auto& file : {path, table}) check_output_path(file, opt.scene);
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));

@@ -1,4 +1,6 @@
 // grains: command-line runner. `grains --help` lists the commands.
+#include <new>
+
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
@@ -50,6 +52,10 @@ int main(int argc, char** argv) {
       fmt::print("{}", grains::schema_reference_markdown());
       return 0;
     }
+  } catch (const std::bad_alloc&) {
+    fmt::print(stderr, "error: out of memory: the scene needs more memory than this machine gives the run "
+                       "(fewer particles, or output.snapshots_every = 0)\n");
+    return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return 1;

@@ -22,6 +22,15 @@ volatile std::sig_atomic_t interrupted = 0;
 void on_signal(int) { interrupted = 1; }
 }  // namespace
 
+void check_output_path(const std::string& output, const std::string& scene_file) {
+  namespace fs = std::filesystem;
+  if (auto dir = fs::path(output).parent_path(); !dir.empty() && !fs::is_directory(dir))
+    throw SceneError(fmt::format("output directory '{}' does not exist (output file '{}')", dir.string(), output));
+  std::error_code ec;
+  if (fs::equivalent(output, scene_file, ec))
+    throw SceneError(fmt::format("output file '{}' is the scene file itself: name another file (--out, --table)", output));
+}
+
 void write_frame(H5mdWriter& out, const Simulation& sim) {
   const ParticleView p = sim.particles();
   const BoxView b = sim.box();
@@ -83,8 +92,7 @@ int run_scene(const RunOptions& opt) {
 
   std::string path = opt.output;
   if (path.empty()) path = scene.has("output.file") ? scene.text("output.file") : scene.text("scene.name") + ".h5";
-  if (auto dir = std::filesystem::path(path).parent_path(); !dir.empty() && !std::filesystem::is_directory(dir))
-    throw SceneError(fmt::format("output directory '{}' does not exist (output file '{}')", dir.string(), path));
+  check_output_path(path, opt.scene);
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
@@ -108,15 +116,13 @@ int run_scene(const RunOptions& opt) {
     sim->step_n(n);
     done += n;
     aggregated = stop_at_aggregation && std::isfinite(sim->get("aggregation_time"));
-    const bool last = done == steps || aggregated;
+    const bool last = done == steps || aggregated || interrupted;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, *sim);
     if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, *sim);
     if (!opt.quiet) progress.update(done);
   }
   progress.finish();
   if (interrupted) {
-    write_observables(out, *sim);
-    write_frame(out, *sim);
     out.set_attribute("status", fmt::format("interrupted at step {}", sim->step_count()));
   } else {
     out.set_attribute("status", "complete");

@@ -160,6 +160,10 @@ class SimulationImpl final : public Simulation {
   void step(double duration) override {
     if (!(duration >= 0) || !std::isfinite(duration))
       throw SimulationError(fmt::format("step: duration {} is not allowed: a finite value >= 0", duration));
+    // (the limit of a scene's run length, protocols/run_length.hpp; beyond it the step count overflows)
+    if (duration / dt_ > 1e15)
+      throw SimulationError(fmt::format("step: duration {} is {:.3g} steps of dt = {:.6g}; at most 1e15 steps at a time",
+                                        duration, duration / dt_, dt_));
     const double target = sys_.time + duration;
     const long whole = long(std::floor(duration / dt_ * (1 + 1e-12)));
     // The remainder is judged on the duration itself, not on the accumulated time (whose rounding

@@ -263,7 +263,7 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"time.dt", K::real, "", 0, inf, true, false, "", "Time step; default t_c / steps_per_contact."},
       {"time.steps_per_contact", K::real, "50", 1, inf, false, false, "", "n_c: steps per contact duration when dt is not given."},
       {"time.duration", K::real, "", 0, inf, true, false, "", "Simulated time of a run (or give `steps` or `free_fall_times`)."},
-      {"time.steps", K::integer, "", 0, 9.2e18, false, false, "", "Number of steps of a run (or give `duration` or `free_fall_times`)."},
+      {"time.steps", K::integer, "", 0, 1e15, false, false, "", "Number of steps of a run (or give `duration` or `free_fall_times`)."},
       {"time.free_fall_times", K::real, "", 0, inf, true, false, "",
        "Length of a run in free-fall times t_ff = sqrt(R0^3 / (G M)) of the initial cloud (gravity scenes, physics.md "
        "section 8), instead of `duration` or `steps`."},

@@ -128,15 +128,18 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     double cells = 1;
     for (int a = 0; a < D; ++a) {
       double extent = hi[a] - lo[a];
-      g.n[a] = std::max(1, int(std::floor(extent / want)));
-      if (!box.periodic[a]) g.n[a] = std::min(g.n[a], 1 << 20);
+      // clamped in floating point first: particles flung apart (1e300, or inf after the subtraction) give
+      // one cell, not an overflowing conversion
+      g.n[a] = int(std::clamp(std::floor(extent / want), 1.0, box.periodic[a] ? 1e9 : double(1 << 20)));
       cells *= g.n[a];
     }
     while (cells > 4.0 * N + 64) {   // sparse open systems: coarsen instead of allocating empty cells
       cells = 1;
       for (int a = 0; a < D; ++a) g.n[a] = std::max(1, g.n[a] / 2), cells *= g.n[a];
     }
-    for (int a = 0; a < D; ++a) g.origin[a] = lo[a], g.inverse_cell[a] = g.n[a] / std::max(hi[a] - lo[a], 1e-300);
+    // the extent bounded above too: an overflowing one (inf) would make inverse_cell 0 and coords() NaN
+    for (int a = 0; a < D; ++a)
+      g.origin[a] = lo[a], g.inverse_cell[a] = g.n[a] / std::clamp(hi[a] - lo[a], 1e-300, std::numeric_limits<double>::max());
     g.cell_start.assign(std::size_t(cells) + 1, 0);
   }
   cell_of_.resize(N);

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <unordered_map>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 namespace grains {
@@ -184,6 +186,12 @@ InitialState<D> make_initial_state(const Scene& s) {
     if (N == 0) s.fail("particles.file", fmt::format("'{}' holds no particle rows", path.string()));
   } else {
     N = std::size_t(s.integer("particles.count"));
+    // Refuse what cannot fit before allocating (Linux would hand out the memory and kill the run later):
+    // a run keeps at least ~250 bytes per particle (the gas scene's state and lists, measured).
+    const double need = 250.0 * double(N), have = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+    if (have > 0 && need > have)
+      s.fail("particles.count", fmt::format("value {} needs at least {:.3g} GB of memory (about 250 bytes a particle); "
+                                            "this machine has {:.3g} GB", N, need / 1e9, have / 1e9));
   }
   P.resize(N);
 

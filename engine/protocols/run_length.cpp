@@ -17,12 +17,21 @@ std::optional<long> run_steps(const Scene& scene, const Simulation& sim) {
     scene.fail(given[1], fmt::format("given together with {}: give one of time.duration, time.steps and "
                                      "time.free_fall_times", given[0]));
   if (given[0] == "time.steps") return long(scene.integer("time.steps"));
-  if (given[0] == "time.duration") return std::lround(scene.real("time.duration") / sim.dt());
-  if (!scene.boolean("gravity.enabled"))
-    scene.fail("time.free_fall_times", fmt::format("value {} needs the free-fall time of a self-gravitating cloud: set "
-                                                   "gravity.enabled = true, or give time.duration",
-                                                   scene.real("time.free_fall_times")));
-  return std::lround(scene.real("time.free_fall_times") * sim.get("free_fall_time") / sim.dt());
+  double steps = 0;
+  if (given[0] == "time.duration") {
+    steps = scene.real("time.duration") / sim.dt();
+  } else {
+    if (!scene.boolean("gravity.enabled"))
+      scene.fail("time.free_fall_times", fmt::format("value {} needs the free-fall time of a self-gravitating cloud: set "
+                                                     "gravity.enabled = true, or give time.duration",
+                                                     scene.real("time.free_fall_times")));
+    steps = scene.real("time.free_fall_times") * sim.get("free_fall_time") / sim.dt();
+  }
+  // a step count must fit the step counter (and a run of more steps would not end anyway)
+  if (!(steps <= max_run_steps))
+    scene.fail(given[0], fmt::format("value {} is {:.3g} steps of dt = {:.6g}; at most {:.0e} steps can be run: a shorter "
+                                     "run or a larger time step", scene.real(given[0]), steps, sim.dt(), max_run_steps));
+  return std::lround(steps);
 }
 
 }  // namespace grains

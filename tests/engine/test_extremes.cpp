@@ -1,6 +1,6 @@
 // The contact law at its extremes: restitution 1e-4 and 1, stiffness over six decades, a dense
 // periodic system whose energy may never grow, size ratio 10, the time-step rule's boundary, a
-// blow-up that must stop with a clear error, and friction: momentum, angular momentum and a
+// blow-up that must stop with a clear error (also when the particles leave for 1e308), and friction: momentum, angular momentum and a
 // bit-for-bit save/restore in the middle of a sliding contact.
 #include <catch2/catch.hpp>
 
@@ -221,6 +221,13 @@ TEST_CASE("extremes: a huge time step blows up into a SimulationError naming the
     CHECK_THAT(what, Contains("start-up checks warned") && Contains(sim->warnings()[0]));   // the broken rule named
     CHECK(sim->step_count() < 100000);
   }
+}
+
+TEST_CASE("extremes: particles flung to 1e308 in an open box stop with the non-finite error, not a crash", "[extremes]") {
+  // dt = 1e308: the first drift puts the pair at +-5e307, where the open box's extent overflows to inf;
+  // the neighbour grid must still take them (one cell), and the next drift's inf must be reported.
+  auto sim = make(listed_scene(3, head_on_pair(3, 0.2), {0.5, 0.1, 50}) + "dt = 1e308\n");
+  CHECK_THROWS_WITH(sim->step_n(20), Contains("non-finite value") && Contains("particle"));
 }
 
 namespace {

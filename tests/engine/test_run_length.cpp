@@ -45,6 +45,9 @@ TEST_CASE("run length: two lengths are refused, an override replaces the file's"
   CHECK_THROWS_WITH(steps_of(cloud, {"time.steps=100", "time.duration=0.01"}),
                     Contains("--set time.duration") && Contains("given together with --set time.steps"));
   CHECK(steps_of(cloud, {"time.steps=100", "time.steps=50"}) == 50);   // the same key twice: the last one
+  // a length beyond the step counter (it once ran 0 steps) names the key, its steps and the limit
+  CHECK_THROWS_WITH(steps_of(cloud + "[time]\nduration = 1e17\n"),
+                    Contains("time.duration") && Contains("value 1e+17") && Contains("at most 1e+15 steps"));
 }
 
 TEST_CASE("run length: free-fall times need self-gravity", "[scene][run_length][errors]") {

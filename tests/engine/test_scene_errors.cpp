@@ -119,6 +119,9 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   REQUIRE_THROWS_AS(build(good, {"particles.count=8", "box.lengths=[2.0, 2.0, 2.0]", "particles.diameter=0.9"}), SceneError);
   REQUIRE_THROWS_WITH(build(good, {"particles.count=8", "box.lengths=[2.0, 2.0, 2.0]", "particles.diameter=0.9"}),
                       Contains("box.lengths") && Contains("2 long") && Contains("periodic box must be longer"));
+  // A count no machine here holds is refused before anything is allocated, naming the memory it needs.
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"random\"", "particles.count=1000000000"}),
+                      Contains("particles.count") && Contains("1000000000") && Contains("250 GB"));
   // Random insertion at an impossible solid fraction: names the fraction.
   REQUIRE_THROWS_AS(build(good, {"particles.layout=\"random\"", "particles.count=200", "particles.solid_fraction=0.7"}),
                     SceneError);

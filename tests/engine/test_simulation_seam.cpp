@@ -50,6 +50,9 @@ TEST_CASE("step(duration) lands exactly on t + duration, also for a remainder", 
   s->step(0.002);
   CHECK(s->time() == Approx(0.0125).epsilon(1e-15));
   CHECK_THROWS_AS(s->step(-1.0), SimulationError);
+  // more steps than a step counter holds: refused, not one giant step (a host's doStep(1e17))
+  CHECK_THROWS_WITH(s->step(1e17), Catch::Contains("1e+17") && Catch::Contains("at most 1e15 steps"));
+  CHECK(s->step_count() == 13);   // unchanged by the refused call
 }
 
 TEST_CASE("fixed parameters cannot be set and unknown names are named", "[seam]") {

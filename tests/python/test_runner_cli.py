@@ -38,6 +38,15 @@ def test_bad_scene_fails_without_clobbering_existing_output(grains_bin, root, tm
     assert out.read_bytes() == b"existing results"
 
 
+def test_output_onto_the_scene_file_is_refused(grains_bin, root, tmp_path):
+    scene = tmp_path / "scene.toml"
+    text = (root / "models" / "collision.toml").read_text()
+    scene.write_text(text)
+    r = run(grains_bin, "run", scene, "--out", scene)
+    assert r.returncode != 0 and "is the scene file itself" in r.stderr
+    assert scene.read_text() == text
+
+
 def test_unknown_key_suggests_the_right_one(grains_bin, root, tmp_path):
     r = run(grains_bin, "run", root / "models" / "collision.toml", "--out", tmp_path / "x.h5",
             "--set", "contact.restitutoin=0.5")
@@ -149,8 +158,10 @@ def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path):
         assert step > 0
         # The last frame and the last record of every observable are the state it stopped in.
         assert f["particles/all/position/step"][-1] == step
+        assert (np.diff(f["particles/all/position/step"][()]) > 0).all()   # that state once, not twice
         for name, series in f["observables"].items():
             assert series["step"][-1] == step, name
+            assert (np.diff(series["step"][()]) > 0).all(), name
             assert len(series["step"]) == len(series["time"]) == len(series["value"]), name
 
 
