@@ -3,6 +3,7 @@
 //   OUT/fmi2/modelDescription.xml, OUT/fmi3/modelDescription.xml, OUT/documentation/index.html,
 //   OUT/extra/org.fmi-standard.fmi-ls-ref/ (reference results: <name>_ref.csv, <name>_ref.opt, manifest).
 // Usage: grains_fmu_describe SCENE.toml MODEL_IDENTIFIER OUT_DIR VERSION
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -73,8 +74,10 @@ int main(int argc, char** argv) {
     info.identifier = argv[2];
     info.description = scene.text("scene.description");
     info.version = argv[4];
-    info.step_size = 100 * sim->dt();
+    // Communication steps of 100 dt, or fewer so that a short run still gives 100 points (the collision:
+    // 5 dt, where 100 would sample its whole run 5 times); a whole number of dt either way.
     const std::optional<long> steps = run_steps(scene, *sim);
+    info.step_size = double(std::clamp<long>(steps.value_or(10000) / 100, 1, 100)) * sim->dt();
     info.stop_time = steps ? double(*steps) * sim->dt() : 100 * info.step_size;
     const fs::path out = argv[3];
     write(out / "fmi2" / "modelDescription.xml", fmi2_model_description(table, info));

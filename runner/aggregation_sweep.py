@@ -279,7 +279,7 @@ def stiffness_shapes(grid, damping, stiffness):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].split("\n    python")[0].replace("\n", " "))
     ap.add_argument("--damping", type=float, nargs="+", default=DAMPING, help="damping ratios zeta in [0, 1)")
     ap.add_argument("--stiffness", type=float, nargs="+", default=STIFFNESS, help="normalised stiffnesses k* > 0")
     ap.add_argument("--fixed-stiffness", type=float, help="k* of the damping sweep (default: the scene's)")
@@ -290,7 +290,7 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=0, help="threads per run (default: cores / jobs, at least 1)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scene override for every run")
     ap.add_argument("--out", default="sweep", help="folder for the runs, table, summary and plots (default sweep)")
-    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
+    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     ap.add_argument("--report", action="store_true", help="run nothing: summarise the runs already in --out")
     args = ap.parse_args(argv)
     for z in args.damping:

@@ -116,7 +116,7 @@ def main():
     ap.add_argument("--count", type=int)
     ap.add_argument("--seeds", type=int, default=3, help="settings: samples per setting (particles.seed 1, 2, ...)")
     ap.add_argument("--jobs", type=int, default=2, help="settings: runs at a time (one thread each)")
-    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
+    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     a = ap.parse_args()
     if a.count is None:
         a.count = 1400 if a.what == "cycle" else 300

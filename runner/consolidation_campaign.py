@@ -195,7 +195,7 @@ def main():
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="scene override passed to every run, e.g. programme.stage_budget=1000000")
     ap.add_argument("--out", default="campaign", help="folder for tables, HDF5 files, logs, summary (default campaign)")
-    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"))
+    ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     ap.add_argument("--report", action="store_true",
                     help="run nothing: summarise the tables already in --out, unfinished ones included")
     args = ap.parse_args()

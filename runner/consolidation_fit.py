@@ -5,9 +5,8 @@
 STAGES is the table of equilibrated stages of a compression programme: the CSV that `grains
 consolidate` writes (columns pressure_reduced, solid_fraction, phase, reached), or any CSV with a
 header naming at least `P_star` and `phi` (an optional `branch` column with `loading` / `unloading`
-keeps the fit on the loading branch), or an HDF5 file with a group `stages` holding `P_star` and
-`phi` (datasets, or H5MD-style groups with a `value` dataset). Stages that did not reach equilibrium
-are left out.
+keeps the fit on the loading branch), or the HDF5 file of `grains consolidate`, whose stage table
+(the CSV of the same name beside it) is then read. Stages that did not reach equilibrium are left out.
 
 Two fits, both on the loading branch:
   regime II (a straight line in ln P*):   1/Phi = 1/Phi0 - lambda ln(P*/P0*)
@@ -120,41 +119,33 @@ COLUMNS = {"P_star": ("P_star", "pressure_reduced"), "phi": ("phi", "solid_fract
 
 
 def read_stages(path):
-    """(P*, Phi, branch) arrays from a CSV or HDF5 stage table. Rows of `grains consolidate` that did
-    not reach equilibrium (reached = 0), the aggregation stage and the relaxation at target P* = 0 are left out (and
-    counted on stderr); its `equilibrate` stage at the start pressure is the first loading point."""
+    """(P*, Phi, branch) arrays from a CSV stage table (given, or the one beside a `grains consolidate` HDF5
+    file). Rows of `grains consolidate` that did not reach equilibrium (reached = 0), the aggregation stage
+    and the relaxation at target P* = 0 are left out (and counted on stderr); its `equilibrate` stage at
+    the start pressure is the first loading point."""
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
-    if path.suffix in (".h5", ".hdf5"):
-        import h5py
-        with h5py.File(path, "r") as f:
-            if "stages" not in f:
-                raise ValueError(f"'{path}' has no group 'stages'")
-            g = f["stages"]
-            def column(name):
-                node = g[name]
-                return np.asarray(node["value"] if isinstance(node, h5py.Group) else node, float).ravel()
-            p, phi = column("P_star"), column("phi")
-            branch = None
-            if "branch" in g:
-                branch = np.array([b.decode() if isinstance(b, bytes) else str(b) for b in g["branch"][()]])
-            reached = np.ones(len(p), bool)
-            prepared = np.ones(len(p), bool)
-    else:
-        with open(path, newline="") as f:
-            rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
-        header = rows[0].keys() if rows else []
-        pick = {k: next((c for c in names if c in header), None) for k, names in COLUMNS.items()}
-        if pick["P_star"] is None or pick["phi"] is None:
-            raise ValueError(f"'{path}' needs a header with columns P_star (or pressure_reduced) and phi "
-                             f"(or solid_fraction); it has {', '.join(header) or 'none'}")
-        p = np.array([float(r[pick["P_star"]]) for r in rows])
-        phi = np.array([float(r[pick["phi"]]) for r in rows])
-        branch = np.array([r[pick["branch"]] for r in rows]) if pick["branch"] else None
-        reached = np.array([r.get("reached", "1") != "0" for r in rows])
-        # grains consolidate: the aggregation stage (no target) and the relaxation at P* = 0 are preparation
-        prepared = np.array([float(r.get("target_pressure", "1")) > 0 for r in rows])
+    if path.suffix in (".h5", ".hdf5"):   # grains consolidate writes its stage table beside its HDF5 file
+        table = path.with_suffix(".csv")
+        if not table.exists():
+            raise ValueError(f"'{path}' is an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
+                             f"writes with it (--table), and there is none at '{table}'")
+        print(f"reading the stage table {table}", file=sys.stderr)
+        path = table
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
+    header = rows[0].keys() if rows else []
+    pick = {k: next((c for c in names if c in header), None) for k, names in COLUMNS.items()}
+    if pick["P_star"] is None or pick["phi"] is None:
+        raise ValueError(f"'{path}' needs a header with columns P_star (or pressure_reduced) and phi "
+                         f"(or solid_fraction); it has {', '.join(header) or 'none'}")
+    p = np.array([float(r[pick["P_star"]]) for r in rows])
+    phi = np.array([float(r[pick["phi"]]) for r in rows])
+    branch = np.array([r[pick["branch"]] for r in rows]) if pick["branch"] else None
+    reached = np.array([r.get("reached", "1") != "0" for r in rows])
+    # grains consolidate: the aggregation stage (no target) and the relaxation at P* = 0 are preparation
+    prepared = np.array([float(r.get("target_pressure", "1")) > 0 for r in rows])
     if branch is None:   # loading = the stages up to the largest pressure
         top = int(np.argmax(p))
         branch = np.array(["loading"] * (top + 1) + ["unloading"] * (len(p) - top - 1))
@@ -200,7 +191,7 @@ def main(argv=None):
     ap.add_argument("table", help="stage table: CSV with P_star, phi (and optionally branch), or HDF5 with stages/")
     ap.add_argument("-o", "--out", help="plot file (PNG); default: beside the table")
     ap.add_argument("--p0", type=float, help="P0*, start of regime II (default: the line meets the initial plateau)")
-    ap.add_argument("--regime2-max", type=float, default=0.1, help="largest P* of the regime II line fit")
+    ap.add_argument("--regime2-max", type=float, default=0.1, help="largest P* of the regime II line fit (default 0.1)")
     args = ap.parse_args(argv)
     try:
         p, phi, branch = read_stages(args.table)

@@ -3,15 +3,36 @@
     python runner/plot.py RUN.h5 [-o OUT.png] [--observables a,b,c] [--x NAME]
 
 Reads observables/<name>/{time,value} from an H5MD file and draws each observable in its own
-subplot over a shared time axis (all of them by default, at most 6), or over another observable
-recorded at the same times (`--x time_over_free_fall`: against t / t_ff). Prints the PNG path.
+subplot over a shared time axis (by default the scene's main ones, at most 6), or over another
+observable recorded at the same times (`--x time_over_free_fall`: against t / t_ff). The figure is
+titled with the scene's name and description; a quantity spanning more than three decades is drawn
+on a log axis, and the aggregation time, when the run reached it, is marked. Prints the PNG path.
 Exits with code 2 and a message naming the file when it is missing or holds no observables.
 """
 import argparse
 import sys
+import textwrap
 from pathlib import Path
 
 MAX_PANELS = 6
+# The default panels, in this order, when the file has them (else the file's first observables).
+PREFERRED = ["largest_cluster_fraction", "cluster_index", "virial_ratio", "pressure_reduced", "solid_fraction",
+             "coordination", "kinetic_energy", "contacts"]
+LABELS = {
+    "largest_cluster_fraction": "f_max: mass fraction of the largest cluster",
+    "cluster_index": "N_c / N: clusters per particle",
+    "virial_ratio": "Q = K / |W|: virial ratio",
+    "time_over_free_fall": "t / t_ff",
+    "kinetic_energy": "kinetic energy K",
+    "gravity_potential_energy": "gravitational potential energy W",
+    "elastic_energy": "elastic energy of the contacts",
+    "contacts": "contacts",
+    "max_overlap_ratio": "largest overlap / R_min",
+    "pressure_reduced": "P* = a P / F0",
+    "solid_fraction": "solid fraction Phi",
+    "coordination": "coordination number z",
+    "fractal_dimension": "fractal dimension D_f of the largest cluster",
+}
 
 
 def fail(message):
@@ -32,26 +53,52 @@ def read_observables(path, wanted):
         available = list(group.keys()) if isinstance(group, h5py.Group) else []
         if not available:
             fail(f"'{path}' has no observables")
-        names = wanted or available[:MAX_PANELS]
+        names = wanted or ([n for n in PREFERRED if n in available] or available)[:MAX_PANELS]
         missing = [n for n in names if n not in available]
         if missing:
-            fail(f"'{path}' has no observable {', '.join(missing)} (available: {', '.join(available)})")
+            fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
         return {n: (group[n]["time"][()], group[n]["value"][()]) for n in names}
 
 
-def plot(series, out, x_name=None, x_values=None):
+def read_context(path):
+    """The figure's title (scene name and description) and the aggregation time (NaN if none)."""
+    import h5py
+    import tomllib
+    title, t_agg = path.name, float("nan")
+    with h5py.File(path, "r") as f:
+        text = f["parameters"].attrs.get("scene.toml") if "parameters" in f else None
+        if text is not None:
+            scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)).get("scene", {})
+            title = "\n".join(textwrap.fill(x, 80) for x in (scene.get("name"), scene.get("description")) if x) or title
+        if "observables/aggregation_time/value" in f:
+            t_agg = float(f["observables/aggregation_time/value"][-1])
+    return title, t_agg
+
+
+def plot(series, out, x_name=None, x_values=None, title="", t_agg=float("nan"), t_ff=None):
     import matplotlib
 
     matplotlib.use("Agg")  # no display needed
     import matplotlib.pyplot as plt
+    import numpy as np
 
-    fig, axes = plt.subplots(len(series), 1, sharex=True, squeeze=False, figsize=(7, 2.2 * len(series) + 0.6))
+    fig, axes = plt.subplots(len(series), 1, sharex=True, squeeze=False, figsize=(7, 2.2 * len(series) + 0.9))
+    # the aggregation time on the plot's own axis (t / t_ff when that is the axis)
+    mark = t_agg if x_name is None else t_agg / t_ff if x_name == "time_over_free_fall" and t_ff else float("nan")
     for ax, (name, (t, v)) in zip(axes[:, 0], series.items()):
         # Vector observables ([frames, k]) get one line per component.
         ax.plot(t if x_values is None else x_values, v, lw=1)
-        ax.set_title(name)
+        ax.set_title(LABELS.get(name, name), fontsize=10)
+        positive = np.asarray(v, float)[np.isfinite(v)]
+        if positive.size and (positive > 0).all() and positive.max() > 1e3 * positive.min():
+            ax.set_yscale("log")
+        if np.isfinite(mark):
+            ax.axvline(mark, color="0.4", ls="--", lw=0.8, label="aggregation time")
         ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel(x_name or "time")
+    if np.isfinite(mark):
+        axes[0, 0].legend(fontsize=8, loc="best")
+    axes[-1, 0].set_xlabel(LABELS.get(x_name, x_name) if x_name else "time")
+    fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)
@@ -77,7 +124,11 @@ def main(argv=None):
             if len(t) != len(x_time) or (t != x_time).any():
                 fail(f"'{name}' and the x-axis '{args.x}' are not recorded at the same times")
     out = Path(args.out) if args.out else path.with_suffix(".png")
-    plot(series, out, args.x, x_values)
+    title, t_agg = read_context(path)
+    t_ff = None
+    if args.x == "time_over_free_fall":
+        t_ff = float(read_observables(path, ["free_fall_time"])["free_fall_time"][1][0])
+    plot(series, out, args.x, x_values, title, t_agg, t_ff)
     print(out)
     return 0
 

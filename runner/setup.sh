@@ -38,7 +38,15 @@ grains_install_python() {
 
 grains_build() {
   cmake -S "$GRAINS_ROOT" -B "$GRAINS_BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
-  cmake --build "$GRAINS_BUILD" -j "$(nproc)" -- --no-print-directory 2>&1 | grep -E "error|warning|Error" || true
+  # The compiler's diagnostics only (not file names that hold "error"); a failed build stops here, even
+  # when an older binary is still in place.
+  local log="$GRAINS_BUILD/build.log"
+  if ! cmake --build "$GRAINS_BUILD" -j "$(nproc)" -- --no-print-directory >"$log" 2>&1; then
+    tail -n 40 "$log" >&2
+    echo "grains: build failed (whole log: $log)" >&2
+    exit 1
+  fi
+  grep -E "(warning|error):" "$log" || true
   test -x "$GRAINS_BUILD/runner/grains" || { echo "grains: build failed" >&2; exit 1; }
 }
 

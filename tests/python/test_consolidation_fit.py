@@ -128,3 +128,10 @@ def test_reads_the_table_of_grains_consolidate(tmp_path):
     assert got_p[0] == p[0] and got_phi[-1] == phi[-1]
     fit = cf.fit_crossover(got_p[branch == "loading"], got_phi[branch == "loading"], P0)
     assert fit["lambda"] == pytest.approx(LAM, rel=1e-6)
+    # given the HDF5 file of the same run, the table beside it is read; without one the message says so
+    h5 = table.with_suffix(".h5")
+    h5.write_bytes(b"")   # only its name matters
+    assert (cf.read_stages(h5)[0] == got_p).all()
+    table.unlink()
+    with pytest.raises(ValueError, match="stage table .CSV. that `grains consolidate` writes"):
+        cf.read_stages(h5)
