@@ -6,6 +6,7 @@
 
 #include <cvode/cvode.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
@@ -52,6 +53,8 @@ CellLengthOde::CellLengthOde(const CellLengthParameters& p) : p_(p), cv_(std::ma
   cv_->solver = SUNNonlinSol_FixedPoint(cv_->y, 0, cv_->context);
   check(CVodeSetNonlinearSolver(cv_->memory, cv_->solver), "nonlinear solver");
   check(CVodeSetMaxNumSteps(cv_->memory, 100000), "max steps");
+  // CVODE's own messages would go to stderr (an FMU's host's, too); a failure is reported by advance().
+  check(CVodeSetErrHandlerFn(cv_->memory, [](int, const char*, const char*, char*, void*) {}, nullptr), "error handler");
 }
 
 CellLengthOde::~CellLengthOde() = default;
@@ -95,7 +98,12 @@ void CellLengthOde::advance(double t_end, const double* stress_excess) {
   check(CVodeSetStopTime(cv_->memory, t_end), "stop time");
   double reached = t_;
   const int flag = CVode(cv_->memory, t_end, cv_->y, &reached, CV_NORMAL);
-  if (flag < 0) check(flag, fmt::format("integration to t = {}", t_end).c_str());   // formatted only on failure: this runs every step
+  if (flag < 0)   // formatted only on failure: this runs every step
+    throw std::runtime_error(fmt::format(
+        "barostat: CVODE integration to t = {} failed ({}, flag {}) with stress excess ({}) on a cell of mass "
+        "cell.mass = {:.6g} and damping {:.6g}: the cell's equation is non-finite or too stiff for the step; look at "
+        "cell.mass, cell.pressure and the contacts' stiffness", t_end, CVodeGetReturnFlagName(flag), flag,
+        fmt::join(excess_.begin(), excess_.begin() + p_.axes, ", "), p_.mass, p_.damping));
   t_ = t_end;
 }
 

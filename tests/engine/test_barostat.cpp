@@ -166,6 +166,10 @@ TEST_CASE("barostat: bad pressure and cell parameters get errors naming the fiel
   // Too few grains: the cell shrinks below twice the interaction reach and the run stops, saying why.
   auto tiny = Simulation::create(Scene::from_string(packed_cell_scene(2, 6, 1e-3), "tiny"));
   CHECK_THROWS_WITH(tiny->step_n(300000), Catch::Contains("shrunk") && Catch::Contains("more particles"));
+  // A cell too light for CVODE to follow: the failure names CVODE's reason and the keys to look at.
+  auto light = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3, "mass = 1e-300"), "light"));
+  CHECK_THROWS_WITH(light->step_n(100), Catch::Contains("CV_") && Catch::Contains("cell.mass = 1e-300") &&
+                                            Catch::Contains("cell.pressure"));
 }
 
 TEST_CASE("barostat: cell.active = 0 holds the cell fixed at rest, 1 lets it move again", "[barostat]") {
