@@ -26,6 +26,8 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
   for (const auto& file : {path, table}) check_output_path(file, opt.scene);
+  if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
+    throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));

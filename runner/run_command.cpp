@@ -111,18 +111,20 @@ int run_scene(const RunOptions& opt) {
   long done = 0;
   bool aggregated = false;
   const auto initial_energy = sim->get("kinetic_energy");
-  while (done < steps && !interrupted && !aggregated) {
+  bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
+  while (done < steps && !stopping && !aggregated) {
     long n = std::min(chunk - done % chunk, steps - done);
     sim->step_n(n);
     done += n;
     aggregated = stop_at_aggregation && std::isfinite(sim->get("aggregation_time"));
-    const bool last = done == steps || aggregated || interrupted;   // an interrupted run records where it stopped
+    stopping = interrupted;
+    const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, *sim);
     if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, *sim);
     if (!opt.quiet) progress.update(done);
   }
   progress.finish();
-  if (interrupted) {
+  if (stopping) {
     out.set_attribute("status", fmt::format("interrupted at step {}", sim->step_count()));
   } else {
     out.set_attribute("status", "complete");
@@ -143,7 +145,7 @@ int run_scene(const RunOptions& opt) {
   fmt::print("grains {}: scene '{}' ({}D, {} particles)\n", GRAINS_VERSION, scene.text("scene.name"), sim->dimension(),
              sim->particle_count());
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim->step_count(), sim->dt(), sim->time(),
-             interrupted ? "  INTERRUPTED" : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
+             stopping ? "  INTERRUPTED" : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
   fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
   fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim->get("kinetic_energy"));
   // Whatever of these the scene's modules provide.
@@ -163,7 +165,7 @@ int run_scene(const RunOptions& opt) {
   }
   fmt::print("  warnings     {}\n", sim->warnings().size());
   fmt::print("  output       {}\n", path);
-  return interrupted ? 130 : 0;
+  return stopping ? 130 : 0;
 }
 
 }  // namespace grains

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
 #include <cvode/cvode.h>
@@ -98,12 +99,16 @@ void CellLengthOde::advance(double t_end, const double* stress_excess) {
   check(CVodeSetStopTime(cv_->memory, t_end), "stop time");
   double reached = t_;
   const int flag = CVode(cv_->memory, t_end, cv_->y, &reached, CV_NORMAL);
-  if (flag < 0)   // formatted only on failure: this runs every step
+  if (flag < 0) {   // formatted only on failure: this runs every step
+    char* name = CVodeGetReturnFlagName(flag);   // malloc'ed by CVODE
+    const std::string reason = name ? name : "unknown";
+    std::free(name);
     throw std::runtime_error(fmt::format(
         "barostat: CVODE integration to t = {} failed ({}, flag {}) with stress excess ({}) on a cell of mass "
         "cell.mass = {:.6g} and damping {:.6g}: the cell's equation is non-finite or too stiff for the step; look at "
-        "cell.mass, cell.pressure and the contacts' stiffness", t_end, CVodeGetReturnFlagName(flag), flag,
+        "cell.mass, cell.pressure and the contacts' stiffness", t_end, reason, flag,
         fmt::join(excess_.begin(), excess_.begin() + p_.axes, ", "), p_.mass, p_.damping));
+  }
   t_ = t_end;
 }
 

@@ -18,6 +18,15 @@
 namespace grains {
 namespace {
 
+// The memory a run may use: the machine's, or its container's limit (cgroup v2) when that is smaller.
+double usable_memory_bytes() {
+  double bytes = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+  std::ifstream limit("/sys/fs/cgroup/memory.max");
+  double cap = 0;
+  if (limit >> cap && cap > 0) bytes = bytes > 0 ? std::min(bytes, cap) : cap;   // "max" (no limit) does not parse
+  return bytes;
+}
+
 template <int D> double ball_volume(double r) {
   return D == 3 ? 4.0 / 3.0 * std::numbers::pi * r * r * r : std::numbers::pi * r * r;
 }
@@ -188,10 +197,10 @@ InitialState<D> make_initial_state(const Scene& s) {
     N = std::size_t(s.integer("particles.count"));
     // Refuse what cannot fit before allocating (Linux would hand out the memory and kill the run later):
     // a run keeps at least ~250 bytes per particle (the gas scene's state and lists, measured).
-    const double need = 250.0 * double(N), have = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+    const double need = 250.0 * double(N), have = usable_memory_bytes();
     if (have > 0 && need > have)
       s.fail("particles.count", fmt::format("value {} needs at least {:.3g} GB of memory (about 250 bytes a particle); "
-                                            "this machine has {:.3g} GB", N, need / 1e9, have / 1e9));
+                                            "this machine (or its container) has {:.3g} GB", N, need / 1e9, have / 1e9));
   }
   P.resize(N);
 

@@ -1,8 +1,10 @@
 // The damped-packing step rule (core/dashpot_stability.hpp): the stability limit of the integrator's
-// predicted-velocity dashpot, and a light grain in a cage of twelve heavy ones that settles just below
-// the predicted step and keeps moving just above it, with the start-up warning saying so.
+// predicted-velocity dashpot; a light grain in a cage of twelve heavy ones, and an FCC crystal of equal
+// grains (whose fastest mode moves neighbours against each other), each settling with a step just below
+// the predicted limit and heating up above it, with the start-up warning saying so.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -104,6 +106,71 @@ TEST_CASE("dashpot stability: a light grain caged by twelve damped contacts sett
     } else {
       CHECK_FALSE(warned);
       CHECK(centre_speed(*sim) < 1e-8);   // settled (2.8e-10: the heavy grains' slow recession)
+    }
+  }
+}
+
+namespace {
+
+// 108 equal grains (diameter 1, mass 1) on a periodic FCC lattice of 3 x 3 x 3 cells, each overlapping its
+// twelve neighbours by 0.001, with small Gaussian velocities; e = 0.0015 and t_c = 0.02 as in the cage.
+std::string fcc_crystal(double steps_per_contact) {
+  const double cell = 0.999 * std::sqrt(2.0);
+  std::vector<std::string> positions;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        for (const auto& b : {std::array{0.0, 0.0, 0.0}, {0.5, 0.5, 0.0}, {0.5, 0.0, 0.5}, {0.0, 0.5, 0.5}})
+          positions.push_back(fmt::format("[{}, {}, {}]", (i + b[0] + 0.25) * cell, (j + b[1] + 0.25) * cell,
+                                          (k + b[2] + 0.25) * cell));
+  return fmt::format(R"(
+[scene]
+dimension = 3
+[particles]
+layout = "list"
+positions = [{}]
+diameter = 1.0
+mass = 1.0
+velocity = "gaussian"
+kinetic_energy = 1e-7
+seed = 5
+[box]
+periodic = true
+lengths = [{}, {}, {}]
+[contact]
+restitution = 0.0015
+duration = 0.02
+[time]
+steps_per_contact = {}
+[run]
+threads = 1
+)", fmt::join(positions, ", "), 3 * cell, 3 * cell, 3 * cell, steps_per_contact);
+}
+
+}  // namespace
+
+TEST_CASE("dashpot stability: an FCC crystal of equal grains settles only below the predicted step",
+          "[integrator][stability]") {
+  // The crystal's fastest mode (neighbouring planes in antiphase) has twice the cage's rate: w^2 = (12/3) k / m*
+  // with m* = 1/2, the same 91.6 steps per contact as the cage (where m* ~ 1 but the walls stand still).
+  const double pi = std::acos(-1.0), zeta = -std::log(0.0015) / std::hypot(pi, std::log(0.0015));
+  const double threshold = 2 * pi / (std::sqrt(1 - zeta * zeta) * predicted_dashpot_limit(2 * zeta));
+  for (double factor : {0.75, 1.05}) {
+    auto sim = Simulation::create(Scene::from_string(fcc_crystal(factor * threshold), "fcc"));
+    REQUIRE(sim->get("contacts") == 6 * 108);
+    const bool warned = !sim->warnings().empty() && sim->warnings()[0].find("damped contacts") != std::string::npos;
+    const double start = sim->get("kinetic_energy");
+    double largest = start;
+    for (int k = 0; k < 40; ++k) sim->step(0.05), largest = std::max(largest, sim->get("kinetic_energy"));
+    INFO("steps per contact " << factor * threshold << ": kinetic energy " << start << " -> largest " << largest
+                              << ", last " << sim->get("kinetic_energy"));
+    if (factor < 1) {
+      CHECK(warned);
+      CHECK(largest > 10 * start);   // the antiphase mode grows
+    } else {
+      CHECK_FALSE(warned);
+      CHECK(largest < 2 * start);
+      CHECK(sim->get("kinetic_energy") < 0.01 * start);
     }
   }
 }
