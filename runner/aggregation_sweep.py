@@ -19,7 +19,8 @@ stiffer contacts cost more steps (about sqrt(k*)).
 
 Per point (median over seeds): t_agg / t_ff, final N_c / N and f_max, D_f of the largest cluster, the
 virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.csv, OUT/summary.md (the
-paper's qualitative findings, each with what the sweep shows), OUT/damping.png, OUT/stiffness.png and,
+paper's qualitative findings, each with what the sweep shows, and the points whose runs the engine
+warned about at start-up), OUT/damping.png, OUT/stiffness.png and,
 with --map, OUT/map.png. A run whose output is complete is not run again, so an interrupted sweep
 resumes; --report runs nothing.
 """
@@ -134,7 +135,9 @@ def measure(h5, k_star):
             raise ValueError(f"{h5.name}: the run's k* is {achieved:.6g}, not the requested {k_star:.6g}")
         t_ff = float(series("free_fall_time")[-1])
         q1, t1, q2 = virial_peaks(series("time_over_free_fall"), series("virial_ratio"))
-        return {"t_agg_over_t_ff": float(series("aggregation_time")[-1]) / t_ff,
+        warnings = [w.decode() if isinstance(w, bytes) else str(w) for w in f["grains/warnings"][()]] \
+            if "grains/warnings" in f else []
+        return {"warnings": warnings,"t_agg_over_t_ff": float(series("aggregation_time")[-1]) / t_ff,
                 "cluster_index": float(series("cluster_index")[-1]),
                 "largest_cluster_fraction": float(series("largest_cluster_fraction")[-1]),
                 "fractal_dimension": float(series("fractal_dimension")[-1]),
@@ -156,8 +159,23 @@ def median_point(runs):
         else:
             point[k] = float(np.nanmedian(values)) if np.any(np.isfinite(values)) else math.nan
     point["seeds"] = len(runs)
+    point["warned_runs"] = sum(bool(r["warnings"]) for r in runs)
+    point["warnings"] = sorted({w if len(w) <= 160 else w[:159] + "…" for r in runs for w in r["warnings"]})
     point["t"], point["q"] = runs[0]["t"], runs[0]["q"]
     return point
+
+
+def warned_points(points):
+    """Lines naming the points whose runs the engine warned about at start-up (a time step past one of its
+    rules: their figures, late ones above all, are not to be trusted), or none."""
+    warned = {(p["zeta"], p["k_star"]): p for p in points if p["warned_runs"]}
+    if not warned:
+        return []
+    lines = ["", "Runs the engine warned about at start-up (see their logs; e.g. a time step past the damped-packing "
+                 "rule, to be rerun with --set time.steps_per_contact=N as the warning says):"]
+    for (z, k), p in sorted(warned.items()):
+        lines.append(f"- zeta {z:g}, k* {k:.3g}: {p['warned_runs']} of {p['seeds']} run(s); {'; '.join(p['warnings'])}")
+    return lines
 
 
 def spearman(x, y):
@@ -352,7 +370,8 @@ def main(argv=None):
     grid = points([(z, k) for z in args.damping for k in args.stiffness]) if args.map else []
 
     fields = ["sweep", "zeta", "restitution", "k_star", "seeds", "t_agg_over_t_ff", "cluster_index",
-              "largest_cluster_fraction", "fractal_dimension", "q_first_peak", "q_first_peak_time", "q_second_peak"]
+              "largest_cluster_fraction", "fractal_dimension", "q_first_peak", "q_first_peak_time", "q_second_peak",
+              "warned_runs"]
     with (out / "sweep.csv").open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()
@@ -362,6 +381,7 @@ def main(argv=None):
     lines = findings(damping, stiffness, fixed_stiffness, fixed_damping)
     if grid:
         lines.append(stiffness_shapes(grid, args.damping, args.stiffness))
+    lines += warned_points(damping + stiffness + grid)
     text = "\n".join(lines)
     print(text)
     (out / "summary.md").write_text(text + "\n")

@@ -51,11 +51,23 @@ def test_virial_peaks():
 
 def test_medians_over_seeds_treat_a_missing_aggregation_as_never():
     base = {"cluster_index": 0.1, "largest_cluster_fraction": 0.9, "fractal_dimension": 2.9, "q_first_peak": 0.5,
-            "q_first_peak_time": 0.6, "q_second_peak": 0.0, "t": [0], "q": [0]}
+            "q_first_peak_time": 0.6, "q_second_peak": 0.0, "t": [0], "q": [0], "warnings": []}
     runs = [dict(base, t_agg_over_t_ff=v) for v in (1.0, math.nan, 2.0)]
     assert sweep.median_point(runs)["t_agg_over_t_ff"] == 2.0
     runs = [dict(base, t_agg_over_t_ff=v) for v in (1.0, math.nan, math.nan)]
     assert math.isnan(sweep.median_point(runs)["t_agg_over_t_ff"])
+    assert sweep.warned_points([dict(sweep.median_point(runs), zeta=0.1, k_star=100)]) == []
+
+
+def test_points_whose_runs_were_warned_about_are_named():
+    base = {"cluster_index": 0.1, "largest_cluster_fraction": 0.9, "fractal_dimension": 2.9, "q_first_peak": 0.5,
+            "q_first_peak_time": 0.6, "q_second_peak": 0.0, "t": [0], "q": [0], "t_agg_over_t_ff": 1.0}
+    step = "time.dt = 0.002 exceeds 0.001, the largest step at which grains ... settle"
+    runs = [dict(base, warnings=[step]), dict(base, warnings=[]), dict(base, warnings=[step])]
+    point = dict(sweep.median_point(runs), zeta=0.9, k_star=6469)
+    assert point["warned_runs"] == 2 and point["warnings"] == [step]
+    lines = sweep.warned_points([point, dict(sweep.median_point([dict(base, warnings=[])]), zeta=0.1, k_star=6469)])
+    assert len(lines) == 3 and "zeta 0.9, k* 6.47e+03: 2 of 3 run(s); " + step in lines[-1]
 
 
 def point(zeta, k_star, index, t_agg, second=0.0):
