@@ -210,6 +210,8 @@ def main():
         found = {(scene, seed): existing_table(out, scene, seed) for scene in scenes for seed in seeds}
         tables = {key: found[key][0] for key in found if found[key][0] is not None}
         partial = {key for key in found if found[key][1]}
+        if not tables:   # as the other campaign tools do: nothing to summarise is an error, not an empty report
+            ap.error(f"--report: no stage table of {', '.join(scenes)} for seeds {seeds.start}..{seeds.stop - 1} in {out}")
     else:
         import dask
         tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)

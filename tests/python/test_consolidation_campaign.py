@@ -1,6 +1,7 @@
 """The campaign's reading of stage tables and its verdicts against the paper (runner/consolidation_campaign.py)."""
 import csv
 import math
+import subprocess
 import sys
 
 import numpy as np
@@ -103,3 +104,10 @@ def test_plot_puts_a_stage_at_its_target_pressure():
     assert campaign.target_pressure({"target_pressure": "0.01", "P_star": "0.0162"}) == 0.01
     assert campaign.target_pressure({"target_pressure": "nan", "P_star": "0.0011"}) == 0.0011
     assert campaign.target_pressure({"P_star": "0.02"}) == 0.02
+
+
+def test_report_with_no_table_is_an_error(tmp_path):
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_campaign.py"), "--report", "--out",
+                        str(tmp_path)], capture_output=True, text=True)
+    assert r.returncode == 2 and "--report: no stage table" in r.stderr
+    assert not (tmp_path / "summary.md").exists()
