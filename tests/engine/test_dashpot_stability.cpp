@@ -41,9 +41,23 @@ TEST_CASE("dashpot stability: the predicted-velocity limit, undamped and damped"
 
 namespace {
 
+// The contacts of both packings below: e = 0.0015 (zeta = 0.9004) and t_c = 0.02 for the lightest pair.
+std::string damped_contacts(double steps_per_contact) {
+  return fmt::format("[contact]\nrestitution = 0.0015\nduration = 0.02\n[time]\nsteps_per_contact = {}\n[run]\nthreads = 1\n",
+                     steps_per_contact);
+}
+
+// Both packings' fastest mode: 12/3 contacts' spring and dashpot on a reduced mass m* (the caged grain's
+// own mass against heavy walls; half a grain's in the crystal, against the grain's half stiffness), so
+// w = 2 w0 and the damping ratio on it is 2 zeta; with w0 t_c = pi / sqrt(1 - zeta^2) the step is stable
+// for t_c / h above 2 pi / (sqrt(1 - zeta^2) limit(2 zeta)) = 91.6.
+double predicted_steps_per_contact() {
+  const double pi = std::acos(-1.0), zeta = -std::log(0.0015) / std::hypot(pi, std::log(0.0015));
+  return 2 * pi / (std::sqrt(1 - zeta * zeta) * predicted_dashpot_limit(2 * zeta));
+}
+
 // A grain of mass 1 (diameter 1.1) in an FCC cage of twelve grains of mass 1e6 (diameter 0.9), each
-// overlapping it by 0.001 and clear of each other; e = 0.0015 (zeta = 0.9) and t_c = 0.02 for the
-// lightest pair. The centre starts with a small velocity.
+// overlapping it by 0.001 and clear of each other. The centre starts with a small velocity.
 std::string cage(double steps_per_contact) {
   std::vector<std::string> positions = {"[0, 0, 0]"}, masses = {"1.0"}, diameters = {"1.1"};
   const double s = 0.999 / std::sqrt(2.0);
@@ -69,15 +83,8 @@ diameters = [{}]
 masses = [{}]
 [box]
 periodic = false
-[contact]
-restitution = 0.0015
-duration = 0.02
-[time]
-steps_per_contact = {}
-[run]
-threads = 1
-)", fmt::join(positions, ", "), fmt::join(velocities, ", "), fmt::join(diameters, ", "), fmt::join(masses, ", "),
-                     steps_per_contact);
+)", fmt::join(positions, ", "), fmt::join(velocities, ", "), fmt::join(diameters, ", "), fmt::join(masses, ", ")) +
+         damped_contacts(steps_per_contact);
 }
 
 double centre_speed(const Simulation& sim) {
@@ -89,11 +96,7 @@ double centre_speed(const Simulation& sim) {
 
 TEST_CASE("dashpot stability: a light grain caged by twelve damped contacts settles only below the predicted step",
           "[integrator][stability]") {
-  // Along an axis the cage's springs and dashpots add up to 12/3 = 4 of one contact's, so w = 2 w0 and the
-  // damping ratio on the grain is 2 zeta (zeta = 0.9004 for e = 0.0015): with w0 t_c = pi / sqrt(1 - zeta^2),
-  // the step is stable for t_c / h above 2 pi / (sqrt(1 - zeta^2) limit(2 zeta)) = 91.6.
-  const double pi = std::acos(-1.0), zeta = -std::log(0.0015) / std::hypot(pi, std::log(0.0015));
-  const double threshold = 2 * pi / (std::sqrt(1 - zeta * zeta) * predicted_dashpot_limit(2 * zeta));
+  const double threshold = predicted_steps_per_contact();
   CHECK(threshold == Approx(91.6).epsilon(1e-3));
   for (double factor : {0.87, 1.04}) {
     auto sim = Simulation::create(Scene::from_string(cage(factor * threshold), "cage"));
@@ -113,7 +116,7 @@ TEST_CASE("dashpot stability: a light grain caged by twelve damped contacts sett
 namespace {
 
 // 108 equal grains (diameter 1, mass 1) on a periodic FCC lattice of 3 x 3 x 3 cells, each overlapping its
-// twelve neighbours by 0.001, with small Gaussian velocities; e = 0.0015 and t_c = 0.02 as in the cage.
+// twelve neighbours by 0.001, with small Gaussian velocities.
 std::string fcc_crystal(double steps_per_contact) {
   const double cell = 0.999 * std::sqrt(2.0);
   std::vector<std::string> positions;
@@ -137,24 +140,16 @@ seed = 5
 [box]
 periodic = true
 lengths = [{}, {}, {}]
-[contact]
-restitution = 0.0015
-duration = 0.02
-[time]
-steps_per_contact = {}
-[run]
-threads = 1
-)", fmt::join(positions, ", "), 3 * cell, 3 * cell, 3 * cell, steps_per_contact);
+)", fmt::join(positions, ", "), 3 * cell, 3 * cell, 3 * cell) + damped_contacts(steps_per_contact);
 }
 
 }  // namespace
 
 TEST_CASE("dashpot stability: an FCC crystal of equal grains settles only below the predicted step",
           "[integrator][stability]") {
-  // The crystal's fastest mode (neighbouring planes in antiphase) has twice the cage's rate: w^2 = (12/3) k / m*
-  // with m* = 1/2, the same 91.6 steps per contact as the cage (where m* ~ 1 but the walls stand still).
-  const double pi = std::acos(-1.0), zeta = -std::log(0.0015) / std::hypot(pi, std::log(0.0015));
-  const double threshold = 2 * pi / (std::sqrt(1 - zeta * zeta) * predicted_dashpot_limit(2 * zeta));
+  // The crystal's fastest mode moves neighbouring planes in antiphase: w^2 = (12/3) k / m* with m* = 1/2,
+  // the same 91.6 steps per contact as the cage (where m* ~ 1 but the walls stand still).
+  const double threshold = predicted_steps_per_contact();
   for (double factor : {0.75, 1.05}) {
     auto sim = Simulation::create(Scene::from_string(fcc_crystal(factor * threshold), "fcc"));
     REQUIRE(sim->get("contacts") == 6 * 108);
