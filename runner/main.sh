@@ -4,9 +4,22 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 grains_setup
-# The default scene runs two threads; on a machine whose cores are busy, threads spinning between
-# parallel regions (libgomp's default) made it 4 times slower: waiting threads sleep instead.
-export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
+# The default scene runs two threads. Threads waiting between parallel regions spin (libgomp's default):
+# fastest on an idle machine (4.3 s against 7.6 s with sleeping waits), but on a busy one the spinning
+# threads take the cores from the work (34 s against 8.6 s). So they sleep when something else is running:
+# more than a quarter of the processor busy over a third of a second, now (the load average would still
+# count the build just done).
+busy_share() {
+  local a b
+  a=($(head -n 1 /proc/stat)); sleep 0.3; b=($(head -n 1 /proc/stat))
+  awk -v t0="$(( a[1]+a[2]+a[3]+a[4]+a[5]+a[6]+a[7]+a[8] ))" -v i0="$(( a[4]+a[5] ))" \
+      -v t1="$(( b[1]+b[2]+b[3]+b[4]+b[5]+b[6]+b[7]+b[8] ))" -v i1="$(( b[4]+b[5] ))" \
+      'BEGIN { d = t1 - t0; print (d > 0 ? 1 - (i1 - i0) / d : 0) }'
+}
+if [ -z "${OMP_WAIT_POLICY:-}" ] && [ -r /proc/stat ] && awk -v s="$(busy_share)" 'BEGIN { exit !(s > 0.25) }'; then
+  export OMP_WAIT_POLICY=passive
+  echo "grains: the processor is busy; OpenMP threads will sleep while they wait (OMP_WAIT_POLICY=passive)" >&2
+fi
 scene="${1:-$GRAINS_ROOT/models/aggregation.toml}"
 shift || true
 mkdir -p "$GRAINS_ROOT/out"
