@@ -59,7 +59,7 @@ std::unique_ptr<Instance> Instance::create(std::string name, std::string_view to
     if (!std::filesystem::is_regular_file(file))
       throw SceneError(fmt::format("the FMU's scene '{}' does not exist: the resource location passed by the host must be "
                                    "the FMU's extracted resources/ directory", file.string()));
-    in->packaged_ = Scene::from_file(file);
+    in->packaged_ = Scene::from_file(file, {}, "the FMU's parameters");   // not the host's temporary folder
     in->scene_ = in->packaged_;
     in->sim_ = Simulation::create(in->scene_);
     in->table_ = describe_model(in->scene_, *in->sim_);

@@ -129,6 +129,8 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
     }
     s.set_value(key, std::string_view(o).substr(eq + 1));
   }
+  // Later problems may come from an override: say so where they name the scene.
+  if (!overrides.empty()) s.origin_ += fmt::format(" with {} --set override{}", overrides.size(), overrides.size() > 1 ? "s" : "");
   return s;
 }
 
@@ -145,12 +147,13 @@ bool Scene::replace_run_length(std::string_view key) {
   return true;
 }
 
-Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides,
+                       const std::string& origin) {
   std::ifstream in(file);
   if (!in) throw SceneError(fmt::format("cannot read scene file '{}': no such file or not readable", file.string()));
   std::stringstream buf;
   buf << in.rdbuf();
-  Scene s = from_string(buf.str(), file.string(), overrides);
+  Scene s = from_string(buf.str(), origin.empty() ? file.string() : origin, overrides);
   s.directory_ = std::filesystem::absolute(file).parent_path();
   return s;
 }

@@ -34,8 +34,10 @@ std::string schema_reference_markdown();   // the scene reference page, generate
 
 class Scene {
  public:
-  // Parse a file (or text) and apply "key.path=value" overrides. Throws SceneError.
-  static Scene from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+  // Parse a file (or text) and apply "key.path=value" overrides. Throws SceneError. `origin` names the
+  // scene in messages (default: the file's path).
+  static Scene from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides = {},
+                         const std::string& origin = "");
   static Scene from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides = {});
 
   // Check every present key: known, right type, in range. Throws SceneError listing all problems.
