@@ -35,6 +35,7 @@ def test_bad_scene_fails_without_clobbering_existing_output(grains_bin, root, tm
     r = run(grains_bin, "run", root / "models" / "collision.toml", "--out", out, "--set", "contact.restitution=1.5")
     assert r.returncode != 0
     assert "contact.restitution" in r.stderr and "1.5" in r.stderr and "(0, 1]" in r.stderr
+    assert "collision.toml with 1 --set override:" in r.stderr   # the value came from the command line
     assert out.read_bytes() == b"existing results"
 
 
