@@ -122,6 +122,9 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   // A count no machine here holds is refused before anything is allocated, naming the memory it needs.
   REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"random\"", "particles.count=1000000000"}),
                       Contains("particles.count") && Contains("1000000000") && Contains("250 GB"));
+  // Masses whose products would vanish (they once surfaced as "time.dt: required when contacts are off").
+  REQUIRE_THROWS_WITH(build(good, {"particles.density=1e-308"}),
+                      Contains("particles.density") && Contains("[1e-150, 1e150]"));
   // Random insertion at an impossible solid fraction: names the fraction.
   REQUIRE_THROWS_AS(build(good, {"particles.layout=\"random\"", "particles.count=200", "particles.solid_fraction=0.7"}),
                     SceneError);
