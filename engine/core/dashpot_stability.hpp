@@ -1,10 +1,10 @@
 // Stability of the integrator's dashpots (core/integrator.hpp) for a grain held by many damped contacts.
 //
 // The dashpots read a predicted velocity, v(t+h) ~ v(t+h/2) + h/2 (7/4 a_n - 3/4 a_{n-1}), which keeps a
-// collision's restitution second-order accurate but is explicit: a grain of mass m held by springs of
-// total stiffness K and dashpots of total coefficient C (m x'' = -K x - C v) is stable only for
+// collision's restitution second-order accurate but is explicit: a mode of (reduced) mass m held by
+// springs of total stiffness K and dashpots of total coefficient C (m x'' = -K x - C v) is stable only for
 // w h <= limit(zeta), w = sqrt(K / m), zeta = C / (2 sqrt(K m)): 2 without damping, 0.31 at zeta = 0.9,
-// falling about as 0.28 / zeta for zeta > 1 (a third of what the half-step velocity would allow). One
+// falling about as 0.28 / zeta for zeta > 1 (C h / m below 0.57, where the half-step velocity allows 2). One
 // contact between two grains is far inside it; a light grain pressed by a dozen strongly damped ones
 // (a dense self-gravitating aggregate at zeta = 0.9 and 30 steps per contact) is not, and such packings
 // heat up instead of settling. The limit is found from the scheme's own one-step matrix.

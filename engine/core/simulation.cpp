@@ -162,8 +162,7 @@ class SimulationImpl final : public Simulation {
   void step(double duration) override {
     if (!(duration >= 0) || !std::isfinite(duration))
       throw SimulationError(fmt::format("step: duration {} is not allowed: a finite value >= 0", duration));
-    // (the limit of a scene's run length, protocols/run_length.hpp; beyond it the step count overflows)
-    if (duration / dt_ > 1e15)
+    if (duration / dt_ > max_steps)   // beyond it the step count overflows
       throw SimulationError(fmt::format("step: duration {} is {:.3g} steps of dt = {:.6g}; at most 1e15 steps at a time",
                                         duration, duration / dt_, dt_));
     const double target = sys_.time + duration;

@@ -39,6 +39,10 @@ struct BoxView {
 
 class Simulation {
  public:
+  // The most steps one request may take (a scene's run, a host's step): the step counter's range with
+  // room to spare; a run of more would not end anyway.
+  static constexpr double max_steps = 1e15;   // (its messages write it out: 1e15)
+
   virtual ~Simulation() = default;
 
   // Build from a validated scene; throws SceneError / SimulationError with a clear message.

@@ -229,23 +229,24 @@ InitialState<D> make_initial_state(const Scene& s) {
   } else if (s.has("particles.mass")) {
     std::fill(mass.begin(), mass.end(), s.real("particles.mass"));
   }
-  // The key that set the masses, for the messages below
+  // The keys that set the masses and the sizes, for the messages below
   const char* mass_key = layout == "file"                                   ? "particles.file"
                          : layout == "list" && s.has("particles.masses")    ? "particles.masses"
                          : s.has("particles.mass")                          ? "particles.mass"
                                                                             : "particles.density";
+  const char* diameter_key = layout == "file"                                 ? "particles.file"
+                             : layout == "list" && s.has("particles.diameters") ? "particles.diameters"
+                             : dist == "uniform"                                ? "particles.diameter_max"
+                                                                                : "particles.diameter";
   for (std::size_t i = 0; i < N; ++i) {
-    if (!(diam[i] > 0) || !(mass[i] > 0) || !std::isfinite(diam[i]) || !std::isfinite(mass[i]))
-      s.fail(layout == "file" ? "particles.file" : "particles.diameters",
-             fmt::format("particle {}: diameter {} and mass {} must both be positive and finite", i, diam[i], mass[i]));
-    // Products of two masses or sizes (reduced masses, stiffnesses, G m m) must neither overflow nor vanish.
+    // Sizes first (a huge diameter makes an infinite mass). Products of two masses or sizes (reduced masses,
+    // stiffnesses, G m m) must neither overflow nor vanish: so not just positive and finite, but in range.
+    if (!(diam[i] >= 1e-100 && diam[i] <= 1e100))
+      s.fail(diameter_key, fmt::format("gives particle {} the diameter {:.3g}; diameters must lie within [1e-100, 1e100]: "
+                                       "choose other units", i, diam[i]));
     if (!(mass[i] >= 1e-150 && mass[i] <= 1e150))
       s.fail(mass_key, fmt::format("gives particle {} the mass {:.3g}; masses must lie within [1e-150, 1e150], where "
                                    "products of two of them stay finite and nonzero: choose other units", i, mass[i]));
-    if (!(diam[i] >= 1e-100 && diam[i] <= 1e100))
-      s.fail(layout == "file" ? "particles.file" : "particles.diameter",
-             fmt::format("gives particle {} the diameter {:.3g}; diameters must lie within [1e-100, 1e100]: choose "
-                         "other units", i, diam[i]));
     P.set_mass_and_radius(i, mass[i], 0.5 * diam[i]);
   }
 

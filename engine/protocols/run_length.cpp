@@ -28,9 +28,9 @@ std::optional<long> run_steps(const Scene& scene, const Simulation& sim) {
     steps = scene.real("time.free_fall_times") * sim.get("free_fall_time") / sim.dt();
   }
   // a step count must fit the step counter (and a run of more steps would not end anyway)
-  if (!(steps <= max_run_steps))
+  if (!(steps <= Simulation::max_steps))
     scene.fail(given[0], fmt::format("value {} is {:.3g} steps of dt = {:.6g}; at most {:.0e} steps can be run: a shorter "
-                                     "run or a larger time step", scene.real(given[0]), steps, sim.dt(), max_run_steps));
+                                     "run or a larger time step", scene.real(given[0]), steps, sim.dt(), Simulation::max_steps));
   return std::lround(steps);
 }
 

@@ -9,9 +9,6 @@
 
 namespace grains {
 
-// The longest run (in steps) a scene may ask for: it must fit the step counter, and would not end anyway.
-inline constexpr double max_run_steps = 1e15;
-
 // Steps of the run the scene asks for; nullopt when it gives none of the three keys. A scene that
 // gives two, or free_fall_times without self-gravity, fails naming the keys.
 std::optional<long> run_steps(const Scene& scene, const Simulation& sim);
