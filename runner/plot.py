@@ -14,6 +14,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+
 MAX_PANELS = 6
 # The default panels, in this order, when the file has them (else the file's first observables).
 PREFERRED = ["largest_cluster_fraction", "cluster_index", "virial_ratio", "pressure_reduced", "solid_fraction",
@@ -75,16 +77,14 @@ def read_context(path):
     return title, t_agg
 
 
-def plot(series, out, x_name=None, x_values=None, title="", t_agg=float("nan"), t_ff=None):
+def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan")):
+    """`mark`: the aggregation time on the plot's horizontal axis (NaN: none)."""
     import matplotlib
 
     matplotlib.use("Agg")  # no display needed
     import matplotlib.pyplot as plt
-    import numpy as np
 
     fig, axes = plt.subplots(len(series), 1, sharex=True, squeeze=False, figsize=(7, 2.2 * len(series) + 0.9))
-    # the aggregation time on the plot's own axis (t / t_ff when that is the axis)
-    mark = t_agg if x_name is None else t_agg / t_ff if x_name == "time_over_free_fall" and t_ff else float("nan")
     for ax, (name, (t, v)) in zip(axes[:, 0], series.items()):
         # Vector observables ([frames, k]) get one line per component.
         ax.plot(t if x_values is None else x_values, v, lw=1)
@@ -108,7 +108,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description="Plot observables from a grains H5MD run file.")
     parser.add_argument("run", help="the run's .h5 file")
     parser.add_argument("-o", "--out", help="PNG to write (default: RUN with .png)")
-    parser.add_argument("--observables", help="comma-separated names (default: all, up to 6)")
+    parser.add_argument("--observables", help="comma-separated names (default: the scene's main ones, up to 6)")
     parser.add_argument("--x", help="observable for the horizontal axis (default: time)")
     args = parser.parse_args(argv)
 
@@ -117,18 +117,18 @@ def main(argv=None):
         fail(f"run file '{path}' does not exist")
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
     series = read_observables(path, wanted)
+    x_name = args.x if args.x != "time" else None
+    title, mark = read_context(path)
     x_values = None
-    if args.x:
-        x_time, x_values = read_observables(path, [args.x])[args.x]
+    if x_name:
+        x_time, x_values = read_observables(path, [x_name])[x_name]
         for name, (t, _) in series.items():
             if len(t) != len(x_time) or (t != x_time).any():
-                fail(f"'{name}' and the x-axis '{args.x}' are not recorded at the same times")
+                fail(f"'{name}' and the x-axis '{x_name}' are not recorded at the same times")
+        # the aggregation time where the axis is at it (an axis that grows with time, as t / t_ff does)
+        mark = float(np.interp(mark, x_time, x_values)) if (np.diff(x_values) > 0).all() else float("nan")
     out = Path(args.out) if args.out else path.with_suffix(".png")
-    title, t_agg = read_context(path)
-    t_ff = None
-    if args.x == "time_over_free_fall":
-        t_ff = float(read_observables(path, ["free_fall_time"])["free_fall_time"][1][0])
-    plot(series, out, args.x, x_values, title, t_agg, t_ff)
+    plot(series, out, x_name, x_values, title, mark)
     print(out)
     return 0
 

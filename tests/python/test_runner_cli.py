@@ -129,6 +129,10 @@ def test_aggregation_plot_against_free_fall_time(grains_bin, root, tmp_path):
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
     assert png.stat().st_size > 1000
+    # "time", which the error message lists among the axes, is the default axis by name too
+    p = subprocess.run([sys.executable, str(root / "runner" / "plot.py"), str(out), "-o", str(png), "--x", "time"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
 
 
 def _start_long_run(grains_bin, root, out):
