@@ -15,7 +15,10 @@ zeta sets the restitution e = exp(-pi zeta / sqrt(1 - zeta^2)) (0 <= zeta < 1) a
 duration t_c = sqrt(m* (pi^2 + ln^2 e) / (k* k_g)), m* = m / 2 and k_g = G m^2 / (4 R^3) of the scene's
 grains (one size), so that the calibration (physics.md section 2) gives k_n = k* k_g; every run's own
 k* (the `normalised_stiffness` observable) is checked against it. The time step stays t_c / n_c, so
-stiffer contacts cost more steps (about sqrt(k*)).
+stiffer contacts cost more steps (about sqrt(k*)). Where n_c is below what the engine's damped-packing
+rule asks for at a point (the strongest dampings: `grains check` warns and names the steps per contact),
+that point runs at the rule's n_c instead, and its files carry it (z0p9-k6469-n92-s1); --keep-step runs
+every point at the scene's n_c.
 
 Per point (median over seeds): t_agg / t_ff, final N_c / N and f_max, D_f of the largest cluster, the
 virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.csv, OUT/summary.md (the
@@ -29,6 +32,7 @@ import csv
 import math
 import os
 import pathlib
+import re
 import subprocess
 import sys
 import tomllib
@@ -71,9 +75,29 @@ def scene_point(scene, m_star, k_g):
     return damping_ratio(e), m_star * (math.pi ** 2 + math.log(e) ** 2) / t_c ** 2 / k_g
 
 
-def run_name(zeta, k_star, seed):
-    """File stem of a run, without dots (zeta 0.05, k* 6468.8, seed 1: z0p05-k6469-s1)."""
-    return f"z{zeta:g}-k{k_star:.4g}-s{seed}".replace(".", "p")
+def run_name(zeta, k_star, seed, steps_per_contact=None):
+    """File stem of a run, without dots (zeta 0.05, k* 6468.8, seed 1: z0p05-k6469-s1; with the damped-packing
+    rule's steps per contact: z0p9-k6469-n92-s1)."""
+    n = f"-n{steps_per_contact}" if steps_per_contact else ""
+    return f"z{zeta:g}-k{k_star:.4g}{n}-s{seed}".replace(".", "p")
+
+
+def point_settings(zeta, k_star, m_star, k_g):
+    return [f"contact.restitution={restitution(zeta):.17g}",
+            f"contact.duration={contact_duration(zeta, k_star, m_star, k_g):.17g}"]
+
+
+def stable_steps_per_contact(grains, zeta, k_star, m_star, k_g, overrides):
+    """The steps per contact the engine's damped-packing rule asks for at this point, if more than the scene
+    (with the overrides) takes; else None. `grains check` applies the rule and names the number in its warning."""
+    cmd = [str(grains), "check", str(SCENE)]
+    for s in [*point_settings(zeta, k_star, m_star, k_g), *overrides]:
+        cmd += ["--set", s]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"zeta {zeta}, k* {k_star:g}: grains check exited with {done.returncode}: {done.stderr.strip()}")
+    found = re.search(r"time\.steps_per_contact (\d+) or more", done.stderr)
+    return int(found.group(1)) if found else None
 
 
 def complete(h5):
@@ -85,16 +109,19 @@ def complete(h5):
         return False
 
 
-def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out):
-    """One run unless its complete output exists; returns the path of its HDF5 file."""
-    stem = out / run_name(zeta, k_star, seed)
+def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, steps_per_contact=None):
+    """One run unless its complete output exists; returns the path of its HDF5 file. A given steps_per_contact
+    replaces the scene's (and any override's)."""
+    stem = out / run_name(zeta, k_star, seed, steps_per_contact)
     h5 = out / f"{stem.name}.h5"
     if h5.exists() and complete(h5):
         return h5
     h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
-    settings = [f"contact.restitution={restitution(zeta):.17g}",
-                f"contact.duration={contact_duration(zeta, k_star, m_star, k_g):.17g}",
-                f"particles.seed={seed}", f"run.threads={threads}", "output.snapshots_every=0", *overrides]
+    if steps_per_contact:
+        overrides = [s for s in overrides if not s.startswith("time.steps_per_contact=")]
+        overrides += [f"time.steps_per_contact={steps_per_contact}"]
+    settings = [*point_settings(zeta, k_star, m_star, k_g), f"particles.seed={seed}", f"run.threads={threads}",
+                "output.snapshots_every=0", *overrides]
     cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
     for s in settings:
         cmd += ["--set", s]
@@ -172,10 +199,19 @@ def warned_points(points):
     if not warned:
         return []
     lines = ["", "Runs the engine warned about at start-up (see their logs; e.g. a time step past the damped-packing "
-                 "rule, to be rerun with --set time.steps_per_contact=N as the warning says):"]
+                 "rule with --keep-step, to be rerun with --set time.steps_per_contact=N as the warning says):"]
     for (z, k), p in sorted(warned.items()):
         lines.append(f"- zeta {z:g}, k* {k:.3g}: {p['warned_runs']} of {p['seeds']} run(s); {'; '.join(p['warnings'])}")
     return lines
+
+
+def raised_points(points, scene_steps):
+    """A line naming the dampings that ran at the damped-packing rule's steps per contact, or none."""
+    raised = sorted({(p["zeta"], p["steps_per_contact"]) for p in points if p["steps_per_contact"] != scene_steps})
+    if not raised:
+        return []
+    return ["", f"Run at the steps per contact the engine's damped-packing rule asks for (the scene takes {scene_steps}): "
+                + ", ".join(f"zeta {z:g} at {n}" for z, n in raised) + "."]
 
 
 def spearman(x, y):
@@ -309,6 +345,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scene override for every run")
     ap.add_argument("--out", default="sweep", help="folder for the runs, table, summary and plots (default sweep)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
+    ap.add_argument("--keep-step", action="store_true",
+                    help="run every point at the scene's steps per contact, even past the damped-packing rule")
     ap.add_argument("--report", action="store_true", help="run nothing: summarise the runs already in --out")
     args = ap.parse_args(argv)
     for z in args.damping:
@@ -327,7 +365,7 @@ def main(argv=None):
     for name, value in (("--seeds", args.seeds), ("--jobs", args.jobs)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
-    if not args.report and not pathlib.Path(args.grains).is_file():
+    if not (args.report and args.keep_step) and not pathlib.Path(args.grains).is_file():   # the rule needs it too
         ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
     scene = tomllib.loads(SCENE.read_text())
     m_star, k_g = grain(scene)
@@ -336,24 +374,30 @@ def main(argv=None):
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = range(1, args.seeds + 1)
+    scene_steps = next((int(float(o.split("=", 1)[1])) for o in reversed(args.set) if o.startswith("time.steps_per_contact=")),
+                       int(scene["time"]["steps_per_contact"]))
 
     def points(pairs):
         """Runs (or, with --report, finds) every seed of each (zeta, k*) pair; returns the measured points."""
         pairs = list(dict.fromkeys(pairs))
+        raised = {(z, k): None if args.keep_step else stable_steps_per_contact(args.grains, z, k, m_star, k_g, args.set)
+                  for z, k in pairs}
         if args.report:
-            files = {(z, k, s): out / f"{run_name(z, k, s)}.h5" for z, k in pairs for s in seeds}
+            files = {(z, k, s): out / f"{run_name(z, k, s, raised[(z, k)])}.h5" for z, k in pairs for s in seeds}
             missing = [str(f) for f in files.values() if not complete(f)]
             if missing:
                 ap.error(f"--report: no complete run {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
         else:
             import dask
-            tasks = {(z, k, s): dask.delayed(run_point)(args.grains, z, k, s, m_star, k_g, threads, args.set, out)
+            tasks = {(z, k, s): dask.delayed(run_point)(args.grains, z, k, s, m_star, k_g, threads, args.set, out,
+                                                        raised[(z, k)])
                      for z, k in pairs for s in seeds}
             files = dict(zip(tasks, dask.compute(*tasks.values(), scheduler="threads", num_workers=args.jobs)))
         measured = []
         for z, k in pairs:
             point = median_point([measure(files[(z, k, s)], k) for s in seeds])
-            measured.append({"zeta": z, "restitution": restitution(z), "k_star": k, **point})
+            measured.append({"zeta": z, "restitution": restitution(z), "k_star": k,
+                             "steps_per_contact": raised[(z, k)] or scene_steps, **point})
         return measured
 
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
@@ -369,7 +413,7 @@ def main(argv=None):
     stiffness = points([(fixed_damping, k) for k in args.stiffness])
     grid = points([(z, k) for z in args.damping for k in args.stiffness]) if args.map else []
 
-    fields = ["sweep", "zeta", "restitution", "k_star", "seeds", "t_agg_over_t_ff", "cluster_index",
+    fields = ["sweep", "zeta", "restitution", "k_star", "steps_per_contact", "seeds", "t_agg_over_t_ff", "cluster_index",
               "largest_cluster_fraction", "fractal_dimension", "q_first_peak", "q_first_peak_time", "q_second_peak",
               "warned_runs"]
     with (out / "sweep.csv").open("w", newline="") as f:
@@ -381,7 +425,7 @@ def main(argv=None):
     lines = findings(damping, stiffness, fixed_stiffness, fixed_damping)
     if grid:
         lines.append(stiffness_shapes(grid, args.damping, args.stiffness))
-    lines += warned_points(damping + stiffness + grid)
+    lines += raised_points(damping + stiffness + grid, scene_steps) + warned_points(damping + stiffness + grid)
     text = "\n".join(lines)
     print(text)
     (out / "summary.md").write_text(text + "\n")

@@ -38,6 +38,19 @@ def test_contact_duration_gives_the_requested_stiffness():
         sweep.grain({"particles": {"size_distribution": "uniform"}, "gravity": {}})
 
 
+def test_points_past_the_damped_packing_rule_run_at_its_steps_per_contact(grains_bin):
+    """The rule (engine/core/dashpot_stability.hpp) asks for 92 steps per contact at zeta = 0.9 and 44 at 0.7,
+    at any k*; weaker dampings stay at the scene's 30. The raised runs carry n_c in their names."""
+    m_star, k_g = 0.5, 2.0
+    for zeta, needed in ((0.9, 92), (0.7, 44), (0.5, None), (0.0, None)):
+        for k_star in (10.0, 1e6):
+            assert sweep.stable_steps_per_contact(grains_bin, zeta, k_star, m_star, k_g, []) == needed
+    assert sweep.stable_steps_per_contact(grains_bin, 0.9, 100.0, m_star, k_g, ["time.steps_per_contact=100"]) is None
+    assert sweep.run_name(0.9, 6468.79, 1, 92) == "z0p9-k6469-n92-s1" and sweep.run_name(0.9, 6468.79, 1) == "z0p9-k6469-s1"
+    points = [{"zeta": 0.9, "steps_per_contact": 92}, {"zeta": 0.5, "steps_per_contact": 30}]
+    assert sweep.raised_points(points, 30)[-1].endswith("zeta 0.9 at 92.") and sweep.raised_points(points[1:], 30) == []
+
+
 def test_virial_peaks():
     t = np.linspace(0, 3, 301)
     collapse = np.exp(-((t - 0.6) / 0.15) ** 2)
@@ -90,12 +103,17 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
     small = ["--set", "particles.count=40", "--set", "time.duration=1.5", "--set", "analysis.every=20",
              "--set", "output.observables_every=50"]
     cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(tmp_path),
-           "--damping", "0.1", "0.5", "--stiffness", "100", "1000", "--fixed-damping", "0.5", "--jobs", "2", *small]
+           "--damping", "0.1", "0.5", "--stiffness", "100", "1000", "--fixed-damping", "0.9", "--jobs", "2", *small]
     run = subprocess.run(cmd, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
     rows = list(csv.DictReader((tmp_path / "sweep.csv").open()))
-    assert [(r["sweep"], float(r["zeta"]), float(r["k_star"])) for r in rows][2:] == [("stiffness", 0.5, 100.0),
-                                                                                     ("stiffness", 0.5, 1000.0)]
+    scene_k = float(rows[0]["k_star"])   # the damping sweep runs at the scene's k*
+    assert [(r["sweep"], float(r["zeta"]), float(r["k_star"]), int(r["steps_per_contact"])) for r in rows] == [
+        ("damping", 0.1, scene_k, 30), ("damping", 0.5, scene_k, 30), ("stiffness", 0.9, 100.0, 92),
+        ("stiffness", 0.9, 1000.0, 92)]
+    assert (tmp_path / "z0p9-k100-n92-s1.h5").is_file() and not (tmp_path / "z0p9-k100-s1.h5").exists()
+    assert int(rows[0]["warned_runs"]) == 0 and int(rows[2]["warned_runs"]) == 0
+    assert "zeta 0.9 at 92" in (tmp_path / "summary.md").read_text()
     for name in ("summary.md", "damping.png", "stiffness.png"):
         assert (tmp_path / name).stat().st_size > 100
     again = subprocess.run(cmd[:-len(small)] + ["--report"], capture_output=True, text=True)   # nothing rerun
