@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "io/file_name.hpp"
+
 namespace grains {
 
 std::string describe_allowed(const SchemaEntry& e);   // scene_schema.cpp
@@ -249,6 +251,8 @@ std::string Scene::text(std::string_view path) const {
       }
       if (!ok) fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
     }
+    if (e.file_name && !is_plain_file_name(v))
+      fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
     return v;
   });
 }

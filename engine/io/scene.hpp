@@ -26,6 +26,7 @@ struct SchemaEntry {
   bool min_open = false, max_open = false;
   std::string_view choices;       // for text: "a|b|c"
   std::string_view doc;
+  bool file_name = false;         // for text: the value names output files (io/file_name.hpp)
 };
 
 const std::vector<SchemaEntry>& scene_schema();

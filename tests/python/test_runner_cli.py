@@ -55,6 +55,23 @@ def test_unknown_key_suggests_the_right_one(grains_bin, root, tmp_path):
     assert "contact.restitutoin" in r.stderr and "did you mean 'contact.restitution'" in r.stderr
 
 
+@pytest.mark.parametrize("command, model, extra", [
+    ("run", "collision", []),
+    ("consolidate", "cohesionless", ["--set", "particles.count=60", "--set", "programme.stage_budget=300"]),
+])
+def test_scene_name_that_is_not_a_file_name_is_refused(grains_bin, root, tmp_path, command, model, extra):
+    """scene.name forms the default output file names: "../escaped" would write beside the folder the run is in."""
+    work = tmp_path / "work"
+    work.mkdir()
+    scene = work / "scene.toml"
+    scene.write_text((root / "models" / f"{model}.toml").read_text().replace(f'name = "{model}"', 'name = "../escaped"'))
+    r = run(grains_bin, command, scene, "--quiet", *extra, cwd=work)
+    assert r.returncode != 0
+    assert 'scene.name: value "../escaped" is not allowed' in r.stderr
+    assert "A-Z a-z 0-9 . _ -, not starting with '.'" in r.stderr
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == ["work", "work/scene.toml"]
+
+
 def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
     """`check` builds the run as `run` does: two run lengths are refused there too, and it reports the
     derived time step and the run's steps (dt = t_c / 50 = 0.002, duration 1)."""
