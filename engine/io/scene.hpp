@@ -65,6 +65,8 @@ class Scene {
 
  private:
   bool replace_run_length(std::string_view key);   // true: key is a run-length key
+  // Throws SceneError listing `problems` (e.g. the --set overrides') and every problem of the scene, if any.
+  void report_problems(std::vector<std::string> problems) const;
   toml::node_view<const toml::node> node(std::string_view path) const;
   const SchemaEntry& entry(std::string_view path) const;
   toml::table table_;

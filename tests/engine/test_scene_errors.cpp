@@ -218,4 +218,8 @@ TEST_CASE("scene errors: exact calibration refuses a restitution it cannot reali
 TEST_CASE("scene errors: all problems of a scene are listed at once", "[scene][errors]") {
   REQUIRE_THROWS_WITH(build(good, {"contact.restitution=2", "particles.seed=-3"}),
                       Contains("2 problems") && Contains("contact.restitution") && Contains("particles.seed"));
+  // The overrides' own problems (unknown key, no '=') join the scene's.
+  REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitutoin = 0.5"), {"contact.stiffness=3", "contact.duration"}),
+                      Contains("3 problems") && Contains("--set: unknown key 'contact.stiffness'") &&
+                          Contains("'contact.duration': expected key.path=value") && Contains("unknown key 'contact.restitutoin'"));
 }

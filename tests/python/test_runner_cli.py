@@ -55,6 +55,21 @@ def test_unknown_key_suggests_the_right_one(grains_bin, root, tmp_path):
     assert "contact.restitutoin" in r.stderr and "did you mean 'contact.restitution'" in r.stderr
 
 
+def test_set_problems_are_listed_with_the_scenes(grains_bin, root, tmp_path):
+    """A bad key in the file, an unknown --set key and a --set value out of range: all three in the one
+    error output, nothing written."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text((root / "models" / "collision.toml").read_text().replace("[time]\n", "[time]\nstep = 5\n"))
+    out = tmp_path / "x.h5"
+    r = run(grains_bin, "run", scene, "--out", out, "--set", "contact.stiffness=3", "--set", "contact.restitution=2")
+    assert r.returncode != 0
+    assert "with 2 --set overrides: 3 problems in the scene:" in r.stderr
+    assert "unknown key 'time.step' (did you mean 'time.steps'?)" in r.stderr
+    assert "--set: unknown key 'contact.stiffness'" in r.stderr
+    assert "contact.restitution: value 2 is out of range: allowed number in (0, 1]" in r.stderr
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("command, model, extra", [
     ("run", "collision", []),
     ("consolidate", "cohesionless", ["--set", "particles.count=60", "--set", "programme.stage_budget=300"]),
