@@ -1,8 +1,6 @@
 // The FMI 2.0 API (co-simulation; the model-exchange functions exist and refuse with a message).
 // Each function checks its instance, forwards to Instance, and turns any exception into fmi2Error:
 // nothing thrown ever crosses into the host.
-#include <omp.h>
-
 #include <cstring>
 #include <string>
 #include <vector>
@@ -11,6 +9,7 @@
 
 #include "fmi2_api.hpp"
 #include "instance.hpp"
+#include "live_instances.hpp"
 #include "resource_location.hpp"
 
 #define GRAINS_FMI2_EXPORT extern "C" __attribute__((visibility("default")))
@@ -32,8 +31,8 @@ std::string escape_percent(const std::string& text) {
 
 template <class F>
 fmi2Status guarded(fmi2Component c, const char* function, F&& body) {
-  if (!c) return fmi2Error;   // no instance: nothing to log through
-  auto* in = static_cast<Instance*>(c);
+  Instance* in = grains::fmu::live_instance(c);
+  if (!in) return fmi2Error;   // null, freed or not ours: nothing to log through
   try {
     in->log_call(function);
     return to_fmi2(body(*in));
@@ -104,19 +103,14 @@ GRAINS_FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Ty
     std::filesystem::path resources = fmuResourceLocation && *fmuResourceLocation
                                           ? grains::fmu::decode_resource_location(fmuResourceLocation)
                                           : grains::fmu::resources_beside_binary();
-    return Instance::create(name, fmuGUID ? fmuGUID : "", resources, logger, loggingOn != 0).release();
+    return grains::fmu::hand_out(Instance::create(name, fmuGUID ? fmuGUID : "", resources, logger, loggingOn != 0));
   } catch (const std::exception& e) {
     logger(Status::error, grains::fmu::log_error, fmt::format("fmi2Instantiate: {}", e.what()));
   }
   return nullptr;
 }
 
-GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) {
-  delete static_cast<Instance*>(c);
-  // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
-  // thread outlives the instance. Another instance's next step simply starts a new pool.
-  omp_pause_resource_all(omp_pause_soft);
-}
+GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) { grains::fmu::free_instance(c); }
 
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                                   fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {

@@ -1,8 +1,6 @@
 // The FMI 3.0 API (co-simulation; model exchange, scheduled execution, clocks and event mode exist
 // and refuse with a message). Each function checks its instance, forwards to Instance, and turns any
 // exception into fmi3Error: nothing thrown ever crosses into the host.
-#include <omp.h>
-
 #include <cstring>
 #include <string>
 #include <vector>
@@ -11,6 +9,7 @@
 
 #include "fmi3_api.hpp"
 #include "instance.hpp"
+#include "live_instances.hpp"
 #include "resource_location.hpp"
 
 #define GRAINS_FMI3_EXPORT extern "C" __attribute__((visibility("default")))
@@ -26,8 +25,8 @@ fmi3Status to_fmi3(Status s) { return static_cast<fmi3Status>(s); }
 
 template <class F>
 fmi3Status guarded(fmi3Instance c, const char* function, F&& body) {
-  if (!c) return fmi3Error;   // no instance: nothing to log through
-  auto* in = static_cast<Instance*>(c);
+  Instance* in = grains::fmu::live_instance(c);
+  if (!in) return fmi3Error;   // null, freed or not ours: nothing to log through
   try {
     in->log_call(function);
     return to_fmi3(body(*in));
@@ -149,7 +148,7 @@ GRAINS_FMI3_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     }
     std::filesystem::path resources = resourcePath && *resourcePath ? grains::fmu::decode_resource_location(resourcePath)
                                                                     : grains::fmu::resources_beside_binary();
-    return Instance::create(name, instantiationToken ? instantiationToken : "", resources, logger, loggingOn).release();
+    return grains::fmu::hand_out(Instance::create(name, instantiationToken ? instantiationToken : "", resources, logger, loggingOn));
   } catch (const std::exception& e) {
     logger(Status::error, grains::fmu::log_error, fmt::format("fmi3InstantiateCoSimulation: {}", e.what()));
   }
@@ -166,12 +165,7 @@ GRAINS_FMI3_EXPORT fmi3Instance fmi3InstantiateScheduledExecution(fmi3String ins
   return nullptr;
 }
 
-GRAINS_FMI3_EXPORT void fmi3FreeInstance(fmi3Instance c) {
-  delete static_cast<Instance*>(c);
-  // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
-  // thread outlives the instance. Another instance's next step simply starts a new pool.
-  omp_pause_resource_all(omp_pause_soft);
-}
+GRAINS_FMI3_EXPORT void fmi3FreeInstance(fmi3Instance c) { grains::fmu::free_instance(c); }
 
 GRAINS_FMI3_EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean, fmi3Float64, fmi3Float64 startTime,
                                                           fmi3Boolean, fmi3Float64) {

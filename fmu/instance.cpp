@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "core/byte_stream.hpp"
+#include "io/file_name.hpp"
 
 namespace grains::fmu {
 namespace {
@@ -164,6 +165,10 @@ Status Instance::exit_initialization() {
   if (Status s = check_phase("ExitInitializationMode", {Phase::initialization}); s != Status::ok) return s;
   if (Status s = ensure_built(); s != Status::ok) return s;
   if (snapshots_every_ > 0) {
+    // The instance name is the host's string; it must not lead the file out of the working directory.
+    if (!is_plain_file_name(name_))
+      return error(fmt::format("fmu.snapshots_every: the snapshots go to <instance name>.h5, and instance name \"{}\" is "
+                               "not allowed there: allowed {} (or fmu.snapshots_every = 0)", name_, plain_file_name_rule));
     try {
       snapshots_ = std::make_unique<SnapshotOutput>(name_ + ".h5", *sim_, GRAINS_VERSION, scene_.resolved_toml());
     } catch (const std::exception& e) {

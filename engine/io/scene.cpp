@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "io/file_name.hpp"
+
 namespace grains {
 
 std::string describe_allowed(const SchemaEntry& e);   // scene_schema.cpp
@@ -116,21 +118,27 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
                                  err.source().begin.column, err.description()));
   }
   std::string length_override;   // the run-length key an override gave, if any
+  std::vector<std::string> problems;   // the overrides': one list with the scene's own problems
   for (const auto& o : overrides) {
-    auto eq = o.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw SceneError(fmt::format("--set '{}': expected key.path=value, e.g. contact.restitution=0.5", o));
-    const std::string_view key = std::string_view(o).substr(0, eq);
-    if (s.replace_run_length(key)) {
-      if (!length_override.empty() && length_override != key)
-        throw SceneError(fmt::format("--set {}: given together with --set {}: give one of time.duration, time.steps and "
-                                     "time.free_fall_times", key, length_override));
-      length_override = key;
+    try {
+      auto eq = o.find('=');
+      if (eq == std::string::npos || eq == 0)
+        throw SceneError(fmt::format("--set '{}': expected key.path=value, e.g. contact.restitution=0.5", o));
+      const std::string_view key = std::string_view(o).substr(0, eq);
+      if (s.replace_run_length(key)) {
+        if (!length_override.empty() && length_override != key)
+          throw SceneError(fmt::format("--set {}: given together with --set {}: give one of time.duration, time.steps and "
+                                       "time.free_fall_times", key, length_override));
+        length_override = key;
+      }
+      s.set_value(key, std::string_view(o).substr(eq + 1));
+    } catch (const SceneError& err) {
+      problems.push_back(err.what());
     }
-    s.set_value(key, std::string_view(o).substr(eq + 1));
   }
   // Later problems may come from an override: say so where they name the scene.
   if (!overrides.empty()) s.origin_ += fmt::format(" with {} --set override{}", overrides.size(), overrides.size() > 1 ? "s" : "");
+  if (!problems.empty()) s.report_problems(std::move(problems));
   return s;
 }
 
@@ -249,6 +257,8 @@ std::string Scene::text(std::string_view path) const {
       }
       if (!ok) fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
     }
+    if (e.file_name && !is_plain_file_name(v))
+      fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
     return v;
   });
 }
@@ -290,8 +300,9 @@ std::vector<std::vector<double>> Scene::matrix(std::string_view path) const {
   });
 }
 
-void Scene::validate() const {
-  std::vector<std::string> problems;
+void Scene::validate() const { report_problems({}); }
+
+void Scene::report_problems(std::vector<std::string> problems) const {
   collect_unknown(table_, "", problems);
   for (const auto& e : scene_schema()) {
     if (!has(e.path)) continue;

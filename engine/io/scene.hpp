@@ -26,6 +26,7 @@ struct SchemaEntry {
   bool min_open = false, max_open = false;
   std::string_view choices;       // for text: "a|b|c"
   std::string_view doc;
+  bool file_name = false;         // for text: the value names output files (io/file_name.hpp)
 };
 
 const std::vector<SchemaEntry>& scene_schema();
@@ -64,6 +65,8 @@ class Scene {
 
  private:
   bool replace_run_length(std::string_view key);   // true: key is a run-length key
+  // Throws SceneError listing `problems` (e.g. the --set overrides') and every problem of the scene, if any.
+  void report_problems(std::vector<std::string> problems) const;
   toml::node_view<const toml::node> node(std::string_view path) const;
   const SchemaEntry& entry(std::string_view path) const;
   toml::table table_;

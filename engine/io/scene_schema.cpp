@@ -2,6 +2,7 @@
 // docs/scene-reference.md is generated from this table (`grains scene-reference`).
 #include <fmt/format.h>
 
+#include "io/file_name.hpp"
 #include "io/scene.hpp"
 
 namespace grains {
@@ -13,7 +14,8 @@ using K = ValueKind;
 const std::vector<SchemaEntry>& scene_schema() {
   static const std::vector<SchemaEntry> schema = {
       // --- scene ---
-      {"scene.name", K::text, "\"unnamed\"", 0, 0, false, false, "", "Short name, used for the default output file name."},
+      {"scene.name", K::text, "\"unnamed\"", 0, 0, false, false, "",
+       "Short name, used for the default output file names (`<name>.h5`, `<name>-stages.h5`, `<name>-stages.csv`).", true},
       {"scene.description", K::text, "\"\"", 0, 0, false, false, "", "Free text stored with the output."},
       {"scene.dimension", K::integer, "3", 2, 3, false, false, "", "2 = disks in the plane, 3 = spheres."},
 
@@ -323,6 +325,7 @@ std::string range_text(const SchemaEntry& e) {
 }  // namespace
 
 std::string describe_allowed(const SchemaEntry& e) {
+  if (e.file_name) return fmt::format("{}, {}", kind_name(e.kind), plain_file_name_rule);
   std::string r = range_text(e);
   if (r.empty()) return kind_name(e.kind);
   return e.choices.empty() ? fmt::format("{} in {}", kind_name(e.kind), r) : fmt::format("{}, {}", kind_name(e.kind), r);

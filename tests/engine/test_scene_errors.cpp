@@ -101,6 +101,18 @@ TEST_CASE("scene errors: a bad choice for a text key lists the choices", "[scene
                       Contains("contact.calibration") && Contains("\"pairwise\"") && Contains("global, per-pair, exact"));
 }
 
+TEST_CASE("scene errors: a scene name that cannot be a file name is refused", "[scene][errors]") {
+  // scene.name forms the default output file names: it must not leave the output folder.
+  for (const std::string& bad : std::vector<std::string>{"../x", "a/b", "", ".hidden", "with space", std::string(101, 'a')}) {
+    INFO(bad);
+    REQUIRE_THROWS_WITH(build(with("dimension = 3", fmt::format("dimension = 3\nname = \"{}\"", bad))),
+                        Contains("scene.name") && Contains(fmt::format("\"{}\"", bad)) &&
+                            Contains("A-Z a-z 0-9 . _ -, not starting with '.'"));
+  }
+  REQUIRE_NOTHROW(build(good, {"scene.name=\"gas-2_run.v1\""}));
+  REQUIRE_NOTHROW(build(good, {"scene.name=\"" + std::string(100, 'a') + "\""}));
+}
+
 TEST_CASE("scene errors: a TOML syntax error gives the file and line", "[scene][errors]") {
   const std::string broken = "[scene]\ndimension = 3\n\n[contact]\nrestitution = = 0.5\n";
   REQUIRE_THROWS_AS(build(broken), SceneError);
@@ -206,4 +218,8 @@ TEST_CASE("scene errors: exact calibration refuses a restitution it cannot reali
 TEST_CASE("scene errors: all problems of a scene are listed at once", "[scene][errors]") {
   REQUIRE_THROWS_WITH(build(good, {"contact.restitution=2", "particles.seed=-3"}),
                       Contains("2 problems") && Contains("contact.restitution") && Contains("particles.seed"));
+  // The overrides' own problems (unknown key, no '=') join the scene's.
+  REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitutoin = 0.5"), {"contact.stiffness=3", "contact.duration"}),
+                      Contains("3 problems") && Contains("--set: unknown key 'contact.stiffness'") &&
+                          Contains("'contact.duration': expected key.path=value") && Contains("unknown key 'contact.restitutoin'"));
 }

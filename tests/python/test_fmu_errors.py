@@ -1,6 +1,10 @@
 """Illegal calls and bad values: each returns an error status with a clear message through the host's
 logger, and the host process (this one) carries on; the instance can be reset and used again."""
+import os
+import pathlib
 import shutil
+import subprocess
+import sys
 
 import pytest
 
@@ -99,3 +103,33 @@ def test_resources_found_through_a_percent_encoded_location(tmp_path, version):
     unit.step(0.5)
     assert unit.get("step") == 250   # dt = t_c / 50 = 0.002: the packaged scene was read from resources/
     unit.free()
+
+
+# Instantiate, free, free again, then call on the freed pointer and on one never handed out, through the
+# raw C functions (fmpy's freeInstance also unloads the library). In a subprocess: a crash fails the test.
+FREED_INSTANCE_HOST = """
+import ctypes, sys
+from fmu_host import Unit, fmu_path
+version = int(sys.argv[1])
+fmu = Unit(fmu_path("collision", version)).fmu
+c = ctypes.c_void_p(fmu.component)
+free = fmu.dll[f"fmi{version}FreeInstance"]
+free.argtypes, free.restype = [ctypes.c_void_p], None
+step = fmu.dll[f"fmi{version}DoStep"]
+flag = ctypes.c_int if version == 2 else ctypes.c_bool   # noSetFMUStatePriorToCurrentPoint
+step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, flag] + [ctypes.c_void_p] * 4 * (version == 3)
+step.restype = ctypes.c_int
+extra = [None] * 4 * (version == 3)
+free(c)
+free(c)   # a second free does nothing
+print(step(c, 0.0, 0.1, 0, *extra), step(ctypes.c_void_p(4096), 0.0, 0.1, 0, *extra))
+"""
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_freed_instance_is_refused_not_dereferenced(version):
+    here = pathlib.Path(__file__).parent
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
+    r = subprocess.run([sys.executable, "-c", FREED_INSTANCE_HOST, str(version)], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["3", "3"]   # fmi2Error / fmi3Error, for the freed pointer and for a stranger

@@ -29,6 +29,24 @@ def test_snapshots_equal_the_runner_frames(grains_bin, root, tmp_path, monkeypat
 
 
 @pytest.mark.parametrize("version", [2, 3])
+def test_instance_name_that_is_not_a_file_name_gets_no_snapshots(tmp_path, monkeypatch, version):
+    """The snapshots go to <instance name>.h5 in the working directory: "../snap" would write beside it."""
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    unit = Unit(fmu_path("collision", version), name="../snap")
+    with pytest.raises(Exception):
+        unit.initialize({"fmu.snapshots_every": 10})
+    assert any('instance name "../snap"' in m and "A-Z a-z 0-9 . _ -, not starting with '.'" in m
+               for m in unit.errors()), unit.errors()
+    assert list(tmp_path.rglob("*")) == [work]
+    unit.reset()
+    unit.initialize()   # without snapshots the name is only a name
+    unit.step(0.1)
+    unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
 def test_missing_plugin_is_a_clear_error(tmp_path, monkeypatch, version):
     monkeypatch.chdir(tmp_path)
     path = fmu_path("collision", version)

@@ -55,6 +55,38 @@ def test_unknown_key_suggests_the_right_one(grains_bin, root, tmp_path):
     assert "contact.restitutoin" in r.stderr and "did you mean 'contact.restitution'" in r.stderr
 
 
+def test_set_problems_are_listed_with_the_scenes(grains_bin, root, tmp_path):
+    """A bad key in the file, an unknown --set key and a --set value out of range: all three in the one
+    error output, nothing written."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text((root / "models" / "collision.toml").read_text().replace("[time]\n", "[time]\nstep = 5\n"))
+    out = tmp_path / "x.h5"
+    r = run(grains_bin, "run", scene, "--out", out, "--set", "contact.stiffness=3", "--set", "contact.restitution=2")
+    assert r.returncode != 0
+    assert "with 2 --set overrides: 3 problems in the scene:" in r.stderr
+    assert "unknown key 'time.step' (did you mean 'time.steps'?)" in r.stderr
+    assert "--set: unknown key 'contact.stiffness'" in r.stderr
+    assert "contact.restitution: value 2 is out of range: allowed number in (0, 1]" in r.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("command, model, extra", [
+    ("run", "collision", []),
+    ("consolidate", "cohesionless", ["--set", "particles.count=60", "--set", "programme.stage_budget=300"]),
+])
+def test_scene_name_that_is_not_a_file_name_is_refused(grains_bin, root, tmp_path, command, model, extra):
+    """scene.name forms the default output file names: "../escaped" would write beside the folder the run is in."""
+    work = tmp_path / "work"
+    work.mkdir()
+    scene = work / "scene.toml"
+    scene.write_text((root / "models" / f"{model}.toml").read_text().replace(f'name = "{model}"', 'name = "../escaped"'))
+    r = run(grains_bin, command, scene, "--quiet", *extra, cwd=work)
+    assert r.returncode != 0
+    assert 'scene.name: value "../escaped" is not allowed' in r.stderr
+    assert "A-Z a-z 0-9 . _ -, not starting with '.'" in r.stderr
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == ["work", "work/scene.toml"]
+
+
 def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
     """`check` builds the run as `run` does: two run lengths are refused there too, and it reports the
     derived time step and the run's steps (dt = t_c / 50 = 0.002, duration 1)."""
