@@ -31,6 +31,13 @@ int main(int argc, char** argv) {
   cmd_cons->add_option("--table", cons.table, "Stage table, CSV (default <scene.name>-stages.csv)");
   cmd_cons->add_flag("--quiet", cons.quiet, "No line per stage");
 
+  std::string resume_file;
+  bool resume_quiet = false;
+  auto* cmd_resume = app.add_subcommand("resume", "Continue a run that was stopped (Ctrl-C, SIGTERM) or killed, from the "
+                                                  "newest checkpoint in its output file (output.checkpoint_every)");
+  cmd_resume->add_option("output", resume_file, "The run's HDF5 output file")->required()->check(CLI::ExistingFile);
+  cmd_resume->add_flag("--quiet", resume_quiet, "No progress line");
+
   std::string check_scene;
   std::vector<std::string> check_overrides;
   auto* cmd_check = app.add_subcommand("check", "Validate a scene without running it; prints the resolved scene");
@@ -47,6 +54,7 @@ int main(int argc, char** argv) {
   try {
     if (*cmd_run) return grains::run_scene(run);
     if (*cmd_cons) return grains::consolidate_scene(cons);
+    if (*cmd_resume) return grains::resume_run(resume_file, resume_quiet);
     if (*cmd_check) return grains::check_scene(check_scene, check_overrides);
     if (*cmd_ref) {
       fmt::print("{}", grains::schema_reference_markdown());

@@ -27,12 +27,13 @@ void StatusLine::finish() {
   shown_ = false;
 }
 
-Progress::Progress(long total_steps, std::size_t particles) : total_(total_steps), particles_(particles) {}
+Progress::Progress(long total_steps, std::size_t particles, long first_step)
+    : total_(total_steps), first_(first_step), particles_(particles) {}
 
 void Progress::update(long done) {
-  if (done <= 0 || !line_.due()) return;
+  if (done <= first_ || !line_.due()) return;
   const double elapsed = line_.elapsed_seconds();
-  const double rate = done / elapsed;
+  const double rate = (done - first_) / elapsed;
   const double eta = (total_ - done) / rate;
   line_.show(fmt::format("[{:5.1f}%] step {}/{}  {:.3g} particle-steps/s  elapsed {:.0f} s  ETA {:.0f} s",
                          100.0 * done / total_, done, total_, rate * particles_, elapsed, eta));

@@ -24,13 +24,14 @@ class StatusLine {
 
 class Progress {
  public:
-  Progress(long total_steps, std::size_t particles);
+  // A resumed run starts at `first_step`: the rate and ETA count the steps from there.
+  Progress(long total_steps, std::size_t particles, long first_step = 0);
   void update(long steps_done);
   void finish() { line_.finish(); }
   double elapsed_seconds() const { return line_.elapsed_seconds(); }
 
  private:
-  long total_;
+  long total_, first_;
   std::size_t particles_;
   StatusLine line_;
 };

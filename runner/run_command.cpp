@@ -5,10 +5,12 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "io/h5md_checkpoint.hpp"
 #include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
@@ -79,16 +81,103 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   return 0;
 }
 
+namespace {
+
+// The run's loop from the simulation's present step to `steps`, then its end and summary: shared by `run`
+// and `resume` (which comes in at a checkpoint's step with the wall time spent before it).
+int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long steps, bool stop_at_aggregation, bool quiet,
+                 double earlier_seconds) {
+  const double initial_energy = sim.get("kinetic_energy");
+  const long obs_every = scene.integer("output.observables_every");
+  const long snap_every = scene.integer("output.snapshots_every");
+  const long checkpoint_every = scene.integer("output.checkpoint_every");
+  // The loop stops at every step some output is due at (the aggregation check too, to stop at the check that sees it).
+  std::vector<long> intervals{obs_every};
+  if (snap_every > 0) intervals.push_back(snap_every);
+  if (checkpoint_every > 0) intervals.push_back(checkpoint_every);
+  if (stop_at_aggregation) intervals.push_back(scene.integer("analysis.every"));
+  auto next_stop = [&](long done) {
+    long next = steps;
+    for (long e : intervals) next = std::min(next, (done / e + 1) * e);
+    return next;
+  };
+
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  const long first = sim.step_count();
+  Progress progress(steps, sim.particle_count(), first);
+  long done = first;
+  bool aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
+  bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
+  while (done < steps && !stopping && !aggregated) {
+    const long n = next_stop(done) - done;
+    sim.step_n(n);
+    done += n;
+    aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
+    stopping = interrupted;
+    const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
+    if (done % obs_every == 0 || last) write_observables(out, sim);
+    if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, sim);
+    // A stopped run always leaves one, so that `grains resume` can continue it.
+    if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
+      out.write_checkpoint(done, sim.time(), earlier_seconds + progress.elapsed_seconds(), sim.save_state());
+    if (!quiet) progress.update(done);
+  }
+  progress.finish();
+  if (stopping) {
+    out.set_attribute("status", fmt::format("interrupted at step {}", sim.step_count()));
+  } else {
+    out.set_attribute("status", "complete");
+  }
+  if (scene.boolean("analysis.collision_log")) {   // the full event log beside the counts
+    std::vector<double> table;
+    for (const CollisionEvent& e : sim.collision_events())
+      table.insert(table.end(), {double(e.i), double(e.j), e.start, e.end, e.impact_speed, e.rebound_speed, double(e.adhesive)});
+    out.write_table("collisions", {"i", "j", "start", "end", "impact_speed", "rebound_speed", "adhesive"}, table);
+  }
+  const double seconds = progress.elapsed_seconds();
+  const double rate = seconds > 0 ? double(done - first) * double(sim.particle_count()) / seconds : 0.0;
+  out.set_scalar("wall_seconds", earlier_seconds + seconds);
+  out.set_scalar("particle_steps_per_second", rate);
+  out.flush();
+
+  // One-screen summary.
+  fmt::print("grains {}: scene '{}' ({}D, {} particles)\n", GRAINS_VERSION, scene.text("scene.name"), sim.dimension(),
+             sim.particle_count());
+  fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim.step_count(), sim.dt(), sim.time(),
+             stopping ? "  INTERRUPTED (continue it with grains resume)"
+                      : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
+  if (first > 0) fmt::print("  resumed      at step {} (the wall time and rate below are since then)\n", first);
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim.threads());
+  fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim.get("kinetic_energy"));
+  // Whatever of these the scene's modules provide.
+  for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds",
+                           "gravity_potential_energy", "virial_ratio", "time_over_free_fall", "cluster_count",
+                           "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension", "normalised_stiffness",
+                           "collision_count", "adhesive_collision_count", "adhesive_collision_fraction",
+                           "open_collision_count"}) {
+    try {
+      fmt::print("  {:<27} {:.6g}\n", name, sim.get(name));
+    } catch (const SimulationError&) {
+    }
+  }
+  try {   // the aggregation time in free-fall times (NaN when the threshold was never reached)
+    fmt::print("  {:<27} {:.6g}\n", "aggregation_time / t_ff", sim.get("aggregation_time") / sim.get("free_fall_time"));
+  } catch (const SimulationError&) {
+  }
+  fmt::print("  warnings     {}\n", sim.warnings().size());
+  fmt::print("  output       {}\n", out.path());
+  return stopping ? 130 : 0;
+}
+
+}  // namespace
+
 int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
   PreparedRun prepared = prepare_run(scene);
   auto& sim = prepared.sim;
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
-  const long steps = *prepared.steps;
-  const bool stop_at_aggregation = prepared.stop_at_aggregation;
-  const long obs_every = scene.integer("output.observables_every");
-  const long snap_every = scene.integer("output.snapshots_every");
 
   std::string path = opt.output;
   if (path.empty()) path = scene.has("output.file") ? scene.text("output.file") : scene.text("scene.name") + ".h5";
@@ -102,70 +191,23 @@ int run_scene(const RunOptions& opt) {
   }
   write_frame(out, *sim);
   write_observables(out, *sim);
+  return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
+}
 
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  Progress progress(steps, sim->particle_count());
-  long chunk = std::max<long>(1, std::min(obs_every, snap_every > 0 ? snap_every : obs_every));
-  if (stop_at_aggregation) chunk = std::min<long>(chunk, scene.integer("analysis.every"));   // stop at the check that sees it
-  long done = 0;
-  bool aggregated = false;
-  const auto initial_energy = sim->get("kinetic_energy");
-  bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
-  while (done < steps && !stopping && !aggregated) {
-    long n = std::min(chunk - done % chunk, steps - done);
-    sim->step_n(n);
-    done += n;
-    aggregated = stop_at_aggregation && std::isfinite(sim->get("aggregation_time"));
-    stopping = interrupted;
-    const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
-    if (done % obs_every == 0 || last) write_observables(out, *sim);
-    if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, *sim);
-    if (!opt.quiet) progress.update(done);
-  }
-  progress.finish();
-  if (stopping) {
-    out.set_attribute("status", fmt::format("interrupted at step {}", sim->step_count()));
-  } else {
-    out.set_attribute("status", "complete");
-  }
-  if (scene.boolean("analysis.collision_log")) {   // the full event log beside the counts
-    std::vector<double> table;
-    for (const CollisionEvent& e : sim->collision_events())
-      table.insert(table.end(), {double(e.i), double(e.j), e.start, e.end, e.impact_speed, e.rebound_speed, double(e.adhesive)});
-    out.write_table("collisions", {"i", "j", "start", "end", "impact_speed", "rebound_speed", "adhesive"}, table);
-  }
-  const double seconds = progress.elapsed_seconds();
-  const double rate = seconds > 0 ? double(done) * double(sim->particle_count()) / seconds : 0.0;
-  out.set_scalar("wall_seconds", seconds);
-  out.set_scalar("particle_steps_per_second", rate);
+int resume_run(const std::string& path, bool quiet) {
+  RunCheckpoint cp = read_checkpoint(path);
+  const Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path));
+  PreparedRun prepared = prepare_run(scene);
+  if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
+  prepared.sim->restore_state(cp.state);
+  if (prepared.sim->step_count() != cp.step)
+    throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
+                                         prepared.sim->step_count()));
+  H5mdWriter out(path, cp.step, scene.boolean("output.xdmf"));
+  out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
-
-  // One-screen summary.
-  fmt::print("grains {}: scene '{}' ({}D, {} particles)\n", GRAINS_VERSION, scene.text("scene.name"), sim->dimension(),
-             sim->particle_count());
-  fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim->step_count(), sim->dt(), sim->time(),
-             stopping ? "  INTERRUPTED" : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
-  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
-  fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim->get("kinetic_energy"));
-  // Whatever of these the scene's modules provide.
-  for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds",
-                           "gravity_potential_energy", "virial_ratio", "time_over_free_fall", "cluster_count",
-                           "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension", "normalised_stiffness",
-                           "collision_count", "adhesive_collision_count", "adhesive_collision_fraction",
-                           "open_collision_count"}) {
-    try {
-      fmt::print("  {:<27} {:.6g}\n", name, sim->get(name));
-    } catch (const SimulationError&) {
-    }
-  }
-  try {   // the aggregation time in free-fall times (NaN when the threshold was never reached)
-    fmt::print("  {:<27} {:.6g}\n", "aggregation_time / t_ff", sim->get("aggregation_time") / sim->get("free_fall_time"));
-  } catch (const SimulationError&) {
-  }
-  fmt::print("  warnings     {}\n", sim->warnings().size());
-  fmt::print("  output       {}\n", path);
-  return stopping ? 130 : 0;
+  if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);
+  return continue_run(scene, *prepared.sim, out, *prepared.steps, prepared.stop_at_aggregation, quiet, cp.wall_seconds);
 }
 
 }  // namespace grains

@@ -22,6 +22,10 @@ struct RunOptions {
 // Validates the scene completely before touching the output file; returns the process exit code.
 int run_scene(const RunOptions& options);
 
+// `grains resume`: continues the run in `path` (its output file) from the newest checkpoint there, with the
+// scene stored in it; the records after that step are replaced. Returns the process exit code.
+int resume_run(const std::string& path, bool quiet);
+
 // `grains check`: the same checks as `run` without running (the simulation is built, the run length
 // resolved, warnings printed); prints the resolved scene and the derived time step and length.
 int check_scene(const std::string& path, const std::vector<std::string>& overrides);

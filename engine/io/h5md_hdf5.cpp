@@ -139,6 +139,78 @@ void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, 
   check(H5Dwrite(dataset, mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, data), file, "writing " + what);
 }
 
+Handle open_group(hid_t parent, const std::string& name, const std::string& file) {
+  return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + name), H5Gclose);
+}
+
+Handle open_dataset(hid_t parent, const std::string& name, const std::string& file) {
+  return Handle(check(H5Dopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening dataset " + name), H5Dclose);
+}
+
+bool exists(hid_t parent, const std::string& name, const std::string& file) {
+  return check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up " + name) > 0;
+}
+
+void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what) {
+  std::vector<hsize_t> dims = shape(dataset, file, what);
+  if (dims.empty() || dims[0] <= rows) return;
+  dims[0] = rows;
+  check(H5Dset_extent(dataset, dims.data()), file, "truncating " + what);
+}
+
+namespace {
+template <class T>
+std::vector<T> read_all(hid_t dataset, hid_t mem_type, const std::string& file, const std::string& what) {
+  hsize_t n = 1;
+  for (hsize_t d : shape(dataset, file, what)) n *= d;
+  std::vector<T> values(n);
+  if (n > 0) check(H5Dread(dataset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), file, "reading " + what);
+  return values;
+}
+}  // namespace
+
+std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what) {
+  return read_all<long long>(dataset, H5T_NATIVE_LLONG, file, what);
+}
+
+std::vector<double> read_doubles(hid_t dataset, const std::string& file, const std::string& what) {
+  return read_all<double>(dataset, H5T_NATIVE_DOUBLE, file, what);
+}
+
+std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file) {
+  Handle d = open_dataset(parent, name, file);
+  Handle type = vlen_string_type(file);
+  char* p = nullptr;
+  check(H5Dread(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), file, "reading dataset " + name);
+  std::string value = p ? p : "";
+  H5free_memory(p);
+  return value;
+}
+
+double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file) {
+  if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
+  Handle a(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), file, "opening attribute " + name), H5Aclose);
+  double value = fallback;
+  check(H5Aread(a.get(), H5T_NATIVE_DOUBLE, &value), file, "reading attribute " + name);
+  return value;
+}
+
+std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file) {
+  if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
+  Handle a(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), file, "opening attribute " + name), H5Aclose);
+  Handle type = vlen_string_type(file);
+  char* p = nullptr;
+  check(H5Aread(a.get(), type.get(), &p), file, "reading attribute " + name);
+  std::string value = p ? p : "";
+  H5free_memory(p);
+  return value;
+}
+
+void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::string& file, const std::string& what) {
+  check(H5Dset_extent(dataset, &size), file, "sizing " + what);
+  if (size > 0) check(H5Dwrite(dataset, H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), file, "writing " + what);
+}
+
 void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file) {
   // Variable length: scene files and summaries can exceed the 64 KiB limit of compact attributes.
   Handle type = vlen_string_type(file);

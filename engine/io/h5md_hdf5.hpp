@@ -54,6 +54,20 @@ inline void append_row(hid_t dataset, hid_t mem_type, const void* data, const st
 // Current shape of a dataset.
 std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::string& what);
 
+// Reading back (a resumed run): opening, truncating to the first `rows` rows, whole datasets and attributes.
+Handle open_group(hid_t parent, const std::string& name, const std::string& file);
+Handle open_dataset(hid_t parent, const std::string& name, const std::string& file);
+bool exists(hid_t parent, const std::string& name, const std::string& file);
+void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);
+std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what);
+std::vector<double> read_doubles(hid_t dataset, const std::string& file, const std::string& what);
+std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file);
+// An attribute's value, or `fallback` when the object has no such attribute.
+double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file);
+std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file);
+// Replaces the whole content of a one-axis extendable byte dataset.
+void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::string& file, const std::string& what);
+
 // Attributes; an existing attribute of the same name is replaced.
 void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file);
 void attr_strings(hid_t obj, const std::string& name, const std::vector<std::string>& values,

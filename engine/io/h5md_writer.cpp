@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "io/h5md_checkpoint.hpp"
 #include "io/h5md_hdf5.hpp"
 #include "io/xdmf_writer.hpp"
 
@@ -92,6 +93,30 @@ struct H5mdWriter::Impl {
     if (it == series.end())
       it = series.emplace("box/" + name, make_series(box.get(), name, {hsize_t(dim)}, dim)).first;
     append(it->second, "/particles/all/box/" + name, f.step, f.time, data, {hsize_t(dim)});
+  }
+
+  // The XDMF arrays, named once the first frame tells which elements the run writes.
+  void register_xdmf_fields(bool angular, int angular_components) {
+    xdmf->add_field("radius", "/particles/all/radius/value", 1);
+    xdmf->add_field("mass", "/particles/all/mass/value", 1);
+    if (dim == 3) xdmf->add_field("velocity", "/particles/all/velocity/value", 3);  // ParaView wants 3 components
+    if (angular && (angular_components == 1 || angular_components == 3))
+      xdmf->add_field("angular_velocity", "/particles/all/angular_velocity/value", angular_components);
+  }
+
+  // An element of a file being resumed, cut back to its rows up to `last_step`.
+  Series reopen_series(hid_t parent, const std::string& name, long last_step) {
+    Series s;
+    s.group = h5::open_group(parent, name, path);
+    s.step = h5::open_dataset(s.group.get(), "step", path);
+    s.time = h5::open_dataset(s.group.get(), "time", path);
+    s.value = h5::open_dataset(s.group.get(), "value", path);
+    const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
+    const hsize_t rows = hsize_t(std::upper_bound(steps.begin(), steps.end(), last_step) - steps.begin());
+    for (hid_t d : {s.step.get(), s.time.get(), s.value.get()}) h5::truncate_rows(d, rows, path, name);
+    const std::vector<hsize_t> shape = h5::shape(s.value.get(), path, name + "/value");
+    s.components = shape.size() == 3 ? int(shape[2]) : 1;
+    return s;
   }
 
   void update_xdmf(bool final) {
@@ -175,6 +200,54 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   m.flush();
 }
 
+H5mdWriter::H5mdWriter(const std::string& path, long resume_step, bool write_xdmf) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.path = path;
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  hid_t fid = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (fid < 0) h5::fail(path, "opening the file to resume its run (is it writable?)");
+  m.file = h5::Handle(fid, H5Fclose);
+  const hid_t root = m.file.get();
+  m.particles = h5::open_group(root, "particles/all", path);
+  m.box = h5::open_group(m.particles.get(), "box", path);
+  m.dim = int(h5::read_attr_double(m.box.get(), "dimension", 3, path));
+  m.observables = h5::open_group(root, "observables", path);
+  m.parameters = h5::open_group(root, "parameters", path);
+  m.grains = h5::open_group(root, "grains", path);
+  m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
+  for (const char* name : {"position", "velocity", "radius", "mass", "angular_velocity", "orientation"})
+    if (h5::exists(m.particles.get(), name, path)) m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step));
+  for (const char* name : {"edges", "offset"})
+    if (h5::exists(m.box.get(), name, path))
+      m.series.emplace(std::string("box/") + name, m.reopen_series(m.box.get(), name, resume_step)).first->second.components = m.dim;
+  std::vector<std::string> names;
+  auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+    return 0;
+  };
+  h5::check(H5Literate(m.observables.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), path, "listing /observables");
+  for (const auto& name : names) m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step));
+
+  m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
+  std::vector<double> times;
+  if (auto it = m.series.find("position"); it != m.series.end()) {
+    times = h5::read_doubles(it->second.time.get(), path, "/particles/all/position/time");
+    m.frames = times.size();
+    m.max_count = h5::shape(it->second.value.get(), path, "/particles/all/position/value").at(1);
+  }
+  if (write_xdmf) {
+    m.xdmf_path = std::filesystem::path(path).replace_extension(".xdmf").string();
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), m.dim);
+    if (m.frames > 0) {
+      m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
+      for (std::size_t k = 0; k < m.frames; ++k) m.xdmf->add_frame(k, times[k], m.max_count, m.frames, m.max_count);
+      m.xdmf->write();
+      m.xdmf_frames_on_disk = m.frames;
+    }
+  }
+  m.flush();
+}
+
 H5mdWriter::~H5mdWriter() {
   if (!impl_ || !impl_->file) return;
   try {
@@ -218,13 +291,7 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
   m.flush();
 
   if (m.xdmf) {
-    if (m.frames == 1) {
-      m.xdmf->add_field("radius", "/particles/all/radius/value", 1);
-      m.xdmf->add_field("mass", "/particles/all/mass/value", 1);
-      if (m.dim == 3) m.xdmf->add_field("velocity", "/particles/all/velocity/value", 3);  // ParaView wants 3 components
-      if (angular && (f.angular_components == 1 || f.angular_components == 3))
-        m.xdmf->add_field("angular_velocity", "/particles/all/angular_velocity/value", f.angular_components);
-    }
+    if (m.frames == 1) m.register_xdmf_fields(angular, f.angular_components);
     m.xdmf->add_frame(m.frames - 1, f.time, f.count, m.frames, m.max_count);
     m.update_xdmf(false);
   }
@@ -279,6 +346,32 @@ void H5mdWriter::write_table(const std::string& name, const std::vector<std::str
 void H5mdWriter::flush() {
   impl_->update_xdmf(true);
   impl_->flush();
+}
+
+void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state) {
+  Impl& m = *impl_;
+  m.flush();   // every record up to `step` is in the file before a checkpoint names that step
+  const hid_t g = m.grains.get();
+  int slot = 0;   // the slot not holding the newest valid checkpoint
+  double newest = -1;
+  for (int k : {0, 1}) {
+    if (!h5::exists(g, checkpoint_slot_name(k), m.path)) continue;
+    h5::Handle d = h5::open_dataset(g, checkpoint_slot_name(k), m.path);
+    const double at = h5::read_attr_double(d.get(), "step", -1, m.path);
+    if (h5::read_attr_double(d.get(), "valid", 0, m.path) == 1 && at > newest) newest = at, slot = 1 - k;
+  }
+  const std::string name = checkpoint_slot_name(slot), what = "/grains/" + name;
+  h5::Handle d = h5::exists(g, name, m.path) ? h5::open_dataset(g, name, m.path)
+                                              : h5::create_extendable(g, name, H5T_STD_U8LE, {}, {}, 1 << 16, m.path);
+  h5::attr_double(d.get(), "valid", 0, m.path);
+  h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
+  h5::overwrite_bytes(d.get(), state.data(), state.size(), m.path, what);
+  h5::attr_double(d.get(), "step", double(step), m.path);   // exact: steps stay below 1e15 (Simulation::max_steps)
+  h5::attr_double(d.get(), "time", time, m.path);
+  h5::attr_double(d.get(), "wall_seconds", wall_seconds, m.path);
+  h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
+  h5::attr_double(d.get(), "valid", 1, m.path);
+  m.flush();
 }
 
 const std::string& H5mdWriter::path() const { return impl_->path; }

@@ -29,6 +29,9 @@ class H5mdWriter {
   // Creates (truncates) `path`; throws std::runtime_error naming the path when that fails.
   H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
              const std::string& creator_version, const std::string& resolved_scene_toml, bool write_xdmf);
+  // Reopens a run's file to continue it from its checkpoint at `resume_step` (h5md_checkpoint.hpp): every
+  // record and frame written after that step is dropped, and appending goes on from there.
+  H5mdWriter(const std::string& path, long resume_step, bool write_xdmf);
   ~H5mdWriter();
   H5mdWriter(const H5mdWriter&) = delete;
   H5mdWriter& operator=(const H5mdWriter&) = delete;
@@ -43,6 +46,9 @@ class H5mdWriter {
   // attribute `columns`; written once (a second call replaces it).
   void write_table(const std::string& name, const std::vector<std::string>& columns, const std::vector<double>& values);
   void flush();                             // writes pending observables; the file stays readable if the process dies afterwards
+  // The complete state at `step` (Simulation::save_state), in the older of two slots, so a run killed while
+  // writing one keeps the other; the records up to `step` are flushed first (h5md_checkpoint.hpp reads it).
+  void write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state);
 
   const std::string& path() const;
   const std::string& xdmf_path() const;     // empty when XDMF is off

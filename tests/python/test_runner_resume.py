@@ -1,0 +1,115 @@
+"""`grains resume`: a run stopped by a signal or killed continues from the checkpoint in its output file
+and ends with the records of the run that was never stopped."""
+import shutil
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+
+def run(grains_bin, *args):
+    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True)
+
+
+def records(path):
+    """Every observable's (step, value) rows, every frame's (step, value) rows, and the collision table."""
+    with h5py.File(path) as f:
+        out = {f"observables/{k}": (s["step"][()], s["value"][()]) for k, s in f["observables"].items()}
+        for name, s in f["particles/all"].items():
+            if name != "box":
+                out[f"particles/{name}"] = (s["step"][()], s["value"][()])
+        if "collisions" in f["grains"]:
+            out["collisions"] = (None, f["grains/collisions"][()])
+    return out
+
+
+def status(path):
+    with h5py.File(path) as f:
+        s = f["grains"].attrs.get("status", "")
+        return s.decode() if isinstance(s, bytes) else s
+
+
+# A small self-gravitating cloud with the collision log, checkpointed every 3000 of its 15,527 steps.
+CLOUD = ["--set", "particles.count=200", "--set", "output.snapshots_every=2000", "--set", "output.checkpoint_every=3000",
+         "--set", "analysis.collision_log=true", "--set", "run.threads=2", "--quiet"]
+
+
+def test_a_killed_run_resumes_from_its_last_checkpoint_to_the_records_of_an_unbroken_run(grains_bin, root, tmp_path):
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
+    # A run killed after its last checkpoint: no status, and records past the checkpoint that the resumed run
+    # must drop and write again (spoiled here, so that keeping them would show).
+    killed = tmp_path / "killed.h5"
+    shutil.copy(whole, killed)
+    with h5py.File(killed, "r+") as f:
+        del f["grains"].attrs["status"]
+        del f["grains/collisions"]
+        last = int(max(f["grains/checkpoint_0"].attrs["step"], f["grains/checkpoint_1"].attrs["step"]))
+        assert last == 15000
+        for name in ("observables/kinetic_energy", "particles/all/position"):
+            later = f[name]["step"][()] > last
+            assert later.any()
+            f[name]["value"][later] = 0.0
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resumed      at step 15000" in resumed.stdout and status(killed) == "complete"
+    a, b = records(whole), records(killed)
+    assert a.keys() == b.keys() and "collisions" in a
+    for name in a:
+        if name.startswith("observables/cvode"):
+            continue
+        assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
+    with open(killed.with_suffix(".xdmf")) as x:   # the ParaView companion lists every frame again
+        assert x.read().count("<Grid Name=\"frame") == len(a["particles/position"][0]) == 9
+
+
+def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tmp_path):
+    """Ctrl-C writes a checkpoint whatever output.checkpoint_every says; the resumed run's records are the
+    unbroken run's, plus the records of the step it stopped at."""
+    gas = [root / "models/gas.toml", "--set", "particles.count=512", "--set", "time.steps=700000",
+           "--set", "run.threads=1", "--quiet"]
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", *gas[:1], "--out", whole, *gas[1:]).returncode == 0
+    stopped = tmp_path / "stopped.h5"
+    p = subprocess.Popen([grains_bin, "run", *map(str, gas[:1]), "--out", str(stopped), *map(str, gas[1:])],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not stopped.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, "the run ended before the signal: make it longer\n" + err
+    assert "grains resume" in out and status(stopped).startswith("interrupted at step ")
+    step = int(status(stopped).split()[-1])
+    resumed = run(grains_bin, "resume", stopped, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resumed      at step {step}" in resumed.stdout
+    a, b = records(whole), records(stopped)
+    for name in a:
+        steps_a, steps_b = a[name][0], b[name][0]
+        kept = np.isin(steps_b, steps_a)
+        assert np.array_equal(steps_b[kept], steps_a) and set(steps_b[~kept]) <= {step}, name
+        assert np.array_equal(b[name][1][kept], a[name][1]), name
+
+
+@pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run"])
+def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp_path, case):
+    out = tmp_path / "run.h5"
+    if case == "not a run":
+        out = root / "models/gas.toml"
+    else:
+        small = ["--set", "particles.count=512", "--set", "time.steps=200", "--quiet"]
+        assert run(grains_bin, "run", root / "models/gas.toml", "--out", out, *small).returncode == 0
+        if case == "no checkpoint":   # as a run killed before it wrote one
+            with h5py.File(out, "r+") as f:
+                del f["grains"].attrs["status"]
+    done = run(grains_bin, "resume", out)
+    assert done.returncode == 1
+    expected = {"complete": "holds a complete run (status 'complete'): nothing to resume",
+                "no checkpoint": "has no checkpoint to resume from",
+                "not a run": "file signature not found"}[case]
+    assert str(out) in done.stderr and expected in done.stderr, done.stderr
