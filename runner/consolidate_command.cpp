@@ -5,10 +5,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "io/h5md_checkpoint.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
 #include "progress.hpp"
@@ -17,31 +20,35 @@
 
 namespace grains {
 
-int consolidate_scene(const ConsolidateOptions& opt) {
-  Scene scene = Scene::from_file(opt.scene, opt.overrides);
-  scene.validate();
-  const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
-  auto sim = Simulation::create(scene);
-  const std::string name = scene.text("scene.name");
-  std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
-  std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  for (const auto& file : {path, table}) check_output_path(file, opt.scene);
-  if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
-    throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
+namespace {
 
-  H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
-                 scene.boolean("output.xdmf"));
-  for (const auto& w : sim->warnings()) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
-  write_frame(out, *sim);
-  write_observables(out, *sim);
-  std::ofstream csv(table);
-  if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
+// The value of the `reached` column of a table row.
+std::string reached_column(const std::string& header, const std::string& row) {
+  auto fields = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::stringstream in(line);
+    for (std::string f; std::getline(in, f, ',');) out.push_back(f);
+    return out;
+  };
+  const auto names = fields(header), values = fields(row);
+  for (std::size_t k = 0; k < names.size() && k < values.size(); ++k)
+    if (names[k] == "reached") return values[k];
+  return "";
+}
 
+// The programme from stage `first_stage` on, its table rows, records, checkpoints and summary: shared by a
+// fresh programme and a resumed one (which comes in with the stages that missed their budget and the wall
+// time before it).
+int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation& sim, H5mdWriter& out,
+               std::ofstream& csv, const std::string& table, bool quiet, int first_stage, long unreached,
+               double earlier_seconds) {
+  const std::string path = out.path(), name = scene.text("scene.name");
+  const int stages = int(programme_stages(settings).size());
+  const long first_step = sim.step_count();
   fmt::print("grains {}: consolidation programme of '{}' ({}D, {} particles, preparation {})\n", GRAINS_VERSION, name,
-             sim->dimension(), sim->particle_count(), settings.preparation);
+             sim.dimension(), sim.particle_count(), settings.preparation);
   std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
-  long unreached = 0;
   StatusLine status;
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
@@ -67,10 +74,16 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                        value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time, quench);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
-    write_observables(out, *sim);
-    out.write_observable("quench_start", sim->step_count(), sim->time(), quenched ? double(r.quench_start) : std::nan(""));
-    out.write_observable("quench_drag", sim->step_count(), sim->time(), quenched ? r.quench_drag : std::nan(""));
-    write_frame(out, *sim);
+    write_observables(out, sim);
+    out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
+    out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
+    write_frame(out, sim);
+    // The end of every stage but the last is a checkpoint for `grains resume`. The next stage's new target
+    // pressure restarts CVODE at its first step, which is where the saved state restarts it too: the
+    // programme runs as it would without checkpoints.
+    if (r.index + 1 < stages)
+      out.write_checkpoint(sim.step_count(), sim.time(), earlier_seconds + status.elapsed_seconds(), sim.save_state(),
+                           r.index);
     status.finish();
     if (!r.reached) {
       ++unreached;
@@ -92,7 +105,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                            mechanisms > 0 ? fmt::format(" (mechanism in {} strain direction(s))", mechanisms) : "");
     const std::string quench_note =
         quenched ? fmt::format("  quenched from step {} (drag gamma T {:.3g})", r.quench_start, r.quench_drag) : "";
-    if (!opt.quiet)
+    if (!quiet)
       fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}{}\n", r.index, r.phase,
                  r.target, r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
                  value("coordination"), quench_note, moduli);
@@ -100,35 +113,98 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   };
   // Within a stage: what it waits for (one bonded cluster, or the four equilibrium ratios falling below 1).
   auto on_check = [&](const StageRecord& r, long budget) {
-    if (opt.quiet || !status.due()) return;
-    const double rate = double(sim->step_count()) * double(sim->particle_count()) / status.elapsed_seconds();
+    if (quiet || !status.due()) return;
+    const double rate = double(sim.step_count() - first_step) * double(sim.particle_count()) / status.elapsed_seconds();
     const std::string waiting =
         r.phase == "aggregation"
-            ? fmt::format("clusters {:.0f}", sim->get("bonded_clusters"))
+            ? fmt::format("clusters {:.0f}", sim.get("bonded_clusters"))
             : fmt::format("P* {:.4g}  equilibrium ratios force {:.3g} torque {:.3g} stress {:.3g} kinetic {:.3g}",
-                          sim->get("pressure_reduced"), sim->get("equilibrium_force"), sim->get("equilibrium_torque"),
-                          sim->get("equilibrium_stress"), sim->get("equilibrium_kinetic"));
+                          sim.get("pressure_reduced"), sim.get("equilibrium_force"), sim.get("equilibrium_torque"),
+                          sim.get("equilibrium_stress"), sim.get("equilibrium_kinetic"));
     const std::string quench = r.quench_start >= 0 ? fmt::format("  quench from {}", r.quench_start) : "";
     status.show(fmt::format("  stage {} {} step {}/{}  Phi {:.4f}  {}{}  {:.3g} particle-steps/s", r.index, r.phase,
-                            r.steps, budget, sim->get("solid_fraction"), waiting, quench, rate));
+                            r.steps, budget, sim.get("solid_fraction"), waiting, quench, rate));
   };
-  const auto records = run_programme(*sim, settings, on_stage, on_check);
+  const auto records = run_programme(sim, settings, on_stage, on_check, first_stage);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const double cvode = sim->get("cvode_seconds");
-  const double rate = seconds > 0 ? double(sim->step_count()) * double(sim->particle_count()) / seconds : 0.0;
+  const double cvode = sim.get("cvode_seconds");
+  const double rate = seconds > 0 ? double(sim.step_count() - first_step) * double(sim.particle_count()) / seconds : 0.0;
   out.set_attribute("status", unreached ? fmt::format("complete; {} stage(s) did not reach equilibrium", unreached)
                                         : std::string("complete"));
-  out.set_scalar("wall_seconds", seconds);
+  out.set_scalar("wall_seconds", earlier_seconds + seconds);
   out.set_scalar("particle_steps_per_second", rate);
   out.set_scalar("cvode_share", seconds > 0 ? cvode / seconds : 0.0);
   out.flush();
-  fmt::print("  stages       {} ({} not reached)\n", records.size(), unreached);
-  fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g})\n", sim->step_count(), sim->dt(), sim->time());
-  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim->threads());
+  fmt::print("  stages       {} ({} not reached)\n", first_stage + long(records.size()), unreached);
+  if (first_stage > 0)
+    fmt::print("  resumed      after stage {} at step {} (the wall time, rate and CVODE figures below are since then)\n",
+               first_stage - 1, first_step);
+  fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g})\n", sim.step_count(), sim.dt(), sim.time());
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim.threads());
   fmt::print("  CVODE        {:.3f} s = {:.2f} % of the wall time ({} internal steps, {} restarts)\n", cvode,
-             seconds > 0 ? 100 * cvode / seconds : 0.0, sim->get("cvode_steps"), sim->get("cvode_reinitialisations"));
+             seconds > 0 ? 100 * cvode / seconds : 0.0, sim.get("cvode_steps"), sim.get("cvode_reinitialisations"));
   fmt::print("  table        {}\n  output       {}\n", table, path);
   return 0;
+}
+
+}  // namespace
+
+int consolidate_scene(const ConsolidateOptions& opt) {
+  Scene scene = Scene::from_file(opt.scene, opt.overrides);
+  scene.validate();
+  const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
+  auto sim = Simulation::create(scene);
+  const std::string name = scene.text("scene.name");
+  std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
+  std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
+  for (const auto& file : {path, table}) check_output_path(file, opt.scene);
+  if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
+    throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
+
+  H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
+                 scene.boolean("output.xdmf"));
+  out.set_attribute("stage_table", std::filesystem::absolute(table).string());   // where `grains resume` finds it
+  for (const auto& w : sim->warnings()) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
+  write_frame(out, *sim);
+  write_observables(out, *sim);
+  std::ofstream csv(table);
+  if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
+  return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, 0, 0, 0.0);
+}
+
+int resume_consolidation(const std::string& path, const RunCheckpoint& cp, bool quiet) {
+  const Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path));
+  scene.validate();
+  const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
+  auto sim = Simulation::create(scene);
+  sim->restore_state(cp.state);
+  // The table keeps its header and the rows of the stages up to the checkpoint's; those that did not reach
+  // equilibrium are counted again.
+  if (cp.stage_table.empty() || !std::filesystem::is_regular_file(cp.stage_table))
+    throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, cp.stage_table));
+  std::vector<std::string> kept;
+  long unreached = 0;
+  {
+    std::ifstream in(cp.stage_table);
+    std::string line;
+    for (int row = -1; row <= cp.stage && std::getline(in, line); ++row) {
+      if (row >= 0 && std::stoi(line) != row)
+        throw std::runtime_error(fmt::format("'{}': row {} of the stage table is stage '{}', not {}", cp.stage_table, row + 1,
+                                             line.substr(0, line.find(',')), row));
+      kept.push_back(line);
+    }
+  }
+  if (long(kept.size()) != cp.stage + 2)
+    throw std::runtime_error(fmt::format("'{}': the stage table has {} stage rows, fewer than the {} the checkpoint follows",
+                                         cp.stage_table, long(kept.size()) - 1, cp.stage + 1));
+  for (std::size_t k = 1; k < kept.size(); ++k) unreached += reached_column(kept[0], kept[k]) == "0";
+  std::ofstream csv(cp.stage_table, std::ios::trunc);
+  for (const auto& line : kept) csv << line << '\n';
+  csv << std::flush;
+  H5mdWriter out(path, cp.step, scene.boolean("output.xdmf"));
+  out.set_attribute("status", fmt::format("resumed after stage {}", cp.stage));
+  if (!quiet) fmt::print(stderr, "resuming '{}' after stage {} (step {}, t = {:.6g})\n", path, cp.stage, cp.step, cp.time);
+  return run_stages(scene, settings, *sim, out, csv, cp.stage_table, quiet, cp.stage + 1, unreached, cp.wall_seconds);
 }
 
 }  // namespace grains

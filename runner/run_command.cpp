@@ -14,6 +14,7 @@
 #include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
+#include "consolidate_command.hpp"
 #include "progress.hpp"
 #include "protocols/run_length.hpp"
 
@@ -196,6 +197,7 @@ int run_scene(const RunOptions& opt) {
 
 int resume_run(const std::string& path, bool quiet) {
   RunCheckpoint cp = read_checkpoint(path);
+  if (cp.stage >= 0) return resume_consolidation(path, cp, quiet);
   const Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path));
   PreparedRun prepared = prepare_run(scene);
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");

@@ -32,12 +32,14 @@ RunCheckpoint read_checkpoint(const std::string& path) {
         "'{}' has no checkpoint to resume from: the run stopped before its first one (output.checkpoint_every sets "
         "the steps between them; with 0, the default, only a run stopped by Ctrl-C or SIGTERM writes one)", path));
   const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
+  cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
   cp.time = h5::read_attr_double(d.get(), "time", 0, path);
   cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
   cp.state.resize(h5::shape(d.get(), path, checkpoint_slot_name(slot)).at(0));
   if (!cp.state.empty())
     h5::check(H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()), path, "reading the checkpoint");
   cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
+  cp.stage_table = h5::read_attr_string(g.get(), "stage_table", "", path);
   return cp;
 }
 

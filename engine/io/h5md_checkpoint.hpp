@@ -13,9 +13,11 @@ inline const char* checkpoint_slot_name(int slot) { return slot == 0 ? "checkpoi
 
 struct RunCheckpoint {
   long step = 0;
+  int stage = -1;                         // `grains consolidate`: the programme's last finished stage; -1: `grains run`
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
   std::vector<std::byte> state;           // Simulation::save_state()
   std::string scene_toml;                 // the resolved scene the run was started with
+  std::string stage_table;                // `grains consolidate`: the stage table's absolute path
 };
 
 // The newest valid checkpoint of the run output `path`. Throws std::runtime_error naming the file when it

@@ -348,7 +348,8 @@ void H5mdWriter::flush() {
   impl_->flush();
 }
 
-void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state) {
+void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state,
+                                  int stage) {
   Impl& m = *impl_;
   m.flush();   // every record up to `step` is in the file before a checkpoint names that step
   const hid_t g = m.grains.get();
@@ -369,6 +370,7 @@ void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, c
   h5::attr_double(d.get(), "step", double(step), m.path);   // exact: steps stay below 1e15 (Simulation::max_steps)
   h5::attr_double(d.get(), "time", time, m.path);
   h5::attr_double(d.get(), "wall_seconds", wall_seconds, m.path);
+  h5::attr_double(d.get(), "stage", stage, m.path);
   h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
   h5::attr_double(d.get(), "valid", 1, m.path);
   m.flush();

@@ -48,7 +48,8 @@ class H5mdWriter {
   void flush();                             // writes pending observables; the file stays readable if the process dies afterwards
   // The complete state at `step` (Simulation::save_state), in the older of two slots, so a run killed while
   // writing one keeps the other; the records up to `step` are flushed first (h5md_checkpoint.hpp reads it).
-  void write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state);
+  // `stage`: a consolidation programme's last finished stage (-1: none, a plain run).
+  void write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state, int stage = -1);
 
   const std::string& path() const;
   const std::string& xdmf_path() const;     // empty when XDMF is off

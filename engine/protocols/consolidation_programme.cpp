@@ -72,6 +72,15 @@ std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeS
   return out;
 }
 
+std::vector<std::pair<std::string, double>> programme_stages(const ProgrammeSettings& p) {
+  std::vector<std::pair<std::string, double>> out;
+  if (p.preparation == "type2")   // ballistic aggregation in a fixed cell, then relaxation at P* = 0
+    out.emplace_back("aggregation", std::numeric_limits<double>::quiet_NaN()), out.emplace_back("equilibrate", 0.0);
+  out.emplace_back("equilibrate", p.start_pressure);
+  for (const auto& stage : programme_pressures(p)) out.push_back(stage);
+  return out;
+}
+
 namespace {
 
 // What a stage row records: whichever of these the scene has (the elastic moduli with
@@ -93,8 +102,8 @@ bool has(const Simulation& s, const std::string& name) {
 class Runner {
  public:
   Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage,
-         const std::function<void(const StageRecord&, long)>& on_check)
-      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), network_(has(s, "network.mark")) {
+         const std::function<void(const StageRecord&, long)>& on_check, int first_stage)
+      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), network_(has(s, "network.mark")), first_(first_stage) {
     for (const char* name : recorded)
       if (has(s, name)) names_.emplace_back(name);
     for (const auto& v : s.variables())
@@ -105,7 +114,7 @@ class Runner {
   template <class Done>
   void stage(const std::string& phase, double target, long budget, Done done) {
     StageRecord r;
-    r.index = int(records_.size());
+    r.index = first_ + int(records_.size());
     r.phase = phase;
     r.target = target;
     while (r.steps < budget) {
@@ -127,6 +136,7 @@ class Runner {
   }
 
   void equilibrate(const std::string& phase, double target) {
+    if (s_.get("cell.active") != 1) s_.set("cell.active", 1);   // released after the aggregation
     s_.set("cell.pressure", target);
     QuenchSettings q = p_.quench;
     if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
@@ -141,17 +151,16 @@ class Runner {
   }
 
   std::vector<StageRecord> run() {
-    if (p_.preparation == "type2") {   // ballistic aggregation in a fixed cell, then relaxation at P* = 0
-      s_.set("cell.active", 0);
-      stage("aggregation", std::numeric_limits<double>::quiet_NaN(), p_.aggregation_budget,
-            [&](StageRecord&) { return s_.get("bonded_clusters") == 1.0; });
-      s_.set("cell.active", 1);
-      equilibrate("equilibrate", 0.0);
-    } else {
-      s_.set("cell.active", 1);
+    const auto stages = programme_stages(p_);
+    for (std::size_t k = std::size_t(first_); k < stages.size(); ++k) {
+      const auto& [phase, P] = stages[k];
+      if (phase == "aggregation") {   // in a fixed cell
+        s_.set("cell.active", 0);
+        stage(phase, P, p_.aggregation_budget, [&](StageRecord&) { return s_.get("bonded_clusters") == 1.0; });
+      } else {
+        equilibrate(phase, P);
+      }
     }
-    equilibrate("equilibrate", p_.start_pressure);
-    for (const auto& [phase, P] : programme_pressures(p_)) equilibrate(phase, P);
     return std::move(records_);
   }
 
@@ -161,6 +170,7 @@ class Runner {
   const std::function<void(const StageRecord&)>& on_stage_;
   const std::function<void(const StageRecord&, long)>& on_check_;
   bool network_;
+  int first_;
   std::vector<std::string> names_;
   std::vector<StageRecord> records_;
 };
@@ -169,8 +179,8 @@ class Runner {
 
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
                                        const std::function<void(const StageRecord&)>& on_stage,
-                                       const std::function<void(const StageRecord&, long)>& on_check) {
-  return Runner(s, p, on_stage, on_check).run();
+                                       const std::function<void(const StageRecord&, long)>& on_check, int first_stage) {
+  return Runner(s, p, on_stage, on_check, first_stage).run();
 }
 
 }  // namespace grains

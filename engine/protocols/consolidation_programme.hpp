@@ -47,10 +47,18 @@ struct StageRecord {
 // The P* of every stage after the prepared state: loading, then unloading.
 std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeSettings& p);
 
-// on_stage: after every stage. on_check: after every equilibrium check that did not end the stage, with the
-// stage so far (steps, no values) and its budget -- for progress reports.
+// Every stage of the programme in order, as (phase, P*): the type-2 aggregation (P* NaN) and relaxation at
+// P* = 0, the prepared state at the start pressure, then programme_pressures.
+std::vector<std::pair<std::string, double>> programme_stages(const ProgrammeSettings& p);
+
+// on_stage: after every stage (the simulation at the stage's end, the next stage not begun: a state saved
+// there continues the programme from stage index + 1). on_check: after every equilibrium check that did not
+// end the stage, with the stage so far (steps, no values) and its budget -- for progress reports.
+// first_stage > 0 continues a programme whose earlier stages ran before (the simulation restored to the end
+// of stage first_stage - 1); the records returned are those of the stages run now.
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
                                        const std::function<void(const StageRecord&)>& on_stage = {},
-                                       const std::function<void(const StageRecord&, long)>& on_check = {});
+                                       const std::function<void(const StageRecord&, long)>& on_check = {},
+                                       int first_stage = 0);
 
 }  // namespace grains
