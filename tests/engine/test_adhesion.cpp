@@ -99,8 +99,11 @@ TEST_CASE("two unit-mass disks separate only above the receding speed V* sqrt(2)
         CHECK(gap_of(*s) < 0);
       } else {
         CHECK(gap_of(*s) > D0);
-        // Energy balance beyond the range: V_final^2 = V^2 - 2 F0 D0 / m.
-        CHECK(receding_speed(*s) == Approx(escape * std::sqrt(ratio * ratio - 1)).epsilon(ratio > 1.05 ? 1e-3 : 2e-2));
+        // Energy balance beyond the range: V_final^2 = V^2 - 2 F0 D0 / m. Measured 2.5e-4 at 1.01 and 2.7e-5
+        // at 1.1 (the final speed magnifies the energy error most just above the escape speed).
+        const double final_error = receding_speed(*s) / (escape * std::sqrt(ratio * ratio - 1)) - 1;
+        WARN(fmt::format("{}D escape at {} V* sqrt 2: final speed relative error {:.2g}", dim, ratio, final_error));
+        CHECK(std::abs(final_error) < (ratio > 1.05 ? 1e-4 : 1e-3));
       }
     }
   }

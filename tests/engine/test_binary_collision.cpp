@@ -65,10 +65,15 @@ std::vector<double> onset_phases() {
 
 // Issue 2: at n_c = 50 the realised restitution and the duration (touching to parting) are within
 // 1e-3 of the exact clamped values for every e and onset phase. Without the onset lag correction
-// (contact_step.hpp) the duration's error reached 2.7e-3 at e = 0.01.
+// (contact_step.hpp) the duration's error reached 2.7e-3 at e = 0.01. Each e has its own bounds, about
+// 2-3 times the worst errors measured (README table; 2D and 3D the same), never above that 1e-3 goal.
 TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50", "[contact][analytic]") {
+  struct Case { double e, restitution_bound, duration_bound; };
+  const Case cases[] = {{1.0, 1.5e-5, 5e-4}, {0.9, 1e-4, 5e-4},   {0.7, 3e-4, 4e-4},  {0.5, 5e-4, 3e-4},
+                        {0.3, 8e-4, 2e-4},   {0.1, 1e-3, 3e-4},   {0.05, 1e-3, 6e-4}, {0.03, 1e-3, 6e-4},
+                        {0.02, 1e-3, 8e-4},  {0.01, 1e-3, 8e-4}};
   for (int dim : {2, 3})
-    for (double e : {1.0, 0.9, 0.7, 0.5, 0.3, 0.1, 0.05, 0.03, 0.02, 0.01}) {
+    for (const auto& [e, restitution_bound, duration_bound] : cases) {
       const auto kc = calibrate_linear(e, 1.0, 0.5);
       const auto exact = clamped_collision(damping_ratio(e), std::sqrt(kc.k / 0.5));
       double worst = 0, worst_duration = 0;
@@ -80,8 +85,8 @@ TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50",
       }
       WARN(fmt::format("D = {}, e = {}: worst relative error over {} onset phases at n_c = 50: restitution {:.2e}, "
                        "duration {:.2e}", dim, e, onset_phases().size(), worst, worst_duration));
-      CHECK(worst < 1e-3);
-      CHECK(worst_duration < 1e-3);
+      CHECK(worst < restitution_bound);
+      CHECK(worst_duration < duration_bound);
     }
 }
 

@@ -102,11 +102,16 @@ TEST_CASE("collision convergence: realised restitution converges to the clamped 
     CHECK(momentum_error <= 1e-14);
     std::vector<double> order;
     for (std::size_t k = 0; k + 1 < worst.size(); ++k) order.push_back(std::log2(worst[k] / worst[k + 1]));
-    WARN(fmt::format("e = {} (clamped exact {:.6f}): max |e_num - e_exact| over 40 onset/release phases at n_c = 50, 100, "
+    WARN(fmt::format("e = {} (clamped exact {:.6f}): max |e_num - e_exact| over 44 onset/release phases at n_c = 50, 100, "
                      "200, 400: {:.3e} {:.3e} {:.3e} {:.3e}; observed orders {:.2f} {:.2f} {:.2f}",
                      e, exact, worst[0], worst[1], worst[2], worst[3], order[0], order[1], order[2]));
     for (std::size_t k = 0; k + 1 < worst.size(); ++k) CHECK(worst[k + 1] < worst[k]);
     for (double o : order) CHECK(o >= 1.3);
+    // Second order once the steps resolve the contact: measured last orders 2.03, 2.01, 1.95, 1.92, 1.88 and,
+    // at e >= 0.1, no order below 1.86 (the smallest damping ratios come slowest: 1.35 at e = 0.01, n_c = 50).
+    CHECK(order.back() >= 1.8);
+    if (e >= 0.1)
+      for (double o : order) CHECK(o >= 1.8);
   }
 }
 
@@ -135,6 +140,7 @@ TEST_CASE("collision convergence: e = 1 returns the kinetic energy to O((dt/t_c)
   }
   WARN(fmt::format("e = 1: worst |K_out/K_in - 1| at n_c = 50, 100, 200: {:.3e} {:.3e} {:.3e} (ratios {:.2f}, {:.2f})",
                    worst[0], worst[1], worst[2], worst[0] / worst[1], worst[1] / worst[2]));
+  CHECK(worst[0] < 2e-5);   // 7.8e-6 measured at n_c = 50 (the bound above: 3.9e-3)
   CHECK(worst[0] / worst[1] >= 12.0);
   CHECK(worst[1] / worst[2] >= 12.0);
 }
@@ -174,7 +180,9 @@ TEST_CASE("collision convergence: exact calibration realises the target e itself
     double worst = 0;
     for (double phase : phases) worst = std::max(worst, std::abs(run_collision(pair, e, 100, phase, "exact").restitution - e));
     INFO("exact mode, target e = " << e << ": worst |e_realised - e| at n_c = 100: " << worst);
-    CHECK(worst < 1e-3);
+    WARN(fmt::format("exact calibration, target e = {}: worst |e_realised - e| at n_c = 100 over {} onset phases: {:.3g}", e,
+                     phases.size(), worst));
+    CHECK(worst < 5e-5);   // 8.1e-6, 2.2e-5, 1.7e-5, 8.6e-6 measured at e = 0.9, 0.5, 0.3, 0.15
   }
 }
 
@@ -211,6 +219,8 @@ TEST_CASE("collision convergence: contact onset exactly on a step boundary keeps
                        << near - exact);
       CHECK(std::abs(on - exact) < 1e-4);
       CHECK(std::abs(near - exact) < 1e-4);
-      CHECK(std::abs(on - near) < 1e-5);   // no first-order jump at the boundary (the second-order one is ~4e-6)
+      WARN(fmt::format("{} e = {}: |e(onset on a step boundary) - e(1e-6 of a step later)| = {:.3g}; errors {:.3g}, {:.3g}",
+                       calibration, e, std::abs(on - near), on - exact, near - exact));
+      CHECK(std::abs(on - near) < 1e-5);   // no first-order jump at the boundary (the second-order one: 3.6e-6 at most)
     }
 }

@@ -333,14 +333,20 @@ TEST_CASE("unit stress increments applied through the engine's pair loop give th
     Adhesive contacts(law, friction, rolling);
     const System<2> moved = evaluate(x, radius, L, contacts, u, w, strain);
     const Tensor<2> sigma = contact_stress<2>(moved.virial, moved.box.volume());
-    CHECK(sigma(a, a) / increment == Approx(1).epsilon(1e-6));
-    CHECK(std::abs(sigma(1 - a, 1 - a)) / increment < 1e-6);
+    // Measured: 2.3e-8 and 1.8e-8 on the axis, 9.3e-9 and 3.6e-9 on the other, net forces 2.5e-7 and 2.2e-7,
+    // torques 1.4e-9 and 2.2e-9 of the increment. The overlaps' round-off alone is of that order (K_N ulp(x) /
+    // increment ~ 2e-7 per contact), so the bounds keep a factor 4-5 over what is measured.
+    CHECK(sigma(a, a) / increment == Approx(1).epsilon(1e-7));
+    CHECK(std::abs(sigma(1 - a, 1 - a)) / increment < 5e-8);
     // The grains are in equilibrium: net forces and torques vanish against the contact forces' scale.
     double force = 0, torque = 0;
     for (std::size_t i = 0; i < N; ++i)
       force = std::max(force, moved.particles.force[i].norm()), torque = std::max(torque, std::abs(moved.particles.torque[i][0]));
+    WARN(fmt::format("unit stress increment on axis {}: stress error {:.3g}, other axis {:.3g}, net force {:.3g}, torque {:.3g} "
+                     "of the increment", a, sigma(a, a) / increment - 1, sigma(1 - a, 1 - a) / increment, force / increment,
+                     torque / increment));
     CHECK(force < 1e-6 * increment);
-    CHECK(torque < 1e-6 * increment);
+    CHECK(torque < 1e-8 * increment);
   }
 }
 

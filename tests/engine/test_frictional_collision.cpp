@@ -77,8 +77,8 @@ TEST_CASE("frictional collision: sliding throughout gives J_t = mu (1 + e) m* |v
                        o.tangential_change / (Jt / mstar) - 1, o.spin_i / (-R * Jt / I) - 1));
       CHECK(o.slip_after < 0);   // still slipping the same way: the sliding premise holds
       CHECK(o.tangential_change == Approx(Jt / mstar).epsilon(1e-3));
-      CHECK(o.spin_i == Approx(-R * Jt / I).epsilon(1e-3));
-      CHECK(o.spin_j == Approx(-R * Jt / I).epsilon(1e-3));
+      CHECK(o.spin_i == Approx(-R * Jt / I).epsilon(1e-4));   // 2.7e-5 measured (the tangential change: 7.8e-4)
+      CHECK(o.spin_j == Approx(-R * Jt / I).epsilon(1e-4));
     }
 }
 
@@ -91,13 +91,17 @@ TEST_CASE("frictional collision: sticking throughout reverses the slip (beta = -
     const double beta = o.slip_after / o.slip_before;
     const double Jt = mt * (o.slip_after - o.slip_before);   // the tangential impulse on j (along +y)
     INFO("dim " << dim << ": beta " << beta << ", spins " << o.spin_i << " " << o.spin_j);
-    WARN(fmt::format("sticking, {}D: beta = {:.6f}, spin rel. error {:.2g}", dim, beta, o.spin_i / (-R * 2 * mt * 0.5 / I) - 1));
-    CHECK(beta == Approx(-1.0).epsilon(2e-3));
+    WARN(fmt::format("sticking, {}D: beta + 1 = {:.3g}, spin rel. error {:.3g}, J_t rel. error {:.3g}, tangential change rel. "
+                     "error {:.3g}", dim, beta + 1, o.spin_i / (-R * 2 * mt * 0.5 / I) - 1, Jt / (2 * mt * 0.5) - 1,
+                     o.tangential_change / (2 * mt * 0.5 / mstar) - 1));
+    // Measured (2D, 3D): beta + 1 = -1.15e-6, -1.08e-6; J_t from the slip 5.7e-7, 5.4e-7; spins 6.4e-5, 6.6e-5 and the
+    // centres' tangential velocity change 1.3e-4, 1.6e-4 (their errors cancel in the slip). Bounds 3-5x those.
+    CHECK(beta == Approx(-1.0).epsilon(5e-6));
     // J_t = m_t (1 - beta) v_t0 = 2 m_t * 0.5 along +y on j: spins -R J_t / I each.
-    CHECK(Jt == Approx(2 * mt * 0.5).epsilon(2e-3));
-    CHECK(o.spin_i == Approx(-R * 2 * mt * 0.5 / I).epsilon(2e-3));
+    CHECK(Jt == Approx(2 * mt * 0.5).epsilon(2e-6));
+    CHECK(o.spin_i == Approx(-R * 2 * mt * 0.5 / I).epsilon(2e-4));
     CHECK(o.spin_j == Approx(o.spin_i).epsilon(1e-12));
-    CHECK(o.tangential_change == Approx(2 * mt * 0.5 / mstar).epsilon(2e-3));
+    CHECK(o.tangential_change == Approx(2 * mt * 0.5 / mstar).epsilon(5e-4));
   }
 }
 

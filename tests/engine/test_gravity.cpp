@@ -207,15 +207,21 @@ TEST_CASE("gravity: Barnes-Hut forces converge to direct summation as theta decr
   const auto pos = uniform_ball(3000, 1.0, 7);
   const auto P = particles_from<3>(pos, 1.0 / 3000);
   const double eps = 1e-3;
+  // Bounds about twice the medians measured (2026-12-03: 1.33e-5, 1.76e-4, 3.84e-4, 8.26e-4, 1.8e-3; the same
+  // to three digits with the AVX-512, AVX2 and portable kernels): a worse opening rule or expansion fails.
+  struct Case { double theta, bound; };
+  const Case cases[] = {{0.2, 3e-5}, {0.4, 3.5e-4}, {0.5, 8e-4}, {0.6, 1.7e-3}, {0.8, 3.6e-3}};
   std::vector<double> err;
-  for (double theta : {0.2, 0.4, 0.6, 0.8}) err.push_back(median_tree_error(P, theta, eps));
-  const double at_default = median_tree_error(P, 0.5, eps);
-  INFO(fmt::format("median relative force error: theta 0.2 {:.3g}, 0.4 {:.3g}, 0.6 {:.3g}, 0.8 {:.3g}; default 0.5 {:.3g}",
-                   err[0], err[1], err[2], err[3], at_default));
+  for (const auto& c : cases) err.push_back(median_tree_error(P, c.theta, eps));
+  INFO(fmt::format("median relative force error: theta 0.2 {:.3g}, 0.4 {:.3g}, 0.5 {:.3g}, 0.6 {:.3g}, 0.8 {:.3g}", err[0],
+                   err[1], err[2], err[3], err[4]));
   WARN(fmt::format("tree median force error: 0.2 {:.3g}, 0.4 {:.3g}, 0.5 {:.3g}, 0.6 {:.3g}, 0.8 {:.3g}", err[0], err[1],
-                   at_default, err[2], err[3]));
-  CHECK(at_default < 1e-3);
-  for (std::size_t k = 1; k < err.size(); ++k) CHECK(err[k] > err[k - 1]);
+                   err[2], err[3], err[4]));
+  for (std::size_t k = 0; k < err.size(); ++k) {
+    INFO("theta " << cases[k].theta);
+    CHECK(err[k] < cases[k].bound);
+    if (k > 0) CHECK(err[k] > err[k - 1]);
+  }
   // theta = 0 opens every cell: the tree is then direct summation, up to round-off.
   CHECK(median_tree_error(P, 0.0, eps) < 1e-13);
 
@@ -228,7 +234,9 @@ TEST_CASE("gravity: Barnes-Hut forces converge to direct summation as theta decr
 
   // 2D (quadtree) too.
   const auto P2 = particles_from<2>(pos, 1.0 / 3000);
-  CHECK(median_tree_error(P2, 0.5, eps) < 1e-3);
+  const double e2 = median_tree_error(P2, 0.5, eps);
+  WARN(fmt::format("2D tree median force error at theta 0.5: {:.3g}", e2));
+  CHECK(e2 < 5e-4);   // 2.28e-4 measured
   CHECK(median_tree_error(P2, 0.0, eps) < 1e-13);
 }
 

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <fmt/format.h>
+
 #include "adhesive_scene.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
@@ -129,7 +131,8 @@ TEST_CASE("adhesion + friction + rolling conserve momentum and angular momentum"
                                             "angular_momentum_y", "angular_momentum_z"};
     std::vector<double> start;
     for (const auto& n : names) start.push_back(read(n));
-    // Scale of the sums: total |m v| (times the cluster size for the angular momentum).
+    // Scale of the sums: total |m v|. Measured changes (2D, 3D): momentum 3.8e-17 and 9.5e-17 of it at most,
+    // angular momentum 9.0e-14 and 1.4e-14 (round-off): bounds 1e-14 and 1e-12.
     double scale = 0;
     const auto v = s->particles();
     for (std::size_t i = 0; i < v.count; ++i)
@@ -139,7 +142,8 @@ TEST_CASE("adhesion + friction + rolling conserve momentum and angular momentum"
     CHECK(contacts > 5);   // not a vacuous test: grains collide and bond
     for (std::size_t n = 0; n < names.size(); ++n) {
       INFO(names[n]);
-      CHECK(std::abs(read(names[n]) - start[n]) < 1e-12 * scale * (n < std::size_t(dim) ? 1 : 10));
+      WARN(fmt::format("{}D {}: change {:.3g} of sum |m v| = {:.6g}", dim, names[n], (read(names[n]) - start[n]) / scale, scale));
+      CHECK(std::abs(read(names[n]) - start[n]) < (n < std::size_t(dim) ? 1e-14 : 1e-12) * scale);
     }
   }
 }

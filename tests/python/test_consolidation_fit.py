@@ -32,7 +32,7 @@ def test_crossover_fit_recovers_the_parameters_and_p1():
     fit = cf.fit_crossover(p, synthetic_phi(p), P0)
     assert fit["lambda"] == pytest.approx(LAM, rel=1e-6)
     assert fit["phi_max"] == pytest.approx(PHI_MAX, rel=1e-6)
-    assert fit["alpha"] == pytest.approx(ALPHA, rel=1e-5)
+    assert fit["alpha"] == pytest.approx(ALPHA, rel=1e-6)   # 1.3e-9 measured (lambda 4.4e-10, the others ~1e-11)
     assert fit["phi0"] == pytest.approx(PHI0, rel=1e-6)
     # ln(P1*/P0*) = (1/Phi0 - 1/Phimax) / lambda: the paper's P1* = 0.271 +- 0.033.
     assert fit["P1"] == pytest.approx(P0 * math.exp((1 / PHI0 - 1 / PHI_MAX) / LAM), rel=1e-5)
