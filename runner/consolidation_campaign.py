@@ -50,14 +50,22 @@ RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_m
 
 def consolidate(grains, scene_file, overrides, stem, label):
     """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
-    written as STEM.partial.csv and renamed when the programme ends (so a resume reruns an interrupted
-    run), the output goes to STEM.h5 and the console to STEM.log. Returns the path of the table."""
+    written as STEM.partial.csv and renamed when the programme ends, the output goes to STEM.h5 and the
+    console to STEM.log. An interrupted run (its partial table and output left) continues from its last
+    finished stage (`grains resume`), or runs again from the start when it cannot. Returns the path of the
+    table."""
     table = stem.with_suffix(".csv")
     if table.exists():
         return table
-    partial = stem.with_suffix(".partial.csv")
-    stem.with_suffix(".h5").unlink(missing_ok=True)   # left by an interrupted run: grains never overwrites
-    cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", stem.with_suffix(".h5")]
+    partial, h5 = stem.with_suffix(".partial.csv"), stem.with_suffix(".h5")
+    if partial.exists() and h5.exists():
+        with stem.with_suffix(".log").open("a") as log:
+            if subprocess.run([str(grains), "resume", str(h5)], stdout=log, stderr=subprocess.STDOUT).returncode == 0:
+                partial.rename(table)
+                print(f"  finished {label} (resumed)", flush=True)
+                return table
+    h5.unlink(missing_ok=True)   # left by an interrupted run that cannot resume: grains never overwrites
+    cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", h5]
     for o in overrides:
         cmd += ["--set", o]
     with stem.with_suffix(".log").open("w") as log:

@@ -111,3 +111,23 @@ def test_report_with_no_table_is_an_error(tmp_path):
                         str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 2 and "--report: no stage table" in r.stderr
     assert not (tmp_path / "summary.md").exists()
+
+
+def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin, tmp_path):
+    """A sample left with its partial table and output (killed during its last stage) is resumed with
+    `grains resume`, not run again, and ends with the table of an unbroken run."""
+    import h5py
+    scene = ROOT / "models/consolidation-type1.toml"
+    small = ["particles.count=100", "programme.top_pressure=0.1", "programme.stage_budget=20000"]
+    whole = campaign.consolidate(grains_bin, scene, small, tmp_path / "whole", "whole")
+    stem = tmp_path / "sample"
+    cmd = [grains_bin, "consolidate", str(scene), "--table", str(stem) + ".partial.csv", "--out", str(stem) + ".h5"]
+    assert subprocess.run(cmd + [a for o in small for a in ("--set", o)], capture_output=True).returncode == 0
+    rows = stem.with_suffix(".partial.csv").read_text().splitlines()
+    stem.with_suffix(".partial.csv").write_text("\n".join(rows[:-1]) + "\n")
+    with h5py.File(stem.with_suffix(".h5"), "r+") as f:
+        del f["grains"].attrs["status"]
+    table = campaign.consolidate(grains_bin, scene, small, stem, "sample")
+    assert table == stem.with_suffix(".csv") and not stem.with_suffix(".partial.csv").exists()
+    assert table.read_text() == whole.read_text()
+    assert "resuming" in stem.with_suffix(".log").read_text()
