@@ -36,6 +36,23 @@ std::string reached_column(const std::string& header, const std::string& row) {
   return "";
 }
 
+// The header and the rows of stages 0 .. last of a stage table (a resumed programme rewrites the rest).
+std::vector<std::string> table_up_to(const std::string& table, int last) {
+  std::vector<std::string> kept;
+  std::ifstream in(table);
+  std::string line;
+  for (int row = -1; row <= last && std::getline(in, line); ++row) {
+    if (row >= 0 && line.substr(0, line.find(',')) != std::to_string(row))
+      throw std::runtime_error(fmt::format("'{}': line {} should be stage {}, and reads '{}'", table, row + 2, row,
+                                           line.substr(0, 40)));
+    kept.push_back(line);
+  }
+  if (long(kept.size()) != last + 2)
+    throw std::runtime_error(fmt::format("'{}' has {} stage rows, fewer than the {} finished before the checkpoint", table,
+                                         long(kept.size()) - 1, last + 1));
+  return kept;
+}
+
 // The programme from stage `first_stage` on, its table rows, records, checkpoints and summary: shared by a
 // fresh programme and a resumed one (which comes in with the stages that missed their budget and the wall
 // time before it).
@@ -178,25 +195,10 @@ int resume_consolidation(const std::string& path, const RunCheckpoint& cp, bool 
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);
   sim->restore_state(cp.state);
-  // The table keeps its header and the rows of the stages up to the checkpoint's; those that did not reach
-  // equilibrium are counted again.
   if (cp.stage_table.empty() || !std::filesystem::is_regular_file(cp.stage_table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, cp.stage_table));
-  std::vector<std::string> kept;
-  long unreached = 0;
-  {
-    std::ifstream in(cp.stage_table);
-    std::string line;
-    for (int row = -1; row <= cp.stage && std::getline(in, line); ++row) {
-      if (row >= 0 && std::stoi(line) != row)
-        throw std::runtime_error(fmt::format("'{}': row {} of the stage table is stage '{}', not {}", cp.stage_table, row + 1,
-                                             line.substr(0, line.find(',')), row));
-      kept.push_back(line);
-    }
-  }
-  if (long(kept.size()) != cp.stage + 2)
-    throw std::runtime_error(fmt::format("'{}': the stage table has {} stage rows, fewer than the {} the checkpoint follows",
-                                         cp.stage_table, long(kept.size()) - 1, cp.stage + 1));
+  const std::vector<std::string> kept = table_up_to(cp.stage_table, cp.stage);
+  long unreached = 0;   // counted again from the rows kept
   for (std::size_t k = 1; k < kept.size(); ++k) unreached += reached_column(kept[0], kept[k]) == "0";
   std::ofstream csv(cp.stage_table, std::ios::trunc);
   for (const auto& line : kept) csv << line << '\n';
