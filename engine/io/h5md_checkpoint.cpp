@@ -27,6 +27,9 @@ RunCheckpoint read_checkpoint(const std::string& path) {
     const double at = h5::read_attr_double(d.get(), "step", -1, path);
     if (h5::read_attr_double(d.get(), "valid", 0, path) == 1 && (slot < 0 || at > double(cp.step))) slot = k, cp.step = long(at);
   }
+  if (slot < 0 && !h5::read_attr_string(g.get(), "stage_table", "", path).empty())
+    throw std::runtime_error(fmt::format("'{}' has no checkpoint to resume from: the programme stopped before its first "
+                                         "stage ended (each stage but the last ends with one); run it again", path));
   if (slot < 0)
     throw std::runtime_error(fmt::format(
         "'{}' has no checkpoint to resume from: the run stopped before its first one (output.checkpoint_every sets "

@@ -96,11 +96,20 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
         assert np.array_equal(b[name][1][kept], a[name][1]), name
 
 
-@pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run"])
+@pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run", "programme in its first stage"])
 def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp_path, case):
     out = tmp_path / "run.h5"
     if case == "not a run":
         out = root / "models/gas.toml"
+    elif case == "programme in its first stage":   # killed before any stage ended: no checkpoint yet
+        programme = ["--set", "particles.count=100", "--set", "programme.top_pressure=0.02", "--set",
+                     "programme.stage_budget=2000", "--quiet"]
+        assert run(grains_bin, "consolidate", root / "models/consolidation-type1.toml", "--out", out, "--table",
+                   tmp_path / "t.csv", *programme).returncode == 0
+        with h5py.File(out, "r+") as f:
+            del f["grains"].attrs["status"], f["grains/checkpoint_0"]
+            if "checkpoint_1" in f["grains"]:
+                del f["grains/checkpoint_1"]
     else:
         small = ["--set", "particles.count=512", "--set", "time.steps=200", "--quiet"]
         assert run(grains_bin, "run", root / "models/gas.toml", "--out", out, *small).returncode == 0
@@ -111,7 +120,8 @@ def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp
     assert done.returncode == 1
     expected = {"complete": "holds a complete run (status 'complete'): nothing to resume",
                 "no checkpoint": "has no checkpoint to resume from",
-                "not a run": "file signature not found"}[case]
+                "not a run": "file signature not found",
+                "programme in its first stage": "the programme stopped before its first stage ended"}[case]
     assert str(out) in done.stderr and expected in done.stderr, done.stderr
 
 
