@@ -18,13 +18,15 @@ k* (the `normalised_stiffness` observable) is checked against it. The time step 
 stiffer contacts cost more steps (about sqrt(k*)). Where n_c is below what the engine's damped-packing
 rule asks for at a point (the strongest dampings: `grains check` warns and names the steps per contact),
 that point runs at the rule's n_c instead, and its files carry it (z0p9-k6469-n92-s1); --keep-step runs
-every point at the scene's n_c.
+every point at the scene's n_c. Where a point's time step is over twice the scene's (soft contacts), its
+aggregation checks and records come as often in time as the scene's do, not every as many steps (tagged
+a.. and o.. in its file names).
 
 Per point (median over seeds): t_agg / t_ff, final N_c / N and f_max, D_f of the largest cluster, the
 virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.csv, OUT/summary.md (the
 paper's qualitative findings, each with what the sweep shows, and the points whose runs the engine
 warned about at start-up), OUT/damping.png, OUT/stiffness.png and,
-with --map, OUT/map.png. A run whose output is complete is not run again, so an interrupted sweep
+with --map, OUT/map.png and OUT/virial-map.png (Q against time at every point of the map). A run whose output is complete is not run again, so an interrupted sweep
 resumes; --report runs nothing.
 """
 import argparse
@@ -75,11 +77,16 @@ def scene_point(scene, m_star, k_g):
     return damping_ratio(e), m_star * (math.pi ** 2 + math.log(e) ** 2) / t_c ** 2 / k_g
 
 
-def run_name(zeta, k_star, seed, steps_per_contact=None):
-    """File stem of a run, without dots (zeta 0.05, k* 6468.8, seed 1: z0p05-k6469-s1; with the damped-packing
-    rule's steps per contact: z0p9-k6469-n92-s1)."""
-    n = f"-n{steps_per_contact}" if steps_per_contact else ""
-    return f"z{zeta:g}-k{k_star:.4g}{n}-s{seed}".replace(".", "p")
+# The per-point settings that name a run's files, with their tags: z0p9-k6469-n92-s1 ran at 92 steps per
+# contact, z0p1-k10-a4o8-s1 with its analysis every 4 steps and its records every 8.
+RUN_TAGS = {"time.steps_per_contact": "n", "analysis.every": "a", "output.observables_every": "o"}
+
+
+def run_name(zeta, k_star, seed, own=None):
+    """File stem of a run, without dots (zeta 0.05, k* 6468.8, seed 1: z0p05-k6469-s1), tagged with the
+    settings of its own (`own`, a dict over RUN_TAGS' keys) when it has any."""
+    tags = "".join(f"{tag}{own[key]}" for key, tag in RUN_TAGS.items() if own and key in own)
+    return f"z{zeta:g}-k{k_star:.4g}{'-' + tags if tags else ''}-s{seed}".replace(".", "p")
 
 
 def point_settings(zeta, k_star, m_star, k_g):
@@ -109,17 +116,16 @@ def complete(h5):
         return False
 
 
-def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, steps_per_contact=None):
-    """One run unless its complete output exists; returns the path of its HDF5 file. A given steps_per_contact
-    replaces the scene's (and any override's)."""
-    stem = out / run_name(zeta, k_star, seed, steps_per_contact)
+def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, own=None):
+    """One run unless its complete output exists; returns the path of its HDF5 file. The point's own settings
+    (`own`: steps per contact, cadences) replace the scene's and any override's."""
+    stem = out / run_name(zeta, k_star, seed, own)
     h5 = out / f"{stem.name}.h5"
     if h5.exists() and complete(h5):
         return h5
     h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
-    if steps_per_contact:
-        overrides = [s for s in overrides if not s.startswith("time.steps_per_contact=")]
-        overrides += [f"time.steps_per_contact={steps_per_contact}"]
+    if own:
+        overrides = [s for s in overrides if s.split("=", 1)[0] not in own] + [f"{k}={v}" for k, v in own.items()]
     settings = [*point_settings(zeta, k_star, m_star, k_g), f"particles.seed={seed}", f"run.threads={threads}",
                 "output.snapshots_every=0", *overrides]
     cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
@@ -332,6 +338,45 @@ def stiffness_shapes(grid, damping, stiffness):
             f"| {'; '.join(rows) or 'no row'} | {'yes' if rows else 'no'} |")
 
 
+def virial_shapes(grid, damping, stiffness):
+    """The paper's Q finding column by column of the map: at each k*, the dampings whose Q rises to a second
+    peak, and whether they are all but the strongest (a finding line)."""
+    columns, holds = [], []
+    for k in dict.fromkeys(stiffness):
+        column = sorted((p for p in grid if p["k_star"] == k), key=lambda p: p["zeta"])
+        peaked = [p["zeta"] for p in column if p["q_second_peak"] > 0]
+        columns.append(f"k* {k:.0e}: {', '.join(f'{z:g}' for z in peaked) or 'none'}")
+        # the paper's pattern: the weakest dampings (three or more, from the weakest on) have one, the rest none
+        if len(peaked) >= 3 and peaked == [p["zeta"] for p in column][:len(peaked)] and len(peaked) < len(column):
+            holds.append(f"{k:.0e} (ζ up to {peaked[-1]:g}, none above)")
+    return (f"| Q's second peak on the map (the paper: for all but the strongest damping; here the ζ with one, per k*) "
+            f"| {'; '.join(columns)} | {'at k* ' + ', '.join(holds) if holds else 'no'} |")
+
+
+def plot_virial_map(points, damping, stiffness, path):
+    """Q(t / t_ff) of the first seed at every point of the map, one panel per k*."""
+    plt = pyplot()
+    cols = min(3, len(stiffness))
+    rows = (len(stiffness) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 3.4 * rows), squeeze=False, sharey=True)
+    colours = dict(zip(damping, plt.cm.viridis(np.linspace(0, 0.9, len(damping)))))
+    for ax, k in zip(axes.flat, stiffness):
+        for p in sorted((p for p in points if p["k_star"] == k), key=lambda p: p["zeta"]):
+            ax.plot(p["t"], p["q"], color=colours[p["zeta"]], lw=1, label=f"ζ = {p['zeta']:g}")
+        ax.set_yscale("log")
+        ax.set_title(f"k* = {k:.0e}", fontsize=9)
+        ax.set_xlabel("t / t_ff")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("Q = K / |W|")
+    for ax in list(axes.flat)[len(stiffness):]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=6, ncol=2)
+    fig.suptitle("Virial ratio over the map (first seed)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].split("\n    python")[0].replace("\n", " "))
     ap.add_argument("--damping", type=float, nargs="+", default=DAMPING, help="damping ratios zeta in [0, 1)")
@@ -347,7 +392,7 @@ def main(argv=None):
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     ap.add_argument("--keep-step", action="store_true",
                     help="run every point at the scene's steps per contact, even past the damped-packing rule")
-    ap.add_argument("--report", action="store_true", help="run nothing: summarise the runs already in --out")
+    ap.add_argument("--report", action="store_true", help="run nothing: summarise the runs already in --out (give the same --set as the runs)")
     args = ap.parse_args(argv)
     for z in args.damping:
         if not 0 <= z < 1:
@@ -374,30 +419,50 @@ def main(argv=None):
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = range(1, args.seeds + 1)
-    scene_steps = next((int(float(o.split("=", 1)[1])) for o in reversed(args.set) if o.startswith("time.steps_per_contact=")),
-                       int(scene["time"]["steps_per_contact"]))
+    def setting(key):   # the scene's value of a [section] key, or the last --set of it
+        section, name = key.split(".")
+        return next((int(float(o.split("=", 1)[1])) for o in reversed(args.set) if o.startswith(key + "=")),
+                    int(scene[section][name]))
+
+    scene_steps = setting("time.steps_per_contact")
+    scene_dt = float(scene["contact"]["duration"]) / scene_steps
+
+    def own_settings(z, k):
+        """What the point runs with of its own: the damped-packing rule's steps per contact where the scene's are
+        too few, and, where its time step is more than twice the scene's (soft contacts), the analysis and the
+        records as often in time as the scene has them (their steps scaled down): at k* = 10 the scene's 100
+        steps between checks would be 0.44 t_ff."""
+        own = {}
+        n = None if args.keep_step else stable_steps_per_contact(args.grains, z, k, m_star, k_g, args.set)
+        if n:
+            own["time.steps_per_contact"] = n
+        dt = contact_duration(z, k, m_star, k_g) / (n or scene_steps)
+        if dt > 2 * scene_dt:   # not for the few percent damping alone lengthens a contact at the scene's k*
+            for key in ("analysis.every", "output.observables_every"):
+                own[key] = max(1, round(setting(key) * scene_dt / dt))
+        return own
 
     def points(pairs):
         """Runs (or, with --report, finds) every seed of each (zeta, k*) pair; returns the measured points."""
         pairs = list(dict.fromkeys(pairs))
-        raised = {(z, k): None if args.keep_step else stable_steps_per_contact(args.grains, z, k, m_star, k_g, args.set)
-                  for z, k in pairs}
+        own = {(z, k): own_settings(z, k) for z, k in pairs}
         if args.report:
-            files = {(z, k, s): out / f"{run_name(z, k, s, raised[(z, k)])}.h5" for z, k in pairs for s in seeds}
+            files = {(z, k, s): out / f"{run_name(z, k, s, own[(z, k)])}.h5" for z, k in pairs for s in seeds}
             missing = [str(f) for f in files.values() if not complete(f)]
             if missing:
                 ap.error(f"--report: no complete run {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
         else:
             import dask
             tasks = {(z, k, s): dask.delayed(run_point)(args.grains, z, k, s, m_star, k_g, threads, args.set, out,
-                                                        raised[(z, k)])
+                                                        own[(z, k)])
                      for z, k in pairs for s in seeds}
             files = dict(zip(tasks, dask.compute(*tasks.values(), scheduler="threads", num_workers=args.jobs)))
         measured = []
         for z, k in pairs:
             point = median_point([measure(files[(z, k, s)], k) for s in seeds])
             measured.append({"zeta": z, "restitution": restitution(z), "k_star": k,
-                             "steps_per_contact": raised[(z, k)] or scene_steps, **point})
+                             "steps_per_contact": own[(z, k)].get("time.steps_per_contact", scene_steps),
+                             "analysis_every": own[(z, k)].get("analysis.every", setting("analysis.every")), **point})
         return measured
 
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
@@ -413,7 +478,7 @@ def main(argv=None):
     stiffness = points([(fixed_damping, k) for k in args.stiffness])
     grid = points([(z, k) for z in args.damping for k in args.stiffness]) if args.map else []
 
-    fields = ["sweep", "zeta", "restitution", "k_star", "steps_per_contact", "seeds", "t_agg_over_t_ff", "cluster_index",
+    fields = ["sweep", "zeta", "restitution", "k_star", "steps_per_contact", "analysis_every", "seeds", "t_agg_over_t_ff", "cluster_index",
               "largest_cluster_fraction", "fractal_dimension", "q_first_peak", "q_first_peak_time", "q_second_peak",
               "warned_runs"]
     with (out / "sweep.csv").open("w", newline="") as f:
@@ -424,7 +489,7 @@ def main(argv=None):
                 writer.writerow({"sweep": name, **r})
     lines = findings(damping, stiffness, fixed_stiffness, fixed_damping)
     if grid:
-        lines.append(stiffness_shapes(grid, args.damping, args.stiffness))
+        lines += [stiffness_shapes(grid, args.damping, args.stiffness), virial_shapes(grid, args.damping, args.stiffness)]
     lines += raised_points(damping + stiffness + grid, scene_steps) + warned_points(damping + stiffness + grid)
     text = "\n".join(lines)
     print(text)
@@ -433,6 +498,7 @@ def main(argv=None):
     plot_sweep(stiffness, "k_star", f"Stiffness sweep at ζ = {fixed_damping:g}, median of {args.seeds} seed(s)", out / "stiffness.png")
     if grid:
         plot_map(grid, list(dict.fromkeys(args.damping)), list(dict.fromkeys(args.stiffness)), out / "map.png")
+        plot_virial_map(grid, list(dict.fromkeys(args.damping)), list(dict.fromkeys(args.stiffness)), out / "virial-map.png")
     print(f"wrote {out / 'sweep.csv'}, {out / 'summary.md'} and the plots in {out}/")
     return 0
 

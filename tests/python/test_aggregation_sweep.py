@@ -46,7 +46,10 @@ def test_points_past_the_damped_packing_rule_run_at_its_steps_per_contact(grains
         for k_star in (10.0, 1e6):
             assert sweep.stable_steps_per_contact(grains_bin, zeta, k_star, m_star, k_g, []) == needed
     assert sweep.stable_steps_per_contact(grains_bin, 0.9, 100.0, m_star, k_g, ["time.steps_per_contact=100"]) is None
-    assert sweep.run_name(0.9, 6468.79, 1, 92) == "z0p9-k6469-n92-s1" and sweep.run_name(0.9, 6468.79, 1) == "z0p9-k6469-s1"
+    assert sweep.run_name(0.9, 6468.79, 1, {"time.steps_per_contact": 92}) == "z0p9-k6469-n92-s1"
+    assert sweep.run_name(0.9, 6468.79, 1) == sweep.run_name(0.9, 6468.79, 1, {}) == "z0p9-k6469-s1"
+    own = {"output.observables_every": 8, "analysis.every": 4}
+    assert sweep.run_name(0.1, 10, 2, own) == "z0p1-k10-a4o8-s2"
     points = [{"zeta": 0.9, "steps_per_contact": 92}, {"zeta": 0.5, "steps_per_contact": 30}]
     assert sweep.raised_points(points, 30)[-1].endswith("zeta 0.9 at 92.") and sweep.raised_points(points[1:], 30) == []
 
@@ -111,12 +114,15 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
     assert [(r["sweep"], float(r["zeta"]), float(r["k_star"]), int(r["steps_per_contact"])) for r in rows] == [
         ("damping", 0.1, scene_k, 30), ("damping", 0.5, scene_k, 30), ("stiffness", 0.9, 100.0, 92),
         ("stiffness", 0.9, 1000.0, 92)]
-    assert (tmp_path / "z0p9-k100-n92-s1.h5").is_file() and not (tmp_path / "z0p9-k100-s1.h5").exists()
+    # k* = 100 at zeta = 0.9: 92 steps per contact of t_c = 0.360 (dt 3.92e-3, 5.9 times the scene's 6.67e-4),
+    # so the analysis every 20 / 5.9 = 3 steps and the records every 50 / 5.9 = 9: as often in time as the scene's.
+    assert (tmp_path / "z0p9-k100-n92a3o9-s1.h5").is_file() and not (tmp_path / "z0p9-k100-s1.h5").exists()
+    assert [int(r["analysis_every"]) for r in rows] == [20, 20, 3, 20]   # k* = 1000: dt 1.8 times the scene's
     assert int(rows[0]["warned_runs"]) == 0 and int(rows[2]["warned_runs"]) == 0
     assert "zeta 0.9 at 92" in (tmp_path / "summary.md").read_text()
     for name in ("summary.md", "damping.png", "stiffness.png"):
         assert (tmp_path / name).stat().st_size > 100
-    again = subprocess.run(cmd[:-len(small)] + ["--report"], capture_output=True, text=True)   # nothing rerun
+    again = subprocess.run(cmd + ["--report"], capture_output=True, text=True)   # nothing rerun (the same --set)
     assert again.returncode == 0 and "finished" not in again.stdout
     for args, message in ((["--damping", "1.0"], "--damping: 1.0"), (["--stiffness", "0"], "k* must be positive"),
                           (["--fixed-damping", "soft"], "--fixed-damping: 'soft'")):
