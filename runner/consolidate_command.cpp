@@ -91,16 +91,11 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                        value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time, quench);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
+    if (!csv) throw std::runtime_error(fmt::format("cannot write stage {}'s row to the stage table '{}'", r.index, table));
     write_observables(out, sim);
     out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
     write_frame(out, sim);
-    // The end of every stage but the last is a checkpoint for `grains resume`. The next stage's new target
-    // pressure restarts CVODE at its first step, which is where the saved state restarts it too: the
-    // programme runs as it would without checkpoints.
-    if (r.index + 1 < stages)
-      out.write_checkpoint(sim.step_count(), sim.time(), earlier_seconds + status.elapsed_seconds(), sim.save_state(),
-                           r.index);
     status.finish();
     if (!r.reached) {
       ++unreached;
@@ -108,6 +103,12 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                  r.index, r.phase, r.target, r.phase == "aggregation" ? "one cluster" : "equilibrium", r.steps);
       out.write_warning(fmt::format("stage {} ({}, P* = {:.6g}) not reached within {} steps", r.index, r.phase, r.target, r.steps));
     }
+    // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains
+    // resume`. The next stage's new target pressure restarts CVODE at its first step, which is where the
+    // saved state restarts it too: the programme runs as it would without checkpoints.
+    if (r.index + 1 < stages)
+      out.write_checkpoint(sim.step_count(), sim.time(), earlier_seconds + status.elapsed_seconds(), sim.save_state(),
+                           r.index);
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
     // moduli (NaN): say so rather than print numbers without saying what they are.
     const double mechanisms = value("moduli_mechanisms"), unstable = value("moduli_unstable_modes");
@@ -180,7 +181,11 @@ int consolidate_scene(const ConsolidateOptions& opt) {
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));
-  out.set_attribute("stage_table", std::filesystem::absolute(table).string());   // where `grains resume` finds it
+  // For `grains resume`: the scene's folder, and the table relative to this file's folder (a campaign folder
+  // may be moved or copied whole).
+  out.set_attribute("scene_directory", scene.directory().string());
+  const auto folder = std::filesystem::absolute(path).parent_path();
+  out.set_attribute("stage_table", std::filesystem::absolute(table).lexically_relative(folder).string());
   for (const auto& w : sim->warnings()) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
   write_frame(out, *sim);
   write_observables(out, *sim);
@@ -189,24 +194,26 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, 0, 0, 0.0);
 }
 
-int resume_consolidation(const std::string& path, const RunCheckpoint& cp, bool quiet) {
-  const Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path));
+int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet) {
+  const Scene scene = stored_scene(path, cp);
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);
-  sim->restore_state(cp.state);
-  if (cp.stage_table.empty() || !std::filesystem::is_regular_file(cp.stage_table))
-    throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, cp.stage_table));
-  const std::vector<std::string> kept = table_up_to(cp.stage_table, cp.stage);
+  restore_checkpoint(*sim, path, cp);
+  const std::string table = (std::filesystem::absolute(path).parent_path() / cp.stage_table).lexically_normal().string();
+  if (!std::filesystem::is_regular_file(table))
+    throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
+  const std::vector<std::string> kept = table_up_to(table, cp.stage);
   long unreached = 0;   // counted again from the rows kept
   for (std::size_t k = 1; k < kept.size(); ++k) unreached += reached_column(kept[0], kept[k]) == "0";
-  std::ofstream csv(cp.stage_table, std::ios::trunc);
+  std::ofstream csv(table, std::ios::trunc);
   for (const auto& line : kept) csv << line << '\n';
   csv << std::flush;
-  H5mdWriter out(path, cp.step, scene.boolean("output.xdmf"));
+  if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
+  H5mdWriter out(path, cp.step, true, true, scene.boolean("output.xdmf"));   // a stage's end is one of its records
   out.set_attribute("status", fmt::format("resumed after stage {}", cp.stage));
   if (!quiet) fmt::print(stderr, "resuming '{}' after stage {} (step {}, t = {:.6g})\n", path, cp.stage, cp.step, cp.time);
-  return run_stages(scene, settings, *sim, out, csv, cp.stage_table, quiet, cp.stage + 1, unreached, cp.wall_seconds);
+  return run_stages(scene, settings, *sim, out, csv, table, quiet, cp.stage + 1, unreached, cp.wall_seconds);
 }
 
 }  // namespace grains

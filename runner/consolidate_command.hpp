@@ -17,6 +17,6 @@ int consolidate_scene(const ConsolidateOptions& options);
 struct RunCheckpoint;
 // `grains resume` of a programme: continues from the stage after the checkpoint's (written at the end of every
 // stage), the table and the HDF5 file cut back to the stages finished before.
-int resume_consolidation(const std::string& path, const RunCheckpoint& checkpoint, bool quiet);
+int resume_consolidation(const std::string& path, RunCheckpoint& checkpoint, bool quiet);
 
 }  // namespace grains

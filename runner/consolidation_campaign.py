@@ -48,17 +48,32 @@ PAPER = {
 RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02, "d_F_0": 0.05, "d_F_0.01": 0.05}
 
 
+def same_scene(grains, scene_file, overrides, h5):
+    """Whether the run in h5 was started with the scene and overrides given now (`grains check` resolves them
+    as the run stored its own): an interrupted sample resumes only then, else it runs again with them."""
+    import h5py
+    cmd = [str(grains), "check", str(scene_file)] + [a for o in overrides for a in ("--set", o)]
+    now = subprocess.run(cmd, capture_output=True, text=True)
+    try:
+        with h5py.File(h5, "r") as f:
+            stored = f["parameters/scene.toml"][()]
+    except (OSError, KeyError):
+        return False
+    stored = stored.decode() if isinstance(stored, bytes) else str(stored)
+    return now.returncode == 0 and now.stdout.split("\n# derived:")[0] == stored
+
+
 def consolidate(grains, scene_file, overrides, stem, label):
     """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
     written as STEM.partial.csv and renamed when the programme ends, the output goes to STEM.h5 and the
     console to STEM.log. An interrupted run (its partial table and output left) continues from its last
-    finished stage (`grains resume`), or runs again from the start when it cannot. Returns the path of the
-    table."""
+    finished stage (`grains resume`) if it was started with the same scene and overrides, or runs again
+    from the start when it was not or cannot. Returns the path of the table."""
     table = stem.with_suffix(".csv")
     if table.exists():
         return table
     partial, h5 = stem.with_suffix(".partial.csv"), stem.with_suffix(".h5")
-    if partial.exists() and h5.exists():
+    if partial.exists() and h5.exists() and same_scene(grains, scene_file, overrides, h5):
         with stem.with_suffix(".log").open("a") as log:
             if subprocess.run([str(grains), "resume", str(h5)], stdout=log, stderr=subprocess.STDOUT).returncode == 0:
                 partial.rename(table)

@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -186,6 +187,7 @@ int run_scene(const RunOptions& opt) {
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
+  out.set_attribute("scene_directory", scene.directory().string());   // for `grains resume`
   for (const auto& w : sim->warnings()) {
     out.write_warning(w);
     fmt::print(stderr, "warning: {}\n", w);
@@ -195,17 +197,43 @@ int run_scene(const RunOptions& opt) {
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
 
+Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
+  return Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), {}, cp.scene_directory);
+}
+
+void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp) {
+  try {
+    sim.restore_state(cp.state);
+  } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one
+    fmt::print(stderr, "warning: '{}': the checkpoint at step {} does not restore ({}); trying the one before it\n", path,
+               cp.step, e.what());
+    cp = read_checkpoint(path, 1);
+    sim.restore_state(cp.state);
+  }
+  if (sim.step_count() != cp.step)
+    throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
+                                         sim.step_count()));
+  // Radii and masses come from the stored scene again (particles.file among it): they must be the run's.
+  const ParticleView p = sim.particles();
+  for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass}})
+    if (!stored->empty() && *rebuilt != *stored)
+      throw std::runtime_error(fmt::format(
+          "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
+          "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
+          cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
+}
+
 int resume_run(const std::string& path, bool quiet) {
   RunCheckpoint cp = read_checkpoint(path);
   if (cp.stage >= 0) return resume_consolidation(path, cp, quiet);
-  const Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path));
+  const Scene scene = stored_scene(path, cp);
   PreparedRun prepared = prepare_run(scene);
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
-  prepared.sim->restore_state(cp.state);
-  if (prepared.sim->step_count() != cp.step)
-    throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
-                                         prepared.sim->step_count()));
-  H5mdWriter out(path, cp.step, scene.boolean("output.xdmf"));
+  restore_checkpoint(*prepared.sim, path, cp);
+  // A run stopped between its records recorded where it stopped: the unbroken run has no records there.
+  const long obs_every = scene.integer("output.observables_every"), snap_every = scene.integer("output.snapshots_every");
+  H5mdWriter out(path, cp.step, cp.step % obs_every == 0, snap_every > 0 && cp.step % snap_every == 0,
+                 scene.boolean("output.xdmf"));
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);

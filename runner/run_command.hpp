@@ -26,6 +26,13 @@ int run_scene(const RunOptions& options);
 // scene stored in it; the records after that step are replaced. Returns the process exit code.
 int resume_run(const std::string& path, bool quiet);
 
+// For both resumes: the scene stored with a checkpoint, and the simulation built from it restored to the
+// checkpoint (the one before it if that state does not fit) after checking it has the run's particles.
+struct RunCheckpoint;
+class Scene;
+Scene stored_scene(const std::string& path, const RunCheckpoint& cp);
+void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp);
+
 // `grains check`: the same checks as `run` without running (the simulation is built, the run length
 // resolved, warnings printed); prints the resolved scene and the derived time step and length.
 int check_scene(const std::string& path, const std::vector<std::string>& overrides);

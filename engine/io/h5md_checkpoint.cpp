@@ -5,11 +5,12 @@
 
 #include <fmt/format.h>
 
+#include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 
 namespace grains {
 
-RunCheckpoint read_checkpoint(const std::string& path) {
+RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   hid_t fid = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, "opening it as a grains run's output, to resume it,");
@@ -17,33 +18,46 @@ RunCheckpoint read_checkpoint(const std::string& path) {
   if (!h5::exists(fid, "grains", path) || !h5::exists(fid, "parameters", path))
     throw std::runtime_error(fmt::format("'{}' is not the output of a grains run (no /grains or /parameters group)", path));
   const h5::Handle g = h5::open_group(fid, "grains", path);
-  if (const std::string status = h5::read_attr_string(g.get(), "status", "", path); status == "complete")
-    throw std::runtime_error(fmt::format("'{}' holds a complete run (status 'complete'): nothing to resume", path));
+  // A run ends "complete"; a programme "complete" or "complete; N stage(s) did not reach equilibrium".
+  if (const std::string status = h5::read_attr_string(g.get(), "status", "", path); status.rfind("complete", 0) == 0)
+    throw std::runtime_error(fmt::format("'{}' holds a finished run (status '{}'): nothing to resume", path, status));
+  const std::string stage_table = h5::read_attr_string(g.get(), "stage_table", "", path);
+  const auto slots = valid_checkpoint_slots(g.get(), path);
   RunCheckpoint cp;
-  int slot = -1;
-  for (int k : {0, 1}) {
-    if (!h5::exists(g.get(), checkpoint_slot_name(k), path)) continue;
-    const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(k), path);
-    const double at = h5::read_attr_double(d.get(), "step", -1, path);
-    if (h5::read_attr_double(d.get(), "valid", 0, path) == 1 && (slot < 0 || at > double(cp.step))) slot = k, cp.step = long(at);
+  int readable = 0;
+  for (const auto& [slot, step] : slots) {
+    const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
+    cp.state.resize(h5::shape(d.get(), path, checkpoint_slot_name(slot)).at(0));
+    // A slot whose checksum fails (damaged on disk) is passed over like an invalid one.
+    if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0) continue;
+    if (readable++ < skip) continue;
+    cp.step = long(step);
+    cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
+    cp.time = h5::read_attr_double(d.get(), "time", 0, path);
+    cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
+    cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
+    cp.scene_directory = h5::read_attr_string(g.get(), "scene_directory", "", path);
+    cp.stage_table = stage_table;
+    for (auto [name, values] : {std::pair{"radius", &cp.radius}, std::pair{"mass", &cp.mass}}) {
+      const std::string element = std::string("particles/all/") + name + "/value";
+      if (h5::exists(fid, std::string("particles/all/") + name, path)) {
+        const h5::Handle v = h5::open_dataset(fid, element, path);
+        *values = h5::read_row(v.get(), 0, path, element);
+      }
+    }
+    return cp;
   }
-  if (slot < 0 && !h5::read_attr_string(g.get(), "stage_table", "", path).empty())
+  H5Eclear2(H5E_DEFAULT);
+  if (readable > 0)   // skip = 1 and one readable slot
+    throw std::runtime_error(fmt::format("'{}' has no older checkpoint to fall back on", path));
+  if (!slots.empty())
+    throw std::runtime_error(fmt::format("'{}': its checkpoints are damaged (their checksums fail): nothing to resume from", path));
+  if (!stage_table.empty())
     throw std::runtime_error(fmt::format("'{}' has no checkpoint to resume from: the programme stopped before its first "
                                          "stage ended (each stage but the last ends with one); run it again", path));
-  if (slot < 0)
-    throw std::runtime_error(fmt::format(
-        "'{}' has no checkpoint to resume from: the run stopped before its first one (output.checkpoint_every sets "
-        "the steps between them; with 0, the default, only a run stopped by Ctrl-C or SIGTERM writes one)", path));
-  const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
-  cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
-  cp.time = h5::read_attr_double(d.get(), "time", 0, path);
-  cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
-  cp.state.resize(h5::shape(d.get(), path, checkpoint_slot_name(slot)).at(0));
-  if (!cp.state.empty())
-    h5::check(H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()), path, "reading the checkpoint");
-  cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
-  cp.stage_table = h5::read_attr_string(g.get(), "stage_table", "", path);
-  return cp;
+  throw std::runtime_error(fmt::format(
+      "'{}' has no valid checkpoint to resume from: the run stopped before its first one (output.checkpoint_every sets "
+      "the steps between them; with 0, the default, only a run stopped by Ctrl-C or SIGTERM writes one)", path));
 }
 
 }  // namespace grains

@@ -9,19 +9,20 @@
 
 namespace grains {
 
-inline const char* checkpoint_slot_name(int slot) { return slot == 0 ? "checkpoint_0" : "checkpoint_1"; }
-
 struct RunCheckpoint {
   long step = 0;
   int stage = -1;                         // `grains consolidate`: the programme's last finished stage; -1: `grains run`
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
   std::vector<std::byte> state;           // Simulation::save_state()
   std::string scene_toml;                 // the resolved scene the run was started with
-  std::string stage_table;                // `grains consolidate`: the stage table's absolute path
+  std::string scene_directory;            // where the scene's relative file paths lie (particles.file)
+  std::string stage_table;                // `grains consolidate`: the stage table, relative to the file's folder
+  std::vector<double> radius, mass;       // the run's first frame: what a rebuilt simulation must have
 };
 
-// The newest valid checkpoint of the run output `path`. Throws std::runtime_error naming the file when it
-// is not a grains run output, holds a complete run, or has no valid checkpoint.
-RunCheckpoint read_checkpoint(const std::string& path);
+// The newest valid checkpoint of the run output `path` whose bytes read back intact (their checksum), or with
+// `skip` = 1 the one before it. Throws std::runtime_error naming the file when it is not a grains run output,
+// holds a finished run, or has no such checkpoint.
+RunCheckpoint read_checkpoint(const std::string& path, int skip = 0);
 
 }  // namespace grains

@@ -88,7 +88,8 @@ Handle open_or_create_group(hid_t parent, const std::string& name, const std::st
 }
 
 Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,
-                         const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file) {
+                         const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file,
+                         bool checksum) {
   std::vector<hsize_t> dims{0}, max{H5S_UNLIMITED}, chunk{chunk_rows < 1 ? 1 : chunk_rows};
   for (std::size_t i = 0; i < inner.size(); ++i) {
     dims.push_back(inner[i]);
@@ -98,6 +99,7 @@ Handle create_extendable(hid_t parent, const std::string& name, hid_t type, cons
   Handle space = simple_space(dims, &max, file);
   Handle dcpl = plist(H5P_DATASET_CREATE, file);
   check(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), file, "chunking " + name);
+  if (checksum) check(H5Pset_fletcher32(dcpl.get()), file, "checksumming " + name);
   if (H5Tequal(type, H5T_NATIVE_DOUBLE) > 0) {
     // Slots of particles absent from a frame read as NaN rather than a plausible 0.
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -175,6 +177,21 @@ std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const
 
 std::vector<double> read_doubles(hid_t dataset, const std::string& file, const std::string& what) {
   return read_all<double>(dataset, H5T_NATIVE_DOUBLE, file, what);
+}
+
+std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file, const std::string& what) {
+  std::vector<hsize_t> dims = shape(dataset, file, what), start(dims.size(), 0);
+  if (dims.empty() || row >= dims[0]) fail(file, fmt::format("reading row {} of {}", row, what));
+  start[0] = row, dims[0] = 1;
+  hsize_t n = 1;
+  for (hsize_t d : dims) n *= d;
+  Handle fspace(check(H5Dget_space(dataset), file, "selecting in " + what), H5Sclose);
+  check(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, dims.data(), nullptr), file,
+        "selecting in " + what);
+  Handle mspace = simple_space({n}, nullptr, file);
+  std::vector<double> values(n);
+  check(H5Dread(dataset, H5T_NATIVE_DOUBLE, mspace.get(), fspace.get(), H5P_DEFAULT, values.data()), file, "reading " + what);
+  return values;
 }
 
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file) {

@@ -42,8 +42,10 @@ Handle open_or_create_group(hid_t parent, const std::string& name, const std::st
 
 // A dataset of shape [0, inner...] with the first axis unlimited (and the inner ones too, so the
 // particle count may grow); chunked as [chunk_rows, chunk_inner...]. Doubles are filled with NaN.
+// `checksum`: every chunk carries a Fletcher-32 checksum, and reading a damaged one fails.
 Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,
-                         const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file);
+                         const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file,
+                         bool checksum = false);
 // Appends `rows` rows, each holding `count` (per inner axis) elements of `data`, growing inner axes if needed.
 void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, const std::vector<hsize_t>& count,
                  const std::string& file, const std::string& what);
@@ -61,6 +63,8 @@ bool exists(hid_t parent, const std::string& name, const std::string& file);
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);
 std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what);
 std::vector<double> read_doubles(hid_t dataset, const std::string& file, const std::string& what);
+// Row `row` (first axis) of a dataset of doubles, flattened.
+std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file, const std::string& what);
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file);
 // An attribute's value, or `fallback` when the object has no such attribute.
 double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file);

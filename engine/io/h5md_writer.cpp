@@ -15,7 +15,7 @@
 
 #include <fmt/format.h>
 
-#include "io/h5md_checkpoint.hpp"
+#include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 #include "io/xdmf_writer.hpp"
 
@@ -104,15 +104,16 @@ struct H5mdWriter::Impl {
       xdmf->add_field("angular_velocity", "/particles/all/angular_velocity/value", angular_components);
   }
 
-  // An element of a file being resumed, cut back to its rows up to `last_step`.
-  Series reopen_series(hid_t parent, const std::string& name, long last_step) {
+  // An element of a file being resumed, cut back to its rows before `step`, and the row at `step` if `at_step`.
+  Series reopen_series(hid_t parent, const std::string& name, long step, bool at_step) {
     Series s;
     s.group = h5::open_group(parent, name, path);
     s.step = h5::open_dataset(s.group.get(), "step", path);
     s.time = h5::open_dataset(s.group.get(), "time", path);
     s.value = h5::open_dataset(s.group.get(), "value", path);
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
-    const hsize_t rows = hsize_t(std::upper_bound(steps.begin(), steps.end(), last_step) - steps.begin());
+    const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
+                                          : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
     for (hid_t d : {s.step.get(), s.time.get(), s.value.get()}) h5::truncate_rows(d, rows, path, name);
     const std::vector<hsize_t> shape = h5::shape(s.value.get(), path, name + "/value");
     s.components = shape.size() == 3 ? int(shape[2]) : 1;
@@ -200,7 +201,9 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   m.flush();
 }
 
-H5mdWriter::H5mdWriter(const std::string& path, long resume_step, bool write_xdmf) : impl_(std::make_unique<Impl>()) {
+H5mdWriter::H5mdWriter(const std::string& path, long resume_step, bool observables_at_step, bool frame_at_step,
+                       bool write_xdmf)
+    : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.path = path;
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
@@ -215,18 +218,21 @@ H5mdWriter::H5mdWriter(const std::string& path, long resume_step, bool write_xdm
   m.parameters = h5::open_group(root, "parameters", path);
   m.grains = h5::open_group(root, "grains", path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
-  for (const char* name : {"position", "velocity", "radius", "mass", "angular_velocity", "orientation"})
-    if (h5::exists(m.particles.get(), name, path)) m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step));
-  for (const char* name : {"edges", "offset"})
-    if (h5::exists(m.box.get(), name, path))
-      m.series.emplace(std::string("box/") + name, m.reopen_series(m.box.get(), name, resume_step)).first->second.components = m.dim;
-  std::vector<std::string> names;
-  auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
-    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
-    return 0;
+  auto members = [&](hid_t group, const std::string& what) {
+    std::vector<std::string> names;
+    auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
+      static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+      return 0;
+    };
+    h5::check(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), path, "listing " + what);
+    return names;
   };
-  h5::check(H5Literate(m.observables.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), path, "listing /observables");
-  for (const auto& name : names) m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step));
+  for (const auto& name : members(m.particles.get(), "/particles/all"))
+    if (name != "box") m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step, frame_at_step));
+  for (const auto& name : members(m.box.get(), "/particles/all/box"))
+    m.series.emplace("box/" + name, m.reopen_series(m.box.get(), name, resume_step, frame_at_step)).first->second.components = m.dim;
+  for (const auto& name : members(m.observables.get(), "/observables"))
+    m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
 
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
   std::vector<double> times;
@@ -353,17 +359,11 @@ void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, c
   Impl& m = *impl_;
   m.flush();   // every record up to `step` is in the file before a checkpoint names that step
   const hid_t g = m.grains.get();
-  int slot = 0;   // the slot not holding the newest valid checkpoint
-  double newest = -1;
-  for (int k : {0, 1}) {
-    if (!h5::exists(g, checkpoint_slot_name(k), m.path)) continue;
-    h5::Handle d = h5::open_dataset(g, checkpoint_slot_name(k), m.path);
-    const double at = h5::read_attr_double(d.get(), "step", -1, m.path);
-    if (h5::read_attr_double(d.get(), "valid", 0, m.path) == 1 && at > newest) newest = at, slot = 1 - k;
-  }
+  const auto valid = valid_checkpoint_slots(g, m.path);
+  const int slot = valid.empty() ? 0 : 1 - valid.front().first;   // not the slot holding the newest
   const std::string name = checkpoint_slot_name(slot), what = "/grains/" + name;
   h5::Handle d = h5::exists(g, name, m.path) ? h5::open_dataset(g, name, m.path)
-                                              : h5::create_extendable(g, name, H5T_STD_U8LE, {}, {}, 1 << 16, m.path);
+                                              : h5::create_extendable(g, name, H5T_STD_U8LE, {}, {}, 1 << 16, m.path, true);
   h5::attr_double(d.get(), "valid", 0, m.path);
   h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
   h5::overwrite_bytes(d.get(), state.data(), state.size(), m.path, what);

@@ -30,8 +30,9 @@ class H5mdWriter {
   H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
              const std::string& creator_version, const std::string& resolved_scene_toml, bool write_xdmf);
   // Reopens a run's file to continue it from its checkpoint at `resume_step` (h5md_checkpoint.hpp): every
-  // record and frame written after that step is dropped, and appending goes on from there.
-  H5mdWriter(const std::string& path, long resume_step, bool write_xdmf);
+  // record and frame written after that step is dropped, and those at that step unless it is one of their
+  // own steps (a run stopped between them recorded where it stopped), and appending goes on from there.
+  H5mdWriter(const std::string& path, long resume_step, bool observables_at_step, bool frame_at_step, bool write_xdmf);
   ~H5mdWriter();
   H5mdWriter(const H5mdWriter&) = delete;
   H5mdWriter& operator=(const H5mdWriter&) = delete;

@@ -108,9 +108,11 @@ bool in_range(const SchemaEntry& e, double x) {
 
 }  // namespace
 
-Scene Scene::from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides) {
+Scene Scene::from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides,
+                         const std::filesystem::path& directory) {
   Scene s;
   s.origin_ = std::move(origin);
+  s.directory_ = directory;
   try {
     s.table_ = toml::parse(text, s.origin_);
   } catch (const toml::parse_error& err) {

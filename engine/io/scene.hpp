@@ -39,7 +39,9 @@ class Scene {
   // scene in messages (default: the file's path).
   static Scene from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides = {},
                          const std::string& origin = "");
-  static Scene from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides = {});
+  // `directory`: where relative file paths in the text (particles.file) lie; default the working directory.
+  static Scene from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides = {},
+                           const std::filesystem::path& directory = {});
 
   // Check every present key: known, right type, in range. Throws SceneError listing all problems.
   void validate() const;

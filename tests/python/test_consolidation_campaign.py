@@ -127,7 +127,18 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     stem.with_suffix(".partial.csv").write_text("\n".join(rows[:-1]) + "\n")
     with h5py.File(stem.with_suffix(".h5"), "r+") as f:
         del f["grains"].attrs["status"]
-    table = campaign.consolidate(grains_bin, scene, small, stem, "sample")
-    assert table == stem.with_suffix(".csv") and not stem.with_suffix(".partial.csv").exists()
+    # Resumed in a copy of its folder: the table it goes on writing is the copy's.
+    import shutil
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for suffix in (".partial.csv", ".h5"):
+        shutil.copy(stem.with_suffix(suffix), copy / ("sample" + suffix))
+    table = campaign.consolidate(grains_bin, scene, small, copy / "sample", "sample")
+    assert table == copy / "sample.csv" and not (copy / "sample.partial.csv").exists()
     assert table.read_text() == whole.read_text()
-    assert "resuming" in stem.with_suffix(".log").read_text()
+    assert "resuming" in (copy / "sample.log").read_text()
+    assert stem.with_suffix(".partial.csv").read_text().count("\n") == len(rows) - 1   # the original untouched
+    # With other settings than those it was started with, the sample runs again rather than resuming.
+    other = small[:-1] + ["programme.stage_budget=10000"]
+    table = campaign.consolidate(grains_bin, scene, other, stem, "sample")
+    assert "resuming" not in stem.with_suffix(".log").read_text() and table.read_text() != whole.read_text()

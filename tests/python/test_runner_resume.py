@@ -68,7 +68,7 @@ def test_a_killed_run_resumes_from_its_last_checkpoint_to_the_records_of_an_unbr
 
 def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tmp_path):
     """Ctrl-C writes a checkpoint whatever output.checkpoint_every says; the resumed run's records are the
-    unbroken run's, plus the records of the step it stopped at."""
+    unbroken run's."""
     gas = [root / "models/gas.toml", "--set", "particles.count=512", "--set", "time.steps=700000",
            "--set", "run.threads=1", "--quiet"]
     whole = tmp_path / "whole.h5"
@@ -88,28 +88,30 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
     resumed = run(grains_bin, "resume", stopped, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
     assert f"resumed      at step {step}" in resumed.stdout
+    # The records of the step it stopped at, between its scheduled ones, are dropped on resuming.
     a, b = records(whole), records(stopped)
+    assert a.keys() == b.keys()
     for name in a:
-        steps_a, steps_b = a[name][0], b[name][0]
-        kept = np.isin(steps_b, steps_a)
-        assert np.array_equal(steps_b[kept], steps_a) and set(steps_b[~kept]) <= {step}, name
-        assert np.array_equal(b[name][1][kept], a[name][1]), name
+        assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1]), name
 
 
-@pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run", "programme in its first stage"])
+@pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run", "programme in its first stage",
+                                  "finished programme"])
 def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp_path, case):
     out = tmp_path / "run.h5"
     if case == "not a run":
         out = root / "models/gas.toml"
-    elif case == "programme in its first stage":   # killed before any stage ended: no checkpoint yet
+    elif "programme" in case:   # its four stages all short of their budget: "complete; 4 stage(s) did not ..."
         programme = ["--set", "particles.count=100", "--set", "programme.top_pressure=0.02", "--set",
                      "programme.stage_budget=2000", "--quiet"]
         assert run(grains_bin, "consolidate", root / "models/consolidation-type1.toml", "--out", out, "--table",
                    tmp_path / "t.csv", *programme).returncode == 0
-        with h5py.File(out, "r+") as f:
-            del f["grains"].attrs["status"], f["grains/checkpoint_0"]
-            if "checkpoint_1" in f["grains"]:
-                del f["grains/checkpoint_1"]
+        if case == "programme in its first stage":   # as one killed before any stage ended: no checkpoint yet
+            with h5py.File(out, "r+") as f:
+                del f["grains"].attrs["status"]
+                for slot in ("checkpoint_0", "checkpoint_1"):
+                    if slot in f["grains"]:
+                        del f["grains"][slot]
     else:
         small = ["--set", "particles.count=512", "--set", "time.steps=200", "--quiet"]
         assert run(grains_bin, "run", root / "models/gas.toml", "--out", out, *small).returncode == 0
@@ -118,8 +120,9 @@ def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp
                 del f["grains"].attrs["status"]
     done = run(grains_bin, "resume", out)
     assert done.returncode == 1
-    expected = {"complete": "holds a complete run (status 'complete'): nothing to resume",
-                "no checkpoint": "has no checkpoint to resume from",
+    expected = {"complete": "holds a finished run (status 'complete'): nothing to resume",
+                "finished programme": "holds a finished run (status 'complete; 4 stage(s) did not reach equilibrium')",
+                "no checkpoint": "has no valid checkpoint to resume from",
                 "not a run": "file signature not found",
                 "programme in its first stage": "the programme stopped before its first stage ended"}[case]
     assert str(out) in done.stderr and expected in done.stderr, done.stderr
@@ -153,3 +156,58 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
     for name in a:
         if not name.startswith("observables/cvode"):
             assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
+
+
+def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_that_file(grains_bin, tmp_path):
+    """The stored scene's relative particles.file lies beside the scene, wherever `grains resume` runs; a file
+    changed since the run started (other masses) is refused, not silently used."""
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "pair.txt").write_text("-0.6 0 0 1 1 0.5 0 0\n0.6 0 0 1 1 -0.5 0 0\n")
+    (folder / "pair.toml").write_text(
+        '[scene]\nname = "pair"\ndimension = 3\n[particles]\nlayout = "file"\nfile = "pair.txt"\n'
+        '[box]\nperiodic = false\n[contact]\nrestitution = 0.5\nduration = 0.1\n'
+        '[time]\nsteps_per_contact = 50\nduration = 1.0\n[output]\nobservables_every = 1\ncheckpoint_every = 100\n')
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", folder / "pair.toml", "--out", whole, "--quiet").returncode == 0
+    killed = tmp_path / "killed.h5"
+    shutil.copy(whole, killed)
+    with h5py.File(killed, "r+") as f:   # killed after its checkpoint at step 400
+        del f["grains"].attrs["status"]
+    elsewhere = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, cwd=tmp_path)
+    assert elsewhere.returncode == 0, elsewhere.stderr
+    a, b = records(whole), records(killed)
+    for name in a:
+        assert np.array_equal(a[name][1], b[name][1]), name
+    shutil.copy(whole, killed)
+    with h5py.File(killed, "r+") as f:
+        del f["grains"].attrs["status"]
+    (folder / "pair.txt").write_text("-0.6 0 0 1 2 0.5 0 0\n0.6 0 0 1 2 -0.5 0 0\n")
+    changed = run(grains_bin, "resume", killed)
+    assert changed.returncode == 1 and "another mass than the run's first frame" in changed.stderr, changed.stderr
+
+
+def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root, tmp_path):
+    """Each checkpoint carries a checksum: bytes damaged on disk are detected, and the resume starts from the
+    other slot, still ending with the unbroken run's records."""
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
+    killed = tmp_path / "killed.h5"
+    shutil.copy(whole, killed)
+    with h5py.File(killed, "r+") as f:
+        del f["grains"].attrs["status"]
+        slots = sorted(("checkpoint_0", "checkpoint_1"), key=lambda k: f["grains"][k].attrs["step"])
+        older, newest = (int(f["grains"][k].attrs["step"]) for k in slots)
+        chunk = f["grains"][slots[1]].id.get_chunk_info(0)   # where its first chunk lies in the file
+    with open(killed, "r+b") as raw:   # flip a byte of the newest checkpoint's first chunk on disk
+        raw.seek(chunk.byte_offset + 100)
+        byte = raw.read(1)
+        raw.seek(chunk.byte_offset + 100)
+        raw.write(bytes([byte[0] ^ 0xFF]))
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert (older, newest) == (12000, 15000) and f"resumed      at step {older}" in resumed.stdout
+    a, b = records(whole), records(killed)
+    for name in a:
+        if not name.startswith("observables/cvode"):
+            assert np.array_equal(a[name][1], b[name][1], equal_nan=True), name
