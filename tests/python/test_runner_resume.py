@@ -32,6 +32,23 @@ def status(path):
         return s.decode() if isinstance(s, bytes) else s
 
 
+def killed_copy(whole, killed):
+    """A copy of a finished run's file as a run killed after its last checkpoint leaves it: no status."""
+    shutil.copy(whole, killed)
+    with h5py.File(killed, "r+") as f:
+        del f["grains"].attrs["status"]
+    return killed
+
+
+def assert_same_records(whole, other):
+    """Every record and frame equal, CVODE's own counters aside (they count from the resume)."""
+    a, b = records(whole), records(other)
+    assert a.keys() == b.keys()
+    for name in a:
+        if not name.startswith("observables/cvode"):
+            assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
+
+
 # A small self-gravitating cloud with the collision log, checkpointed every 3000 of its 15,527 steps.
 CLOUD = ["--set", "particles.count=200", "--set", "output.snapshots_every=2000", "--set", "output.checkpoint_every=3000",
          "--set", "analysis.collision_log=true", "--set", "run.threads=1", "--quiet"]
@@ -42,10 +59,8 @@ def test_a_killed_run_resumes_from_its_last_checkpoint_to_the_records_of_an_unbr
     assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
     # A run killed after its last checkpoint: no status, and records past the checkpoint that the resumed run
     # must drop and write again (spoiled here, so that keeping them would show).
-    killed = tmp_path / "killed.h5"
-    shutil.copy(whole, killed)
+    killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:
-        del f["grains"].attrs["status"]
         del f["grains/collisions"]
         last = int(max(f["grains/checkpoint_0"].attrs["step"], f["grains/checkpoint_1"].attrs["step"]))
         assert last == 15000
@@ -56,12 +71,9 @@ def test_a_killed_run_resumes_from_its_last_checkpoint_to_the_records_of_an_unbr
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
     assert "resumed      at step 15000" in resumed.stdout and status(killed) == "complete"
-    a, b = records(whole), records(killed)
-    assert a.keys() == b.keys() and "collisions" in a
-    for name in a:
-        if name.startswith("observables/cvode"):
-            continue
-        assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
+    assert "collisions" in records(whole)
+    assert_same_records(whole, killed)
+    a = records(whole)
     with open(killed.with_suffix(".xdmf")) as x:   # the ParaView companion lists every frame again
         assert x.read().count("<Grid Name=\"frame") == len(a["particles/position"][0]) == 9
 
@@ -89,10 +101,7 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
     assert resumed.returncode == 0, resumed.stderr
     assert f"resumed      at step {step}" in resumed.stdout
     # The records of the step it stopped at, between its scheduled ones, are dropped on resuming.
-    a, b = records(whole), records(stopped)
-    assert a.keys() == b.keys()
-    for name in a:
-        assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1]), name
+    assert_same_records(whole, stopped)
 
 
 @pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run", "programme in its first stage",
@@ -137,13 +146,11 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
     done = run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:])
     assert done.returncode == 0, done.stderr
     # Killed during its last stage: no status, a partial last table row and records of that stage to drop.
-    killed, killed_table = tmp_path / "killed.h5", tmp_path / "killed.csv"
-    shutil.copy(whole, killed)
+    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
     rows = whole_table.read_text().splitlines()
     killed_table.write_text("\n".join(rows[:-1] + [rows[-1][:20]]) + "\n")
     with h5py.File(killed, "r+") as f:
-        del f["grains"].attrs["status"]
-        f["grains"].attrs["stage_table"] = str(killed_table)
+        f["grains"].attrs["stage_table"] = killed_table.name
         stage = int(max(f["grains/checkpoint_0"].attrs["stage"], f["grains/checkpoint_1"].attrs["stage"]))
         assert stage == len(rows) - 3   # the end of the last stage but one (rows: header, stages 0..last)
         f["observables/solid_fraction/value"][-1] = 0.0
@@ -151,11 +158,7 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
     assert resumed.returncode == 0, resumed.stderr
     assert f"resumed      after stage {stage}" in resumed.stdout
     assert killed_table.read_text() == whole_table.read_text()
-    a, b = records(whole), records(killed)
-    assert a.keys() == b.keys()
-    for name in a:
-        if not name.startswith("observables/cvode"):
-            assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
+    assert_same_records(whole, killed)
 
 
 def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_that_file(grains_bin, tmp_path):
@@ -170,18 +173,11 @@ def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_t
         '[time]\nsteps_per_contact = 50\nduration = 1.0\n[output]\nobservables_every = 1\ncheckpoint_every = 100\n')
     whole = tmp_path / "whole.h5"
     assert run(grains_bin, "run", folder / "pair.toml", "--out", whole, "--quiet").returncode == 0
-    killed = tmp_path / "killed.h5"
-    shutil.copy(whole, killed)
-    with h5py.File(killed, "r+") as f:   # killed after its checkpoint at step 400
-        del f["grains"].attrs["status"]
+    killed = killed_copy(whole, tmp_path / "killed.h5")   # after its checkpoint at step 400
     elsewhere = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, cwd=tmp_path)
     assert elsewhere.returncode == 0, elsewhere.stderr
-    a, b = records(whole), records(killed)
-    for name in a:
-        assert np.array_equal(a[name][1], b[name][1]), name
-    shutil.copy(whole, killed)
-    with h5py.File(killed, "r+") as f:
-        del f["grains"].attrs["status"]
+    assert_same_records(whole, killed)
+    killed_copy(whole, killed)
     (folder / "pair.txt").write_text("-0.6 0 0 1 2 0.5 0 0\n0.6 0 0 1 2 -0.5 0 0\n")
     changed = run(grains_bin, "resume", killed)
     assert changed.returncode == 1 and "another mass than the run's first frame" in changed.stderr, changed.stderr
@@ -192,10 +188,8 @@ def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root
     other slot, still ending with the unbroken run's records."""
     whole = tmp_path / "whole.h5"
     assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
-    killed = tmp_path / "killed.h5"
-    shutil.copy(whole, killed)
+    killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:
-        del f["grains"].attrs["status"]
         slots = sorted(("checkpoint_0", "checkpoint_1"), key=lambda k: f["grains"][k].attrs["step"])
         older, newest = (int(f["grains"][k].attrs["step"]) for k in slots)
         chunk = f["grains"][slots[1]].id.get_chunk_info(0)   # where its first chunk lies in the file
@@ -207,7 +201,4 @@ def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
     assert (older, newest) == (12000, 15000) and f"resumed      at step {older}" in resumed.stdout
-    a, b = records(whole), records(killed)
-    for name in a:
-        if not name.startswith("observables/cvode"):
-            assert np.array_equal(a[name][1], b[name][1], equal_nan=True), name
+    assert_same_records(whole, killed)
