@@ -208,7 +208,11 @@ void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint&
     fmt::print(stderr, "warning: '{}': the checkpoint at step {} does not restore ({}); trying the one before it\n", path,
                cp.step, e.what());
     cp = read_checkpoint(path, 1);
-    sim.restore_state(cp.state);
+    try {
+      sim.restore_state(cp.state);
+    } catch (const SimulationError& older) {
+      throw std::runtime_error(fmt::format("'{}': neither checkpoint restores ({})", path, older.what()));
+    }
   }
   if (sim.step_count() != cp.step)
     throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
