@@ -2,8 +2,9 @@
 
 #include <omp.h>
 
+#include <cstdint>
+#include <map>
 #include <mutex>
-#include <unordered_set>
 
 namespace grains::fmu {
 namespace {
@@ -11,7 +12,8 @@ namespace {
 // host freeing its instances while the process exits still finds it.
 struct Registry {
   std::mutex mutex;
-  std::unordered_set<const void*> live;
+  std::map<std::uintptr_t, std::unique_ptr<Instance>> live;
+  std::uintptr_t next = 0x1000;   // handles: aligned, never 0, never reused
 };
 Registry& registry() {
   static auto* r = new Registry;
@@ -19,24 +21,31 @@ Registry& registry() {
 }
 }  // namespace
 
-Instance* hand_out(std::unique_ptr<Instance> instance) {
+void* hand_out(std::unique_ptr<Instance> instance) {
   if (!instance) return nullptr;
   std::lock_guard lock(registry().mutex);
-  registry().live.insert(instance.get());
-  return instance.release();
+  const std::uintptr_t handle = registry().next;
+  registry().next += 16;
+  registry().live.emplace(handle, std::move(instance));
+  return reinterpret_cast<void*>(handle);
 }
 
-Instance* live_instance(const void* pointer) {
+Instance* live_instance(const void* handle) {
   std::lock_guard lock(registry().mutex);
-  return registry().live.contains(pointer) ? static_cast<Instance*>(const_cast<void*>(pointer)) : nullptr;
+  const auto it = registry().live.find(reinterpret_cast<std::uintptr_t>(handle));
+  return it == registry().live.end() ? nullptr : it->second.get();
 }
 
-void free_instance(const void* pointer) {
+void free_instance(const void* handle) {
+  std::unique_ptr<Instance> gone;
   {
     std::lock_guard lock(registry().mutex);
-    if (registry().live.erase(pointer) == 0) return;   // freed before, or never ours: nothing to do
+    const auto it = registry().live.find(reinterpret_cast<std::uintptr_t>(handle));
+    if (it == registry().live.end()) return;   // freed before, or never ours: nothing to do
+    gone = std::move(it->second);
+    registry().live.erase(it);
   }
-  delete static_cast<const Instance*>(pointer);
+  gone.reset();   // deleted outside the lock
   // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
   // thread outlives the instance. Another instance's next step simply starts a new pool.
   omp_pause_resource_all(omp_pause_soft);

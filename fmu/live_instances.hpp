@@ -1,5 +1,6 @@
-// The instances handed to the host, for FMI 2 and 3 alike. A host may pass back a pointer it has
-// freed already (a second free, a call after free): that pointer is refused, never dereferenced.
+// The instances handed to the host, for FMI 2 and 3 alike. The host gets an opaque handle, never the
+// instance's address: handles are not reused, so a pointer the host has freed already (a second free,
+// a call after free, even after a new instance took the old memory) is refused, never dereferenced.
 #pragma once
 #include <memory>
 
@@ -7,11 +8,11 @@
 
 namespace grains::fmu {
 
-// Registers the instance and returns it for the host (nullptr stays nullptr).
-Instance* hand_out(std::unique_ptr<Instance> instance);
-// The instance behind a host's pointer, or nullptr when it was never handed out or is freed.
-Instance* live_instance(const void* pointer);
-// Deletes a live instance; any other pointer is left alone.
-void free_instance(const void* pointer);
+// Registers the instance and returns its handle for the host (nullptr stays nullptr).
+void* hand_out(std::unique_ptr<Instance> instance);
+// The instance behind a host's handle, or nullptr when it was never handed out or is freed.
+Instance* live_instance(const void* handle);
+// Deletes a live instance; any other handle is left alone.
+void free_instance(const void* handle);
 
 }  // namespace grains::fmu

@@ -107,8 +107,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // resume`. The next stage's new target pressure restarts CVODE at its first step, which is where the
     // saved state restarts it too: the programme runs as it would without checkpoints.
     if (r.index + 1 < stages)
-      out.write_checkpoint(sim.step_count(), sim.time(), earlier_seconds + status.elapsed_seconds(), sim.save_state(),
-                           r.index);
+      out.write_checkpoint({.step = sim.step_count(), .stage = r.index, .time = sim.time(),
+                            .wall_seconds = earlier_seconds + status.elapsed_seconds(), .state = sim.save_state()});
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
     // moduli (NaN): say so rather than print numbers without saying what they are.
     const double mechanisms = value("moduli_mechanisms"), unstable = value("moduli_unstable_modes");
@@ -210,7 +210,7 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   for (const auto& line : kept) csv << line << '\n';
   csv << std::flush;
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
-  H5mdWriter out(path, cp.step, true, true, scene.boolean("output.xdmf"));   // a stage's end is one of its records
+  H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
   out.set_attribute("status", fmt::format("resumed after stage {}", cp.stage));
   if (!quiet) fmt::print(stderr, "resuming '{}' after stage {} (step {}, t = {:.6g})\n", path, cp.stage, cp.step, cp.time);
   return run_stages(scene, settings, *sim, out, csv, table, quiet, cp.stage + 1, unreached, cp.wall_seconds);

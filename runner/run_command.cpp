@@ -116,13 +116,15 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     sim.step_n(n);
     done += n;
     aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
-    stopping = interrupted;
+    stopping = interrupted && done < steps && !aggregated;   // a run that reached its end is complete
     const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, sim);
     if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, sim);
     // A stopped run always leaves one, so that `grains resume` can continue it.
     if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
-      out.write_checkpoint(done, sim.time(), earlier_seconds + progress.elapsed_seconds(), sim.save_state());
+      out.write_checkpoint({.step = done, .time = sim.time(), .wall_seconds = earlier_seconds + progress.elapsed_seconds(),
+                            .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
+                            .frame_at_step = snap_every > 0 && done % snap_every == 0});
     if (!quiet) progress.update(done);
   }
   progress.finish();
@@ -234,10 +236,7 @@ int resume_run(const std::string& path, bool quiet) {
   PreparedRun prepared = prepare_run(scene);
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
   restore_checkpoint(*prepared.sim, path, cp);
-  // A run stopped between its records recorded where it stopped: the unbroken run has no records there.
-  const long obs_every = scene.integer("output.observables_every"), snap_every = scene.integer("output.snapshots_every");
-  H5mdWriter out(path, cp.step, cp.step % obs_every == 0, snap_every > 0 && cp.step % snap_every == 0,
-                 scene.boolean("output.xdmf"));
+  H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);

@@ -35,6 +35,9 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
     cp.time = h5::read_attr_double(d.get(), "time", 0, path);
     cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
+    cp.observables_at_step = h5::read_attr_double(d.get(), "observables_at_step", 1, path) == 1;
+    cp.frame_at_step = h5::read_attr_double(d.get(), "frame_at_step", 1, path) == 1;
+    cp.warnings = long(h5::read_attr_double(d.get(), "warnings", -1, path));
     cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
     cp.scene_directory = h5::read_attr_string(g.get(), "scene_directory", "", path);
     cp.stage_table = stage_table;

@@ -9,11 +9,16 @@
 
 namespace grains {
 
+// What H5mdWriter::write_checkpoint stores (the first five fields) and read_checkpoint gives back.
 struct RunCheckpoint {
   long step = 0;
   int stage = -1;                         // `grains consolidate`: the programme's last finished stage; -1: `grains run`
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
   std::vector<std::byte> state;           // Simulation::save_state()
+  // Whether the observable records and the frame written at `step` are the unbroken run's: a run stopped
+  // between its scheduled records recorded where it stopped, and its resume drops those.
+  bool observables_at_step = true, frame_at_step = true;
+  long warnings = -1;                     // rows of /grains/warnings then (the writer counts them; -1: unknown)
   std::string scene_toml;                 // the resolved scene the run was started with
   std::string scene_directory;            // where the scene's relative file paths lie (particles.file)
   std::string stage_table;                // `grains consolidate`: the stage table, relative to the file's folder

@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "io/h5md_checkpoint.hpp"
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 #include "io/xdmf_writer.hpp"
@@ -201,9 +202,10 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   m.flush();
 }
 
-H5mdWriter::H5mdWriter(const std::string& path, long resume_step, bool observables_at_step, bool frame_at_step,
-                       bool write_xdmf)
+H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, bool write_xdmf)
     : impl_(std::make_unique<Impl>()) {
+  const long resume_step = resume.step;
+  const bool observables_at_step = resume.observables_at_step, frame_at_step = resume.frame_at_step;
   Impl& m = *impl_;
   m.path = path;
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
@@ -218,6 +220,7 @@ H5mdWriter::H5mdWriter(const std::string& path, long resume_step, bool observabl
   m.parameters = h5::open_group(root, "parameters", path);
   m.grains = h5::open_group(root, "grains", path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
+  if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
   auto members = [&](hid_t group, const std::string& what) {
     std::vector<std::string> names;
     auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
@@ -354,8 +357,7 @@ void H5mdWriter::flush() {
   impl_->flush();
 }
 
-void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state,
-                                  int stage) {
+void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   Impl& m = *impl_;
   m.flush();   // every record up to `step` is in the file before a checkpoint names that step
   const hid_t g = m.grains.get();
@@ -366,11 +368,14 @@ void H5mdWriter::write_checkpoint(long step, double time, double wall_seconds, c
                                               : h5::create_extendable(g, name, H5T_STD_U8LE, {}, {}, 1 << 16, m.path, true);
   h5::attr_double(d.get(), "valid", 0, m.path);
   h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
-  h5::overwrite_bytes(d.get(), state.data(), state.size(), m.path, what);
-  h5::attr_double(d.get(), "step", double(step), m.path);   // exact: steps stay below 1e15 (Simulation::max_steps)
-  h5::attr_double(d.get(), "time", time, m.path);
-  h5::attr_double(d.get(), "wall_seconds", wall_seconds, m.path);
-  h5::attr_double(d.get(), "stage", stage, m.path);
+  h5::overwrite_bytes(d.get(), cp.state.data(), cp.state.size(), m.path, what);
+  h5::attr_double(d.get(), "step", double(cp.step), m.path);   // exact: steps stay below 1e15 (Simulation::max_steps)
+  h5::attr_double(d.get(), "time", cp.time, m.path);
+  h5::attr_double(d.get(), "wall_seconds", cp.wall_seconds, m.path);
+  h5::attr_double(d.get(), "stage", cp.stage, m.path);
+  h5::attr_double(d.get(), "observables_at_step", cp.observables_at_step, m.path);
+  h5::attr_double(d.get(), "frame_at_step", cp.frame_at_step, m.path);
+  h5::attr_double(d.get(), "warnings", double(h5::shape(m.warnings.get(), m.path, "/grains/warnings").at(0)), m.path);
   h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
   h5::attr_double(d.get(), "valid", 1, m.path);
   m.flush();

@@ -8,6 +8,8 @@
 
 namespace grains {
 
+struct RunCheckpoint;
+
 // One particle snapshot; the writer copies nothing, the pointers need only live for the call.
 struct H5mdFrame {
   long step = 0;
@@ -29,10 +31,10 @@ class H5mdWriter {
   // Creates (truncates) `path`; throws std::runtime_error naming the path when that fails.
   H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
              const std::string& creator_version, const std::string& resolved_scene_toml, bool write_xdmf);
-  // Reopens a run's file to continue it from its checkpoint at `resume_step` (h5md_checkpoint.hpp): every
-  // record and frame written after that step is dropped, and those at that step unless it is one of their
-  // own steps (a run stopped between them recorded where it stopped), and appending goes on from there.
-  H5mdWriter(const std::string& path, long resume_step, bool observables_at_step, bool frame_at_step, bool write_xdmf);
+  // Reopens a run's file to continue it from its checkpoint (h5md_checkpoint.hpp): every record, frame and
+  // warning written after it is dropped, and the records at its step unless the checkpoint says they are the
+  // unbroken run's; appending goes on from there.
+  H5mdWriter(const std::string& path, const RunCheckpoint& resume, bool write_xdmf);
   ~H5mdWriter();
   H5mdWriter(const H5mdWriter&) = delete;
   H5mdWriter& operator=(const H5mdWriter&) = delete;
@@ -49,8 +51,8 @@ class H5mdWriter {
   void flush();                             // writes pending observables; the file stays readable if the process dies afterwards
   // The complete state at `step` (Simulation::save_state), in the older of two slots, so a run killed while
   // writing one keeps the other; the records up to `step` are flushed first (h5md_checkpoint.hpp reads it).
-  // `stage`: a consolidation programme's last finished stage (-1: none, a plain run).
-  void write_checkpoint(long step, double time, double wall_seconds, const std::vector<std::byte>& state, int stage = -1);
+  // Stores checkpoint's step, stage, time, wall_seconds, state and the *_at_step flags, and the warnings so far.
+  void write_checkpoint(const RunCheckpoint& checkpoint);
 
   const std::string& path() const;
   const std::string& xdmf_path() const;     // empty when XDMF is off

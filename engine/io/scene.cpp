@@ -163,9 +163,8 @@ Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std:
   if (!in) throw SceneError(fmt::format("cannot read scene file '{}': no such file or not readable", file.string()));
   std::stringstream buf;
   buf << in.rdbuf();
-  Scene s = from_string(buf.str(), origin.empty() ? file.string() : origin, overrides);
-  s.directory_ = std::filesystem::absolute(file).parent_path();
-  return s;
+  return from_string(buf.str(), origin.empty() ? file.string() : origin, overrides,
+                     std::filesystem::absolute(file).parent_path());
 }
 
 void Scene::set_value(std::string_view path, std::string_view toml_value) {

@@ -120,9 +120,15 @@ flag = ctypes.c_int if version == 2 else ctypes.c_bool   # noSetFMUStatePriorToC
 step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, flag] + [ctypes.c_void_p] * 4 * (version == 3)
 step.restype = ctypes.c_int
 extra = [None] * 4 * (version == 3)
+reset = fmu.dll[f"fmi{version}Reset"]
+reset.argtypes, reset.restype = [ctypes.c_void_p], ctypes.c_int
 free(c)
 free(c)   # a second free does nothing
-print(step(c, 0.0, 0.1, 0, *extra), step(ctypes.c_void_p(4096), 0.0, 0.1, 0, *extra))
+print(step(c, 0.0, 0.1, 0, *extra), step(ctypes.c_void_p(7), 0.0, 0.1, 0, *extra))
+# A new instance, which may take the freed one's memory: the freed handle still refers to nothing.
+fmu.instantiate()
+new = ctypes.c_void_p(fmu.component)
+print(new.value != c.value, reset(c), reset(new))
 """
 
 
@@ -132,4 +138,6 @@ def test_a_freed_instance_is_refused_not_dereferenced(version):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
     r = subprocess.run([sys.executable, "-c", FREED_INSTANCE_HOST, str(version)], capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
-    assert r.stdout.split() == ["3", "3"]   # fmi2Error / fmi3Error, for the freed pointer and for a stranger
+    # fmi2Error / fmi3Error for the freed handle and for a stranger; then a new handle, which works, while the
+    # freed one is still refused
+    assert r.stdout.split() == ["3", "3", "True", "3", "0"], r.stdout

@@ -49,6 +49,18 @@ def assert_same_records(whole, other):
             assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
 
 
+def interrupted(cmd, out, after):
+    """Starts a run, sends it SIGINT `after` seconds after its output file appears; returns (code, stdout, stderr)."""
+    p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(after)
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=60)
+    return p.returncode, stdout, stderr
+
+
 # A small self-gravitating cloud with the collision log, checkpointed every 3000 of its 15,527 steps.
 CLOUD = ["--set", "particles.count=200", "--set", "output.snapshots_every=2000", "--set", "output.checkpoint_every=3000",
          "--set", "analysis.collision_log=true", "--set", "run.threads=1", "--quiet"]
@@ -86,15 +98,8 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
     whole = tmp_path / "whole.h5"
     assert run(grains_bin, "run", *gas[:1], "--out", whole, *gas[1:]).returncode == 0
     stopped = tmp_path / "stopped.h5"
-    p = subprocess.Popen([grains_bin, "run", *map(str, gas[:1]), "--out", str(stopped), *map(str, gas[1:])],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while not stopped.exists() and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
-    time.sleep(0.5)
-    p.send_signal(signal.SIGINT)
-    out, err = p.communicate(timeout=60)
-    assert p.returncode == 130, "the run ended before the signal: make it longer\n" + err
+    code, out, err = interrupted([grains_bin, "run", gas[0], "--out", stopped, *gas[1:]], stopped, 0.5)
+    assert code == 130, "the run ended before the signal: make it longer\n" + err
     assert "grains resume" in out and status(stopped).startswith("interrupted at step ")
     step = int(status(stopped).split()[-1])
     resumed = run(grains_bin, "resume", stopped, "--quiet")
@@ -202,3 +207,39 @@ def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root
     assert resumed.returncode == 0, resumed.stderr
     assert (older, newest) == (12000, 15000) and f"resumed      at step {older}" in resumed.stdout
     assert_same_records(whole, killed)
+
+
+def test_a_programme_killed_while_writing_a_checkpoint_repeats_no_warning(grains_bin, root, tmp_path):
+    """Killed while writing a stage's checkpoint (that slot left invalid, the stage's warning already in the
+    file): the resume goes back to the stage before and rewrites the stage, its warning once."""
+    programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
+                 "programme.top_pressure=0.02", "--set", "programme.stage_budget=2000", "--quiet"]
+    whole, table = tmp_path / "whole.h5", tmp_path / "t.csv"
+    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", table, *programme[1:]).returncode == 0
+    whole_table = table.read_text()
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        warnings = [w.decode() for w in f["grains/warnings"][()]]
+        assert len(warnings) == 4   # every stage short of its budget
+        newest = max(("checkpoint_0", "checkpoint_1"), key=lambda k: f["grains"][k].attrs["step"])
+        f["grains"][newest].attrs["valid"] = 0.0
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    with h5py.File(killed) as f:
+        assert [w.decode() for w in f["grains/warnings"][()]] == warnings
+    assert table.read_text() == whole_table
+    assert_same_records(whole, killed)
+
+
+def test_a_signal_in_the_last_stretch_of_a_run_leaves_it_complete(grains_bin, root, tmp_path):
+    """A run whose signal arrives while it takes its last steps has reached its end: complete, its final
+    records kept, no checkpoint (one stretch here: records only at the start and the end)."""
+    out = tmp_path / "gas.h5"
+    cmd = [grains_bin, "run", root / "models/gas.toml", "--out", out, "--quiet", "--set", "particles.count=512", "--set",
+           "time.steps=300000", "--set", "output.observables_every=1000000", "--set", "output.snapshots_every=0",
+           "--set", "run.threads=1"]
+    code, _, err = interrupted(cmd, out, 0.3)
+    assert code == 0, err
+    assert status(out) == "complete"
+    with h5py.File(out) as f:
+        assert list(f["observables/kinetic_energy/step"][()]) == [0, 300000] and "checkpoint_0" not in f["grains"]
