@@ -278,6 +278,14 @@ def pyplot():
     return plt
 
 
+def plot_q(ax, points, colours):
+    """Q(t / t_ff) of each point's first seed, coloured by its zeta."""
+    for p in sorted(points, key=lambda p: p["zeta"]):
+        ax.plot(p["t"], p["q"], color=colours[p["zeta"]], lw=1, label=f"ζ = {p['zeta']:g}")
+    ax.set_yscale("log")
+    ax.set_xlabel("t / t_ff")
+
+
 def plot_sweep(points, x_key, title, path):
     """N_c / N and t_agg / t_ff against the swept parameter; for the damping sweep also Q(t / t_ff)."""
     plt = pyplot()
@@ -293,10 +301,7 @@ def plot_sweep(points, x_key, title, path):
         else:
             ax.set_xscale("log")
     if damping:
-        for p, colour in zip(points, plt.cm.viridis(np.linspace(0, 0.9, len(points)))):
-            axes[2].plot(p["t"], p["q"], color=colour, lw=1, label=f"ζ = {p['zeta']:g}")
-        axes[2].set_yscale("log")
-        axes[2].set_xlabel("t / t_ff")
+        plot_q(axes[2], points, dict(zip(x, plt.cm.viridis(np.linspace(0, 0.9, len(points))))))
         axes[2].set_ylabel("Q = K / |W| (first seed)")
         axes[2].legend(fontsize=6, ncol=2)
     fig.suptitle(title)
@@ -363,11 +368,8 @@ def plot_virial_map(points, damping, stiffness, path):
     fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 3.4 * rows), squeeze=False, sharey=True)
     colours = dict(zip(damping, plt.cm.viridis(np.linspace(0, 0.9, len(damping)))))
     for ax, k in zip(axes.flat, stiffness):
-        for p in sorted((p for p in points if p["k_star"] == k), key=lambda p: p["zeta"]):
-            ax.plot(p["t"], p["q"], color=colours[p["zeta"]], lw=1, label=f"ζ = {p['zeta']:g}")
-        ax.set_yscale("log")
+        plot_q(ax, [p for p in points if p["k_star"] == k], colours)
         ax.set_title(f"k* = {k:.0e}", fontsize=9)
-        ax.set_xlabel("t / t_ff")
     for ax in axes[:, 0]:
         ax.set_ylabel("Q = K / |W|")
     for ax in list(axes.flat)[len(stiffness):]:

@@ -16,6 +16,7 @@
 #include "io/scene.hpp"
 #include "progress.hpp"
 #include "protocols/consolidation_programme.hpp"
+#include "resume_command.hpp"
 #include "run_command.hpp"
 
 namespace grains {

@@ -6,6 +6,7 @@
 
 #include "consolidate_command.hpp"
 #include "io/scene.hpp"
+#include "resume_command.hpp"
 #include "run_command.hpp"
 
 int main(int argc, char** argv) {

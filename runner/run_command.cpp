@@ -6,7 +6,6 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
-#include <tuple>
 
 #include <fmt/format.h>
 
@@ -15,7 +14,7 @@
 #include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
-#include "consolidate_command.hpp"
+#include "resume_command.hpp"
 #include "progress.hpp"
 #include "protocols/run_length.hpp"
 
@@ -199,39 +198,7 @@ int run_scene(const RunOptions& opt) {
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
 
-Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
-  return Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), {}, cp.scene_directory);
-}
-
-void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp) {
-  try {
-    sim.restore_state(cp.state);
-  } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one
-    fmt::print(stderr, "warning: '{}': the checkpoint at step {} does not restore ({}); trying the one before it\n", path,
-               cp.step, e.what());
-    cp = read_checkpoint(path, 1);
-    try {
-      sim.restore_state(cp.state);
-    } catch (const SimulationError& older) {
-      throw std::runtime_error(fmt::format("'{}': neither checkpoint restores ({})", path, older.what()));
-    }
-  }
-  if (sim.step_count() != cp.step)
-    throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
-                                         sim.step_count()));
-  // Radii and masses come from the stored scene again (particles.file among it): they must be the run's.
-  const ParticleView p = sim.particles();
-  for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass}})
-    if (!stored->empty() && *rebuilt != *stored)
-      throw std::runtime_error(fmt::format(
-          "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
-          "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
-          cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
-}
-
-int resume_run(const std::string& path, bool quiet) {
-  RunCheckpoint cp = read_checkpoint(path);
-  if (cp.stage >= 0) return resume_consolidation(path, cp, quiet);
+int resume_plain_run(const std::string& path, RunCheckpoint& cp, bool quiet) {
   const Scene scene = stored_scene(path, cp);
   PreparedRun prepared = prepare_run(scene);
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");

@@ -22,16 +22,9 @@ struct RunOptions {
 // Validates the scene completely before touching the output file; returns the process exit code.
 int run_scene(const RunOptions& options);
 
-// `grains resume`: continues the run in `path` (its output file) from the newest checkpoint there, with the
-// scene stored in it; the records after that step are replaced. Returns the process exit code.
-int resume_run(const std::string& path, bool quiet);
-
-// For both resumes: the scene stored with a checkpoint, and the simulation built from it restored to the
-// checkpoint (the one before it if that state does not fit) after checking it has the run's particles.
+// `grains resume` of a `grains run` output (resume_command.hpp), at its checkpoint `cp`.
 struct RunCheckpoint;
-class Scene;
-Scene stored_scene(const std::string& path, const RunCheckpoint& cp);
-void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp);
+int resume_plain_run(const std::string& path, RunCheckpoint& cp, bool quiet);
 
 // `grains check`: the same checks as `run` without running (the simulation is built, the run length
 // resolved, warnings printed); prints the resolved scene and the derived time step and length.

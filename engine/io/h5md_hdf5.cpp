@@ -82,9 +82,7 @@ Handle create_group(hid_t parent, const std::string& name, const std::string& fi
 }
 
 Handle open_or_create_group(hid_t parent, const std::string& name, const std::string& file) {
-  if (check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up group " + name) > 0)
-    return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + name), H5Gclose);
-  return create_group(parent, name, file);
+  return exists(parent, name, file) ? open_group(parent, name, file) : create_group(parent, name, file);
 }
 
 Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,

@@ -1,0 +1,52 @@
+// `grains resume`: the checkpoint read, the scene it was stored with, the simulation restored and checked;
+// then the run or the programme goes on (run_command.cpp, consolidate_command.cpp).
+#include "resume_command.hpp"
+
+#include <stdexcept>
+#include <tuple>
+
+#include <fmt/format.h>
+
+#include "consolidate_command.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "run_command.hpp"
+
+namespace grains {
+
+int resume_run(const std::string& path, bool quiet) {
+  RunCheckpoint cp = read_checkpoint(path);
+  return cp.stage >= 0 ? resume_consolidation(path, cp, quiet) : resume_plain_run(path, cp, quiet);
+}
+
+Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
+  return Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), {}, cp.scene_directory);
+}
+
+void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp) {
+  try {
+    sim.restore_state(cp.state);
+  } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one
+    fmt::print(stderr, "warning: '{}': the checkpoint at step {} does not restore ({}); trying the one before it\n", path,
+               cp.step, e.what());
+    cp = read_checkpoint(path, 1);
+    try {
+      sim.restore_state(cp.state);
+    } catch (const SimulationError& older) {
+      throw std::runtime_error(fmt::format("'{}': neither checkpoint restores ({})", path, older.what()));
+    }
+  }
+  if (sim.step_count() != cp.step)
+    throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
+                                         sim.step_count()));
+  // Radii and masses come from the stored scene again (particles.file among it): they must be the run's.
+  const ParticleView p = sim.particles();
+  for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass}})
+    if (!stored->empty() && *rebuilt != *stored)
+      throw std::runtime_error(fmt::format(
+          "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
+          "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
+          cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
+}
+
+}  // namespace grains
