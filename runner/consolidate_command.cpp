@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -22,20 +21,6 @@
 namespace grains {
 
 namespace {
-
-// The value of the `reached` column of a table row.
-std::string reached_column(const std::string& header, const std::string& row) {
-  auto fields = [](const std::string& line) {
-    std::vector<std::string> out;
-    std::stringstream in(line);
-    for (std::string f; std::getline(in, f, ',');) out.push_back(f);
-    return out;
-  };
-  const auto names = fields(header), values = fields(row);
-  for (std::size_t k = 0; k < names.size() && k < values.size(); ++k)
-    if (names[k] == "reached") return values[k];
-  return "";
-}
 
 // The header and the rows of stages 0 .. last of a stage table (a resumed programme rewrites the rest).
 std::vector<std::string> table_up_to(const std::string& table, int last) {
@@ -108,7 +93,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // resume`. The next stage's new target pressure restarts CVODE at its first step, which is where the
     // saved state restarts it too: the programme runs as it would without checkpoints.
     if (r.index + 1 < stages)
-      out.write_checkpoint({.step = sim.step_count(), .stage = r.index, .time = sim.time(),
+      out.write_checkpoint({.step = sim.step_count(), .stage = r.index, .unreached = unreached, .time = sim.time(),
                             .wall_seconds = earlier_seconds + status.elapsed_seconds(), .state = sim.save_state()});
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
     // moduli (NaN): say so rather than print numbers without saying what they are.
@@ -205,8 +190,6 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   if (!std::filesystem::is_regular_file(table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
   const std::vector<std::string> kept = table_up_to(table, cp.stage);
-  long unreached = 0;   // counted again from the rows kept
-  for (std::size_t k = 1; k < kept.size(); ++k) unreached += reached_column(kept[0], kept[k]) == "0";
   std::ofstream csv(table, std::ios::trunc);
   for (const auto& line : kept) csv << line << '\n';
   csv << std::flush;
@@ -214,7 +197,7 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
   out.set_attribute("status", fmt::format("resumed after stage {}", cp.stage));
   if (!quiet) fmt::print(stderr, "resuming '{}' after stage {} (step {}, t = {:.6g})\n", path, cp.stage, cp.step, cp.time);
-  return run_stages(scene, settings, *sim, out, csv, table, quiet, cp.stage + 1, unreached, cp.wall_seconds);
+  return run_stages(scene, settings, *sim, out, csv, table, quiet, cp.stage + 1, cp.unreached, cp.wall_seconds);
 }
 
 }  // namespace grains

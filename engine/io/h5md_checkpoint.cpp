@@ -33,6 +33,7 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     if (readable++ < skip) continue;
     cp.step = long(step);
     cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
+    cp.unreached = long(h5::read_attr_double(d.get(), "unreached", 0, path));
     cp.time = h5::read_attr_double(d.get(), "time", 0, path);
     cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
     cp.observables_at_step = h5::read_attr_double(d.get(), "observables_at_step", 1, path) == 1;

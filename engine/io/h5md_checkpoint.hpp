@@ -9,10 +9,11 @@
 
 namespace grains {
 
-// What H5mdWriter::write_checkpoint stores (the first five fields) and read_checkpoint gives back.
+// What H5mdWriter::write_checkpoint stores (the first eight fields) and read_checkpoint gives back.
 struct RunCheckpoint {
   long step = 0;
   int stage = -1;                         // `grains consolidate`: the programme's last finished stage; -1: `grains run`
+  long unreached = 0;                     // `grains consolidate`: stages up to `stage` that missed their budget
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
   std::vector<std::byte> state;           // Simulation::save_state()
   // Whether the observable records and the frame written at `step` are the unbroken run's: a run stopped

@@ -227,6 +227,7 @@ def test_a_programme_killed_while_writing_a_checkpoint_repeats_no_warning(grains
     assert resumed.returncode == 0, resumed.stderr
     with h5py.File(killed) as f:
         assert [w.decode() for w in f["grains/warnings"][()]] == warnings
+    assert status(killed) == status(whole) == "complete; 4 stage(s) did not reach equilibrium"
     assert table.read_text() == whole_table
     assert_same_records(whole, killed)
 
