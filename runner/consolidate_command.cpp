@@ -17,14 +17,17 @@
 #include "protocols/consolidation_programme.hpp"
 #include "resume_command.hpp"
 #include "run_command.hpp"
+#include "stop_signal.hpp"
 
 namespace grains {
 
 namespace {
 
-// The header and the rows of stages 0 .. last of a stage table (a resumed programme rewrites the rest).
+// The header and the rows of stages 0 .. last of a stage table (a resumed programme rewrites the rest); none
+// when no stage had finished (the header comes with stage 0's row).
 std::vector<std::string> table_up_to(const std::string& table, int last) {
   std::vector<std::string> kept;
+  if (last < 0) return kept;
   std::ifstream in(table);
   std::string line;
   for (int row = -1; row <= last && std::getline(in, line); ++row) {
@@ -39,11 +42,11 @@ std::vector<std::string> table_up_to(const std::string& table, int last) {
   return kept;
 }
 
-// The programme from stage `first_stage` on, its table rows, records, checkpoints and summary: shared by a
-// fresh programme and a resumed one (which comes in with the stages that missed their budget and the wall
-// time before it).
+// The programme from `from` on, its table rows, records, checkpoints and summary: shared by a fresh
+// programme and a resumed one (which comes in with the stages that missed their budget and the wall time
+// before it).
 int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation& sim, H5mdWriter& out,
-               std::ofstream& csv, const std::string& table, bool quiet, int first_stage, long unreached,
+               std::ofstream& csv, const std::string& table, bool quiet, const StageProgress& from, long unreached,
                double earlier_seconds) {
   const std::string path = out.path(), name = scene.text("scene.name");
   const int stages = int(programme_stages(settings).size());
@@ -115,9 +118,28 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                  value("coordination"), quench_note, moduli);
     std::fflush(stdout);
   };
-  // Within a stage: what it waits for (one bonded cluster, or the four equilibrium ratios falling below 1).
-  auto on_check = [&](const StageRecord& r, long budget) {
-    if (quiet || !status.due()) return;
+  // Within a stage, at an equilibrium check: a checkpoint every output.checkpoint_every steps, and one where
+  // Ctrl-C or SIGTERM stops the programme; then what the stage waits for (one bonded cluster, or the four
+  // equilibrium ratios falling below 1).
+  const long checkpoint_every = scene.integer("output.checkpoint_every");
+  const auto next_multiple = [&] { return checkpoint_every > 0 ? (sim.step_count() / checkpoint_every + 1) * checkpoint_every : -1; };
+  long next_checkpoint = next_multiple();
+  bool stopped = false;
+  catch_stop_signals();
+  auto on_check = [&](const StageRecord& r, long budget, const StageProgress& at) {
+    stopped = stop_requested();
+    if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) {
+      out.write_checkpoint({.step = sim.step_count(), .stage = at.stage - 1, .unreached = unreached, .time = sim.time(),
+                            .wall_seconds = earlier_seconds + status.elapsed_seconds(), .state = sim.save_state(),
+                            .stage_progress = at.values()});
+      next_checkpoint = next_multiple();
+    }
+    if (stopped) {
+      status.finish();
+      out.set_attribute("status", fmt::format("interrupted in stage {} at step {}", at.stage, sim.step_count()));
+      out.flush();
+    }
+    if (stopped || quiet || !status.due()) return stopped;
     const double rate = double(sim.step_count() - first_step) * double(sim.particle_count()) / status.elapsed_seconds();
     const std::string waiting =
         r.phase == "aggregation"
@@ -128,27 +150,34 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     const std::string quench = r.quench_start >= 0 ? fmt::format("  quench from {}", r.quench_start) : "";
     status.show(fmt::format("  stage {} {} step {}/{}  Phi {:.4f}  {}{}  {:.3g} particle-steps/s", r.index, r.phase,
                             r.steps, budget, sim.get("solid_fraction"), waiting, quench, rate));
+    return false;
   };
-  const auto records = run_programme(sim, settings, on_stage, on_check, first_stage);
+  const auto records = run_programme(sim, settings, on_stage, on_check, from);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cvode = sim.get("cvode_seconds");
   const double rate = seconds > 0 ? double(sim.step_count() - first_step) * double(sim.particle_count()) / seconds : 0.0;
-  out.set_attribute("status", unreached ? fmt::format("complete; {} stage(s) did not reach equilibrium", unreached)
-                                        : std::string("complete"));
+  if (!stopped)
+    out.set_attribute("status", unreached ? fmt::format("complete; {} stage(s) did not reach equilibrium", unreached)
+                                          : std::string("complete"));
   out.set_scalar("wall_seconds", earlier_seconds + seconds);
   out.set_scalar("particle_steps_per_second", rate);
   out.set_scalar("cvode_share", seconds > 0 ? cvode / seconds : 0.0);
   out.flush();
-  fmt::print("  stages       {} ({} not reached)\n", first_stage + long(records.size()), unreached);
-  if (first_stage > 0)
-    fmt::print("  resumed      after stage {} at step {} (the wall time, rate and CVODE figures below are since then)\n",
-               first_stage - 1, first_step);
+  const long finished = from.stage + long(records.size());
+  if (stopped)
+    fmt::print("  stages       {} of {} finished ({} not reached)  INTERRUPTED in stage {} (continue it with grains resume)\n",
+               finished, stages, unreached, finished);
+  else
+    fmt::print("  stages       {} ({} not reached)\n", finished, unreached);
+  if (first_step > 0)
+    fmt::print("  resumed      at step {}, {} steps into stage {} (the wall time, rate and CVODE figures below are since "
+               "then)\n", first_step, from.steps, from.stage);
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g})\n", sim.step_count(), sim.dt(), sim.time());
   fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim.threads());
   fmt::print("  CVODE        {:.3f} s = {:.2f} % of the wall time ({} internal steps, {} restarts)\n", cvode,
              seconds > 0 ? 100 * cvode / seconds : 0.0, sim.get("cvode_steps"), sim.get("cvode_reinitialisations"));
   fmt::print("  table        {}\n  output       {}\n", table, path);
-  return 0;
+  return stopped ? 130 : 0;
 }
 
 }  // namespace
@@ -177,7 +206,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   write_observables(out, *sim);
   std::ofstream csv(table);
   if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
-  return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, 0, 0, 0.0);
+  return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0);
 }
 
 int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet) {
@@ -186,6 +215,14 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);
   restore_checkpoint(*sim, path, cp);
+  StageProgress from{cp.stage + 1, 0, {}};
+  if (!cp.stage_progress.empty()) try {   // stopped inside a stage
+      from = StageProgress::from_values(cp.stage_progress, settings);
+      if (from.stage != cp.stage + 1)
+        throw std::invalid_argument(fmt::format("stage {} under way after stage {}", from.stage, cp.stage));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(fmt::format("'{}': its checkpoint's stage_progress does not fit the stored programme ({})", path, e.what()));
+    }
   const std::string table = (std::filesystem::absolute(path).parent_path() / cp.stage_table).lexically_normal().string();
   if (!std::filesystem::is_regular_file(table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
@@ -195,9 +232,10 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   csv << std::flush;
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
-  out.set_attribute("status", fmt::format("resumed after stage {}", cp.stage));
-  if (!quiet) fmt::print(stderr, "resuming '{}' after stage {} (step {}, t = {:.6g})\n", path, cp.stage, cp.step, cp.time);
-  return run_stages(scene, settings, *sim, out, csv, table, quiet, cp.stage + 1, cp.unreached, cp.wall_seconds);
+  out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
+  if (!quiet)
+    fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);
+  return run_stages(scene, settings, *sim, out, csv, table, quiet, from, cp.unreached, cp.wall_seconds);
 }
 
 }  // namespace grains

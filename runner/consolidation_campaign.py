@@ -67,7 +67,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
     """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
     written as STEM.partial.csv and renamed when the programme ends, the output goes to STEM.h5 and the
     console to STEM.log. An interrupted run (its partial table and output left) continues from its last
-    finished stage (`grains resume`) if it was started with the same scene and overrides, or runs again
+    checkpoint (`grains resume`: a stage's end, or where Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again
     from the start when it was not or cannot. Returns the path of the table."""
     table = stem.with_suffix(".csv")
     if table.exists():

@@ -16,7 +16,8 @@ namespace grains {
 
 int resume_run(const std::string& path, bool quiet) {
   RunCheckpoint cp = read_checkpoint(path);
-  return cp.stage >= 0 ? resume_consolidation(path, cp, quiet) : resume_plain_run(path, cp, quiet);
+  // A programme's file names its stage table.
+  return cp.stage_table.empty() ? resume_plain_run(path, cp, quiet) : resume_consolidation(path, cp, quiet);
 }
 
 Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {

@@ -1,6 +1,5 @@
 #include "run_command.hpp"
 
-#include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -17,13 +16,9 @@
 #include "resume_command.hpp"
 #include "progress.hpp"
 #include "protocols/run_length.hpp"
+#include "stop_signal.hpp"
 
 namespace grains {
-namespace {
-
-volatile std::sig_atomic_t interrupted = 0;
-void on_signal(int) { interrupted = 1; }
-}  // namespace
 
 void check_output_path(const std::string& output, const std::string& scene_file) {
   namespace fs = std::filesystem;
@@ -103,8 +98,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     return next;
   };
 
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  catch_stop_signals();
   const long first = sim.step_count();
   Progress progress(steps, sim.particle_count(), first);
   long done = first;
@@ -115,7 +109,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     sim.step_n(n);
     done += n;
     aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
-    stopping = interrupted && done < steps && !aggregated;   // a run that reached its end is complete
+    stopping = stop_requested() && done < steps && !aggregated;   // a run that reached its end is complete
     const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, sim);
     if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, sim);

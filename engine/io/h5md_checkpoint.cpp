@@ -36,6 +36,7 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.unreached = long(h5::read_attr_double(d.get(), "unreached", 0, path));
     cp.time = h5::read_attr_double(d.get(), "time", 0, path);
     cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
+    cp.stage_progress = h5::read_attr_doubles(d.get(), "stage_progress", path);
     cp.observables_at_step = h5::read_attr_double(d.get(), "observables_at_step", 1, path) == 1;
     cp.frame_at_step = h5::read_attr_double(d.get(), "frame_at_step", 1, path) == 1;
     cp.warnings = long(h5::read_attr_double(d.get(), "warnings", -1, path));
@@ -57,8 +58,10 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   if (!slots.empty())
     throw std::runtime_error(fmt::format("'{}': its checkpoints are damaged (their checksums fail): nothing to resume from", path));
   if (!stage_table.empty())
-    throw std::runtime_error(fmt::format("'{}' has no checkpoint to resume from: the programme stopped before its first "
-                                         "stage ended (each stage but the last ends with one); run it again", path));
+    throw std::runtime_error(fmt::format(
+        "'{}' has no checkpoint to resume from: the programme was killed before its first (one is written at the end "
+        "of every stage but the last, where Ctrl-C or SIGTERM stops it, and every output.checkpoint_every steps); run "
+        "it again", path));
   throw std::runtime_error(fmt::format(
       "'{}' has no valid checkpoint to resume from: the run stopped before its first one (output.checkpoint_every sets "
       "the steps between them; with 0, the default, only a run stopped by Ctrl-C or SIGTERM writes one)", path));

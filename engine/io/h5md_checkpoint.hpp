@@ -9,13 +9,16 @@
 
 namespace grains {
 
-// What H5mdWriter::write_checkpoint stores (the first eight fields) and read_checkpoint gives back.
+// What H5mdWriter::write_checkpoint stores (the fields up to frame_at_step) and read_checkpoint gives back.
 struct RunCheckpoint {
   long step = 0;
   int stage = -1;                         // `grains consolidate`: the programme's last finished stage; -1: `grains run`
   long unreached = 0;                     // `grains consolidate`: stages up to `stage` that missed their budget
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
   std::vector<std::byte> state;           // Simulation::save_state()
+  // `grains consolidate` stopped inside a stage (StageProgress::values(): the stage under way, its steps and
+  // its quench's counters); empty: at the end of `stage`.
+  std::vector<double> stage_progress;
   // Whether the observable records and the frame written at `step` are the unbroken run's: a run stopped
   // between its scheduled records recorded where it stopped, and its resume drops those.
   bool observables_at_step = true, frame_at_step = true;

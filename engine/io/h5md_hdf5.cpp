@@ -260,6 +260,20 @@ void attr_double(hid_t obj, const std::string& name, double value, const std::st
   write_attribute(obj, name, H5T_NATIVE_DOUBLE, scalar_space(file), &value, file);
 }
 
+void attr_doubles(hid_t obj, const std::string& name, const std::vector<double>& values, const std::string& file) {
+  if (values.empty()) return drop_attribute(obj, name, file);
+  write_attribute(obj, name, H5T_NATIVE_DOUBLE, simple_space({values.size()}, nullptr, file), values.data(), file);
+}
+
+std::vector<double> read_attr_doubles(hid_t obj, const std::string& name, const std::string& file) {
+  if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return {};
+  Handle a(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), file, "opening attribute " + name), H5Aclose);
+  Handle space(check(H5Aget_space(a.get()), file, "reading the shape of attribute " + name), H5Sclose);
+  std::vector<double> values(std::size_t(check(H5Sget_simple_extent_npoints(space.get()), file, "sizing attribute " + name)));
+  if (!values.empty()) check(H5Aread(a.get(), H5T_NATIVE_DOUBLE, values.data()), file, "reading attribute " + name);
+  return values;
+}
+
 Handle vlen_string_type(const std::string& file) {
   Handle t(check(H5Tcopy(H5T_C_S1), file, "creating a string type"), H5Tclose);
   check(H5Tset_size(t.get(), H5T_VARIABLE), file, "creating a string type");

@@ -80,6 +80,9 @@ void attr_fixed_string(hid_t obj, const std::string& name, const std::string& va
 void attr_ints(hid_t obj, const std::string& name, const std::vector<int>& values, bool scalar,
                const std::string& file);
 void attr_double(hid_t obj, const std::string& name, double value, const std::string& file);
+// A one-axis array attribute; an empty one is removed (absent reads back as empty).
+void attr_doubles(hid_t obj, const std::string& name, const std::vector<double>& values, const std::string& file);
+std::vector<double> read_attr_doubles(hid_t obj, const std::string& name, const std::string& file);
 
 // A scalar variable-length UTF-8 string dataset.
 void dataset_string(hid_t parent, const std::string& name, const std::string& value, const std::string& file);

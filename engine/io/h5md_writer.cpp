@@ -374,6 +374,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   h5::attr_double(d.get(), "wall_seconds", cp.wall_seconds, m.path);
   h5::attr_double(d.get(), "stage", cp.stage, m.path);
   h5::attr_double(d.get(), "unreached", double(cp.unreached), m.path);
+  h5::attr_doubles(d.get(), "stage_progress", cp.stage_progress, m.path);
   h5::attr_double(d.get(), "observables_at_step", cp.observables_at_step, m.path);
   h5::attr_double(d.get(), "frame_at_step", cp.frame_at_step, m.path);
   h5::attr_double(d.get(), "warnings", double(h5::shape(m.warnings.get(), m.path, "/grains/warnings").at(0)), m.path);

@@ -290,10 +290,11 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps between particle snapshots; 0 = first and last only."},
       {"output.xdmf", K::boolean, "true", 0, 0, false, false, "", "Write an XDMF file beside the HDF5 file (ParaView)."},
       {"output.checkpoint_every", K::integer, "0", 0, 9.2e18, false, false, "",
-       "Steps between checkpoints of the complete state in the output file (`grains run`), from which "
-       "`grains resume FILE.h5` continues a run that was killed; 0 = only when the run is stopped by Ctrl-C or "
-       "SIGTERM. In a pressure-controlled cell each checkpoint restarts CVODE, which changes the run at the level "
-       "of its tolerance."},
+       "Steps between checkpoints of the complete state in the output file, from which `grains resume FILE.h5` "
+       "continues a run or programme that was killed; 0 = only when stopped by Ctrl-C or SIGTERM (and, in "
+       "`grains consolidate`, at the end of every stage but the last). A programme writes them at the first "
+       "equilibrium check past every multiple of N. In a pressure-controlled cell each checkpoint restarts "
+       "CVODE, which changes the run at the level of its tolerance."},
   };
   return schema;
 }

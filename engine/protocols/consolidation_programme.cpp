@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -102,57 +103,17 @@ bool has(const Simulation& s, const std::string& name) {
 class Runner {
  public:
   Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage,
-         const std::function<void(const StageRecord&, long)>& on_check, int first_stage)
-      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), network_(has(s, "network.mark")), first_(first_stage) {
+         const StageCheck& on_check, const StageProgress& from)
+      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), network_(has(s, "network.mark")), from_(from) {
     for (const char* name : recorded)
       if (has(s, name)) names_.emplace_back(name);
     for (const auto& v : s.variables())
       if (v.name.rfind("force_histogram_", 0) == 0) names_.push_back(v.name);
   }
 
-  // Run until `done` holds (checked every check_every steps) or the budget is spent.
-  template <class Done>
-  void stage(const std::string& phase, double target, long budget, Done done) {
-    StageRecord r;
-    r.index = first_ + int(records_.size());
-    r.phase = phase;
-    r.target = target;
-    while (r.steps < budget) {
-      const long n = std::min(p_.check_every, budget - r.steps);
-      s_.step_n(n);
-      r.steps += n;
-      if (done(r)) {
-        r.reached = true;
-        break;
-      }
-      if (on_check_) on_check_(r, budget);
-    }
-    r.time = s_.time();
-    for (const auto& name : names_) r.values.emplace_back(name, s_.get(name));
-    // Contacts kept / lost / gained are counted from the previous stage's end: it becomes the reference.
-    if (network_) s_.set("network.mark", double(r.index + 1));
-    if (on_stage_) on_stage_(r);
-    records_.push_back(std::move(r));
-  }
-
-  void equilibrate(const std::string& phase, double target) {
-    if (s_.get("cell.active") != 1) s_.set("cell.active", 1);   // released after the aggregation
-    s_.set("cell.pressure", target);
-    QuenchSettings q = p_.quench;
-    if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
-    StageQuench quench(s_, q);
-    stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
-      const bool reached = quench.in_equilibrium(r.steps);
-      r.quench_start = quench.start();
-      r.quench_drag = quench.drag();
-      return reached;
-    });
-    quench.end();
-  }
-
   std::vector<StageRecord> run() {
     const auto stages = programme_stages(p_);
-    for (std::size_t k = std::size_t(first_); k < stages.size(); ++k) {
+    for (std::size_t k = std::size_t(from_.stage); k < stages.size() && !stopped_; ++k) {
       const auto& [phase, P] = stages[k];
       if (phase == "aggregation") {   // in a fixed cell
         s_.set("cell.active", 0);
@@ -165,22 +126,93 @@ class Runner {
   }
 
  private:
+  // Run until `done` holds (checked every check_every steps) or the budget is spent; `quench` gives the
+  // stage's quench progress for on_check. The first stage run may continue one begun before (from_).
+  template <class Done, class Quench>
+  void stage(const std::string& phase, double target, long budget, Done done, Quench quench) {
+    StageRecord r;
+    r.index = from_.stage + int(records_.size());
+    r.phase = phase;
+    r.target = target;
+    if (records_.empty()) r.steps = from_.steps;
+    while (r.steps < budget) {
+      const long n = std::min(p_.check_every, budget - r.steps);
+      s_.step_n(n);
+      r.steps += n;
+      if (done(r)) {
+        r.reached = true;
+        break;
+      }
+      if (r.steps < budget && on_check_ && on_check_(r, budget, StageProgress{r.index, r.steps, quench()})) {
+        stopped_ = true;
+        return;
+      }
+    }
+    r.time = s_.time();
+    for (const auto& name : names_) r.values.emplace_back(name, s_.get(name));
+    // Contacts kept / lost / gained are counted from the previous stage's end: it becomes the reference.
+    if (network_) s_.set("network.mark", double(r.index + 1));
+    if (on_stage_) on_stage_(r);
+    records_.push_back(std::move(r));
+  }
+  template <class Done>
+  void stage(const std::string& phase, double target, long budget, Done done) {
+    stage(phase, target, budget, done, [] { return std::vector<double>{}; });
+  }
+
+  void equilibrate(const std::string& phase, double target) {
+    if (s_.get("cell.active") != 1) s_.set("cell.active", 1);   // released after the aggregation
+    s_.set("cell.pressure", target);
+    QuenchSettings q = p_.quench;
+    if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
+    StageQuench quench(s_, q);
+    if (records_.empty() && from_.steps > 0) quench.resume(from_.quench);
+    stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
+      const bool reached = quench.in_equilibrium(r.steps);
+      r.quench_start = quench.start();
+      r.quench_drag = quench.drag();
+      return reached;
+    }, [&] { return quench.progress(); });
+    if (!stopped_) quench.end();   // stopped: the simulation stays as its checkpoint has it
+  }
+
   Simulation& s_;
   const ProgrammeSettings& p_;
   const std::function<void(const StageRecord&)>& on_stage_;
-  const std::function<void(const StageRecord&, long)>& on_check_;
+  const StageCheck& on_check_;
   bool network_;
-  int first_;
+  StageProgress from_;
+  bool stopped_ = false;
   std::vector<std::string> names_;
   std::vector<StageRecord> records_;
 };
 
 }  // namespace
 
+std::vector<double> StageProgress::values() const {
+  std::vector<double> v{double(stage), double(steps)};
+  v.insert(v.end(), quench.begin(), quench.end());
+  return v;
+}
+
+StageProgress StageProgress::from_values(const std::vector<double>& v, const ProgrammeSettings& p) {
+  const auto stages = programme_stages(p);
+  if (v.size() < 2 || v[0] < 0 || v[0] >= double(stages.size()) || v[0] != std::floor(v[0]))
+    throw std::invalid_argument(fmt::format("the stage under way is not one of the programme's {} stages", stages.size()));
+  StageProgress s{int(v[0]), long(v[1]), std::vector<double>(v.begin() + 2, v.end())};
+  const bool aggregation = stages[std::size_t(s.stage)].first == "aggregation";
+  const long budget = aggregation ? p.aggregation_budget : p.stage_budget;
+  if (s.steps < 0 || s.steps >= budget)
+    throw std::invalid_argument(fmt::format("stage {} is {} steps in, outside its budget of {}", s.stage, s.steps, budget));
+  if (s.quench.size() != (aggregation || s.steps == 0 ? 0u : 9u))
+    throw std::invalid_argument(fmt::format("stage {}'s quench has {} numbers", s.stage, s.quench.size()));
+  return s;
+}
+
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
                                        const std::function<void(const StageRecord&)>& on_stage,
-                                       const std::function<void(const StageRecord&, long)>& on_check, int first_stage) {
-  return Runner(s, p, on_stage, on_check, first_stage).run();
+                                       const StageCheck& on_check, const StageProgress& from) {
+  return Runner(s, p, on_stage, on_check, from).run();
 }
 
 }  // namespace grains

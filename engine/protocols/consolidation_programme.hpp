@@ -51,14 +51,28 @@ std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeS
 // P* = 0, the prepared state at the start pressure, then programme_pressures.
 std::vector<std::pair<std::string, double>> programme_stages(const ProgrammeSettings& p);
 
+// Where a programme stands between two equilibrium checks of a stage: with the simulation's state saved at
+// the same step, enough to continue it as the unbroken programme goes on (a checkpoint inside a stage).
+struct StageProgress {
+  int stage = 0;                // the stage under way
+  long steps = 0;               // its steps so far (0: from its start)
+  std::vector<double> quench;   // StageQuench::progress(); empty for the aggregation, which has no quench
+
+  std::vector<double> values() const;   // stage, steps, quench..., as a checkpoint stores them
+  // Throws std::invalid_argument naming what does not fit the programme `p`.
+  static StageProgress from_values(const std::vector<double>& values, const ProgrammeSettings& p);
+};
+
 // on_stage: after every stage (the simulation at the stage's end, the next stage not begun: a state saved
-// there continues the programme from stage index + 1). on_check: after every equilibrium check that did not
-// end the stage, with the stage so far (steps, no values) and its budget -- for progress reports.
-// first_stage > 0 continues a programme whose earlier stages ran before (the simulation restored to the end
-// of stage first_stage - 1); the records returned are those of the stages run now.
+// there continues the programme from stage index + 1). on_check: after every equilibrium check that neither
+// ended the stage nor spent its budget, with the stage so far (steps, no values), its budget and where the
+// programme stands; returning true stops the programme there (the stage not finished, not recorded).
+// `from` continues a programme whose earlier stages ran before (the simulation restored to the end of stage
+// from.stage - 1, or, with from.steps > 0, to that step of stage from.stage); the records returned are those
+// of the stages finished now.
+using StageCheck = std::function<bool(const StageRecord&, long budget, const StageProgress&)>;
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
                                        const std::function<void(const StageRecord&)>& on_stage = {},
-                                       const std::function<void(const StageRecord&, long)>& on_check = {},
-                                       int first_stage = 0);
+                                       const StageCheck& on_check = {}, const StageProgress& from = {});
 
 }  // namespace grains

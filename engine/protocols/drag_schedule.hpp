@@ -10,6 +10,7 @@
 // those down too, and three of them then missed their budgets.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <limits>
 
 namespace grains {
@@ -37,6 +38,10 @@ class DragSchedule {
 
   // The quench was switched off: a new quench starts new windows (at the drag reached so far).
   void restart() { best_ = previous_best_ = none(), checks_ = 0; }
+
+  // Where the schedule stands (a programme's checkpoint between two checks), and back.
+  std::array<double, 4> progress() const { return {value_, double(checks_), best_, previous_best_}; }
+  void resume(const std::array<double, 4>& p) { value_ = p[0], checks_ = long(p[1]), best_ = p[2], previous_best_ = p[3]; }
 
  private:
   static double none() { return std::numeric_limits<double>::infinity(); }

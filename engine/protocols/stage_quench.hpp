@@ -15,6 +15,8 @@
 // All state but the counters lives in the Simulation (its tunable parameters).
 #pragma once
 #include <cmath>
+#include <stdexcept>
+#include <vector>
 
 #include "core/simulation.hpp"
 #include "protocols/drag_schedule.hpp"
@@ -80,6 +82,19 @@ class StageQuench {
     if (q_.background > 0) s_.set("drag.rate", 0.0);
   }
 
+  // Where the quench stands between two checks, for a programme's checkpoint; resume() continues a quench
+  // built anew for the same stage from it (the simulation restored to the same step).
+  std::vector<double> progress() const {
+    const auto d = drag_.progress();
+    return {double(on_), double(settled_checks_), double(confirmed_), run_phi_, double(start_), d[0], d[1], d[2], d[3]};
+  }
+  void resume(const std::vector<double>& p) {
+    if (p.size() != 9) throw std::invalid_argument("a stage quench's progress has 9 numbers");
+    on_ = p[0] != 0, settled_checks_ = long(p[1]), confirmed_ = long(p[2]), run_phi_ = p[3], start_ = long(p[4]);
+    drag_.resume({p[5], p[6], p[7], p[8]});
+    apply(on_);
+  }
+
   long start() const { return start_; }   // steps into the stage at the first switch-on; -1: never
   bool on() const { return on_; }
   double drag() const { return drag_.value(); }   // gamma T of the drag now (stepped down, or as set)
@@ -87,12 +102,16 @@ class StageQuench {
  private:
   // What is not used is left alone: the scene's own drag.rate or rolling.damping_ratio then stays.
   void switch_quench(bool on) {
-    if (q_.drag > 0 || q_.background > 0)
-      s_.set("drag.rate", (on && q_.drag > 0 ? drag_.value() : q_.background) / s_.get("inertial_time"));
-    if (q_.damping > 0) s_.set("rolling.damping_ratio", on ? q_.damping : 0.0);
+    apply(on);
     if (!on) drag_.restart();
     on_ = on && q_.any();
     settled_checks_ = 0, confirmed_ = 0;
+  }
+  // The simulation's drag and rolling dashpot as the quench on or off asks.
+  void apply(bool on) {
+    if (q_.drag > 0 || q_.background > 0)
+      s_.set("drag.rate", (on && q_.drag > 0 ? drag_.value() : q_.background) / s_.get("inertial_time"));
+    if (q_.damping > 0) s_.set("rolling.damping_ratio", on ? q_.damping : 0.0);
   }
 
   Simulation& s_;

@@ -105,3 +105,60 @@ TEST_CASE("bonded clusters: connected components of the contact and bond graph",
   CHECK(count_bonded_clusters(5, links) == 1);
   CHECK(count_bonded_clusters(3, {}) == 3);
 }
+
+TEST_CASE("programme: stopped inside a stage and continued from its state and progress, it ends as the unbroken one",
+          "[programme][checkpoint]") {
+  auto scene = Scene::from_string(small_programme(400000), "programme");
+  const auto settings = ProgrammeSettings::from_scene(scene);
+  // Saving a state restarts CVODE at the next step, so both programmes save at the same checks of stage 1:
+  // every 2000 steps, and the unbroken one also at its first check with the quench on, which is where the
+  // other continues from. From there on the two must agree to the last bit.
+  std::vector<std::byte> saved;
+  StageProgress at;
+  auto saving = [&](Simulation& s, bool unbroken) {
+    return [&s, &saved, &at, unbroken](const StageRecord& r, long, const StageProgress& p) {
+      const bool resume_point = unbroken && saved.empty() && !p.quench.empty() && p.quench[0] == 1;
+      if (r.index == 1 && (r.steps % 2000 == 0 || resume_point)) {
+        auto bytes = s.save_state();
+        if (resume_point) saved = std::move(bytes), at = p;
+      }
+      return false;
+    };
+  };
+  auto a = Simulation::create(scene);
+  const auto whole = run_programme(*a, settings, {}, saving(*a, true));
+  REQUIRE(!saved.empty());   // the quench was on in stage 1: its counters are part of what continues
+  CHECK(at.stage == 1);
+  CHECK(at.quench.size() == 9);
+  CHECK(StageProgress::from_values(at.values(), settings).steps == at.steps);
+
+  auto b = Simulation::create(scene);
+  b->restore_state(saved);
+  const auto rest = run_programme(*b, settings, {}, saving(*b, false), at);
+  REQUIRE(whole.size() == 3);
+  REQUIRE(rest.size() == 2);
+  for (std::size_t k = 0; k < rest.size(); ++k) {
+    const StageRecord &x = whole[k + 1], &y = rest[k];
+    INFO("stage " << x.index);
+    CHECK(y.index == x.index);
+    CHECK(y.steps == x.steps);
+    CHECK(y.reached == x.reached);
+    CHECK(y.time == x.time);
+    CHECK(y.quench_start == x.quench_start);
+    CHECK(y.quench_drag == x.quench_drag);
+    REQUIRE(y.values.size() == x.values.size());
+    for (std::size_t v = 0; v < x.values.size(); ++v) {
+      INFO(x.values[v].first);
+      CHECK((y.values[v].second == x.values[v].second || (std::isnan(x.values[v].second) && std::isnan(y.values[v].second))));
+    }
+  }
+  CHECK(b->save_state() == a->save_state());
+}
+
+TEST_CASE("programme: a stage's progress that does not fit the programme is refused", "[programme][checkpoint]") {
+  const auto settings = ProgrammeSettings::from_scene(Scene::from_string(small_programme(1000), "programme"));
+  CHECK_THROWS_WITH(StageProgress::from_values({7, 100}, settings), Catch::Contains("3 stages"));
+  CHECK_THROWS_WITH(StageProgress::from_values({1, 1000}, settings), Catch::Contains("budget of 1000"));
+  CHECK_THROWS_WITH(StageProgress::from_values({1, 100, 0, 1}, settings), Catch::Contains("quench has 2 numbers"));
+  CHECK(StageProgress::from_values({2, 0}, settings).stage == 2);
+}

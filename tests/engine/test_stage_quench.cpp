@@ -278,7 +278,10 @@ TEST_CASE("quench: the programme's background drag acts in its stages under pres
   auto s = Simulation::create(scene);
   double least = 1e300;
   const auto stages = run_programme(*s, ProgrammeSettings::from_scene(scene), {},
-                                    [&](const StageRecord&, long) { least = std::min(least, s->get("drag.rate")); });
+                                    [&](const StageRecord&, long, const StageProgress&) {
+                                      least = std::min(least, s->get("drag.rate"));
+                                      return false;
+                                    });
   REQUIRE(stages.size() == 1);
   CHECK(stages[0].reached);
   CHECK(least == Approx(0.05 / s->get("inertial_time")).epsilon(1e-12));   // never below it in the stage

@@ -138,7 +138,7 @@ def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp
                 "finished programme": "holds a finished run (status 'complete; 4 stage(s) did not reach equilibrium')",
                 "no checkpoint": "has no valid checkpoint to resume from",
                 "not a run": "file signature not found",
-                "programme in its first stage": "the programme stopped before its first stage ended"}[case]
+                "programme in its first stage": "the programme was killed before its first"}[case]
     assert str(out) in done.stderr and expected in done.stderr, done.stderr
 
 
@@ -161,7 +161,64 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
         f["observables/solid_fraction/value"][-1] = 0.0
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
-    assert f"resumed      after stage {stage}" in resumed.stdout
+    assert f"0 steps into stage {stage + 1}" in resumed.stdout
+    assert killed_table.read_text() == whole_table.read_text()
+    assert_same_records(whole, killed)
+
+
+# A type-2 programme of 200 disks: its aggregation takes about 1 million of its 1.16 million steps.
+TYPE2 = ["--set", "particles.count=200", "--set", "programme.top_pressure=0.02", "--set", "programme.stage_budget=20000",
+         "--set", "run.threads=1", "--quiet"]
+
+
+def test_a_programme_stopped_by_a_signal_inside_a_stage_resumes_there(grains_bin, root, tmp_path):
+    """Ctrl-C stops `grains consolidate` at its next equilibrium check with a checkpoint, inside the stage (here
+    the aggregation, whose fixed cell needs no CVODE restart); the resume goes on from that step and ends as the
+    programme that was never stopped, table and records bit for bit."""
+    scene = root / "models/consolidation.toml"
+    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
+    assert run(grains_bin, "consolidate", scene, "--out", whole, "--table", whole_table, *TYPE2).returncode == 0
+    stopped, table = tmp_path / "stopped.h5", tmp_path / "stopped.csv"
+    code, out, err = interrupted([grains_bin, "consolidate", scene, "--out", stopped, "--table", table, *TYPE2], stopped, 0.5)
+    assert code == 130, "the programme ended before the signal\n" + err
+    assert "INTERRUPTED in stage 0" in out and status(stopped).startswith("interrupted in stage 0 at step ")
+    step = int(status(stopped).split()[-1])
+    with h5py.File(stopped) as f:
+        assert step % 100 == 0 and f["grains/checkpoint_0"].attrs["step"] == step
+        assert list(f["grains/checkpoint_0"].attrs["stage_progress"]) == [0, step]   # the aggregation has no quench
+    resumed = run(grains_bin, "resume", stopped, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resumed      at step {step}, {step} steps into stage 0" in resumed.stdout
+    assert table.read_text() == whole_table.read_text()
+    assert status(stopped) == status(whole)
+    assert_same_records(whole, stopped)
+
+
+def test_a_programme_killed_inside_a_stage_resumes_from_its_last_checkpoint_with_the_quench_as_it_was(grains_bin, root,
+                                                                                                      tmp_path):
+    """With output.checkpoint_every a programme also saves inside its stages, the quench's counters with the state
+    (here, in the last stage: quenched from step 49,100 of it and four checks into confirming its equilibrium).
+    Saving restarts CVODE (its history is not saved), so the reference is the same programme with the same
+    checkpoints, never killed: the resume from its last one ends with its table and records."""
+    programme = [root / "models/cohesionless.toml", "--set", "particles.count=100", "--set", "programme.load=true",
+                 "--set", "programme.unload=false", "--set", "programme.top_pressure=1.4e-5", "--set",
+                 "programme.stage_budget=300000", "--set", "output.checkpoint_every=1000", "--set", "run.threads=1",
+                 "--quiet"]
+    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
+    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:]).returncode == 0
+    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
+    rows = whole_table.read_text().splitlines()
+    assert len(rows) == 3 and ",49100,1," in rows[2]   # stage 1 quenched from its step 49,100, drag gamma T 1
+    killed_table.write_text(rows[0] + "\n" + rows[1] + "\n")
+    with h5py.File(killed, "r+") as f:
+        f["grains"].attrs["stage_table"] = killed_table.name
+        newest = max(("checkpoint_0", "checkpoint_1"), key=lambda k: f["grains"][k].attrs["step"])
+        progress = list(f["grains"][newest].attrs["stage_progress"])
+    # Stage 1, steps into it; the quench off, 16 settled checks, 4 confirming, started at 49,100.
+    assert progress[0] == 1 and progress[2:5] == [0, 16, 4] and progress[6] == 49100, progress
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"{int(progress[1])} steps into stage 1" in resumed.stdout
     assert killed_table.read_text() == whole_table.read_text()
     assert_same_records(whole, killed)
 
