@@ -33,6 +33,12 @@ class Barostat {
     target_ = p;
     ode_.set_rate_cap(rate_cap);
   }
+  // A target that moves a little every step (a ramp): like the stress, part of the forcing CVODE follows
+  // with its history kept.
+  void follow_target_pressure(double p, double rate_cap) {
+    target_ = p;
+    ode_.set_rate_cap(rate_cap);
+  }
   // Held: the cell stops and stays at rest (the caller stops advancing it); released: CVODE restarts
   // from rest at the next advance.
   void hold() { rate_.setZero(), reset_pending_ = true; }

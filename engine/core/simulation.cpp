@@ -23,6 +23,7 @@
 #include "cell/affine_contact_damping.hpp"
 #include "cell/barostat.hpp"
 #include "cell/equilibrium.hpp"
+#include "cell/pressure_ramp.hpp"
 #include "core/dashpot_stability.hpp"
 #include "core/integrator.hpp"
 #include "core/system.hpp"
@@ -220,7 +221,8 @@ class SimulationImpl final : public Simulation {
   // First word of a saved state: "GRN" and a version, raised whenever the layout changes (version 2: the
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
-  // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact).
+  // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact; a scene with
+  // a pressure ramp, new since, appends the ramp's on flag).
   // States of builds before the word start with D (2, 3).
   static constexpr std::uint32_t state_format = 0x47524e07;
 
@@ -239,6 +241,7 @@ class SimulationImpl final : public Simulation {
     if (barostat_) barostat_->save(w), w.put(contact_stress_);
     if (collisions_) collisions_->save(w);
     for (const auto& [index, c] : controls_) w.put(c.get());
+    if (has_ramp_) w.put(ramp_.on);   // after the controls: restoring cell.pressure ends the ramp, this resumes it
     return w.take();
   }
   // A state that does not fit leaves the simulation as it was.
@@ -276,6 +279,7 @@ class SimulationImpl final : public Simulation {
     }
     if (collisions_) collisions_->load(r);
     for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
+    if (has_ramp_) ramp_.on = r.get<bool>();
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     for (auto& stamp : refreshed_) stamp = {};
   }
@@ -444,6 +448,17 @@ class SimulationImpl final : public Simulation {
     if (force_unit_ == 0 && target_reduced_ == 0)
       scene.fail("cell.pressure", "value 0 is not allowed when cell.force_unit = 0 (cohesionless): a pressure > 0 "
                                   "sets the force scale of the equilibrium test and the strain-rate cap");
+    if (scene.has("cell.pressure_final")) {
+      if (!scene.has("cell.ramp_duration"))
+        scene.fail("cell.ramp_duration", "missing: a ramp to cell.pressure_final needs the time it takes, a value > 0");
+      ramp_ = {target_reduced_, scene.real("cell.pressure_final"), sys_.time, scene.real("cell.ramp_duration"), true};
+      if (force_unit_ == 0 && ramp_.to == 0)
+        scene.fail("cell.pressure_final", "value 0 is not allowed when cell.force_unit = 0 (cohesionless): a value > 0");
+      has_ramp_ = true;
+    } else if (scene.has("cell.ramp_duration")) {
+      scene.fail("cell.ramp_duration", fmt::format("value {} without cell.pressure_final: give the ramp's final P* "
+                                                   "too, or drop the duration", scene.real("cell.ramp_duration")));
+    }
     CellLengthParameters p;
     p.axes = D;
     // Default M_c = m (L / a)^(D-2): the contacts' damping of the cell (affine_contact_damping) and its
@@ -474,6 +489,13 @@ class SimulationImpl final : public Simulation {
     return std::sqrt(length_unit_ * grain_mass_ / force_scale(reduced_pressure));
   }
   double rate_cap(double reduced_pressure) const { return inertia_number_ / inertial_time(reduced_pressure); }
+
+  // The ramp's target for the step about to be taken (frozen over it, like the stress).
+  void follow_ramp() {
+    target_reduced_ = ramp_.at(sys_.time);
+    if (ramp_.ended(sys_.time)) ramp_.on = false;
+    barostat_->follow_target_pressure(target_reduced_ * pressure_scale_, rate_cap(target_reduced_));
+  }
 
   // The cell takes its new lengths: the list's image shifts follow, and a cell too small for its
   // particles stops the run. The particles follow in the step's first pass (DriftGeometry::follow).
@@ -691,6 +713,7 @@ class SimulationImpl final : public Simulation {
     // The contact virial is summed where the stress will be read: for the barostat at every step while
     // the cell moves, else after the run's last step (a held cell, as in a type-2 aggregation, saves it).
     sys_.want_virial = barostat_ && (cell_moves || last);
+    if (barostat_ && ramp_.on) follow_ramp();
     if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
       if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0)
         barostat_->set_contact_damping(contact_damping_ * affine_contact_damping<D>(sys_, cn_));
@@ -981,6 +1004,8 @@ class SimulationImpl final : public Simulation {
     out("pressure", "Pa", "trace(stress) / D, contact + kinetic");
     out("pressure_kinetic", "Pa", "kinetic part of the pressure (velocities relative to the affine flow)");
     out("pressure_reduced", "", "P* of the current stress: a P / F0 (2D), a^2 P / F0 (3D)");
+    out("pressure_target", "", "P* the barostat drives the stress to: cell.pressure, or where its ramp is "
+        "(cell.pressure_final)");
     out("solid_fraction", "", "Phi: grain area (2D) or volume (3D) over the cell's");
     out("equilibrium", "", "1 when all four equilibrium criteria hold (physics.md section 9), else 0");
     out("equilibrium_force", "", "largest net force / (tolerance_force F1): below 1 passes");
@@ -1001,6 +1026,7 @@ class SimulationImpl final : public Simulation {
                     throw SimulationError("cell.pressure = 0 is not allowed when cell.force_unit = 0 (cohesionless): "
                                           "a finite value > 0");
                   target_reduced_ = v;
+                  ramp_.on = false;   // the host (or the programme) drives the pressure now
                   barostat_->set_target_pressure(v * pressure_scale_, rate_cap(v));
                 });
     VariableInfo active{"cell.active", "", Causality::input, Variability::continuous,
@@ -1038,6 +1064,7 @@ class SimulationImpl final : public Simulation {
     o["pressure"] = pressure<D>(sigma);
     o["pressure_kinetic"] = pressure<D>(kinetic_stress<D>(P, V));
     o["pressure_reduced"] = pressure<D>(sigma) / pressure_scale_;
+    o["pressure_target"] = target_reduced_;
     double solid = 0;
     for (double r : P.radius) solid += D == 3 ? 4.0 / 3 * M_PI * r * r * r : M_PI * r * r;
     o["solid_fraction"] = solid / V;
@@ -1186,6 +1213,8 @@ class SimulationImpl final : public Simulation {
   double length_unit_ = 1, force_unit_ = 1, pressure_scale_ = 1;   // a, F0, P / P*
   double grain_mass_ = 1, inertia_number_ = 0.05;                   // m of a grain of diameter a, I_a
   double target_reduced_ = 0;                       // P*, the input variable cell.pressure
+  PressureRamp ramp_;                               // cell.pressure_final: the target's ramp
+  bool has_ramp_ = false;                           // the scene has one (its state is then saved)
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;

@@ -170,6 +170,14 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"cell.pressure", K::real, "0.01", 0, 1e6, false, false, "",
        "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = largest diameter, F0 = `cell.force_unit`. "
        "Also the input variable `cell.pressure`, which a host or the runner may change between steps."},
+      {"cell.pressure_final", K::real, "", 0, 1e6, false, false, "",
+       "P* at the end of a continuous ramp of the target pressure from `cell.pressure`, over `cell.ramp_duration` "
+       "(geometric in time, a straight line in log P*, when both are positive; linear when one is 0), then held. "
+       "Absent: no ramp. A host setting the input `cell.pressure` ends the ramp; the consolidation programme, "
+       "which sets the pressure stage by stage, refuses it."},
+      {"cell.ramp_duration", K::real, "", 0, inf, true, false, "",
+       "Simulated time over which the target pressure goes from `cell.pressure` to `cell.pressure_final` "
+       "(required with it)."},
       {"cell.force_unit", K::real, "", 0, inf, false, false, "",
        "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, else 1. 0 = cohesionless: "
        "`cell.pressure` is then P a^(D-2) / k_n (P / K_N in 2D) and F1 = P a^(D-1)."},

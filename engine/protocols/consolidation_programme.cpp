@@ -35,6 +35,10 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   p.quench.confirm_checks = scene.integer("programme.confirm_checks");
   if (!scene.boolean("cell.enabled"))
     scene.fail("cell.enabled", "the consolidation programme drives a pressure-controlled cell: set cell.enabled = true");
+  if (scene.has("cell.pressure_final"))
+    scene.fail("cell.pressure_final", fmt::format("value {} ramps the pressure, which the programme sets stage by stage: "
+                                                  "drop it (a ramp is for `grains run` and hosts)",
+                                                  scene.real("cell.pressure_final")));
   if (p.load && p.top_pressure < p.start_pressure)
     scene.fail("programme.top_pressure", fmt::format("value {} is below the start pressure cell.pressure = {}: allowed "
                                                      ">= cell.pressure", p.top_pressure, p.start_pressure));
