@@ -60,6 +60,22 @@ def test_out_of_range_parameter_gets_the_scene_schema_message(unit):
     assert unit.get("contact.restitution") == 0.5
 
 
+def test_a_value_beyond_64_bit_integers_is_named_as_the_host_passed_it():
+    """fmpy passes a negative start value of the FMI 3 UInt64 `particles.count` as 2^64 - 3: the message
+    names that value and the range (it once said -9223372036854775808, a double cast past int64)."""
+    unit = Unit(fmu_path("aggregation", 3))
+    try:
+        fails(unit, lambda: unit.set("particles.count", 2**64 - 3), "particles.count", str(2**64 - 3), "[1, 1000000000]")
+        for m in unit.errors():
+            assert "-9223372036854775808" not in m
+        seed = fails(unit, lambda: unit.set("particles.seed", 2**63 - 1), "particles.seed", "out of range")
+        assert not any("-9223372036854775808" in m for m in seed), seed
+        unit.initialize({"particles.count": 100})   # the rejected values were not kept
+        assert unit.get("particles.count") == 100
+    finally:
+        unit.free()
+
+
 def test_wrong_type(unit):
     set_int = unit.fmu.setInteger if unit.version == 2 else unit.fmu.setInt64
     fails(unit, lambda: set_int([unit.variables["contact.restitution"].valueReference], [1]), "contact.restitution", "type")
