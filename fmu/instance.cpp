@@ -320,10 +320,14 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
     snapshots_every_ = static_cast<long>(value);
     return Status::ok;
   }
-  if (v.role == Role::control && (value < v.min || value > v.max))   // scene keys: the scene schema checks below
+  const bool into_scene = !v.scene_key.empty() && before_steps;
+  const bool outside_control_range = v.role == Role::control && (value < v.min || value > v.max);
+  const auto control_range_error = [&] {
     return error(fmt::format("{} = {} is out of range: allowed [{}, {}]", v.name, value, v.min, v.max));
+  };
+  if (outside_control_range && !into_scene) return control_range_error();
 
-  if (!v.scene_key.empty() && before_steps) {   // goes into the scene, checked by the scene's schema
+  if (into_scene) {   // goes into the scene, checked by the scene's schema (its range first: gravity.G needs > 0 there)
     const std::string text = toml_value(v.type, value);
     Scene changed = scene_;
     try {
@@ -332,6 +336,7 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
     } catch (const SceneError& e) {
       return error(e.what());
     }
+    if (outside_control_range) return control_range_error();
     scene_ = std::move(changed);
     overrides_[v.scene_key] = text;
     dirty_ = true;

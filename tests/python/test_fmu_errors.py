@@ -76,6 +76,18 @@ def test_a_value_beyond_64_bit_integers_is_named_as_the_host_passed_it():
         unit.free()
 
 
+def test_a_tunable_scene_key_before_initialization_gets_the_scene_schema_range(unit):
+    """gravity.G may be set to 0 while stepping (gravity off), but the scene needs G > 0: before
+    initialization a negative G is refused with the scene's range, not the tunable's [0, inf]."""
+    new = fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "(0, inf]")
+    assert not any("[0, inf]" in m for m in new), new
+    fails(unit, lambda: unit.set("gravity.G", 0.0), "gravity.G", "(0, inf]")
+    fails(unit, lambda: unit.set("drag.rate", -1.0), "drag.rate", "-1", "[0, inf]")
+    unit.initialize({"particles.count": 100})
+    fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "[0, inf]")   # while stepping 0 is allowed
+    unit.set("gravity.G", 0.0)
+
+
 def test_wrong_type(unit):
     set_int = unit.fmu.setInteger if unit.version == 2 else unit.fmu.setInt64
     fails(unit, lambda: set_int([unit.variables["contact.restitution"].valueReference], [1]), "contact.restitution", "type")
