@@ -88,6 +88,20 @@ def test_a_tunable_scene_key_before_initialization_gets_the_scene_schema_range(u
     unit.set("gravity.G", 0.0)
 
 
+def test_a_read_with_room_for_fewer_values_than_asked_is_an_error():
+    """FMI 3: nValues must be the values the references hold; too few was answered fmi3OK with the first
+    values only (too many was already an error)."""
+    unit = Unit(fmu_path("aggregation", 3))
+    try:
+        unit.initialize({"particles.count": 100})
+        refs = [unit.variables[n].valueReference for n in ("kinetic_energy", "virial_ratio", "contact.restitution")]
+        for n in (1, 2, 4):
+            fails(unit, lambda: unit.fmu.getFloat64(refs, nValues=n), f"the call passes {n} values for variables holding 3")
+        assert list(unit.fmu.getFloat64(refs, nValues=3))[2] == 0.5
+    finally:
+        unit.free()
+
+
 def test_wrong_type(unit):
     set_int = unit.fmu.setInteger if unit.version == 2 else unit.fmu.setInt64
     fails(unit, lambda: set_int([unit.variables["contact.restitution"].valueReference], [1]), "contact.restitution", "type")
