@@ -1,8 +1,12 @@
 // The FMI 3.0 API (co-simulation; model exchange, scheduled execution, clocks and event mode exist
 // and refuse with a message). Each function checks its instance, forwards to Instance, and turns any
 // exception into fmi3Error: nothing thrown ever crosses into the host.
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <fmt/format.h>
@@ -88,6 +92,13 @@ fmi3Status set_values(fmi3Instance c, const char* function, const fmi3ValueRefer
     if ((nvr > 0 && !vr) || (nValues > 0 && !values)) return in.error(fmt::format("{}: null array", function));
     if (Status s = check_types(in, function, vr, nvr, type); s != Status::ok) return s;
     const ValueType vt = type == Fmi3Type::Float64 ? ValueType::real : type == Fmi3Type::Boolean ? ValueType::boolean : ValueType::integer;
+    if constexpr (std::is_same_v<T, fmi3UInt64>)   // beyond int64 (a negative count passed as unsigned): named as passed
+      for (size_t i = 0; i < std::min(nvr, nValues); ++i)
+        if (values[i] > std::uint64_t(std::numeric_limits<std::int64_t>::max())) {
+          const auto& var = in.table().variables[vr[i]];
+          return in.error(fmt::format("{}: {} = {} is out of range: allowed integer in [{}, {}]", function, var.name, values[i],
+                                      var.min, var.max));
+        }
     std::vector<double> v(values, values + nValues);
     return in.set(std::span<const std::uint32_t>(vr, nvr), vt, v);
   });

@@ -1,5 +1,6 @@
 #include "instance.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -252,32 +253,41 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
     if (v.type != type && v.role != Role::particle_array)
       return error(fmt::format("variable '{}' (reference {}) has type {}; it was read as {}", v.name, ref, type_name(v.type),
                                type_name(type)));
+    // Past the room the call gives, only count (too few values is an error below, like too many).
     if (v.role == Role::snapshot_option) {
-      if (k >= values.size()) break;
-      values[k++] = double(snapshots_every_);
+      if (k < values.size()) values[k] = double(snapshots_every_);
+      ++k;
       continue;
     }
     if (v.role == Role::scene_parameter) {
-      if (k >= values.size()) break;
-      values[k++] = v.type == ValueType::real ? scene_.real(v.scene_key)
+      if (k < values.size())
+        values[k] = v.type == ValueType::real ? scene_.real(v.scene_key)
                     : v.type == ValueType::integer ? double(scene_.integer(v.scene_key))
                                                    : double(scene_.boolean(v.scene_key));
+      ++k;
       continue;
     }
     if (Status s = ensure_built(); s != Status::ok) return s;
     if (v.role == Role::particle_array) {
       const ParticleView p = sim_->particles();
       const auto& data = v.field == ParticleField::position ? p.position : p.radius;
-      if (k + data.size() > values.size())
-        return error(fmt::format("'{}' has {} elements; the call provides room for {}", v.name, data.size(), values.size() - k));
-      for (double x : data) values[k++] = x;
+      if (k + data.size() <= values.size()) std::copy(data.begin(), data.end(), values.begin() + std::ptrdiff_t(k));
+      k += data.size();
       continue;
     }
-    if (k >= values.size()) break;
-    values[k++] = v.role == Role::independent ? time() : sim_->get(v.sim_index);
+    if (k < values.size()) values[k] = v.role == Role::independent ? time() : sim_->get(v.sim_index);
+    ++k;
   }
-  if (k != values.size())
-    return error(fmt::format("the call passes {} values for variables holding {}", values.size(), k));
+  if (k != values.size()) {
+    std::string arrays;   // the usual cause: a host that sized the arrays for another particles.count
+    for (std::uint32_t ref : refs)
+      if (table_.variables[ref].role == Role::particle_array)
+        arrays += fmt::format("{}{} has {}", arrays.empty() ? "" : ", ", table_.variables[ref].name, *element_count(ref));
+    if (!arrays.empty())
+      arrays = fmt::format(" ({} values, for particles.count = {} in {}D)", arrays,
+                           sim_ ? sim_->particle_count() : table_.particle_count, table_.dimension);
+    return error(fmt::format("the call passes {} values for variables holding {}{}", values.size(), k, arrays));
+  }
   return Status::ok;
 }
 
@@ -308,6 +318,8 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
                              std::isfinite(v.min) || std::isfinite(v.max) ? fmt::format(" in [{}, {}]", v.min, v.max) : ""));
   if (v.type == ValueType::integer && value != std::floor(value))
     return error(fmt::format("{} = {} is not allowed: an integer", v.name, value));
+  if (v.type == ValueType::integer && std::fabs(value) >= 9223372036854775808.0)   // no 64-bit integer holds it
+    return error(fmt::format("{} = {:.0f} is out of range: allowed integer in [{}, {}]", v.name, value, v.min, v.max));
   if ((v.role == Role::scene_parameter || v.role == Role::snapshot_option) && !before_steps)
     return error(fmt::format("'{}' is a fixed parameter: it can only be set before the end of initialization, not in {} "
                              "(reset the FMU to change it)", v.name, phase_name(phase_)));
@@ -318,10 +330,14 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
     snapshots_every_ = static_cast<long>(value);
     return Status::ok;
   }
-  if (v.role == Role::control && (value < v.min || value > v.max))   // scene keys: the scene schema checks below
+  const bool into_scene = !v.scene_key.empty() && before_steps;
+  const bool outside_control_range = v.role == Role::control && (value < v.min || value > v.max);
+  const auto control_range_error = [&] {
     return error(fmt::format("{} = {} is out of range: allowed [{}, {}]", v.name, value, v.min, v.max));
+  };
+  if (outside_control_range && !into_scene) return control_range_error();
 
-  if (!v.scene_key.empty() && before_steps) {   // goes into the scene, checked by the scene's schema
+  if (into_scene) {   // goes into the scene, checked by the scene's schema (its range first: gravity.G needs > 0 there)
     const std::string text = toml_value(v.type, value);
     Scene changed = scene_;
     try {
@@ -330,6 +346,7 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
     } catch (const SceneError& e) {
       return error(e.what());
     }
+    if (outside_control_range) return control_range_error();
     scene_ = std::move(changed);
     overrides_[v.scene_key] = text;
     dirty_ = true;

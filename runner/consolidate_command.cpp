@@ -190,7 +190,8 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   const std::string name = scene.text("scene.name");
   std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  for (const auto& file : {path, table}) check_output_path(file, opt.scene);
+  check_output_path(path, opt.scene, opt.output.empty() ? "scene.name (the default output file <scene.name>-stages.h5)" : "--out");
+  check_output_path(table, opt.scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
   if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
     throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
 

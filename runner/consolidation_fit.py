@@ -135,7 +135,7 @@ def read_stages(path):
         path = table
     with open(path, newline="") as f:
         rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
-    header = rows[0].keys() if rows else []
+    header = [h for h in rows[0].keys() if h is not None] if rows else []   # None: the fields of a row beyond the header
     pick = {k: next((c for c in names if c in header), None) for k, names in COLUMNS.items()}
     if pick["P_star"] is None or pick["phi"] is None:
         raise ValueError(f"'{path}' needs a header with columns P_star (or pressure_reduced) and phi "
@@ -193,6 +193,10 @@ def main(argv=None):
     ap.add_argument("--p0", type=float, help="P0*, start of regime II (default: the line meets the initial plateau)")
     ap.add_argument("--regime2-max", type=float, default=0.1, help="largest P* of the regime II line fit (default 0.1)")
     args = ap.parse_args(argv)
+    if args.out and not pathlib.Path(args.out).resolve().parent.is_dir():
+        print(f"consolidation_fit: --out: the folder '{pathlib.Path(args.out).parent}' of '{args.out}' does not exist",
+              file=sys.stderr)
+        return 2
     try:
         p, phi, branch = read_stages(args.table)
         loading = branch == "loading"

@@ -234,6 +234,9 @@ def main(argv=None):
         ap.error(f"--k-max: {args.k_max}; must be positive")
     if any(not (p >= 0) for p in args.pressures):
         ap.error(f"--pressures: {args.pressures}; reduced pressures must be >= 0")
+    for option, value in (("-o/--out", args.out), ("--table", args.table)):
+        if value and not pathlib.Path(value).resolve().parent.is_dir():
+            ap.error(f"{option}: the folder '{pathlib.Path(value).parent}' of '{value}' does not exist")
     samples = []
     for name in args.h5:
         path = pathlib.Path(name)

@@ -22,14 +22,27 @@ if [ -z "${OMP_WAIT_POLICY:-}" ] && [ -r /proc/stat ] && awk -v s="$(busy_share)
 fi
 scene="${1:-$GRAINS_ROOT/models/aggregation.toml}"
 shift || true
-mkdir -p "$GRAINS_ROOT/out"
 name="$(basename "$scene" .toml)"
-"$GRAINS_BUILD/runner/grains" run "$scene" --out "$GRAINS_ROOT/out/$name.h5" "$@"
+# The output: out/NAME.h5, or the run's own --out FILE.h5 (the plot then goes beside it, FILE.png).
+h5="" args=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --out) h5="${2:-}"; shift; shift || true ;;
+    --out=*) h5="${1#--out=}"; shift ;;
+    *) args+=("$1"); shift ;;
+  esac
+done
+if [ -z "$h5" ]; then
+  mkdir -p "$GRAINS_ROOT/out"
+  h5="$GRAINS_ROOT/out/$name.h5"
+fi
+png="${h5%.h5}.png"
+"$GRAINS_BUILD/runner/grains" run "$scene" --out "$h5" ${args[@]+"${args[@]}"}
 # Gravity scenes: f_max, N_c / N and Q against t / t_ff; others: the energies and contacts against time.
-if h5="$GRAINS_ROOT/out/$name.h5" "$GRAINS_VENV/bin/python" -c \
+if h5="$h5" "$GRAINS_VENV/bin/python" -c \
     'import h5py, os, sys; sys.exit("time_over_free_fall" not in h5py.File(os.environ["h5"])["observables"])'; then
   plot_args=(--observables largest_cluster_fraction,cluster_index,virial_ratio --x time_over_free_fall)
 else
   plot_args=(--observables kinetic_energy,elastic_energy,contacts,max_overlap_ratio)
 fi
-"$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$GRAINS_ROOT/out/$name.h5" -o "$GRAINS_ROOT/out/$name.png" "${plot_args[@]}"
+"$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$h5" -o "$png" "${plot_args[@]}"

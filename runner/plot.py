@@ -115,6 +115,8 @@ def main(argv=None):
     path = Path(args.run)
     if not path.is_file():
         fail(f"run file '{path}' does not exist")
+    if args.out and not Path(args.out).resolve().parent.is_dir():
+        fail(f"--out: the folder '{Path(args.out).parent}' of '{args.out}' does not exist")
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
     series = read_observables(path, wanted)
     x_name = args.x if args.x != "time" else None

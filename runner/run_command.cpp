@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -20,14 +21,24 @@
 
 namespace grains {
 
-void check_output_path(const std::string& output, const std::string& scene_file) {
+void check_output_path(const std::string& output, const std::string& scene_file, const std::string& source) {
   namespace fs = std::filesystem;
   if (auto dir = fs::path(output).parent_path(); !dir.empty() && !fs::is_directory(dir))
-    throw SceneError(fmt::format("output directory '{}' does not exist (output file '{}')", dir.string(), output));
+    throw SceneError(fmt::format("{}: output directory '{}' does not exist (output file '{}')", source, dir.string(), output));
   std::error_code ec;
   if (fs::equivalent(output, scene_file, ec))
-    throw SceneError(fmt::format("output file '{}' is the scene file itself: name another file (--out, --table)", output));
+    throw SceneError(fmt::format("{}: output file '{}' is the scene file itself: name another file (--out, --table)", source,
+                                 output));
 }
+
+namespace {
+// The output file of `grains run` and where its name comes from: --out, else output.file, else scene.name.
+std::pair<std::string, std::string> run_output_path(const Scene& scene, const std::string& out_option) {
+  if (!out_option.empty()) return {out_option, "--out"};
+  if (scene.has("output.file")) return {scene.text("output.file"), "output.file"};
+  return {scene.text("scene.name") + ".h5", "scene.name (the default output file <scene.name>.h5)"};
+}
+}  // namespace
 
 void write_frame(H5mdWriter& out, const Simulation& sim) {
   const ParticleView p = sim.particles();
@@ -68,6 +79,10 @@ PreparedRun prepare_run(const Scene& scene) {
 int check_scene(const std::string& path, const std::vector<std::string>& overrides) {
   const Scene scene = Scene::from_file(path, overrides);
   const PreparedRun r = prepare_run(scene);
+  if (r.steps) {   // what `run` (without --out) would write to
+    const auto [output, source] = run_output_path(scene, "");
+    check_output_path(output, path, source);
+  }
   for (const auto& w : r.sim->warnings()) fmt::print(stderr, "warning: {}\n", w);
   fmt::print("{}", scene.resolved_toml());
   // Derived values, as TOML comments so the output still reads as a scene
@@ -176,9 +191,8 @@ int run_scene(const RunOptions& opt) {
   auto& sim = prepared.sim;
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
 
-  std::string path = opt.output;
-  if (path.empty()) path = scene.has("output.file") ? scene.text("output.file") : scene.text("scene.name") + ".h5";
-  check_output_path(path, opt.scene);
+  const auto [path, source] = run_output_path(scene, opt.output);
+  check_output_path(path, opt.scene, source);
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));

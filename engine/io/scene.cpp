@@ -1,6 +1,7 @@
 #include "io/scene.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -99,6 +100,15 @@ void collect_unknown(const toml::table& t, const std::string& prefix, std::vecto
   }
 }
 
+// An integer literal (sign, digits) that no 64-bit integer holds: TOML refuses it, though it is a number.
+bool beyond_64_bits(std::string_view text) {
+  std::string_view digits = text.substr(!text.empty() && (text[0] == '+' || text[0] == '-'));
+  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string_view::npos) return false;
+  std::int64_t value;
+  const char* first = text.data() + (text[0] == '+');
+  return std::from_chars(first, text.data() + text.size(), value).ec == std::errc::result_out_of_range;
+}
+
 bool in_range(const SchemaEntry& e, double x) {
   if (!std::isfinite(x)) return false;
   if (e.min_open ? x <= e.min : x < e.min) return false;
@@ -174,6 +184,8 @@ void Scene::set_value(std::string_view path, std::string_view toml_value) {
   try {
     parsed = toml::parse(fmt::format("v = {}", toml_value));
   } catch (const toml::parse_error&) {   // a bare word is taken as a string: --set output.file=run.h5
+    if (const SchemaEntry& e = *find_schema_entry(path); e.kind == ValueKind::integer && beyond_64_bits(toml_value))
+      throw SceneError(fmt::format("{}: value {} is out of range: allowed {}", path, toml_value, describe_allowed(e)));
     toml::table t;
     t.insert("v", std::string(toml_value));
     parsed = std::move(t);

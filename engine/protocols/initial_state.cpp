@@ -279,9 +279,14 @@ InitialState<D> make_initial_state(const Scene& s) {
     }
     const double spacing = box.length.minCoeff() / n;
     const double dmax = 2 * *std::max_element(P.radius.begin(), P.radius.end());
-    if (spacing < dmax)
+    if (spacing < dmax) {
+      if (s.has("box.lengths"))   // the box is the scene's own, not sized from the solid fraction
+        s.fail("box.lengths", fmt::format("the lattice spacing {:.4g} (the shortest length over {} per side) is below the "
+                                          "largest diameter {:.4g}: particles would overlap; lengthen the box or use "
+                                          "smaller or fewer particles", spacing, n, dmax));
       s.fail("particles.solid_fraction", fmt::format("the lattice spacing {:.4g} is below the largest diameter {:.4g}: "
                                                      "particles would overlap; lower the solid fraction", spacing, dmax));
+    }
   } else if (layout == "random") {
     place_randomly<D>(s, P, box, rng);
     number_along_z_curve<D>(P, box);

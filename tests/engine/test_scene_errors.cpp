@@ -223,3 +223,23 @@ TEST_CASE("scene errors: all problems of a scene are listed at once", "[scene][e
                       Contains("3 problems") && Contains("--set: unknown key 'contact.stiffness'") &&
                           Contains("'contact.duration': expected key.path=value") && Contains("unknown key 'contact.restitutoin'"));
 }
+
+TEST_CASE("scene errors: a --set integer beyond 64 bits is out of range, with the range", "[scene][errors]") {
+  // TOML cannot hold it, so it was read as the string "99999999999999999999999" ("expected an integer").
+  REQUIRE_THROWS_WITH(build(good, {"particles.count=99999999999999999999999"}),
+                      Contains("particles.count: value 99999999999999999999999 is out of range") &&
+                          Contains("allowed integer in [1, 1000000000]"));
+  REQUIRE_THROWS_WITH(build(good, {"particles.seed=-99999999999999999999999"}),
+                      Contains("particles.seed: value -99999999999999999999999 is out of range"));
+  // Not an integer literal at all: still a wrong type.
+  REQUIRE_THROWS_WITH(build(good, {"particles.count=007"}), Contains("particles.count") && Contains("expected an integer"));
+}
+
+TEST_CASE("scene errors: a lattice too dense for its given box names box.lengths", "[scene][errors]") {
+  // The box came from box.lengths, not from the solid fraction the message used to name.
+  const std::string boxed = with("solid_fraction = 0.2", "diameter = 5.0\n[box]\nlengths = [1.0, 1.0, 1.0]");
+  REQUIRE_THROWS_WITH(build(boxed), Contains("box.lengths") && Contains("lattice spacing 0.3333") &&
+                                        Contains("largest diameter 5") && !Contains("solid_fraction"));
+  REQUIRE_THROWS_WITH(build(with("solid_fraction = 0.2", "solid_fraction = 0.9")),
+                      Contains("particles.solid_fraction") && Contains("lower the solid fraction"));
+}

@@ -35,3 +35,24 @@ def test_arrays_equal_the_runner_snapshot(grains_bin, root, tmp_path):
     np.testing.assert_array_equal(np.array(unit.get("particles.position")).reshape(-1, 3), position)
     np.testing.assert_array_equal(unit.get("particles.radius"), np.ravel(radius))
     unit.free()
+
+
+def test_a_read_sized_for_another_count_names_the_arrays_and_the_count():
+    """fmpy sizes the arrays from the count's default when only a start value changed it (README): the
+    error says which arrays hold how many values for which particles.count, not only two numbers."""
+    unit = Unit(fmu_path("aggregation", 3))
+    try:
+        unit.initialize({"particles.count": 100, "run.threads": 1})
+        refs = [unit.variables[n].valueReference for n in ("kinetic_energy", "particles.position", "particles.radius")]
+        for room in (1 + 4 * 1000, 1 + 4 * 50):   # room for 1000 particles, for 50
+            before = len(unit.errors())
+            try:
+                unit.fmu.getFloat64(refs, nValues=room)
+            except Exception:
+                pass
+            new = unit.errors()[before:]
+            assert any(f"passes {room} values for variables holding 401" in m and "particles.count = 100" in m
+                       and "particles.position has 300" in m for m in new), new
+        assert len(unit.fmu.getFloat64(refs, nValues=401)) == 401
+    finally:
+        unit.free()

@@ -60,6 +60,48 @@ def test_out_of_range_parameter_gets_the_scene_schema_message(unit):
     assert unit.get("contact.restitution") == 0.5
 
 
+def test_a_value_beyond_64_bit_integers_is_named_as_the_host_passed_it():
+    """fmpy passes a negative start value of the FMI 3 UInt64 `particles.count` as 2^64 - 3: the message
+    names that value and the range (it once said -9223372036854775808, a double cast past int64)."""
+    unit = Unit(fmu_path("aggregation", 3))
+    try:
+        fails(unit, lambda: unit.set("particles.count", 2**64 - 3), "particles.count", str(2**64 - 3), "[1, 1000000000]")
+        for m in unit.errors():
+            assert "-9223372036854775808" not in m
+        seed = fails(unit, lambda: unit.set("particles.seed", 2**63 - 1), "particles.seed", "out of range")
+        assert not any("-9223372036854775808" in m for m in seed), seed
+        unit.initialize({"particles.count": 100})   # the rejected values were not kept
+        assert unit.get("particles.count") == 100
+    finally:
+        unit.free()
+
+
+def test_a_tunable_scene_key_before_initialization_gets_the_scene_schema_range(unit):
+    """gravity.G may be set to 0 while stepping (gravity off), but the scene needs G > 0: before
+    initialization a negative G is refused with the scene's range, not the tunable's [0, inf]."""
+    new = fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "(0, inf]")
+    assert not any("[0, inf]" in m for m in new), new
+    fails(unit, lambda: unit.set("gravity.G", 0.0), "gravity.G", "(0, inf]")
+    fails(unit, lambda: unit.set("drag.rate", -1.0), "drag.rate", "-1", "[0, inf]")
+    unit.initialize({"particles.count": 100})
+    fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "[0, inf]")   # while stepping 0 is allowed
+    unit.set("gravity.G", 0.0)
+
+
+def test_a_read_with_room_for_fewer_values_than_asked_is_an_error():
+    """FMI 3: nValues must be the values the references hold; too few was answered fmi3OK with the first
+    values only (too many was already an error)."""
+    unit = Unit(fmu_path("aggregation", 3))
+    try:
+        unit.initialize({"particles.count": 100})
+        refs = [unit.variables[n].valueReference for n in ("kinetic_energy", "virial_ratio", "contact.restitution")]
+        for n in (1, 2, 4):
+            fails(unit, lambda: unit.fmu.getFloat64(refs, nValues=n), f"the call passes {n} values for variables holding 3")
+        assert list(unit.fmu.getFloat64(refs, nValues=3))[2] == 0.5
+    finally:
+        unit.free()
+
+
 def test_wrong_type(unit):
     set_int = unit.fmu.setInteger if unit.version == 2 else unit.fmu.setInt64
     fails(unit, lambda: set_int([unit.variables["contact.restitution"].valueReference], [1]), "contact.restitution", "type")

@@ -98,6 +98,39 @@ def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
     assert r.returncode == 0 and "# derived: time.dt = 0.002, 2 particles, `grains run` takes 500 steps" in r.stdout
 
 
+def test_check_refuses_the_output_file_run_refuses_and_names_where_it_came_from(grains_bin, root, tmp_path):
+    """An output.file in a missing folder passed `check` and then failed `run`; both now refuse it, and the
+    message says which setting named the file (output.file, --out, the scene's name)."""
+    missing = tmp_path / "missing" / "x.h5"
+    scene = root / "models" / "collision.toml"
+    for command in ("check", "run"):
+        r = run(grains_bin, command, scene, "--set", f"output.file={missing}", cwd=tmp_path)
+        assert r.returncode == 1, (command, r.stdout, r.stderr)
+        assert f"output.file: output directory '{missing.parent}' does not exist" in r.stderr, (command, r.stderr)
+    r = run(grains_bin, "run", scene, "--out", missing, cwd=tmp_path)
+    assert r.returncode == 1 and f"--out: output directory '{missing.parent}' does not exist" in r.stderr, r.stderr
+    r = run(grains_bin, "check", scene, "--set", f"output.file={scene}", cwd=tmp_path)
+    assert r.returncode == 1 and "output.file: output file" in r.stderr and "is the scene file itself" in r.stderr, r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_main_sh_runs_another_scene_with_its_own_out(grains_bin, root, tmp_path):
+    """README: `runner/main.sh SCENE.toml [options]` runs another scene the same way. With the run's
+    --out (once refused by the runner as given twice) the plot goes beside that file."""
+    import os
+    import pathlib
+    env = dict(os.environ, GRAINS_BUILD=str(pathlib.Path(grains_bin).parents[1]),
+               GRAINS_VENV=str(pathlib.Path(sys.executable).parents[1]))
+    if not (pathlib.Path(env["GRAINS_VENV"]) / "bin" / "python").exists():
+        pytest.skip("not run from the project's virtual environment")
+    for out in (tmp_path / "c.h5", tmp_path / "d.h5"):
+        option = ["--out", str(out)] if out.name == "c.h5" else [f"--out={out}"]
+        r = subprocess.run(["bash", str(root / "runner" / "main.sh"), str(root / "models" / "collision.toml"), *option,
+                            "--set", "time.duration=0.1", "--quiet"], capture_output=True, text=True, env=env)
+        assert r.returncode == 0, r.stderr
+        assert out.exists() and out.with_suffix(".png").stat().st_size > 1000
+
+
 def test_every_shipped_scene_validates(grains_bin, root):
     for scene in sorted((root / "models").glob("*.toml")):
         r = run(grains_bin, "check", scene)

@@ -1,0 +1,56 @@
+"""The Python tools name an output path in a missing folder, or an unreadable input, in one line instead
+of a traceback after their work (plot.py, consolidation_fit.py, density_correlations.py)."""
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+
+
+def tool(name, *args, cwd=None):
+    return subprocess.run([sys.executable, str(ROOT / "runner" / name), *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd)
+
+
+@pytest.fixture
+def stage_table(tmp_path):
+    path = tmp_path / "stages.csv"
+    path.write_text("P_star,phi,branch\n" + "".join(f"{p},{0.5 + 0.02 * i},loading\n"
+                                                    for i, p in enumerate([0.01, 0.02, 0.04, 0.08, 0.16, 0.5, 1])))
+    return path
+
+
+def refused(r, *words):
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr, r.stderr
+    assert all(w in r.stderr for w in words), r.stderr
+
+
+def test_plot_into_a_missing_folder(grains_bin, tmp_path):
+    run = tmp_path / "c.h5"
+    r = subprocess.run([grains_bin, "run", str(ROOT / "models" / "collision.toml"), "--out", str(run), "--quiet",
+                        "--set", "time.duration=0.1"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    refused(tool("plot.py", run, "-o", tmp_path / "missing" / "c.png"), "--out", str(tmp_path / "missing"), "does not exist")
+
+
+def test_consolidation_fit_into_a_missing_folder(stage_table, tmp_path):
+    refused(tool("consolidation_fit.py", stage_table, "-o", tmp_path / "missing" / "fit.png"), "--out",
+            str(tmp_path / "missing"), "does not exist")
+    assert tool("consolidation_fit.py", stage_table, "-o", tmp_path / "fit.png").returncode == 0
+
+
+def test_consolidation_fit_of_a_table_with_ragged_rows(tmp_path):
+    """A file whose rows have more fields than its first line (markdown, a log): named, not a TypeError."""
+    odd = tmp_path / "notes.md"
+    odd.write_text("Notes\nfirst, second\n")
+    refused(tool("consolidation_fit.py", odd), "needs a header with columns P_star")
+
+
+@pytest.mark.parametrize("option", ["-o", "--table"])
+def test_density_correlations_into_a_missing_folder(tmp_path, option):
+    data = tmp_path / "stages.h5"
+    data.write_bytes(b"")   # the output folder is checked before the input is read
+    refused(tool("density_correlations.py", data, option, tmp_path / "missing" / "x.out"), option,
+            str(tmp_path / "missing"), "does not exist")
