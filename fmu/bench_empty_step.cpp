@@ -26,11 +26,20 @@ template <class F> F symbol(void* lib, const char* name) {
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: grains_fmu_bench EXTRACTED_FMU_DIR MODEL_IDENTIFIER [calls]\n");
+    std::fprintf(stderr, "usage: grains_fmu_bench EXTRACTED_FMU_DIR MODEL_IDENTIFIER [calls]\n"
+                         "  EXTRACTED_FMU_DIR: an unpacked FMI 3 unit, e.g. build/fmu/stage/collision/fmi3\n");
     return 2;
   }
   const std::string dir = argv[1], id = argv[2];
-  const long calls = argc > 3 ? std::atol(argv[3]) : 1000000;
+  long calls = 1000000;
+  if (argc > 3) {
+    char* end = nullptr;
+    calls = std::strtol(argv[3], &end, 10);
+    if (end == argv[3] || *end != '\0' || calls < 1) {
+      std::fprintf(stderr, "grains_fmu_bench: calls = '%s' is not allowed: a whole number >= 1\n", argv[3]);
+      return 2;
+    }
+  }
   void* lib = dlopen((dir + "/binaries/x86_64-linux/" + id + ".so").c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!lib) {
     std::fprintf(stderr, "%s\n", dlerror());

@@ -24,7 +24,8 @@ namespace grains {
 void check_output_path(const std::string& output, const std::string& scene_file, const std::string& source) {
   namespace fs = std::filesystem;
   if (auto dir = fs::path(output).parent_path(); !dir.empty() && !fs::is_directory(dir))
-    throw SceneError(fmt::format("{}: output directory '{}' does not exist (output file '{}')", source, dir.string(), output));
+    throw SceneError(fmt::format("{}: output directory '{}' {} (output file '{}')", source, dir.string(),
+                                 fs::exists(dir) ? "is a file, not a folder" : "does not exist", output));
   std::error_code ec;
   if (fs::equivalent(output, scene_file, ec))
     throw SceneError(fmt::format("{}: output file '{}' is the scene file itself: name another file (--out, --table)", source,

@@ -112,6 +112,11 @@ def test_check_refuses_the_output_file_run_refuses_and_names_where_it_came_from(
     r = run(grains_bin, "check", scene, "--set", f"output.file={scene}", cwd=tmp_path)
     assert r.returncode == 1 and "output.file: output file" in r.stderr and "is the scene file itself" in r.stderr, r.stderr
     assert list(tmp_path.iterdir()) == []
+    # A path through a file, not a folder, says so.
+    afile = tmp_path / "afile.h5"
+    afile.write_text("")
+    r = run(grains_bin, "run", scene, "--out", afile / "x.h5", cwd=tmp_path)
+    assert r.returncode == 1 and f"--out: output directory '{afile}' is a file, not a folder" in r.stderr, r.stderr
 
 
 def test_main_sh_runs_another_scene_with_its_own_out(grains_bin, root, tmp_path):
