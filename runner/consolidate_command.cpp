@@ -188,9 +188,14 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);
   const std::string name = scene.text("scene.name");
-  std::string path = opt.output.empty() ? name + "-stages.h5" : opt.output;
+  // The output file: --out, else output.file, else <scene.name>-stages.h5.
+  const std::string path = !opt.output.empty()           ? opt.output
+                           : scene.has("output.file") ? scene.text("output.file")
+                                                      : name + "-stages.h5";
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  check_output_path(path, opt.scene, opt.output.empty() ? "scene.name (the default output file <scene.name>-stages.h5)" : "--out");
+  check_output_path(path, opt.scene, !opt.output.empty()           ? "--out"
+                                     : scene.has("output.file") ? "output.file"
+                                                                : "scene.name (the default output file <scene.name>-stages.h5)");
   check_output_path(table, opt.scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
   if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
     throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
@@ -202,7 +207,12 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   out.set_attribute("scene_directory", scene.directory().string());
   const auto folder = std::filesystem::absolute(path).parent_path();
   out.set_attribute("stage_table", std::filesystem::absolute(table).lexically_relative(folder).string());
-  for (const auto& w : sim->warnings()) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
+  std::vector<std::string> warnings = sim->warnings();
+  for (const char* key : {"time.duration", "time.steps", "time.free_fall_times"})   // a scene shared with `grains run`
+    if (scene.has(key))
+      warnings.push_back(fmt::format("{} is not used by grains consolidate: each stage runs until equilibrium or its budget "
+                                     "(programme.stage_budget, programme.aggregation_budget)", key));
+  for (const auto& w : warnings) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
   write_frame(out, *sim);
   write_observables(out, *sim);
   std::ofstream csv(table);

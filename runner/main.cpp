@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
                                                      "one table row, H5MD observable record and snapshot per stage");
   cmd_cons->add_option("scene", cons.scene, "Scene file (.toml) with cell.enabled = true")->required()->check(CLI::ExistingFile);
   cmd_cons->add_option("--set", cons.overrides, "Override a scene key: --set section.key=value (repeatable)");
-  cmd_cons->add_option("--out", cons.output, "Output HDF5 file (default <scene.name>-stages.h5)");
+  cmd_cons->add_option("--out", cons.output, "Output HDF5 file (default output.file or <scene.name>-stages.h5)");
   cmd_cons->add_option("--table", cons.table, "Stage table, CSV (default <scene.name>-stages.csv)");
   cmd_cons->add_flag("--quiet", cons.quiet, "No line per stage");
 

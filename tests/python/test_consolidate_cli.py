@@ -53,3 +53,17 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
         for key in moduli:
             assert len(f[f"observables/{key}/value"]) == 1 + len(rows)
         assert "did not reach" in f["grains"].attrs["status"] or "not reached" in f["grains"].attrs["status"]
+
+
+def test_consolidate_writes_to_output_file_and_says_a_run_length_is_not_used(grains_bin, root, tmp_path):
+    """A scene shared with `grains run` may name its output file and a run length: the programme writes to the
+    file and says that the run length does not apply (it was silently ignored)."""
+    out = tmp_path / "named.h5"
+    r = subprocess.run([grains_bin, "consolidate", root / "models" / "cohesionless.toml", "--table", "t.csv",
+                        "--set", f"output.file={out}", "--set", "time.steps=1000", "--set", "particles.count=60",
+                        "--set", "programme.stage_budget=300", "--quiet"], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert out.exists() and not (tmp_path / "cohesionless-stages.h5").exists()
+    assert "time.steps is not used by grains consolidate" in r.stderr
+    with h5py.File(out) as f:
+        assert any(b"time.steps is not used" in w for w in f["grains/warnings"][()])
