@@ -226,6 +226,11 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"programme.load", K::boolean, "true", 0, 0, false, false, "", "Run the loading stages."},
       {"programme.unload", K::boolean, "true", 0, 0, false, false, "", "Run the unloading stages after loading."},
       {"programme.check_every", K::integer, "100", 1, 9.2e18, false, false, "", "Steps between equilibrium checks."},
+      {"programme.first_compression_time", K::real, "0.0", 0, inf, false, false, "",
+       "Simulated time over which the first stage under pressure (type 1 or type 2, at `cell.pressure`) raises its "
+       "target linearly from 0, in steps of `check_every`, before it waits for equilibrium (its budget counts from the "
+       "ramp's end). 0: a step to the full pressure, the paper's protocol. A slower first compression leaves a looser "
+       "type-2 sample (README: the first compression)."},
       {"programme.stage_budget", K::integer, "2000000", 1, 9.2e18, false, false, "",
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
       {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",

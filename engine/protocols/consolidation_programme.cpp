@@ -23,6 +23,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   p.check_every = scene.integer("programme.check_every");
   p.stage_budget = scene.integer("programme.stage_budget");
   p.aggregation_budget = scene.integer("programme.aggregation_budget");
+  p.first_compression_time = scene.real("programme.first_compression_time");
   // The rolling dashpot belongs to the consolidation law; the drag serves any law.
   p.quench.damping = scene.boolean("adhesion.enabled") ? scene.real("programme.quench_damping") : 0.0;
   p.quench.drag = scene.real("programme.quench_drag");
@@ -51,6 +52,10 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   refuse_both("rolling.damping_ratio", "rolling dashpot", "programme.quench_damping", p.quench.damping);
   refuse_both("drag.rate", "drag", "programme.quench_drag", p.quench.drag);
   refuse_both("drag.rate", "drag", "programme.background_drag", p.quench.background);
+  if (p.first_compression_time > 0 && p.preparation == "none")
+    scene.fail("programme.first_compression_time", fmt::format("value {} ramps the first compression of a type 1 or type 2 "
+                                                               "preparation, and programme.preparation is \"none\": set it "
+                                                               "to 0", p.first_compression_time));
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
@@ -122,8 +127,8 @@ class Runner {
       if (phase == "aggregation") {   // in a fixed cell
         s_.set("cell.active", 0);
         stage(phase, P, p_.aggregation_budget, [&](StageRecord&) { return s_.get("bonded_clusters") == 1.0; });
-      } else {
-        equilibrate(phase, P);
+      } else {   // the first stage under pressure: the prepared state at the start pressure
+        equilibrate(phase, P, phase == "equilibrate" && P > 0 && P == p_.start_pressure && p_.preparation != "none");
       }
     }
     return std::move(records_);
@@ -132,18 +137,24 @@ class Runner {
  private:
   // Run until `done` holds (checked every check_every steps) or the budget is spent; `quench` gives the
   // stage's quench progress for on_check. The first stage run may continue one begun before (from_).
+  // A stage with ramp_steps > 0 first raises its target from 0 in chunks of check_every (target * steps /
+  // ramp_steps over each), not judged until the ramp ends; its budget counts from there.
   template <class Done, class Quench>
-  void stage(const std::string& phase, double target, long budget, Done done, Quench quench) {
+  void stage(const std::string& phase, double target, long budget, Done done, Quench quench, long ramp_steps = 0) {
     StageRecord r;
     r.index = from_.stage + int(records_.size());
     r.phase = phase;
     r.target = target;
     if (records_.empty()) r.steps = from_.steps;
+    budget += ramp_steps;
     while (r.steps < budget) {
-      const long n = std::min(p_.check_every, budget - r.steps);
+      const bool ramping = r.steps < ramp_steps;
+      if (ramping) s_.set("cell.pressure", target * double(r.steps) / double(ramp_steps));
+      else if (ramp_steps > 0 && r.steps == ramp_steps) s_.set("cell.pressure", target);
+      const long n = ramping ? p_.check_every : std::min(p_.check_every, budget - r.steps);
       s_.step_n(n);
       r.steps += n;
-      if (done(r)) {
+      if (!ramping && done(r)) {
         r.reached = true;
         break;
       }
@@ -164,9 +175,12 @@ class Runner {
     stage(phase, target, budget, done, [] { return std::vector<double>{}; });
   }
 
-  void equilibrate(const std::string& phase, double target) {
+  void equilibrate(const std::string& phase, double target, bool first_compression) {
     if (s_.get("cell.active") != 1) s_.set("cell.active", 1);   // released after the aggregation
-    s_.set("cell.pressure", target);
+    const double T = first_compression ? p_.first_compression_time : 0.0;
+    const long ramp_steps = T > 0 ? long(std::ceil(T / s_.dt() / double(p_.check_every))) * p_.check_every : 0;
+    const long at = records_.empty() ? from_.steps : 0;   // a resumed stage goes on where it stood
+    s_.set("cell.pressure", at < ramp_steps ? target * double(at) / double(ramp_steps) : target);
     QuenchSettings q = p_.quench;
     if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
     StageQuench quench(s_, q);
@@ -176,7 +190,7 @@ class Runner {
       r.quench_start = quench.start();
       r.quench_drag = quench.drag();
       return reached;
-    }, [&] { return quench.progress(); });
+    }, [&] { return quench.progress(); }, ramp_steps);
     if (!stopped_) quench.end();   // stopped: the simulation stays as its checkpoint has it
   }
 

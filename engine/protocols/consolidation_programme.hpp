@@ -27,6 +27,7 @@ struct ProgrammeSettings {
   long check_every = 100;             // steps between equilibrium checks
   long stage_budget = 2'000'000;      // steps per stage
   long aggregation_budget = 20'000'000;
+  double first_compression_time = 0;  // the first stage under pressure ramps its target from 0 over this time
   QuenchSettings quench;              // the drag (and rolling dashpot) switched on once a stage has settled
 
   static ProgrammeSettings from_scene(const Scene& scene);

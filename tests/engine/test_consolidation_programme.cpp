@@ -11,6 +11,7 @@
 #include "analysis/bonded_clusters.hpp"
 #include "packed_cell_scene.hpp"
 #include "protocols/consolidation_programme.hpp"
+#include "type1_packing_scene.hpp"
 
 using namespace grains;
 
@@ -161,4 +162,67 @@ TEST_CASE("programme: a stage's progress that does not fit the programme is refu
   CHECK_THROWS_WITH(StageProgress::from_values({1, 1000}, settings), Catch::Contains("budget of 1000"));
   CHECK_THROWS_WITH(StageProgress::from_values({1, 100, 0, 1}, settings), Catch::Contains("quench has 2 numbers"));
   CHECK(StageProgress::from_values({2, 0}, settings).stage == 2);
+}
+
+TEST_CASE("programme: a ramped first compression raises the target linearly, then waits its budget", "[programme][ramp]") {
+  // 12 type-1 grains; the target ramps from 0 to P* = 0.01 over T = 0.5 (ceil(T / dt) rounded up to checks).
+  auto scene = type1_packing(12, 3, 1.0, 0.0, 3000);
+  scene.set_value("programme.first_compression_time", "0.5");
+  auto s = Simulation::create(scene);
+  const long ramp = long(std::ceil(0.5 / s->dt() / 100)) * 100;
+  std::vector<std::pair<long, double>> seen;   // (steps into the stage, target) at each check
+  const auto stages = run_programme(*s, ProgrammeSettings::from_scene(scene), {},
+                                    [&](const StageRecord& r, long, const StageProgress&) {
+                                      seen.emplace_back(r.steps, s->get("cell.pressure"));
+                                      return false;
+                                    });
+  REQUIRE(stages.size() == 1);
+  REQUIRE(ramp == 6300);
+  CHECK(stages[0].steps <= ramp + 3000);   // the budget counts from the ramp's end
+  CHECK(stages[0].steps > ramp);
+  for (const auto& [steps, target] : seen) {
+    INFO("step " << steps);
+    // Over each chunk the target of its first step: 0.01 (steps - 100) / ramp, then 0.01.
+    CHECK(target == (steps <= ramp ? 0.01 * double(steps - 100) / double(ramp) : 0.01));
+  }
+  CHECK(seen.front().second == 0.0);
+  // Without the ramp the same stage starts at the full pressure; a cohesionless programme has no ramp to give.
+  auto stepped = type1_packing(12, 3, 1.0, 0.0, 3000);
+  auto t = Simulation::create(stepped);
+  double first = -1;
+  run_programme(*t, ProgrammeSettings::from_scene(stepped), {}, [&](const StageRecord&, long, const StageProgress&) {
+    if (first < 0) first = t->get("cell.pressure");
+    return false;
+  });
+  CHECK(first == 0.01);
+  auto none = Scene::from_string(small_programme(1000), "bad", {"programme.first_compression_time=10"});
+  CHECK_THROWS_WITH(ProgrammeSettings::from_scene(none), Catch::Contains("programme.first_compression_time"));
+}
+
+TEST_CASE("programme: a ramped first compression stopped inside and after its ramp continues as the unbroken one",
+          "[programme][ramp][checkpoint]") {
+  auto scene = type1_packing(12, 3, 1.0, 0.0, 3000);
+  scene.set_value("programme.first_compression_time", "0.5");
+  const auto settings = ProgrammeSettings::from_scene(scene);
+  // The ramp takes 6300 steps here (dt = 8.0e-5): stopped inside it and after it.
+  auto probe = Simulation::create(scene);
+  REQUIRE(long(std::ceil(0.5 / probe->dt() / 100)) * 100 == 6300);
+  for (const long stop_at : {3000L, 6700L}) {
+    INFO("stopped at step " << stop_at);
+    std::vector<std::byte> saved;
+    StageProgress at;
+    auto a = Simulation::create(scene);
+    const auto whole = run_programme(*a, settings, {}, [&](const StageRecord& r, long, const StageProgress& p) {
+      if (r.steps == stop_at) saved = a->save_state(), at = p;   // a save restarts CVODE: both runs save here
+      return false;
+    });
+    REQUIRE(!saved.empty());
+    auto b = Simulation::create(scene);
+    b->restore_state(saved);
+    const auto rest = run_programme(*b, settings, {}, {}, at);
+    REQUIRE(whole.size() == 1);
+    REQUIRE(rest.size() == 1);
+    CHECK(rest[0].steps == whole[0].steps);
+    CHECK(b->save_state() == a->save_state());
+  }
 }

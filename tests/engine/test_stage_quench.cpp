@@ -11,55 +11,9 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "protocols/consolidation_programme.hpp"
+#include "type1_packing_scene.hpp"
 
 using namespace grains;
-
-namespace {
-
-// The paper's type-1 law (Table I, mu = 0.5, no rolling resistance) on a few grains, the first stage only.
-Scene type1_packing(int count, int seed, double drag, double damping, long budget) {
-  return Scene::from_string(fmt::format(R"(
-[scene]
-dimension = 2
-[particles]
-layout = "random"
-count = {}
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-density = 1.273239544735163
-solid_fraction = 0.36
-velocity = "zero"
-seed = {}
-[box]
-periodic = true
-[contact]
-overlap_limit = 0.5
-[adhesion]
-enabled = true
-force = 1.0
-range = 1e-3
-stiffness = 1e5
-restitution = 0.015
-[friction]
-coefficient = 0.5
-[cell]
-enabled = true
-pressure = 0.01
-contact_damping = 0.0
-[programme]
-preparation = "type1"
-load = false
-unload = false
-stage_budget = {}
-quench_drag = {}
-quench_damping = {}
-[run]
-threads = 1
-)", count, seed, budget, drag, damping), "quench");
-}
-
-}  // namespace
 
 TEST_CASE("quench: a quenched stage ends in an equilibrium of the paper's law (no drag)", "[quench][programme]") {
   // 12 grains (seed 3), the default quench (the drag, gamma T = 1, confirmed over 5 checks).

@@ -1,0 +1,49 @@
+// The scene of a small type-1 programme on the paper's law (Table I, mu = 0.5, no rolling resistance): shared
+// by the quench and programme tests.
+#pragma once
+#include <fmt/format.h>
+
+#include "io/scene.hpp"
+
+// The paper's type-1 law (Table I, mu = 0.5, no rolling resistance) on a few grains, the first stage only.
+inline grains::Scene type1_packing(int count, int seed, double drag, double damping, long budget) {
+  return grains::Scene::from_string(fmt::format(R"(
+[scene]
+dimension = 2
+[particles]
+layout = "random"
+count = {}
+size_distribution = "uniform"
+diameter_min = 0.5
+diameter_max = 1.0
+density = 1.273239544735163
+solid_fraction = 0.36
+velocity = "zero"
+seed = {}
+[box]
+periodic = true
+[contact]
+overlap_limit = 0.5
+[adhesion]
+enabled = true
+force = 1.0
+range = 1e-3
+stiffness = 1e5
+restitution = 0.015
+[friction]
+coefficient = 0.5
+[cell]
+enabled = true
+pressure = 0.01
+contact_damping = 0.0
+[programme]
+preparation = "type1"
+load = false
+unload = false
+stage_budget = {}
+quench_drag = {}
+quench_damping = {}
+[run]
+threads = 1
+)", count, seed, budget, drag, damping), "quench");
+}
