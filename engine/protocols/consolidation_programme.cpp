@@ -93,6 +93,11 @@ std::vector<std::pair<std::string, double>> programme_stages(const ProgrammeSett
 
 namespace {
 
+// The prepared state's stage at the start pressure: the one a first compression time ramps.
+bool first_compression(const std::string& phase, double P, const ProgrammeSettings& p) {
+  return phase == "equilibrate" && P > 0 && P == p.start_pressure && p.preparation != "none";
+}
+
 // What a stage row records: whichever of these the scene has (the elastic moduli with
 // analysis.elastic_moduli), and the normal-force histogram.
 const char* const recorded[] = {
@@ -128,7 +133,7 @@ class Runner {
         s_.set("cell.active", 0);
         stage(phase, P, p_.aggregation_budget, [&](StageRecord&) { return s_.get("bonded_clusters") == 1.0; });
       } else {   // the first stage under pressure: the prepared state at the start pressure
-        equilibrate(phase, P, phase == "equilibrate" && P > 0 && P == p_.start_pressure && p_.preparation != "none");
+        equilibrate(phase, P, first_compression(phase, P, p_));
       }
     }
     return std::move(records_);
@@ -218,9 +223,11 @@ StageProgress StageProgress::from_values(const std::vector<double>& v, const Pro
   if (v.size() < 2 || v[0] < 0 || v[0] >= double(stages.size()) || v[0] != std::floor(v[0]))
     throw std::invalid_argument(fmt::format("the stage under way is not one of the programme's {} stages", stages.size()));
   StageProgress s{int(v[0]), long(v[1]), std::vector<double>(v.begin() + 2, v.end())};
-  const bool aggregation = stages[std::size_t(s.stage)].first == "aggregation";
+  const auto& [phase, P] = stages[std::size_t(s.stage)];
+  const bool aggregation = phase == "aggregation";
   const long budget = aggregation ? p.aggregation_budget : p.stage_budget;
-  if (s.steps < 0 || s.steps >= budget)
+  const bool ramped = p.first_compression_time > 0 && first_compression(phase, P, p);   // its ramp adds to the budget
+  if (s.steps < 0 || (s.steps >= budget && !ramped))
     throw std::invalid_argument(fmt::format("stage {} is {} steps in, outside its budget of {}", s.stage, s.steps, budget));
   if (s.quench.size() != (aggregation || s.steps == 0 ? 0u : 9u))
     throw std::invalid_argument(fmt::format("stage {}'s quench has {} numbers", s.stage, s.quench.size()));

@@ -217,6 +217,8 @@ TEST_CASE("programme: a ramped first compression stopped inside and after its ra
       return false;
     });
     REQUIRE(!saved.empty());
+    // As a checkpoint stores and reads it: past the stage budget of 3000 after the ramp, still the stage's own.
+    CHECK(StageProgress::from_values(at.values(), settings).steps == stop_at);
     auto b = Simulation::create(scene);
     b->restore_state(saved);
     const auto rest = run_programme(*b, settings, {}, {}, at);
