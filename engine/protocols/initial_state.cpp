@@ -316,8 +316,13 @@ InitialState<D> make_initial_state(const Scene& s) {
       ke += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
     }
     const double target = s.real("particles.kinetic_energy") * double(N);
-    if (ke > 0)
-      for (auto& v : P.velocity) v *= std::sqrt(target / ke);
+    const double scale = ke > 0 ? std::sqrt(target / ke) : 1.0;
+    // The speeds squared must stay finite (the energies and the time-step checks square them).
+    if (!std::isfinite(target) || !std::isfinite(scale * scale * ke))
+      s.fail("particles.kinetic_energy", fmt::format("value {} per particle gives {} particles speeds whose energy "
+                                                     "overflows a double: allowed a value whose total is finite",
+                                                     s.real("particles.kinetic_energy"), N));
+    for (auto& v : P.velocity) v *= scale;
   } else if (vel == "list") {
     auto v = s.matrix("particles.velocities");
     if (v.size() != N) s.fail("particles.velocities", fmt::format("{} velocities for {} particles", v.size(), N));

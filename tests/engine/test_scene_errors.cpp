@@ -243,3 +243,11 @@ TEST_CASE("scene errors: a lattice too dense for its given box names box.lengths
   REQUIRE_THROWS_WITH(build(with("solid_fraction = 0.2", "solid_fraction = 0.9")),
                       Contains("particles.solid_fraction") && Contains("lower the solid fraction"));
 }
+
+TEST_CASE("scene errors: a kinetic energy whose total overflows names particles.kinetic_energy", "[scene][errors]") {
+  // It used to surface as a non-finite velocity at the first step, naming no key.
+  const std::string hot = with("solid_fraction = 0.2", "solid_fraction = 0.2\nvelocity = \"gaussian\"");
+  REQUIRE_THROWS_WITH(build(hot, {"particles.kinetic_energy=1e308"}),
+                      Contains("particles.kinetic_energy") && Contains("value 1e+308") && Contains("27 particles"));
+  build(hot, {"particles.kinetic_energy=1e300"});   // large but finite: accepted
+}
