@@ -141,11 +141,14 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     }
     if (stopped || quiet || !status.due()) return stopped;
     const double rate = double(sim.step_count() - first_step) * double(sim.particle_count()) / status.elapsed_seconds();
+    // While a first compression ramps (programme.first_compression_time), the target it has reached.
+    const double target = r.phase == "aggregation" ? r.target : sim.get("pressure_target");
+    const std::string ramp = target < r.target ? fmt::format(" (ramping: target {:.4g})", target) : "";
     const std::string waiting =
         r.phase == "aggregation"
             ? fmt::format("clusters {:.0f}", sim.get("bonded_clusters"))
-            : fmt::format("P* {:.4g}  equilibrium ratios force {:.3g} torque {:.3g} stress {:.3g} kinetic {:.3g}",
-                          sim.get("pressure_reduced"), sim.get("equilibrium_force"), sim.get("equilibrium_torque"),
+            : fmt::format("P* {:.4g}{}  equilibrium ratios force {:.3g} torque {:.3g} stress {:.3g} kinetic {:.3g}",
+                          sim.get("pressure_reduced"), ramp, sim.get("equilibrium_force"), sim.get("equilibrium_torque"),
                           sim.get("equilibrium_stress"), sim.get("equilibrium_kinetic"));
     const std::string quench = r.quench_start >= 0 ? fmt::format("  quench from {}", r.quench_start) : "";
     status.show(fmt::format("  stage {} {} step {}/{}  Phi {:.4f}  {}{}  {:.3g} particle-steps/s", r.index, r.phase,
