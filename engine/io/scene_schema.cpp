@@ -306,7 +306,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps between checkpoints of the complete state in the output file, from which `grains resume FILE.h5` "
        "continues a run or programme that was killed; 0 = only when stopped by Ctrl-C or SIGTERM (and, in "
        "`grains consolidate`, at the end of every stage but the last). A programme writes them at the first "
-       "equilibrium check past every multiple of N. In a pressure-controlled cell each checkpoint restarts "
+       "equilibrium check past every multiple of N (a stage's end past one counts as its checkpoint). In a pressure-controlled cell each checkpoint restarts "
        "CVODE, which changes the run at the level of its tolerance."},
   };
   return schema;
