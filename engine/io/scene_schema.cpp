@@ -230,7 +230,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Simulated time over which the first stage under pressure (type 1 or type 2, at `cell.pressure`) raises its "
        "target linearly from 0, in steps of `check_every`, before it waits for equilibrium (its budget counts from the "
        "ramp's end). 0: a step to the full pressure, the paper's protocol. A slower first compression leaves a looser "
-       "type-2 sample (README: the first compression)."},
+       "type-2 sample (README: the first compression). Refused in a cohesionless cell (`cell.force_unit = 0`), "
+       "which does not allow the ramp's start at P* = 0."},
       {"programme.stage_budget", K::integer, "2000000", 1, 9.2e18, false, false, "",
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
       {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",

@@ -56,6 +56,14 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
     scene.fail("programme.first_compression_time", fmt::format("value {} ramps the first compression of a type 1 or type 2 "
                                                                "preparation, and programme.preparation is \"none\": set it "
                                                                "to 0", p.first_compression_time));
+  // The ramp starts at P* = 0, which a cohesionless cell refuses (its force scale comes from the pressure).
+  const double force_unit = scene.has("cell.force_unit")        ? scene.real("cell.force_unit")
+                            : scene.boolean("adhesion.enabled") ? scene.real("adhesion.force")
+                                                                : 1.0;
+  if (p.first_compression_time > 0 && force_unit == 0)
+    scene.fail("programme.first_compression_time",
+               fmt::format("value {} ramps the first compression's target from P* = 0, which a cohesionless cell "
+                           "(cell.force_unit = 0) does not allow: set it to 0", p.first_compression_time));
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
