@@ -193,6 +193,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);
+  settings.check_time_step(scene, sim->dt());
   const std::string name = scene.text("scene.name");
   // The output file: --out, else output.file, else <scene.name>-stages.h5.
   const std::string path = !opt.output.empty()           ? opt.output

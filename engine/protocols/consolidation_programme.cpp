@@ -69,6 +69,14 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   return p;
 }
 
+void ProgrammeSettings::check_time_step(const Scene& scene, double dt) const {
+  const double steps = first_compression_time / dt;
+  if (!(steps <= Simulation::max_steps))   // the ramp's step count (and the stage's budget after it) must fit
+    scene.fail("programme.first_compression_time",
+               fmt::format("value {} is {:.3g} steps of dt = {:.6g}; at most {:.0e} steps: a shorter ramp",
+                           first_compression_time, steps, dt, Simulation::max_steps));
+}
+
 std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeSettings& p) {
   std::vector<std::pair<std::string, double>> out;
   const double slack = 1 + 1e-3;   // 0.01 * 10^(25/8) = 13.335 counts as the paper's 13.33
@@ -191,6 +199,8 @@ class Runner {
   void equilibrate(const std::string& phase, double target, bool first_compression) {
     if (s_.get("cell.active") != 1) s_.set("cell.active", 1);   // released after the aggregation
     const double T = first_compression ? p_.first_compression_time : 0.0;
+    if (!(T / s_.dt() <= Simulation::max_steps))   // ProgrammeSettings::check_time_step names the key
+      throw std::invalid_argument(fmt::format("programme.first_compression_time = {} is more than 1e15 steps", T));
     const long ramp_steps = T > 0 ? long(std::ceil(T / s_.dt() / double(p_.check_every))) * p_.check_every : 0;
     const long at = records_.empty() ? from_.steps : 0;   // a resumed stage goes on where it stood
     s_.set("cell.pressure", at < ramp_steps ? target * double(at) / double(ramp_steps) : target);

@@ -74,6 +74,10 @@ def test_consolidate_writes_to_output_file_and_says_a_run_length_is_not_used(gra
     # about cell.pressure, after writing the output file.
     (["--set", "programme.preparation=type1", "--set", "programme.first_compression_time=10"],
      "programme.first_compression_time: value 10 ramps the first compression's target from P* = 0"),
+    # More steps than a long holds: the ramp's step count wrapped to 0 and the stage ran at the full pressure.
+    (["--set", "programme.preparation=type1", "--set", "cell.force_unit=1", "--set",
+      "programme.first_compression_time=1e30"],
+     "programme.first_compression_time: value 1e+30 is"),
 ])
 def test_a_first_compression_ramp_that_cannot_run_is_refused_before_anything_is_written(grains_bin, root, tmp_path,
                                                                                        overrides, expected):
