@@ -203,11 +203,14 @@ class Runner {
       throw std::invalid_argument(fmt::format("programme.first_compression_time = {} is more than 1e15 steps", T));
     const long ramp_steps = T > 0 ? long(std::ceil(T / s_.dt() / double(p_.check_every))) * p_.check_every : 0;
     const long at = records_.empty() ? from_.steps : 0;   // a resumed stage goes on where it stood
-    s_.set("cell.pressure", at < ramp_steps ? target * double(at) / double(ramp_steps) : target);
+    // The quench sets its drags in units of the inertial time at the stage's target (above P* = 1 it depends
+    // on it), also in a ramp and at a resume inside one: the ramp's own target comes after.
+    s_.set("cell.pressure", target);
     QuenchSettings q = p_.quench;
     if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
     StageQuench quench(s_, q);
     if (records_.empty() && from_.steps > 0) quench.resume(from_.quench);
+    if (at < ramp_steps) s_.set("cell.pressure", target * double(at) / double(ramp_steps));
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();
