@@ -56,6 +56,13 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
   StatusLine status;
+  // The next output.checkpoint_every checkpoint: at the first check past the next multiple of N after the last
+  // checkpoint, whichever wrote it. A stage's end counts: a resume from there cannot know that a multiple fell
+  // in the stage's last steps, so the unbroken programme must not write one at the next stage's first check
+  // either (it would restart CVODE where the resumed one does not).
+  const long checkpoint_every = scene.integer("output.checkpoint_every");
+  const auto next_multiple = [&] { return checkpoint_every > 0 ? (sim.step_count() / checkpoint_every + 1) * checkpoint_every : -1; };
+  long next_checkpoint = next_multiple();
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
       // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
@@ -95,9 +102,11 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains
     // resume`. The next stage's new target pressure restarts CVODE at its first step, which is where the
     // saved state restarts it too: the programme runs as it would without checkpoints.
-    if (r.index + 1 < stages)
+    if (r.index + 1 < stages) {
       out.write_checkpoint({.step = sim.step_count(), .stage = r.index, .unreached = unreached, .time = sim.time(),
                             .wall_seconds = earlier_seconds + status.elapsed_seconds(), .state = sim.save_state()});
+      next_checkpoint = next_multiple();
+    }
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
     // moduli (NaN): say so rather than print numbers without saying what they are.
     const double mechanisms = value("moduli_mechanisms"), unstable = value("moduli_unstable_modes");
@@ -121,9 +130,6 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   // Within a stage, at an equilibrium check: a checkpoint every output.checkpoint_every steps, and one where
   // Ctrl-C or SIGTERM stops the programme; then what the stage waits for (one bonded cluster, or the four
   // equilibrium ratios falling below 1).
-  const long checkpoint_every = scene.integer("output.checkpoint_every");
-  const auto next_multiple = [&] { return checkpoint_every > 0 ? (sim.step_count() / checkpoint_every + 1) * checkpoint_every : -1; };
-  long next_checkpoint = next_multiple();
   bool stopped = false;
   catch_stop_signals();
   auto on_check = [&](const StageRecord& r, long budget, const StageProgress& at) {
@@ -190,6 +196,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);
+  settings.check_time_step(scene, sim->dt());
   const std::string name = scene.text("scene.name");
   // The output file: --out, else output.file, else <scene.name>-stages.h5.
   const std::string path = !opt.output.empty()           ? opt.output

@@ -55,6 +55,11 @@ class Barostat {
 
   // The contacts' damping of the cell's strain rate (see affine_contact_damping), per axis.
   void set_contact_damping(const Vec<D>& eta) { ode_.set_extra_damping(eta.data()); }
+  Vec<D> contact_damping() const {
+    Vec<D> eta;
+    for (int a = 0; a < D; ++a) eta[a] = ode_.extra_damping(a);
+    return eta;
+  }
 
   // Advance the lengths over [t, t + h] under `stress` (frozen); returns L(t + h) / L(t) per axis.
   Vec<D> advance(double t, double h, const Tensor<D>& stress) {

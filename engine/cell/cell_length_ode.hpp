@@ -43,6 +43,7 @@ class CellLengthOde {
   void set_extra_damping(const double* extra) {
     for (int a = 0; a < p_.axes; ++a) extra_damping_[a] = extra[a];
   }
+  double extra_damping(int a) const { return extra_damping_[a]; }
 
   // The cap is part of the right-hand side: change it together with a reset().
   void set_rate_cap(double cap) { p_.rate_cap = cap; }

@@ -222,7 +222,8 @@ class SimulationImpl final : public Simulation {
   // 2D tangential spring became one number per pair; 3: no previous angular accelerations, which only an
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
   // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact; a scene with
-  // a pressure ramp, new since, appends the ramp's on flag).
+  // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
+  // contact damping).
   // States of builds before the word start with D (2, 3).
   static constexpr std::uint32_t state_format = 0x47524e07;
 
@@ -242,6 +243,9 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->save(w);
     for (const auto& [index, c] : controls_) w.put(c.get());
     if (has_ramp_) w.put(ramp_.on);   // after the controls: restoring cell.pressure ends the ramp, this resumes it
+    // The contacts' damping of the cell, updated every contact_damping_every_ steps: a state saved between two
+    // updates continues with the last one (a new simulation would have none until the next).
+    if (barostat_ && contact_damping_ > 0) w.put(barostat_->contact_damping());
     return w.take();
   }
   // A state that does not fit leaves the simulation as it was.
@@ -280,6 +284,7 @@ class SimulationImpl final : public Simulation {
     if (collisions_) collisions_->load(r);
     for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
     if (has_ramp_) ramp_.on = r.get<bool>();
+    if (barostat_ && contact_damping_ > 0) barostat_->set_contact_damping(r.get<Vec<D>>());
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
     for (auto& stamp : refreshed_) stamp = {};
   }

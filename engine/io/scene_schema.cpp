@@ -230,7 +230,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Simulated time over which the first stage under pressure (type 1 or type 2, at `cell.pressure`) raises its "
        "target linearly from 0, in steps of `check_every`, before it waits for equilibrium (its budget counts from the "
        "ramp's end). 0: a step to the full pressure, the paper's protocol. A slower first compression leaves a looser "
-       "type-2 sample (README: the first compression)."},
+       "type-2 sample (README: the first compression). Refused in a cohesionless cell (`cell.force_unit = 0`), "
+       "which does not allow the ramp's start at P* = 0."},
       {"programme.stage_budget", K::integer, "2000000", 1, 9.2e18, false, false, "",
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
       {"programme.aggregation_budget", K::integer, "20000000", 1, 9.2e18, false, false, "",
@@ -306,7 +307,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps between checkpoints of the complete state in the output file, from which `grains resume FILE.h5` "
        "continues a run or programme that was killed; 0 = only when stopped by Ctrl-C or SIGTERM (and, in "
        "`grains consolidate`, at the end of every stage but the last). A programme writes them at the first "
-       "equilibrium check past every multiple of N. In a pressure-controlled cell each checkpoint restarts "
+       "equilibrium check past every multiple of N (a stage's end past one counts as its checkpoint). In a pressure-controlled cell each checkpoint restarts "
        "CVODE, which changes the run at the level of its tolerance."},
   };
   return schema;

@@ -56,9 +56,25 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
     scene.fail("programme.first_compression_time", fmt::format("value {} ramps the first compression of a type 1 or type 2 "
                                                                "preparation, and programme.preparation is \"none\": set it "
                                                                "to 0", p.first_compression_time));
+  // The ramp starts at P* = 0, which a cohesionless cell refuses (its force scale comes from the pressure).
+  const double force_unit = scene.has("cell.force_unit")        ? scene.real("cell.force_unit")
+                            : scene.boolean("adhesion.enabled") ? scene.real("adhesion.force")
+                                                                : 1.0;
+  if (p.first_compression_time > 0 && force_unit == 0)
+    scene.fail("programme.first_compression_time",
+               fmt::format("value {} ramps the first compression's target from P* = 0, which a cohesionless cell "
+                           "(cell.force_unit = 0) does not allow: set it to 0", p.first_compression_time));
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
   return p;
+}
+
+void ProgrammeSettings::check_time_step(const Scene& scene, double dt) const {
+  const double steps = first_compression_time / dt;
+  if (!(steps <= Simulation::max_steps))   // the ramp's step count (and the stage's budget after it) must fit
+    scene.fail("programme.first_compression_time",
+               fmt::format("value {} is {:.3g} steps of dt = {:.6g}; at most {:.0e} steps: a shorter ramp",
+                           first_compression_time, steps, dt, Simulation::max_steps));
 }
 
 std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeSettings& p) {
@@ -183,13 +199,18 @@ class Runner {
   void equilibrate(const std::string& phase, double target, bool first_compression) {
     if (s_.get("cell.active") != 1) s_.set("cell.active", 1);   // released after the aggregation
     const double T = first_compression ? p_.first_compression_time : 0.0;
+    if (!(T / s_.dt() <= Simulation::max_steps))   // ProgrammeSettings::check_time_step names the key
+      throw std::invalid_argument(fmt::format("programme.first_compression_time = {} is more than 1e15 steps", T));
     const long ramp_steps = T > 0 ? long(std::ceil(T / s_.dt() / double(p_.check_every))) * p_.check_every : 0;
     const long at = records_.empty() ? from_.steps : 0;   // a resumed stage goes on where it stood
-    s_.set("cell.pressure", at < ramp_steps ? target * double(at) / double(ramp_steps) : target);
+    // The quench sets its drags in units of the inertial time at the stage's target (above P* = 1 it depends
+    // on it), also in a ramp and at a resume inside one: the ramp's own target comes after.
+    s_.set("cell.pressure", target);
     QuenchSettings q = p_.quench;
     if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
     StageQuench quench(s_, q);
     if (records_.empty() && from_.steps > 0) quench.resume(from_.quench);
+    if (at < ramp_steps) s_.set("cell.pressure", target * double(at) / double(ramp_steps));
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();

@@ -31,6 +31,9 @@ struct ProgrammeSettings {
   QuenchSettings quench;              // the drag (and rolling dashpot) switched on once a stage has settled
 
   static ProgrammeSettings from_scene(const Scene& scene);
+  // What needs the simulation's time step dt: a first compression of more steps than a run may take is refused
+  // naming programme.first_compression_time (SceneError).
+  void check_time_step(const Scene& scene, double dt) const;
 };
 
 struct StageRecord {

@@ -148,6 +148,24 @@ TEST_CASE("barostat: save / restore continues bit-identically, CVODE restarted o
   CHECK(s->get("cell_length_x") == length);
 }
 
+TEST_CASE("barostat: a state saved between two updates of the contacts' damping continues in a new simulation",
+          "[barostat][checkpoint]") {
+  // cell.contact_damping is refreshed every 10 steps: a state saved at step 30,005 must carry the value of step
+  // 30,000, as `grains resume` restores it into a new simulation (it had none until step 30,010).
+  const auto scene = packed_cell_scene(2, 100, 1e-3, "contact_damping = 1.0");
+  auto s = Simulation::create(Scene::from_string(scene, "cell2d"));
+  s->step_n(30005);
+  REQUIRE(std::abs(s->get("cell_strain_rate_x")) > 0);
+  const auto saved = s->save_state();
+  s->step_n(3000);
+  auto other = Simulation::create(Scene::from_string(scene, "cell2d"));
+  other->restore_state(saved);
+  other->step_n(3000);
+  CHECK(other->particles().position == s->particles().position);
+  CHECK(other->get("cell_length_x") == s->get("cell_length_x"));
+  CHECK(other->save_state() == s->save_state());
+}
+
 TEST_CASE("barostat: bad pressure and cell parameters get errors naming the field", "[barostat]") {
   auto fails = [](const std::string& text, const std::string& field) {
     INFO(field);

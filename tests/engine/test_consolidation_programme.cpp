@@ -228,3 +228,33 @@ TEST_CASE("programme: a ramped first compression stopped inside and after its ra
     CHECK(b->save_state() == a->save_state());
   }
 }
+
+TEST_CASE("programme: a background drag in a ramped first compression above P* = 1 resumes as the unbroken one",
+          "[programme][ramp][checkpoint]") {
+  // The background drag is gamma T / T with T the inertial time at the target, which above P* = 1 depends on it:
+  // the stage must set it at its own target, not at where the ramp stands (0 at the start, else at a resume).
+  auto scene = type1_packing(12, 3, 1.0, 0.0, 3000);
+  scene.set_value("cell.pressure", "2.0");
+  scene.set_value("programme.background_drag", "0.5");
+  scene.set_value("programme.first_compression_time", "6.0");
+  const auto settings = ProgrammeSettings::from_scene(scene);
+  for (const long stop_at : {60000L, 74000L}) {
+    INFO("stopped at step " << stop_at);
+    std::vector<std::byte> saved;
+    StageProgress at;
+    auto a = Simulation::create(scene);
+    REQUIRE(long(std::ceil(6.0 / a->dt() / 100)) * 100 > stop_at);   // inside the ramp
+    const auto whole = run_programme(*a, settings, {}, [&](const StageRecord& r, long, const StageProgress& p) {
+      if (r.steps == stop_at) saved = a->save_state(), at = p;
+      return false;
+    });
+    REQUIRE(!saved.empty());
+    REQUIRE(a->get("contacts") > 0);
+    auto b = Simulation::create(scene);
+    b->restore_state(saved);
+    const auto rest = run_programme(*b, settings, {}, {}, at);
+    REQUIRE(rest.size() == 1);
+    CHECK(rest[0].steps == whole[0].steps);
+    CHECK(b->save_state() == a->save_state());
+  }
+}

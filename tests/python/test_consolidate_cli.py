@@ -67,3 +67,22 @@ def test_consolidate_writes_to_output_file_and_says_a_run_length_is_not_used(gra
     assert "time.steps is not used by grains consolidate" in r.stderr
     with h5py.File(out) as f:
         assert any(b"time.steps is not used" in w for w in f["grains/warnings"][()])
+
+
+@pytest.mark.parametrize("overrides, expected", [
+    # A cohesionless cell refuses P* = 0, where the ramp starts: it failed at the first step with a message
+    # about cell.pressure, after writing the output file.
+    (["--set", "programme.preparation=type1", "--set", "programme.first_compression_time=10"],
+     "programme.first_compression_time: value 10 ramps the first compression's target from P* = 0"),
+    # More steps than a long holds: the ramp's step count wrapped to 0 and the stage ran at the full pressure.
+    (["--set", "programme.preparation=type1", "--set", "cell.force_unit=1", "--set",
+      "programme.first_compression_time=1e30"],
+     "programme.first_compression_time: value 1e+30 is"),
+])
+def test_a_first_compression_ramp_that_cannot_run_is_refused_before_anything_is_written(grains_bin, root, tmp_path,
+                                                                                       overrides, expected):
+    out = tmp_path / "ramp.h5"
+    r = run(grains_bin, "consolidate", root / "models" / "cohesionless.toml", "--table", tmp_path / "t.csv", "--out", out,
+            "--set", "particles.count=60", "--set", "programme.stage_budget=300", *overrides)
+    assert r.returncode != 0 and expected in r.stderr, r.stderr
+    assert not out.exists()

@@ -301,3 +301,34 @@ def test_a_signal_in_the_last_stretch_of_a_run_leaves_it_complete(grains_bin, ro
     assert status(out) == "complete"
     with h5py.File(out) as f:
         assert list(f["observables/kinetic_energy/step"][()]) == [0, 300000] and "checkpoint_0" not in f["grains"]
+
+
+def test_a_programme_resumed_from_a_stage_end_past_a_checkpoint_multiple_ends_as_the_unbroken_one(grains_bin, root,
+                                                                                                  tmp_path):
+    """Stages of 1000 steps and output.checkpoint_every = 1000: every multiple falls on a stage's end, where the
+    stage's own checkpoint is written. A resume from that checkpoint cannot know a multiple was pending there, so the
+    unbroken programme must not write another at the next stage's first check (it restarted CVODE where the resumed
+    programme did not, and the two parted at the level of CVODE's tolerance)."""
+    programme = [root / "models/cohesionless.toml", "--set", "particles.count=100", "--set", "programme.load=true",
+                 "--set", "programme.unload=false", "--set", "programme.top_pressure=1.8e-5", "--set",
+                 "programme.stage_budget=1000", "--set", "output.checkpoint_every=1000", "--set", "run.threads=1",
+                 "--quiet"]
+    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
+    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:]).returncode == 0
+    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
+    rows = whole_table.read_text().splitlines()
+    assert len(rows) == 4   # three stages of 1000 steps, none in equilibrium
+    killed_table.write_text("\n".join(rows[:3]) + "\n")
+    with h5py.File(killed, "r+") as f:
+        f["grains"].attrs["stage_table"] = killed_table.name
+        steps = {k: int(f["grains"][k].attrs["step"]) for k in ("checkpoint_0", "checkpoint_1")}
+        # Killed right after stage 1's end: a checkpoint written after it never made it to the file.
+        for k, step in steps.items():
+            if step > 2000:
+                f["grains"][k].attrs["valid"] = 0.0
+    assert 2000 in steps.values(), steps
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resumed      at step 2000, 0 steps into stage 2" in resumed.stdout
+    assert killed_table.read_text() == whole_table.read_text()
+    assert_same_records(whole, killed)
