@@ -95,8 +95,11 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     status.finish();
     if (!r.reached) {
       ++unreached;
-      fmt::print(stderr, "warning: stage {} ({} at P* = {:.4g}) did not reach {} within its budget of {} steps\n",
-                 r.index, r.phase, r.target, r.phase == "aggregation" ? "one cluster" : "equilibrium", r.steps);
+      // A ramped first compression's budget counts from the ramp's end.
+      const long budget = r.phase == "aggregation" ? settings.aggregation_budget : settings.stage_budget;
+      const std::string ramp = r.steps > budget ? fmt::format(" after its {}-step ramp", r.steps - budget) : "";
+      fmt::print(stderr, "warning: stage {} ({} at P* = {:.4g}) did not reach {} within its budget of {} steps{}\n",
+                 r.index, r.phase, r.target, r.phase == "aggregation" ? "one cluster" : "equilibrium", budget, ramp);
       out.write_warning(fmt::format("stage {} ({}, P* = {:.6g}) not reached within {} steps", r.index, r.phase, r.target, r.steps));
     }
     // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains

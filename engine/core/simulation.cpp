@@ -1009,8 +1009,8 @@ class SimulationImpl final : public Simulation {
     out("pressure", "Pa", "trace(stress) / D, contact + kinetic");
     out("pressure_kinetic", "Pa", "kinetic part of the pressure (velocities relative to the affine flow)");
     out("pressure_reduced", "", "P* of the current stress: a P / F0 (2D), a^2 P / F0 (3D)");
-    out("pressure_target", "", "P* the barostat drives the stress to: cell.pressure, or where its ramp is "
-        "(cell.pressure_final)");
+    out("pressure_target", "", "P* the barostat drives the stress to: cell.pressure, or with a ramp (cell.pressure_final) its value at "
+        "the start of the last step");
     out("solid_fraction", "", "Phi: grain area (2D) or volume (3D) over the cell's");
     out("equilibrium", "", "1 when all four equilibrium criteria hold (physics.md section 9), else 0");
     out("equilibrium_force", "", "largest net force / (tolerance_force F1): below 1 passes");
