@@ -27,7 +27,9 @@ name="$(basename "$scene" .toml)"
 h5="" args=()
 while [ $# -gt 0 ]; do
   case "$1" in
-    --out) h5="${2:-}"; shift; shift || true ;;
+    --out|--out=)
+      if [ -z "${2:-}" ] || [ "$1" = "--out=" ]; then echo "runner/main.sh: --out needs a file name (FILE.h5)" >&2; exit 2; fi
+      h5="$2"; shift 2 ;;
     --out=*) h5="${1#--out=}"; shift ;;
     *) args+=("$1"); shift ;;
   esac

@@ -66,6 +66,10 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
                            "(cell.force_unit = 0) does not allow: set it to 0", p.first_compression_time));
   if (p.preparation == "type2" && !scene.boolean("adhesion.enabled"))
     scene.fail("programme.preparation", "type2 aggregates the grains ballistically: it needs adhesion.enabled = true");
+  if (p.preparation == "type2" && force_unit == 0)   // its relaxation at P* = 0 needs a force scale other than P
+    scene.fail(scene.has("cell.force_unit") ? "cell.force_unit" : "adhesion.force",
+               "value 0 leaves type2's relaxation at P* = 0 without a force scale (cohesionless cells need P* > 0): "
+               "allowed a value > 0");
   return p;
 }
 

@@ -94,6 +94,15 @@ preparation = "type1"
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(no_cell), Catch::Contains("cell.enabled"));
   auto type2 = Scene::from_string(small_programme(10) + "\n", "bad", {"programme.preparation=type2"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(type2), Catch::Contains("programme.preparation") && Catch::Contains("adhesion"));
+  // A type-2 sample whose adhesion gives no force scale cannot relax at P* = 0: refused up front, naming the key
+  // (it failed at the P* = 0 stage, naming cell.pressure, after the output was written).
+  auto forceless = type1_packing(12, 3, 1.0, 0.0, 1000);
+  forceless.set_value("programme.preparation", "\"type2\"");
+  forceless.set_value("adhesion.force", "0");
+  CHECK_THROWS_WITH(ProgrammeSettings::from_scene(forceless), Catch::Contains("adhesion.force") && Catch::Contains("P* = 0"));
+  forceless.set_value("cell.force_unit", "0");
+  forceless.set_value("adhesion.force", "1");
+  CHECK_THROWS_WITH(ProgrammeSettings::from_scene(forceless), Catch::Contains("cell.force_unit"));
   auto low_top = Scene::from_string(small_programme(10), "bad", {"programme.top_pressure=1e-4"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(low_top), Catch::Contains("programme.top_pressure"));
 }

@@ -134,6 +134,11 @@ def test_main_sh_runs_another_scene_with_its_own_out(grains_bin, root, tmp_path)
                             "--set", "time.duration=0.1", "--quiet"], capture_output=True, text=True, env=env)
         assert r.returncode == 0, r.stderr
         assert out.exists() and out.with_suffix(".png").stat().st_size > 1000
+    # --out without a file name is refused (it fell back to out/ silently).
+    for option in (["--out"], ["--out="]):
+        r = subprocess.run(["bash", str(root / "runner" / "main.sh"), str(root / "models" / "collision.toml"), *option],
+                           capture_output=True, text=True, env=env)
+        assert r.returncode == 2 and "--out needs a file name" in r.stderr, (option, r.stderr)
 
 
 def test_every_shipped_scene_validates(grains_bin, root):
