@@ -102,6 +102,14 @@ def check_arguments(ap, args):
         ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
 
 
+def provenance(args, names):
+    """The summary's first line: which samples, and the scene overrides they ran with (a table read later must
+    say what protocol it measured)."""
+    last = args.first_seed + args.samples - 1
+    sets = " ".join(f"`--set {o}`" for o in args.set) or "none"
+    return f"{', '.join(names)}: seeds {args.first_seed}–{last}, {args.count} disks; scene overrides: {sets}.\n\n"
+
+
 def run_sample(grains, scene, seed, count, threads, overrides, out):
     """Runs one sample unless its table exists; returns the path of its stage table."""
     own = [f"particles.seed={seed}", f"particles.count={count}", f"run.threads={threads}"]
@@ -262,7 +270,7 @@ def main():
         lines += table_lines(scene, summaries[scene])
     text = "\n".join(lines)
     print(text)
-    (out / "summary.md").write_text(text + "\n")
+    (out / "summary.md").write_text(provenance(args, scenes) + text + "\n")
     plot(summaries, out / "campaign.png")
     print(f"wrote {out / 'summary.md'} and {out / 'campaign.png'}")
     for scene in scenes:   # the samples' density correlations, pooled: OUT/SCENE-intensity.{csv,png}

@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_campaign import ROOT, check_arguments, consolidate  # noqa: E402
+from consolidation_campaign import ROOT, check_arguments, consolidate, provenance  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
     "cohesionless": ("cohesionless", [], (0.811, 0.001)),
@@ -87,7 +87,7 @@ def main():
                      f"{z.mean():.3f}{spread(z)} | {reached} of {len(rows)} | {np.mean([int(r['steps']) for r in rows]):,.0f} |")
     text = "\n".join(lines)
     print(text)
-    (out / "summary.md").write_text(text + "\n")
+    (out / "summary.md").write_text(provenance(args, states) + text + "\n")
     plot(final, out / "initial-states.png")
     print(f"wrote {out / 'summary.md'} and {out / 'initial-states.png'}")
 

@@ -142,3 +142,14 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     other = small[:-1] + ["programme.stage_budget=10000"]
     table = campaign.consolidate(grains_bin, scene, other, stem, "sample")
     assert "resuming" not in stem.with_suffix(".log").read_text() and table.read_text() != whole.read_text()
+
+
+def test_the_summary_says_which_samples_and_overrides_it_measured():
+    """A summary read later must say what protocol produced it: the seeds, the disks and the --set overrides."""
+    import argparse
+    args = argparse.Namespace(first_seed=4, samples=3, count=1400, set=["programme.first_compression_time=100"])
+    line = campaign.provenance(args, ["consolidation", "consolidation-rr"])
+    assert line.startswith("consolidation, consolidation-rr: seeds 4–6, 1400 disks;")
+    assert "`--set programme.first_compression_time=100`" in line
+    assert campaign.provenance(argparse.Namespace(first_seed=1, samples=1, count=300, set=[]), ["type1"]).startswith(
+        "type1: seeds 1–1, 300 disks; scene overrides: none.")
