@@ -61,6 +61,30 @@ def interrupted(cmd, out, after):
     return p.returncode, stdout, stderr
 
 
+def killed_programme(grains_bin, tmp_path, programme, keep_rows):
+    """`grains consolidate` of programme (the scene, then its options) to its end as whole.h5 / whole.csv, and a
+    copy of its file as a programme killed after its last checkpoint leaves it: no status, and a stage table of the
+    rows keep_rows(rows) returns (rows: header, stages 0..last), named in the copy. Returns (whole, whole_table,
+    killed, killed_table, rows)."""
+    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
+    done = run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:])
+    assert done.returncode == 0, done.stderr
+    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
+    rows = whole_table.read_text().splitlines()
+    killed_table.write_text("\n".join(keep_rows(rows)) + "\n")
+    with h5py.File(killed, "r+") as f:
+        f["grains"].attrs["stage_table"] = killed_table.name
+    return whole, whole_table, killed, killed_table, rows
+
+
+def cohesionless_programme(root, top_pressure, stage_budget):
+    """100 cohesionless disks loaded from P / K_N = 1e-5 to top_pressure, checkpointed every 1000 steps."""
+    return [root / "models/cohesionless.toml", "--set", "particles.count=100", "--set", "programme.load=true",
+            "--set", "programme.unload=false", "--set", f"programme.top_pressure={top_pressure}", "--set",
+            f"programme.stage_budget={stage_budget}", "--set", "output.checkpoint_every=1000", "--set", "run.threads=1",
+            "--quiet"]
+
+
 # A small self-gravitating cloud with the collision log, checkpointed every 3000 of its 15,527 steps.
 CLOUD = ["--set", "particles.count=200", "--set", "output.snapshots_every=2000", "--set", "output.checkpoint_every=3000",
          "--set", "analysis.collision_log=true", "--set", "run.threads=1", "--quiet"]
@@ -147,15 +171,10 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
     programme that was never stopped, bit for bit (CVODE's own counters aside: they count from the resume)."""
     programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
                  "programme.top_pressure=0.1", "--set", "programme.stage_budget=20000", "--quiet"]
-    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
-    done = run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:])
-    assert done.returncode == 0, done.stderr
     # Killed during its last stage: no status, a partial last table row and records of that stage to drop.
-    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
-    rows = whole_table.read_text().splitlines()
-    killed_table.write_text("\n".join(rows[:-1] + [rows[-1][:20]]) + "\n")
+    whole, whole_table, killed, killed_table, rows = killed_programme(
+        grains_bin, tmp_path, programme, lambda rows: rows[:-1] + [rows[-1][:20]])
     with h5py.File(killed, "r+") as f:
-        f["grains"].attrs["stage_table"] = killed_table.name
         stage = int(max(f["grains/checkpoint_0"].attrs["stage"], f["grains/checkpoint_1"].attrs["stage"]))
         assert stage == len(rows) - 3   # the end of the last stage but one (rows: header, stages 0..last)
         f["observables/solid_fraction/value"][-1] = 0.0
@@ -200,18 +219,10 @@ def test_a_programme_killed_inside_a_stage_resumes_from_its_last_checkpoint_with
     (here, in the last stage: quenched from step 49,100 of it and four checks into confirming its equilibrium).
     Saving restarts CVODE (its history is not saved), so the reference is the same programme with the same
     checkpoints, never killed: the resume from its last one ends with its table and records."""
-    programme = [root / "models/cohesionless.toml", "--set", "particles.count=100", "--set", "programme.load=true",
-                 "--set", "programme.unload=false", "--set", "programme.top_pressure=1.4e-5", "--set",
-                 "programme.stage_budget=300000", "--set", "output.checkpoint_every=1000", "--set", "run.threads=1",
-                 "--quiet"]
-    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
-    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:]).returncode == 0
-    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
-    rows = whole_table.read_text().splitlines()
+    whole, whole_table, killed, killed_table, rows = killed_programme(
+        grains_bin, tmp_path, cohesionless_programme(root, 1.4e-5, 300000), lambda rows: rows[:2])
     assert len(rows) == 3 and ",49100,1," in rows[2]   # stage 1 quenched from its step 49,100, drag gamma T 1
-    killed_table.write_text(rows[0] + "\n" + rows[1] + "\n")
     with h5py.File(killed, "r+") as f:
-        f["grains"].attrs["stage_table"] = killed_table.name
         newest = max(("checkpoint_0", "checkpoint_1"), key=lambda k: f["grains"][k].attrs["step"])
         progress = list(f["grains"][newest].attrs["stage_progress"])
     # Stage 1, steps into it; the quench off, 16 settled checks, 4 confirming, started at 49,100.
@@ -309,18 +320,10 @@ def test_a_programme_resumed_from_a_stage_end_past_a_checkpoint_multiple_ends_as
     stage's own checkpoint is written. A resume from that checkpoint cannot know a multiple was pending there, so the
     unbroken programme must not write another at the next stage's first check (it restarted CVODE where the resumed
     programme did not, and the two parted at the level of CVODE's tolerance)."""
-    programme = [root / "models/cohesionless.toml", "--set", "particles.count=100", "--set", "programme.load=true",
-                 "--set", "programme.unload=false", "--set", "programme.top_pressure=1.8e-5", "--set",
-                 "programme.stage_budget=1000", "--set", "output.checkpoint_every=1000", "--set", "run.threads=1",
-                 "--quiet"]
-    whole, whole_table = tmp_path / "whole.h5", tmp_path / "whole.csv"
-    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", whole_table, *programme[1:]).returncode == 0
-    killed, killed_table = killed_copy(whole, tmp_path / "killed.h5"), tmp_path / "killed.csv"
-    rows = whole_table.read_text().splitlines()
+    whole, whole_table, killed, killed_table, rows = killed_programme(
+        grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000), lambda rows: rows[:3])
     assert len(rows) == 4   # three stages of 1000 steps, none in equilibrium
-    killed_table.write_text("\n".join(rows[:3]) + "\n")
     with h5py.File(killed, "r+") as f:
-        f["grains"].attrs["stage_table"] = killed_table.name
         steps = {k: int(f["grains"][k].attrs["step"]) for k in ("checkpoint_0", "checkpoint_1")}
         # Killed right after stage 1's end: a checkpoint written after it never made it to the file.
         for k, step in steps.items():
