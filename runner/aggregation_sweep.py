@@ -421,6 +421,8 @@ def main(argv=None):
     fixed_stiffness = args.fixed_stiffness or scene_point(scene, m_star, k_g)[1]
     threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     out = pathlib.Path(args.out)
+    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
+        ap.error(f"--report: no folder {out}")
     out.mkdir(parents=True, exist_ok=True)
     seeds = range(1, args.seeds + 1)
     def setting(key):   # the scene's value of a [section] key, or the last --set of it

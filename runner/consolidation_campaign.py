@@ -235,6 +235,8 @@ def main():
     scenes = args.scene or list(PAPER)
     seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)
+    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
+        ap.error(f"--report: no folder {out}")
     out.mkdir(parents=True, exist_ok=True)
 
     if args.report:

@@ -54,3 +54,11 @@ def test_density_correlations_into_a_missing_folder(tmp_path, option):
     data.write_bytes(b"")   # the output folder is checked before the input is read
     refused(tool("density_correlations.py", data, option, tmp_path / "missing" / "x.out"), option,
             str(tmp_path / "missing"), "does not exist")
+
+
+@pytest.mark.parametrize("script", ["consolidation_campaign.py", "initial_states.py", "aggregation_sweep.py"])
+def test_report_of_a_missing_folder_says_so_and_creates_nothing(tmp_path, script):
+    """--report only reads: a folder that is not there is named, not created empty."""
+    missing = tmp_path / "no-such-campaign"
+    refused(tool(script, "--report", "--out", missing), "--report: no folder", str(missing))
+    assert not missing.exists()
