@@ -47,7 +47,7 @@ std::vector<std::string> table_up_to(const std::string& table, int last) {
 // before it).
 int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation& sim, H5mdWriter& out,
                std::ofstream& csv, const std::string& table, bool quiet, const StageProgress& from, long unreached,
-               double earlier_seconds) {
+               double earlier_seconds, double earlier_cvode) {
   const std::string path = out.path(), name = scene.text("scene.name");
   const int stages = int(programme_stages(settings).size());
   const long first_step = sim.step_count();
@@ -107,7 +107,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // saved state restarts it too: the programme runs as it would without checkpoints.
     if (r.index + 1 < stages) {
       out.write_checkpoint({.step = sim.step_count(), .stage = r.index, .unreached = unreached, .time = sim.time(),
-                            .wall_seconds = earlier_seconds + status.elapsed_seconds(), .state = sim.save_state()});
+                            .wall_seconds = earlier_seconds + status.elapsed_seconds(),
+                            .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .state = sim.save_state()});
       next_checkpoint = next_multiple();
     }
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
@@ -139,7 +140,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     stopped = stop_requested();
     if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) {
       out.write_checkpoint({.step = sim.step_count(), .stage = at.stage - 1, .unreached = unreached, .time = sim.time(),
-                            .wall_seconds = earlier_seconds + status.elapsed_seconds(), .state = sim.save_state(),
+                            .wall_seconds = earlier_seconds + status.elapsed_seconds(),
+                            .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .state = sim.save_state(),
                             .stage_progress = at.values()});
       next_checkpoint = next_multiple();
     }
@@ -171,9 +173,12 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   if (!stopped)
     out.set_attribute("status", unreached ? fmt::format("complete; {} stage(s) did not reach equilibrium", unreached)
                                           : std::string("complete"));
-  out.set_scalar("wall_seconds", earlier_seconds + seconds);
-  out.set_scalar("particle_steps_per_second", rate);
-  out.set_scalar("cvode_share", seconds > 0 ? cvode / seconds : 0.0);
+  // The file's figures are the whole programme's, a resumed one's earlier processes included (the summary's, this one's).
+  const double total_seconds = earlier_seconds + seconds;
+  out.set_scalar("wall_seconds", total_seconds);
+  out.set_scalar("particle_steps_per_second",
+                 total_seconds > 0 ? double(sim.step_count()) * double(sim.particle_count()) / total_seconds : 0.0);
+  out.set_scalar("cvode_share", total_seconds > 0 ? (earlier_cvode + cvode) / total_seconds : 0.0);
   out.flush();
   const long finished = from.stage + long(records.size());
   if (stopped)
@@ -230,7 +235,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   write_observables(out, *sim);
   std::ofstream csv(table);
   if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
-  return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0);
+  return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0, 0.0);
 }
 
 int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet) {
@@ -259,7 +264,7 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);
-  return run_stages(scene, settings, *sim, out, csv, table, quiet, from, cp.unreached, cp.wall_seconds);
+  return run_stages(scene, settings, *sim, out, csv, table, quiet, from, cp.unreached, cp.wall_seconds, cp.cvode_seconds);
 }
 
 }  // namespace grains

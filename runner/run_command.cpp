@@ -150,8 +150,11 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   }
   const double seconds = progress.elapsed_seconds();
   const double rate = seconds > 0 ? double(done - first) * double(sim.particle_count()) / seconds : 0.0;
-  out.set_scalar("wall_seconds", earlier_seconds + seconds);
-  out.set_scalar("particle_steps_per_second", rate);
+  // The file's figures are the whole run's, a resumed run's earlier processes included (the summary's, this one's).
+  const double total_seconds = earlier_seconds + seconds;
+  out.set_scalar("wall_seconds", total_seconds);
+  out.set_scalar("particle_steps_per_second",
+                 total_seconds > 0 ? double(done) * double(sim.particle_count()) / total_seconds : 0.0);
   out.flush();
 
   // One-screen summary.

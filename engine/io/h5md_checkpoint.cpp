@@ -36,6 +36,7 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.unreached = long(h5::read_attr_double(d.get(), "unreached", 0, path));
     cp.time = h5::read_attr_double(d.get(), "time", 0, path);
     cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
+    cp.cvode_seconds = h5::read_attr_double(d.get(), "cvode_seconds", 0, path);
     cp.stage_progress = h5::read_attr_doubles(d.get(), "stage_progress", path);
     cp.observables_at_step = h5::read_attr_double(d.get(), "observables_at_step", 1, path) == 1;
     cp.frame_at_step = h5::read_attr_double(d.get(), "frame_at_step", 1, path) == 1;

@@ -15,6 +15,7 @@ struct RunCheckpoint {
   int stage = -1;                         // `grains consolidate`: the programme's last finished stage; -1: `grains run`
   long unreached = 0;                     // `grains consolidate`: stages up to `stage` that missed their budget
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
+  double cvode_seconds = 0;               // CVODE's share of that wall time (a pressure-controlled cell)
   std::vector<std::byte> state;           // Simulation::save_state()
   // `grains consolidate` stopped inside a stage (StageProgress::values(): the stage under way, its steps and
   // its quench's counters); empty: at the end of `stage`.

@@ -372,6 +372,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   h5::attr_double(d.get(), "step", double(cp.step), m.path);   // exact: steps stay below 1e15 (Simulation::max_steps)
   h5::attr_double(d.get(), "time", cp.time, m.path);
   h5::attr_double(d.get(), "wall_seconds", cp.wall_seconds, m.path);
+  h5::attr_double(d.get(), "cvode_seconds", cp.cvode_seconds, m.path);
   h5::attr_double(d.get(), "stage", cp.stage, m.path);
   h5::attr_double(d.get(), "unreached", double(cp.unreached), m.path);
   h5::attr_doubles(d.get(), "stage_progress", cp.stage_progress, m.path);

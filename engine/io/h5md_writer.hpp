@@ -51,7 +51,7 @@ class H5mdWriter {
   void flush();                             // writes pending observables; the file stays readable if the process dies afterwards
   // The complete state at `step` (Simulation::save_state), in the older of two slots, so a run killed while
   // writing one keeps the other; the records up to `step` are flushed first (h5md_checkpoint.hpp reads it).
-  // Stores checkpoint's step, stage, unreached, time, wall_seconds, state, stage_progress and *_at_step flags, and the
+  // Stores checkpoint's step, stage, unreached, time, wall_seconds, cvode_seconds, state, stage_progress and *_at_step flags, and the
   // warnings so far.
   void write_checkpoint(const RunCheckpoint& checkpoint);
 

@@ -205,12 +205,20 @@ def test_a_programme_stopped_by_a_signal_inside_a_stage_resumes_there(grains_bin
     with h5py.File(stopped) as f:
         assert step % 100 == 0 and f["grains/checkpoint_0"].attrs["step"] == step
         assert list(f["grains/checkpoint_0"].attrs["stage_progress"]) == [0, step]   # the aggregation has no quench
+        before = f["grains/checkpoint_0"].attrs["wall_seconds"]
     resumed = run(grains_bin, "resume", stopped, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
     assert f"resumed      at step {step}, {step} steps into stage 0" in resumed.stdout
     assert table.read_text() == whole_table.read_text()
     assert status(stopped) == status(whole)
     assert_same_records(whole, stopped)
+    # The file's wall time and rate are the whole programme's, the part before the stop included.
+    with h5py.File(stopped) as f:
+        g = f["grains"].attrs
+        steps = f["observables/kinetic_energy/step"][-1]
+        assert g["wall_seconds"] > before > 0
+        assert g["particle_steps_per_second"] == pytest.approx(steps * 200 / g["wall_seconds"], rel=1e-12)
+        assert 0 < g["cvode_share"] < 1
 
 
 def test_a_programme_killed_inside_a_stage_resumes_from_its_last_checkpoint_with_the_quench_as_it_was(grains_bin, root,
