@@ -220,9 +220,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));
-  // For `grains resume`: the scene's folder, and the table relative to this file's folder (a campaign folder
-  // may be moved or copied whole).
-  out.set_attribute("scene_directory", scene.directory().string());
+  // For `grains resume`: the table relative to this file's folder (a campaign folder may be moved or copied whole).
   const auto folder = std::filesystem::absolute(path).parent_path();
   out.set_attribute("stage_table", std::filesystem::absolute(table).lexically_relative(folder).string());
   std::vector<std::string> warnings = sim->warnings();
@@ -230,9 +228,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     if (scene.has(key))
       warnings.push_back(fmt::format("{} is not used by grains consolidate: each stage runs until equilibrium or its budget "
                                      "(programme.stage_budget, programme.aggregation_budget)", key));
-  for (const auto& w : warnings) out.write_warning(w), fmt::print(stderr, "warning: {}\n", w);
-  write_frame(out, *sim);
-  write_observables(out, *sim);
+  begin_output(out, scene, *sim, warnings);
   std::ofstream csv(table);
   if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
   return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0, 0.0);

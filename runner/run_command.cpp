@@ -55,6 +55,16 @@ void write_observables(H5mdWriter& out, const Simulation& sim) {
       out.write_observable(vars[i].name, sim.step_count(), sim.time(), sim.get(i));
 }
 
+void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings) {
+  out.set_attribute("scene_directory", scene.directory().string());
+  for (const auto& w : warnings) {
+    out.write_warning(w);
+    fmt::print(stderr, "warning: {}\n", w);
+  }
+  write_frame(out, sim);
+  write_observables(out, sim);
+}
+
 namespace {
 
 // What `run` checks before it opens the output file, shared with `check`: the scene, the simulation
@@ -200,13 +210,7 @@ int run_scene(const RunOptions& opt) {
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
-  out.set_attribute("scene_directory", scene.directory().string());   // for `grains resume`
-  for (const auto& w : sim->warnings()) {
-    out.write_warning(w);
-    fmt::print(stderr, "warning: {}\n", w);
-  }
-  write_frame(out, *sim);
-  write_observables(out, *sim);
+  begin_output(out, scene, *sim, sim->warnings());
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
 

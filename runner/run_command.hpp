@@ -14,6 +14,11 @@ void check_output_path(const std::string& output, const std::string& scene_file,
 void write_frame(H5mdWriter& out, const Simulation& sim);
 void write_observables(H5mdWriter& out, const Simulation& sim);
 
+class Scene;
+// A new output file's start, shared by `run` and `consolidate`: the scene's folder (where `grains resume` finds
+// its relative files), the warnings (also on stderr), the first frame and records.
+void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings);
+
 struct RunOptions {
   std::string scene, output;
   std::vector<std::string> overrides;
