@@ -23,6 +23,7 @@
 #include "cell/affine_contact_damping.hpp"
 #include "cell/barostat.hpp"
 #include "cell/equilibrium.hpp"
+#include "cell/force_unit.hpp"
 #include "cell/pressure_ramp.hpp"
 #include "core/dashpot_stability.hpp"
 #include "core/integrator.hpp"
@@ -442,9 +443,7 @@ class SimulationImpl final : public Simulation {
     const std::size_t big = std::max_element(P.radius.begin(), P.radius.end()) - P.radius.begin();
     length_unit_ = 2 * P.radius[big];
     grain_mass_ = P.mass[big];
-    force_unit_ = scene.has("cell.force_unit")             ? scene.real("cell.force_unit")
-                  : scene.boolean("adhesion.enabled") ? scene.real("adhesion.force")
-                                                      : 1.0;
+    force_unit_ = cell_force_unit(scene);
     pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
     inertia_number_ = scene.real("cell.inertia_number");
     target_reduced_ = scene.real("cell.pressure");

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "cell/force_unit.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
@@ -57,9 +58,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
                                                                "preparation, and programme.preparation is \"none\": set it "
                                                                "to 0", p.first_compression_time));
   // The ramp starts at P* = 0, which a cohesionless cell refuses (its force scale comes from the pressure).
-  const double force_unit = scene.has("cell.force_unit")        ? scene.real("cell.force_unit")
-                            : scene.boolean("adhesion.enabled") ? scene.real("adhesion.force")
-                                                                : 1.0;
+  const double force_unit = cell_force_unit(scene);
   if (p.first_compression_time > 0 && force_unit == 0)
     scene.fail("programme.first_compression_time",
                fmt::format("value {} ramps the first compression's target from P* = 0, which a cohesionless cell "
