@@ -63,6 +63,14 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   const long checkpoint_every = scene.integer("output.checkpoint_every");
   const auto next_multiple = [&] { return checkpoint_every > 0 ? (sim.step_count() / checkpoint_every + 1) * checkpoint_every : -1; };
   long next_checkpoint = next_multiple();
+  // A checkpoint after stage `last` (with `progress`: inside the stage after it), the schedule counted from it.
+  auto checkpoint = [&](int last, std::vector<double> progress) {
+    out.write_checkpoint({.step = sim.step_count(), .stage = last, .unreached = unreached, .time = sim.time(),
+                          .wall_seconds = earlier_seconds + status.elapsed_seconds(),
+                          .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .state = sim.save_state(),
+                          .stage_progress = std::move(progress)});
+    next_checkpoint = next_multiple();
+  };
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
       // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
@@ -105,12 +113,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains
     // resume`. The next stage's new target pressure restarts CVODE at its first step, which is where the
     // saved state restarts it too: the programme runs as it would without checkpoints.
-    if (r.index + 1 < stages) {
-      out.write_checkpoint({.step = sim.step_count(), .stage = r.index, .unreached = unreached, .time = sim.time(),
-                            .wall_seconds = earlier_seconds + status.elapsed_seconds(),
-                            .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .state = sim.save_state()});
-      next_checkpoint = next_multiple();
-    }
+    if (r.index + 1 < stages) checkpoint(r.index, {});
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
     // moduli (NaN): say so rather than print numbers without saying what they are.
     const double mechanisms = value("moduli_mechanisms"), unstable = value("moduli_unstable_modes");
@@ -138,13 +141,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   catch_stop_signals();
   auto on_check = [&](const StageRecord& r, long budget, const StageProgress& at) {
     stopped = stop_requested();
-    if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) {
-      out.write_checkpoint({.step = sim.step_count(), .stage = at.stage - 1, .unreached = unreached, .time = sim.time(),
-                            .wall_seconds = earlier_seconds + status.elapsed_seconds(),
-                            .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .state = sim.save_state(),
-                            .stage_progress = at.values()});
-      next_checkpoint = next_multiple();
-    }
+    if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) checkpoint(at.stage - 1, at.values());
     if (stopped) {
       status.finish();
       out.set_attribute("status", fmt::format("interrupted in stage {} at step {}", at.stage, sim.step_count()));

@@ -30,8 +30,7 @@ class Barostat {
   // CVODE restarts at the next step.
   void set_target_pressure(double p, double rate_cap) {
     if (p != target_ || rate_cap != ode_.parameters().rate_cap) reset_pending_ = true;
-    target_ = p;
-    ode_.set_rate_cap(rate_cap);
+    follow_target_pressure(p, rate_cap);
   }
   // A target that moves a little every step (a ramp): like the stress, part of the forcing CVODE follows
   // with its history kept.
