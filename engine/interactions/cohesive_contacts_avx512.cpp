@@ -3,6 +3,8 @@
 // expression of contact_forces.hpp / adhesive_contact_law.hpp / contact_step.hpp, in the same order.
 #include "interactions/cohesive_contacts_avx512.hpp"
 
+#include <atomic>
+
 #include "interactions/pair_avx512.hpp"
 
 namespace grains::cohesive_contacts_avx512 {
@@ -10,13 +12,15 @@ namespace {
 
 using namespace pair_avx512;
 
+template <bool Dense>
 GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
   // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
   // results are never stored.
-  const Contacts8<2> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
+  const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
+  const std::uint32_t k0 = c.k0;
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
   const __mmask8 m = c.steady;
   out.steady[q / 8] = m;   // q is a multiple of 8
@@ -28,7 +32,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
 
   const V d = _mm512_sqrt_pd(d2);
   const V nx = div(rx, d), ny = div(ry, d);
-  const V cn = gather(in.damping, k, live);
+  const V cn = per_entry<Dense>(in.damping, k, k0, live);
   const V dvx = sub(gather(in.velocity_predicted, j2, live), gather(in.velocity_predicted, i2, live));
   const V dvy = sub(gather(in.velocity_predicted + 1, j2, live), gather(in.velocity_predicted + 1, i2, live));
   V vn = add(mul(dvx, nx), mul(dvy, ny));
@@ -68,7 +72,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V ux = add(sub(gather(in.velocity, j2, live), gather(in.velocity, i2, live)), flow_x);
   const V uy = add(sub(gather(in.velocity + 1, j2, live), gather(in.velocity + 1, i2, live)), flow_y);
   const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
-  V xi = add(gather(in.tangential, k, live), mul(vt, all(in.dt)));
+  V xi = add(per_entry<Dense>(in.tangential, k, k0, live), mul(vt, all(in.dt)));
   const V minus_kt = neg(kt);
   V ft = sub(mul(minus_kt, xi), mul(ct, vt));
   const __mmask8 slides = _mm512_mask_cmp_pd_mask(m, abs(ft), bound, _CMP_GT_OQ);
@@ -77,7 +81,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     const __mmask8 shortened = _mm512_mask_cmp_pd_mask(slides, abs(mul(kt, xi)), bound, _CMP_GT_OQ);
     xi = _mm512_mask_div_pd(xi, shortened, copysign(bound, xi), kt);
   }
-  _mm512_mask_i32scatter_pd(in.tangential, m, k, xi, 8);
+  set_per_entry<Dense>(in.tangential, k, k0, m, xi);
   _mm512_mask_storeu_pd(out.torque_j + q, m, mul(arm_j, ft));
   _mm512_mask_storeu_pd(out.torque_i + q, m, mul(arm_i, ft));
   _mm512_mask_storeu_pd(out.fx + q, m, add(mul(fn, nx), mul(ft, tx)));
@@ -91,7 +95,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     V moment = _mm512_setzero_pd();
     if (in.rolling_stiffness > 0) {
       const V bound_r = mul(all(in.rolling_coefficient), elastic);
-      V theta = add(gather(in.rolling_angle, k, live), mul(spin, all(in.dt)));
+      V theta = add(per_entry<Dense>(in.rolling_angle, k, k0, live), mul(spin, all(in.dt)));
       const V minus_kr = all(-in.rolling_stiffness);
       moment = mul(minus_kr, theta);
       const __mmask8 rolls = _mm512_mask_cmp_pd_mask(m, abs(moment), bound_r, _CMP_GT_OQ);
@@ -99,7 +103,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
         moment = _mm512_mask_blend_pd(rolls, moment, copysign(bound_r, moment));
         theta = _mm512_mask_div_pd(theta, rolls, moment, minus_kr);
       }
-      _mm512_mask_i32scatter_pd(in.rolling_angle, m, k, theta, 8);
+      set_per_entry<Dense>(in.rolling_angle, k, k0, m, theta);
     }
     if (in.rolling_damping > 0) moment = sub(moment, mul(mul(mul(mul(all(in.rolling_damping), cn), Ri), Rj), spin));
     _mm512_mask_storeu_pd(out.moment + q, m, moment);
@@ -107,11 +111,18 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   return __builtin_popcount(clamped & m);
 }
 
+std::atomic<long> dense_evaluations_{0};
+
 }  // namespace
+
+void note_dense_evaluation() { dense_evaluations_.fetch_add(1, std::memory_order_relaxed); }
+long dense_evaluations() { return dense_evaluations_.load(); }
 
 long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
               std::size_t n, const Output& out) {
-  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8(in, rows, pairs, images, q, lanes, out); });
+  if (in.dense)
+    return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<true>(in, rows, pairs, images, q, lanes, out); });
+  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<false>(in, rows, pairs, images, q, lanes, out); });
 }
 
 }  // namespace grains::cohesive_contacts_avx512

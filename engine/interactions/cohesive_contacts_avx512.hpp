@@ -26,6 +26,9 @@ struct Input {
   double *tangential, *rolling_angle;
   // Per entry: the pair's c_n (AdhesiveContactLaw::damping of its masses).
   const double* damping;
+  // The entries are the shell's slots (contact_forces.hpp): each batch's are consecutive, so the per-entry
+  // arrays above (partner included) are loaded and stored as vectors rather than gathered and scattered.
+  bool dense = false;
   // The law: K_N, F0, f_max, the step.
   double k, attraction, overlap_limit, dt;
   // Friction: k_t / k_n, c_t / c_n, mu, bound on k_n delta (true) or on the normal force.
@@ -56,5 +59,10 @@ struct Output {
 // Output arrays hold n rounded up to a multiple of 8.
 long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
               std::size_t n, const Output& out);
+
+// Force evaluations that ran the kernel over the shell's slots (Input::dense), counted once per evaluation
+// by the pair loop, in this process: for tests, that this path ran.
+void note_dense_evaluation();
+long dense_evaluations();
 
 }  // namespace grains::cohesive_contacts_avx512

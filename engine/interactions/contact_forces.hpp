@@ -65,6 +65,7 @@ class ContactForces final : public ForceModule<D> {
   // The first-step stamps (touched_) and the springs follow the pairs that touched at the last
   // evaluation; every other pair starts afresh (holds_history), so no sorted rows are needed.
   void after_rebuild(const NeighbourList<D>& list) override {
+    flush_slots();   // into the old list's entries, which match_previous then carries over
     const std::size_t pairs = list.pair_count();
     std::vector<std::uint32_t> touched(pairs, 0);
     std::vector<Spring> tangential(Friction::enabled ? pairs : 0, Spring::Zero());
@@ -105,7 +106,21 @@ class ContactForces final : public ForceModule<D> {
       if (pair_filter::avx512()) batched = batch_input(s);
     if constexpr (batched_linear_)
       if (pair_filter::avx512()) batched_linear = linear_batch_input(s);
-    const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr};
+    // The cohesive kernel over the shell directly (note_selection) keeps the springs in the shell's slots.
+    const bool direct = batched_ && batched && direct_ && s.shell.built();
+    if (slots_.live && (!direct || slots_.shell_builds != s.shell.builds() || slots_.list_builds != s.neighbours.builds()))
+      flush_slots();
+    if (direct && !slots_.live) load_slots(s);
+    history_ = direct ? History{slots_.touched.data(), slots_.tangential.data(), slots_.rolling_angle.data()}
+                      : History{touched_.data(), tangential_.data(), rolling_angle_.data()};
+    if (direct) {
+      cohesive_contacts_avx512::note_dense_evaluation();
+      const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
+      batched->dense = true, batched->partner = s.shell.partner.data(), batched->damping = slots_.damping.data();
+      batched->touched = slots_.touched.data(), batched->tangential = flat(slots_.tangential);
+      if constexpr (Rolling::enabled) batched->rolling_angle = flat(slots_.rolling_angle);
+    }
+    const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr, direct};
     if (T == 1) {
       clamped_now = loop<Virial>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
       note_selection(s);
@@ -191,6 +206,7 @@ class ContactForces final : public ForceModule<D> {
   }
 
   void observe(const System<D>& s, std::vector<std::pair<std::string, double>>& out) const override {
+    flush_slots();
     const auto& P = s.particles;
     double elastic = 0, max_ratio = 0, adhesion = 0;
     long contacts = 0;
@@ -219,6 +235,7 @@ class ContactForces final : public ForceModule<D> {
   }
 
   void save(ByteWriter& w) const override {
+    flush_slots();
     w.put(clamped_now_), w.put(clamped_total_);
     w.put(evaluation_), w.put_vector(touched_), w.put_vector(pending_);
     w.put_vector(tangential_);   // 2D: one double per pair (xi along z x n), 3D: three
@@ -226,6 +243,7 @@ class ContactForces final : public ForceModule<D> {
   }
   void load(ByteReader& r) override {
     damping_builds_ = -1;   // the restored list is another one, whatever its build count
+    slots_.live = false;    // the restored springs are the list's
     clamped_now_ = r.get<long>(), clamped_total_ = r.get<long>();
     evaluation_ = r.get<std::uint32_t>(), r.get_vector(touched_), r.get_vector(pending_);
     r.get_vector(tangential_);
@@ -248,6 +266,7 @@ class ContactForces final : public ForceModule<D> {
   // and K_R in contact, lever arms to the middle of the overlap (as the tangential force uses), and the
   // static F_N, |F_T| = |k_t xi| and |Gamma| = |K_R theta_R|.
   void list_springs(const System<D>& s, std::vector<ElasticSpring<D>>& out) const override {
+    flush_slots();
     if constexpr (Law::has_tail) {
       const auto& P = s.particles;
       each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t k, const Vec<D>& r) {
@@ -324,6 +343,7 @@ class ContactForces final : public ForceModule<D> {
   struct Batch {
     const cohesive_contacts_avx512::Input* cohesive;
     const linear_contacts_avx512::Input* linear;
+    bool direct;   // the cohesive kernel runs over the shell's slots (see slots_)
   };
 
   // The batched kernels' views of the state (a fixed cell and a deforming one alike).
@@ -412,8 +432,6 @@ class ContactForces final : public ForceModule<D> {
     const auto torque_of = [&](std::uint32_t j) { return j < row_end ? torque : far_torque; };
     const Vec<D>* const position = P.position.data();
     const double* const radius = P.radius.data();
-    const std::uint32_t* const partner = nl.partner.data();
-    const std::uint8_t* const image = nl.image.data();
     const Vec<D>* const shift = nl.shift.data();
     // The filter tests the shell's entries where it is built (neighbours/shell_list.hpp), else every
     // listed pair; either way it writes the list's entries k. law_.reach() is 0 without an attractive
@@ -423,9 +441,11 @@ class ContactForces final : public ForceModule<D> {
     const pair_filter::Geometry<D> geometry =
         shell.built() ? pair_filter::Geometry<D>{position, radius, shell.partner.data(), shell.owner.data(), shell.image.data(),
                                                  shift, law_.reach(), shell.entry.data()}
-                      : pair_filter::Geometry<D>{position, radius, partner, nl.owner.data(), image, shift, law_.reach()};
-    // The batched cohesive kernel over the shell's entries, without the filter (note_selection).
-    const bool direct = batched_ && batch.cohesive && direct_ && shell.built();
+                      : pair_filter::Geometry<D>{position, radius, nl.partner.data(), nl.owner.data(), nl.image.data(), shift, law_.reach()};
+    // The batched cohesive kernel over the shell's entries, without the filter (note_selection): the pairs
+    // are then the shell's slots (their springs in slots_, their partners the shell's), else list entries.
+    const bool direct = batch.direct;
+    const std::uint32_t* const partner = direct ? shell.partner.data() : nl.partner.data();
     g.tested = g.selected = 0;
     for (std::size_t b = row_begin; b < row_end; b += block_rows_) {
       const std::size_t e = std::min(row_end, b + block_rows_);
@@ -436,7 +456,7 @@ class ContactForces final : public ForceModule<D> {
       const std::uint8_t* gathered_image;
       std::size_t n;
       if (direct) {
-        gathered_row = shell.owner.data() + start[b], gathered_pair = shell.entry.data() + start[b];
+        gathered_row = shell.owner.data() + start[b], gathered_pair = slots_.id.data() + start[b];
         gathered_image = shell.image.data() + start[b];
         n = start[e] - start[b];
       } else {
@@ -535,7 +555,7 @@ class ContactForces final : public ForceModule<D> {
             continue;
           }
         }
-        const Vec<D> r = position[j] + shift[image[k]] - xi;
+        const Vec<D> r = position[j] + shift[gathered_image[q]] - xi;
         const double Rsum = Ri + radius[j];
         const double d2 = r.squaredNorm();
         if constexpr (Law::has_tail) {
@@ -590,15 +610,15 @@ class ContactForces final : public ForceModule<D> {
     }
     // The contact's first step: the pair did not overlap at the previous evaluation (a per-pair
     // stamp; the sign of the overlap before the step is a matter of rounding on a step boundary).
-    const bool first = touched_[k] + 1 != evaluation_;
-    touched_[k] = evaluation_;
+    const bool first = history_.touched[k] + 1 != evaluation_;
+    history_.touched[k] = evaluation_;
     // Its overlap before the step, for the sub-step onset: the step moved the positions by
     // dt * v(t + dt/2) exactly (then, in a deforming cell, scaled them with the cell).
     double before = 0;
     if (first) {
       // Springs start relaxed (an open pair's are stale, see holds_history).
-      if constexpr (Friction::enabled) tangential_[k].setZero();
-      if constexpr (Rolling::enabled) rolling_angle_[k].setZero();
+      if constexpr (Friction::enabled) history_.tangential[k].setZero();
+      if constexpr (Rolling::enabled) history_.rolling_angle[k].setZero();
       const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
       before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
     }
@@ -651,7 +671,7 @@ class ContactForces final : public ForceModule<D> {
       const Vec<2> t(-n[1], n[0]);
       const double vt = (P.velocity[j] - P.velocity[i] + flow).dot(t) - P.angular_velocity[j][0] * Rj -
                         P.angular_velocity[i][0] * Ri;
-      double& xi = tangential_[k][0];
+      double& xi = history_.tangential[k][0];
       xi += vt * dt;
       double ft = -kt * xi - ct * vt;
       if (std::abs(ft) > bound) {   // sliding: cap the force, and the spring at |k_t xi| = mu F_n (see above)
@@ -662,7 +682,7 @@ class ContactForces final : public ForceModule<D> {
       ti[0] -= Ri * ft;
       return ft * t;
     } else {
-      Vec<3>& xi = tangential_[k];
+      Vec<3>& xi = history_.tangential[k];
       turn_into_tangent_plane(xi, n);
       Vec<3> vt = (P.velocity[j] - P.angular_velocity[j].cross(Rj * n)) - (P.velocity[i] + P.angular_velocity[i].cross(Ri * n)) + flow;
       vt -= vt.dot(n) * n;
@@ -698,7 +718,7 @@ class ContactForces final : public ForceModule<D> {
     Spin<D> moment = Spin<D>::Zero();   // on j
     if (rolling_.stiffness > 0) {
       const double bound = rolling_.coefficient * elastic;   // >= 0
-      Spin<D>& theta = rolling_angle_[k];
+      Spin<D>& theta = history_.rolling_angle[k];
       if constexpr (D == 2) {   // a scalar: the bound is a comparison of absolute values
         theta[0] += spin[0] * dt;
         moment[0] = -rolling_.stiffness * theta[0];
@@ -724,12 +744,69 @@ class ContactForces final : public ForceModule<D> {
     ti -= moment;
   }
 
+  // The springs and first-step stamps of the shell's entries in the shell's order ("slots"), where the
+  // cohesive kernel runs over the shell directly: a batch's slots are consecutive, so the kernel loads
+  // and stores them (and the pairs' c_n and partners) as vectors where through the list's entries it
+  // gathered and scattered them, the costliest of its memory operations. While live they are the pairs'
+  // history and the list's copies of the shell's entries are stale: flush_slots writes them back before
+  // anything reads the history through the list (a new list or shell, a save, an observation, the
+  // filter's path). A cache of the state, not state: hence mutable, and flushed from const readers.
+  struct Slots {
+    bool live = false;
+    long shell_builds = -1, list_builds = -1;   // the shell and list they were loaded for
+    std::vector<std::uint32_t> entry;           // each slot's list entry
+    std::vector<std::uint32_t> id;              // 0, 1, 2, ...: the pair loop's entries where it runs over slots
+    std::vector<std::uint32_t> touched;
+    std::vector<Spring> tangential;
+    std::vector<Spin<D>> rolling_angle;
+    std::vector<double> damping;
+  };
+  void load_slots(const System<D>& s) {
+    const auto& entry = s.shell.entry;
+    const std::size_t n = entry.size();
+    slots_.entry = entry;
+    if (slots_.id.size() != n) {
+      slots_.id.resize(n);
+      for (std::size_t e = 0; e < n; ++e) slots_.id[e] = std::uint32_t(e);
+    }
+    slots_.touched.resize(n), slots_.damping.resize(n);
+    slots_.tangential.resize(Friction::enabled ? n : 0), slots_.rolling_angle.resize(Rolling::enabled ? n : 0);
+    for (std::size_t e = 0; e < n; ++e) {
+      const std::uint32_t k = entry[e];
+      slots_.touched[e] = touched_[k], slots_.damping[e] = damping_[k];
+      if constexpr (Friction::enabled) slots_.tangential[e] = tangential_[k];
+      if constexpr (Rolling::enabled) slots_.rolling_angle[e] = rolling_angle_[k];
+    }
+    slots_.live = true, slots_.shell_builds = s.shell.builds(), slots_.list_builds = s.neighbours.builds();
+  }
+  void flush_slots() const {
+    if (!slots_.live) return;
+    for (std::size_t e = 0; e < slots_.entry.size(); ++e) {
+      const std::uint32_t k = slots_.entry[e];
+      touched_[k] = slots_.touched[e];
+      if constexpr (Friction::enabled) tangential_[k] = slots_.tangential[e];
+      if constexpr (Rolling::enabled) rolling_angle_[k] = slots_.rolling_angle[e];
+    }
+    slots_.live = false;
+  }
+  // Where this evaluation's pairs keep their history, indexed by the pair loop's entries: the list's
+  // arrays, or the slots.
+  struct History {
+    std::uint32_t* touched;
+    Spring* tangential;
+    Spin<D>* rolling_angle;
+  };
+
   Law law_;
   Friction friction_;
   Rolling rolling_;
-  std::vector<Spring> tangential_;   // xi per neighbour pair, aligned with the list (2D: along z x n)
-  std::vector<Spin<D>> rolling_angle_;   // theta_R per neighbour pair, aligned with the list
-  std::vector<std::uint32_t> touched_;   // per neighbour pair: the last evaluation at which it overlapped (0: never)
+  // Per neighbour pair, aligned with the list (mutable: see Slots): xi (2D: along z x n), theta_R, and the
+  // last evaluation at which the pair overlapped (0: never).
+  mutable std::vector<Spring> tangential_;
+  mutable std::vector<Spin<D>> rolling_angle_;
+  mutable std::vector<std::uint32_t> touched_;
+  mutable Slots slots_;
+  History history_{};
   std::uint32_t evaluation_ = 1;          // force evaluations so far, + 1
   std::vector<Gathered> gathered_;       // per thread, reused
   std::vector<OnsetLag> pending_;        // onset lags found in the last step, made up in the next

@@ -47,14 +47,32 @@ GRAINS_AVX512_PAIRS inline V copysign(V magnitude, V sign) {
 inline __mmask8 first_lanes(std::size_t left) { return left >= 8 ? __mmask8(0xFF) : __mmask8((1u << left) - 1); }
 
 // Of the touching lanes (list entries k), those that touched at the last evaluation too (stamp + 1 ==
-// evaluation; the contact's first step otherwise), restamped with this evaluation.
-GRAINS_AVX512_PAIRS inline __mmask8 steady_contacts(__mmask8 touching, __m256i k, std::uint32_t* touched,
+// evaluation; the contact's first step otherwise), restamped with this evaluation. Dense: the lanes' k
+// are consecutive, from k0 (the shell's slots, contact_forces.hpp): loads and stores instead of a gather
+// and a scatter.
+template <bool Dense = false>
+GRAINS_AVX512_PAIRS inline __mmask8 steady_contacts(__mmask8 touching, __m256i k, std::uint32_t k0, std::uint32_t* touched,
                                                     std::uint32_t evaluation) {
   const __m256i now = _mm256_set1_epi32(int(evaluation));
-  const __m256i stamp = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), touching, k, touched, 4);
+  const __m256i stamp = Dense ? _mm256_maskz_loadu_epi32(touching, touched + k0)
+                              : _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), touching, k, touched, 4);
   const __mmask8 steady = _mm256_mask_cmpeq_epi32_mask(touching, _mm256_add_epi32(stamp, _mm256_set1_epi32(1)), now);
-  _mm256_mask_i32scatter_epi32(touched, steady, k, now, 4);
+  if constexpr (Dense) _mm256_mask_storeu_epi32(touched + k0, steady, now);
+  else _mm256_mask_i32scatter_epi32(touched, steady, k, now, 4);
   return steady;
+}
+
+// The lanes' a[k] for per-entry data: gathered, or loaded from a + k0 where the lanes' k are consecutive.
+template <bool Dense>
+GRAINS_AVX512_PAIRS inline V per_entry(const double* a, __m256i k, std::uint32_t k0, __mmask8 m) {
+  if constexpr (Dense) return _mm512_maskz_loadu_pd(m, a + k0);
+  else return gather(a, k, m);
+}
+// a[k] = v on the lanes of m: scattered, or stored to a + k0.
+template <bool Dense>
+GRAINS_AVX512_PAIRS inline void set_per_entry(double* a, __m256i k, std::uint32_t k0, __mmask8 m, V v) {
+  if constexpr (Dense) _mm512_mask_storeu_pd(a + k0, m, v);
+  else _mm512_mask_i32scatter_pd(a, m, k, v, 8);
 }
 
 // Runs batch(q, lanes) over the n gathered pairs eight at a time; sums what it returns.
@@ -92,10 +110,12 @@ struct ImageShifts {
 // The geometry of eight gathered pairs q .. q + 7 (rows[q], list entries pairs[q], images[q]) and which of
 // them are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
 // r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2 (as Eigen sums it), touching when d2 < (R_i + R_j)^2.
-// Lanes of indices i D and j D address the D-vectors of the particle arrays.
-template <int D>
+// Lanes of indices i D and j D address the D-vectors of the particle arrays. Dense: the pairs' entries k
+// are consecutive from k0 = pairs[q] (the shell's slots), so the per-entry data (partner, stamps) are loaded.
+template <int D, bool Dense = false>
 struct Contacts8 {
   __m256i i, k, j, iD, jD;
+  std::uint32_t k0;
   V r[D], d2, Ri, Rj, Rsum;
   __mmask8 steady;
   GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
@@ -103,7 +123,9 @@ struct Contacts8 {
                                 const double* radius, std::uint32_t* touched, std::uint32_t evaluation) {
     i = _mm256_maskz_loadu_epi32(live, rows + q);
     k = _mm256_maskz_loadu_epi32(live, pairs + q);
-    j = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, partner, 4);
+    k0 = pairs[q];
+    j = Dense ? _mm256_maskz_loadu_epi32(live, partner + k0)
+              : _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, partner, 4);
     const __m256i dim = _mm256_set1_epi32(D);
     iD = _mm256_mullo_epi32(i, dim), jD = _mm256_mullo_epi32(j, dim);
     V s[D];
@@ -113,7 +135,7 @@ struct Contacts8 {
       d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
     }
     Ri = gather(radius, i, live), Rj = gather(radius, j, live), Rsum = add(Ri, Rj);
-    steady = steady_contacts(_mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ), k, touched, evaluation);
+    steady = steady_contacts<Dense>(_mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ), k, k0, touched, evaluation);
   }
 };
 

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "interactions/cohesive_contacts_avx512.hpp"
 #include "interactions/pair_filter.hpp"
 #include "io/scene.hpp"
 #include "packing_scenes.hpp"
@@ -47,13 +48,59 @@ TEST_CASE("batched contacts, cohesive disks: bit-identical to the portable pair 
       for (bool affine : {true, false}) {
         const Scene scene = compressed_packing(threads, rolling, affine);
         INFO("threads " << threads << ", rolling " << rolling << ", deforming cell " << affine);
-        const Outcome batched = run(scene, false, 30000), portable = run(scene, true, 30000);
+        const long dense_before = cohesive_contacts_avx512::dense_evaluations();
+        const Outcome batched = run(scene, false, 30000);
+        // Most evaluations ran the kernel over the shell's slots (the pairs near contact nearly all touch).
+        CHECK(cohesive_contacts_avx512::dense_evaluations() - dense_before > 10000);
+        const Outcome portable = run(scene, true, 30000);
         CHECK(batched.contacts > 100);   // steady contacts are most of the work
         CHECK(batched.contacts == portable.contacts);
         CHECK(batched.clamped == portable.clamped);
         CHECK(batched.state.size() == portable.state.size());
         CHECK(batched.state == portable.state);
       }
+}
+
+// Where the kernel runs over the shell's slots, the springs live there and are written back to the list's
+// entries before anything reads them through the list: observations (every 100 steps here), saved states
+// (restored into a new simulation, which continues), a new list or shell. None of these may change the run.
+// A save restarts CVODE (a restored run cannot have its history), so in a deforming cell the reference
+// run saves at the same steps, without reading or restoring anything.
+TEST_CASE("batched contacts, cohesive disks: reading or saving the springs between steps leaves the run as it was",
+          "[contacts][batched]") {
+  pair_filter::prefer_portable(false);
+  if (!pair_filter::avx512()) {
+    WARN("no AVX-512 here: the kernel's slots are not used");
+    return;
+  }
+  for (int threads : {1, 2})
+    for (bool affine : {false, true}) {
+      INFO("threads " << threads << ", deforming cell " << affine);
+      const Scene scene = compressed_packing(threads, 0.005, affine);
+      auto straight = Simulation::create(scene);
+      const long dense_before = cohesive_contacts_avx512::dense_evaluations();
+      for (int chunk = 0; chunk < 6; ++chunk) {
+        straight->step_n(1000);
+        if (affine) straight->save_state();
+      }
+      CHECK(cohesive_contacts_avx512::dense_evaluations() - dense_before > 2000);
+      CHECK(straight->get("neighbour_builds") > 1);
+      CHECK(straight->get("shell_builds") > 10);
+      auto read = Simulation::create(scene);
+      double energy = 0;
+      for (int chunk = 0; chunk < 60; ++chunk) {
+        read->step_n(100);
+        energy += read->get("elastic_energy");   // the springs' energy: read through the list
+        if (chunk % 10 == 9) {                    // saved and continued by a new simulation
+          auto next = Simulation::create(scene);
+          next->restore_state(read->save_state());
+          read = std::move(next);
+        }
+      }
+      CHECK(energy > 0);
+      CHECK(read->get("elastic_energy") == straight->get("elastic_energy"));
+      CHECK(read->save_state() == straight->save_state());
+    }
 }
 
 TEST_CASE("batched contacts, spheres with and without friction: bit-identical to the portable pair loop", "[contacts][batched]") {
