@@ -18,7 +18,8 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
   // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
   // results are never stored.
-  const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
+  const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation,
+                              in.slot_radius);
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
   const std::uint32_t k0 = c.k0;
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;

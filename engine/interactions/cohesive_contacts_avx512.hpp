@@ -27,8 +27,10 @@ struct Input {
   // Per entry: the pair's c_n (AdhesiveContactLaw::damping of its masses).
   const double* damping;
   // The entries are the shell's slots (contact_forces.hpp): each batch's are consecutive, so the per-entry
-  // arrays above (partner included) are loaded and stored as vectors rather than gathered and scattered.
+  // arrays above (partner included) are loaded and stored as vectors rather than gathered and scattered,
+  // and the pairs' radii are read per slot too: slot_radius[0][k] = R_i, slot_radius[1][k] = R_j.
   bool dense = false;
+  const double* slot_radius[2] = {nullptr, nullptr};
   // The law: K_N, F0, f_max, the step.
   double k, attraction, overlap_limit, dt;
   // Friction: k_t / k_n, c_t / c_n, mu, bound on k_n delta (true) or on the normal force.

@@ -118,11 +118,12 @@ class ContactForces final : public ForceModule<D> {
       const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
       batched->dense = true, batched->partner = s.shell.partner.data(), batched->damping = slots_.damping.data();
       batched->touched = slots_.touched.data(), batched->tangential = flat(slots_.tangential);
+      batched->slot_radius[0] = slots_.radius_i.data(), batched->slot_radius[1] = slots_.radius_j.data();
       if constexpr (Rolling::enabled) batched->rolling_angle = flat(slots_.rolling_angle);
     }
     const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr, direct};
     if (T == 1) {
-      clamped_now = loop<Virial>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
+      clamped_now = loop<Virial, false>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
       note_selection(s);
     } else {
       // One virial per thread, summed in thread order afterwards: deterministic for a thread count.
@@ -142,7 +143,7 @@ class ContactForces final : public ForceModule<D> {
         // partners beyond its rows, listing them; a pair is stored under its lower index, so no partner lies
         // before its rows.
         const auto [rb, re] = row_share(s.neighbours.start, t, T);
-        clamped_now += loop<Virial>(s, rb, re, s.thread_force[t].data(), s.thread_torque[t].data(), local, g, batch);
+        clamped_now += loop<Virial, true>(s, rb, re, s.thread_force[t].data(), s.thread_torque[t].data(), local, g, batch);
         if constexpr (Virial) thread_virial[t] = local;
 #pragma omp barrier
         // Each thread adds the earlier threads' shares of its particles, in thread order (deterministic
@@ -411,7 +412,8 @@ class ContactForces final : public ForceModule<D> {
 
   // The rows [row_begin, row_end): their particles' forces and torques go straight into the particles'
   // arrays, those of partners beyond row_end into far_force and far_torque, the partners listed in g.far.
-  template <bool Virial>
+  // Shared: other threads take other rows (else row_end is N, and no partner lies beyond it).
+  template <bool Virial, bool Shared>
   long loop(System<D>& s, std::size_t row_begin, std::size_t row_end, Vec<D>* far_force, Spin<D>* far_torque,
             Eigen::Matrix<double, D, D>& virial, Gathered& g, const Batch& batch) {
     auto& P = s.particles;
@@ -425,11 +427,11 @@ class ContactForces final : public ForceModule<D> {
     Spin<D>* const torque = P.torque.data();
     // Where partner j's force and torque go (every partner's force is added, so force_of lists it).
     const auto force_of = [&](std::uint32_t j) {
-      if (j < row_end) return force;
+      if (!Shared || j < row_end) return force;
       if (!g.far_seen[j]) g.far_seen[j] = 1, g.far.push_back(j);
       return far_force;
     };
-    const auto torque_of = [&](std::uint32_t j) { return j < row_end ? torque : far_torque; };
+    const auto torque_of = [&](std::uint32_t j) { return !Shared || j < row_end ? torque : far_torque; };
     const Vec<D>* const position = P.position.data();
     const double* const radius = P.radius.data();
     const Vec<D>* const shift = nl.shift.data();
@@ -760,6 +762,7 @@ class ContactForces final : public ForceModule<D> {
     std::vector<Spring> tangential;
     std::vector<Spin<D>> rolling_angle;
     std::vector<double> damping;
+    std::vector<double> radius_i, radius_j;   // the pair's radii (constant through a run)
   };
   void load_slots(const System<D>& s) {
     const auto& entry = s.shell.entry;
@@ -769,11 +772,12 @@ class ContactForces final : public ForceModule<D> {
       slots_.id.resize(n);
       for (std::size_t e = 0; e < n; ++e) slots_.id[e] = std::uint32_t(e);
     }
-    slots_.touched.resize(n), slots_.damping.resize(n);
+    slots_.touched.resize(n), slots_.damping.resize(n), slots_.radius_i.resize(n), slots_.radius_j.resize(n);
     slots_.tangential.resize(Friction::enabled ? n : 0), slots_.rolling_angle.resize(Rolling::enabled ? n : 0);
     for (std::size_t e = 0; e < n; ++e) {
       const std::uint32_t k = entry[e];
       slots_.touched[e] = touched_[k], slots_.damping[e] = damping_[k];
+      slots_.radius_i[e] = s.particles.radius[s.shell.owner[e]], slots_.radius_j[e] = s.particles.radius[s.shell.partner[e]];
       if constexpr (Friction::enabled) slots_.tangential[e] = tangential_[k];
       if constexpr (Rolling::enabled) slots_.rolling_angle[e] = rolling_angle_[k];
     }

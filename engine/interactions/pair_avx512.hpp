@@ -111,7 +111,8 @@ struct ImageShifts {
 // them are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
 // r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2 (as Eigen sums it), touching when d2 < (R_i + R_j)^2.
 // Lanes of indices i D and j D address the D-vectors of the particle arrays. Dense: the pairs' entries k
-// are consecutive from k0 = pairs[q] (the shell's slots), so the per-entry data (partner, stamps) are loaded.
+// are consecutive from k0 = pairs[q] (the shell's slots), so the per-entry data (partner, stamps, and the
+// radii, slot_radius[0][k] = R_i and slot_radius[1][k] = R_j) are loaded.
 template <int D, bool Dense = false>
 struct Contacts8 {
   __m256i i, k, j, iD, jD;
@@ -120,7 +121,8 @@ struct Contacts8 {
   __mmask8 steady;
   GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
                                 __mmask8 live, const std::uint32_t* partner, const Vec<D>* shift, const double* position,
-                                const double* radius, std::uint32_t* touched, std::uint32_t evaluation) {
+                                const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
+                                const double* const* slot_radius = nullptr) {
     i = _mm256_maskz_loadu_epi32(live, rows + q);
     k = _mm256_maskz_loadu_epi32(live, pairs + q);
     k0 = pairs[q];
@@ -134,7 +136,9 @@ struct Contacts8 {
       r[a] = sub(add(gather(position + a, jD, live), s[a]), gather(position + a, iD, live));
       d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
     }
-    Ri = gather(radius, i, live), Rj = gather(radius, j, live), Rsum = add(Ri, Rj);
+    if constexpr (Dense) Ri = _mm512_maskz_loadu_pd(live, slot_radius[0] + k0), Rj = _mm512_maskz_loadu_pd(live, slot_radius[1] + k0);
+    else Ri = gather(radius, i, live), Rj = gather(radius, j, live);
+    Rsum = add(Ri, Rj);
     steady = steady_contacts<Dense>(_mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ), k, k0, touched, evaluation);
   }
 };
