@@ -68,6 +68,17 @@ def test_crossover_tends_to_phimax_with_the_power_law_tail():
     assert cf.inverse_phi_crossover(np.array([P0]), 1 / PHI0, LAM, PHI_MAX, ALPHA, P0)[0] == pytest.approx(1 / PHI0, abs=1e-4)
 
 
+def test_crossover_far_below_p1_is_the_regime_two_line_without_a_warning():
+    """With a steep crossover (alpha = 50, as an optimiser may try) (P1*/P*)^alpha overflows far below P1*;
+    the limit is the regime II line, and no overflow warning reaches the campaign's output."""
+    import warnings
+    p = np.array([1e-3, 0.01, 0.02])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        inv = cf.inverse_phi_crossover(p, 1 / PHI0, LAM, PHI_MAX, 50.0, P0)
+    assert inv == pytest.approx(1 / PHI0 - LAM * np.log(p / P0), rel=1e-12)
+
+
 def test_crossover_at_p1_against_its_closed_form():
     """physics.md section 9's form at P* = P1*, worked by hand: there (P1*/P*)^alpha = 1, so
     1/Phi = 1/Phi0 - lambda ln(P1*/P0*) - (lambda/alpha) ln(1 - 1/e) = 1/Phimax - (lambda/alpha) ln(1 - 1/e);
