@@ -69,13 +69,13 @@ def test_crossover_tends_to_phimax_with_the_power_law_tail():
 
 
 def test_crossover_far_below_p1_is_the_regime_two_line_without_a_warning():
-    """With a steep crossover (alpha = 50, as an optimiser may try) (P1*/P*)^alpha overflows far below P1*;
+    """With a steep crossover (alpha = 300, as an optimiser may try) (P1*/P*)^alpha overflows far below P1*;
     the limit is the regime II line, and no overflow warning reaches the campaign's output."""
     import warnings
     p = np.array([1e-3, 0.01, 0.02])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        inv = cf.inverse_phi_crossover(p, 1 / PHI0, LAM, PHI_MAX, 50.0, P0)
+        inv = cf.inverse_phi_crossover(p, 1 / PHI0, LAM, PHI_MAX, 300.0, P0)
     assert inv == pytest.approx(1 / PHI0 - LAM * np.log(p / P0), rel=1e-12)
 
 
