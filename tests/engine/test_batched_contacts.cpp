@@ -8,6 +8,8 @@
 // - Spheres (interactions/linear_contacts_avx512.hpp): a dense hot gas, fixed and compressed (so the
 //   release charge, clamped overlaps and the affine flow occur), frictionless and with Coulomb friction
 //   (mu = 0.1: most contacts slide; mu = 0.5 with k_t = 2/7 k_n and c_t = c_n / 2 as in the gas-friction scene).
+#include <cstring>
+
 #include <catch2/catch.hpp>
 
 #include <fmt/format.h>
@@ -101,6 +103,56 @@ TEST_CASE("batched contacts, cohesive disks: reading or saving the springs betwe
       CHECK(read->get("elastic_energy") == straight->get("elastic_energy"));
       CHECK(read->save_state() == straight->save_state());
     }
+}
+
+// The other ways out of the slots: the portable pair loop chosen between steps (the slots are flushed and
+// the list's arrays serve it, then loaded again), the springs read through the list (the elastic energy;
+// the moduli's Z2, from list_springs' |F_T| and |Gamma|) against the portable loop's at the same steps, a
+// state restored into the same simulation while its slots are live (rewound), and row shares of three
+// threads. Fixed cell: no save restarts CVODE here.
+TEST_CASE("batched contacts, cohesive disks: the slots survive path switches, spring reads and rewinds", "[contacts][batched]") {
+  pair_filter::prefer_portable(false);
+  if (!pair_filter::avx512()) {
+    WARN("no AVX-512 here: the kernel's slots are not used");
+    return;
+  }
+  constexpr long steps = 6000;
+  // Steps in uneven chunks; every third on the portable loop if `mixed`, else all of them; the springs read
+  // after every fifth (as bytes: Z2 may be NaN), and the state saved once past the middle.
+  const auto run = [](Simulation& s, bool mixed, std::vector<double>& read, std::vector<std::byte>* middle) {
+    for (long done = 0, chunk = 0; done < steps; ++chunk) {
+      const long n = std::min(steps - done, 3 + (chunk * 7) % 17);
+      pair_filter::prefer_portable(!mixed || chunk % 3 == 2);
+      s.step_n(n);
+      pair_filter::prefer_portable(false);
+      done += n;
+      if (chunk % 5 == 0) read.push_back(s.get("Z2")), read.push_back(s.get("elastic_energy"));   // Z2 first: its own flush
+      if (middle && middle->empty() && done >= steps / 2) *middle = s.save_state();
+    }
+  };
+  const auto same_bytes = [](const std::vector<double>& a, const std::vector<double>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+  };
+  for (int threads : {1, 2, 3}) {
+    INFO("threads " << threads);
+    const Scene scene = compressed_packing(threads, 0.005, false, "[analysis]\nelastic_moduli = true\n");
+    std::vector<double> portable_reads, mixed_reads;
+    auto portable = Simulation::create(scene);
+    run(*portable, false, portable_reads, nullptr);
+    const auto reference = portable->save_state();
+    auto mixed = Simulation::create(scene);
+    std::vector<std::byte> middle;
+    const long dense_before = cohesive_contacts_avx512::dense_evaluations();
+    run(*mixed, true, mixed_reads, &middle);
+    CHECK(cohesive_contacts_avx512::dense_evaluations() - dense_before > 1000);
+    CHECK(same_bytes(mixed_reads, portable_reads));
+    CHECK(mixed->save_state() == reference);
+    // Back to the middle of the run and on again, in the same simulation (its slots were live).
+    mixed->step_n(50);
+    mixed->restore_state(middle);
+    mixed->step_n(steps - mixed->step_count());
+    CHECK(mixed->save_state() == reference);
+  }
 }
 
 TEST_CASE("batched contacts, spheres with and without friction: bit-identical to the portable pair loop", "[contacts][batched]") {
