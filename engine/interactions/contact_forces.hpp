@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 
@@ -79,6 +80,10 @@ class ContactForces final : public ForceModule<D> {
   }
 
   void add_forces(System<D>& s) override {
+    // A new list always comes through after_rebuild, which flushes the slots: live ones of another list
+    // would be written back into the wrong entries.
+    if (slots_.live && slots_.list_builds != s.neighbours.builds())
+      throw std::logic_error("contact forces: the neighbour list was rebuilt without after_rebuild");
     if (++evaluation_ < 2) evaluation_ = 2;   // on wrap-around: stamps 0 (never) and 1 must never look recent
     for (const OnsetLag& o : active_)   // the dashpots see the velocities without the lag impulses
       kick_apart(s.particles, s.particles.velocity_predicted, o, o.n * (-o.lag / s.dt));
