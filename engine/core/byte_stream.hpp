@@ -42,17 +42,19 @@ class ByteReader {
     return x;
   }
   template <class T> void get_vector(std::vector<T>& v) {
-    auto n = get<std::uint64_t>();
-    need(n * sizeof(T));
+    const auto n = get<std::uint64_t>();
+    // Compared as a count, not as bytes: a corrupted count times sizeof(T) could wrap past the check.
+    if (n > (bytes_.size() - pos_) / sizeof(T)) throw std::runtime_error(truncated);
     v.resize(n);
-    std::memcpy(static_cast<void*>(v.data()), bytes_.data() + pos_, n * sizeof(T));
+    if (n > 0) std::memcpy(static_cast<void*>(v.data()), bytes_.data() + pos_, n * sizeof(T));   // an empty v has no data()
     pos_ += n * sizeof(T);
   }
   bool done() const { return pos_ == bytes_.size(); }
 
  private:
+  static constexpr const char* truncated = "saved state is truncated or from another scene";
   void need(std::size_t n) const {
-    if (pos_ + n > bytes_.size()) throw std::runtime_error("saved state is truncated or from another scene");
+    if (pos_ + n > bytes_.size()) throw std::runtime_error(truncated);
   }
   std::span<const std::byte> bytes_;
   std::size_t pos_ = 0;

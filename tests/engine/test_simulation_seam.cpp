@@ -1,6 +1,7 @@
 // The Simulation seam: reading is side-effect free, time lands exactly, parameters are guarded.
 #include <catch2/catch.hpp>
 
+#include "core/byte_stream.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
@@ -74,6 +75,19 @@ TEST_CASE("save_state / restore_state continues bit-identically", "[seam]") {
   CHECK(s->particles().position == reference.position);
   CHECK(s->particles().angular_velocity == reference.angular_velocity);
   CHECK_THROWS_AS(s->restore_state(std::span(saved).first(saved.size() / 2)), SimulationError);
+}
+
+TEST_CASE("a saved vector whose count is corrupted is refused as truncated, and empty vectors read back", "[seam]") {
+  ByteWriter w;
+  w.put_vector(std::vector<double>{});
+  w.put<std::uint64_t>(std::uint64_t(1) << 61);   // times sizeof(double) wraps to 0 bytes
+  w.put(1.0);
+  const auto bytes = w.take();
+  ByteReader r(bytes);
+  std::vector<double> empty{2.0}, corrupt;
+  r.get_vector(empty);
+  CHECK(empty.empty());
+  CHECK_THROWS_WITH(r.get_vector(corrupt), Catch::Contains("truncated"));
 }
 
 TEST_CASE("a state saved by a build with another layout is refused by name, leaving the simulation as it was", "[seam]") {
