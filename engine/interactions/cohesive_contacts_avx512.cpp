@@ -24,10 +24,11 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const std::uint32_t k0 = c.k0;
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
   const __mmask8 m = c.steady;
-  out.steady[q / 8] = m;   // q is a multiple of 8
+  Results8& b = out.results[q / 8];   // q is a multiple of 8
+  b.steady = m;
   if (out.interacting) {   // the pair filter's test: d^2 < ((R_i + R_j) + tail)^2
     const V reach = add(Rsum, all(in.tail_reach));
-    out.interacting[q / 8] = _mm512_mask_cmp_pd_mask(live, d2, mul(reach, reach), _CMP_LT_OQ);
+    b.interacting = _mm512_mask_cmp_pd_mask(live, d2, mul(reach, reach), _CMP_LT_OQ);
   }
   if (!m) return 0;
 
@@ -83,12 +84,13 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     xi = _mm512_mask_div_pd(xi, shortened, copysign(bound, xi), kt);
   }
   set_per_entry<Dense>(in.tangential, k, k0, m, xi);
-  _mm512_mask_storeu_pd(out.torque_j + q, m, mul(arm_j, ft));
-  _mm512_mask_storeu_pd(out.torque_i + q, m, mul(arm_i, ft));
-  _mm512_mask_storeu_pd(out.fx + q, m, add(mul(fn, nx), mul(ft, tx)));
-  _mm512_mask_storeu_pd(out.fy + q, m, add(mul(fn, ny), mul(ft, ty)));
-  _mm512_mask_storeu_pd(out.rx + q, m, rx);
-  _mm512_mask_storeu_pd(out.ry + q, m, ry);
+  _mm256_mask_storeu_epi32(b.partner, m, j);
+  _mm512_mask_store_pd(b.torque_j, m, mul(arm_j, ft));
+  _mm512_mask_store_pd(b.torque_i, m, mul(arm_i, ft));
+  _mm512_mask_store_pd(b.fx, m, add(mul(fn, nx), mul(ft, tx)));
+  _mm512_mask_store_pd(b.fy, m, add(mul(fn, ny), mul(ft, ty)));
+  _mm512_mask_store_pd(b.rx, m, rx);
+  _mm512_mask_store_pd(b.ry, m, ry);
 
   // Rolling resistance (rolling_moment, 2D): a scalar spring, the bound a comparison of absolute values.
   if (in.rolling_angle) {
@@ -107,7 +109,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
       set_per_entry<Dense>(in.rolling_angle, k, k0, m, theta);
     }
     if (in.rolling_damping > 0) moment = sub(moment, mul(mul(mul(mul(all(in.rolling_damping), cn), Ri), Rj), spin));
-    _mm512_mask_storeu_pd(out.moment + q, m, moment);
+    _mm512_mask_store_pd(b.moment, m, moment);
   }
   return __builtin_popcount(clamped & m);
 }

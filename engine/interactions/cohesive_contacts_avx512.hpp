@@ -45,20 +45,27 @@ struct Input {
   double tail_reach;
 };
 
-// Per gathered pair q: whether it was evaluated here (a steady contact), and then its force on j, the
-// tangential force's torques (subtracted from i's and j's), the rolling moment (added to j's and
-// subtracted from i's) and the pair vector (for the virial). Given `interacting` (else null: the pairs
-// are the pair filter's selection), the pairs are any listed ones, and a bit per pair tells whether it
-// interacts, by the pair filter's own test.
+// The results of eight gathered pairs q .. q + 7 (q a multiple of 8), kept together so that the pair loop
+// reaches every field of a pair from one address (it had more arrays than registers to address them):
+// which were evaluated here (a bit per lane: a steady contact), and then the pair's partner j, its force
+// on j, the tangential force's torques (subtracted from i's and j's), the rolling moment (added to j's and
+// subtracted from i's) and the pair vector (for the virial). With Output::interacting, the pairs are any
+// listed ones, and a bit per lane tells whether the pair interacts, by the pair filter's own test (else
+// the pairs are the pair filter's selection).
+struct alignas(64) Results8 {
+  double fx[8], fy[8], torque_i[8], torque_j[8], moment[8], rx[8], ry[8];
+  std::uint32_t partner[8];
+  std::uint8_t steady, interacting;
+};
+
 struct Output {
-  std::uint8_t* steady;
-  double *fx, *fy, *torque_i, *torque_j, *moment, *rx, *ry;
-  std::uint8_t* interacting = nullptr;
+  Results8* results;   // one per eight gathered pairs
+  bool interacting = false;
 };
 
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]): their forces
 // into `out`, their springs and touched stamps updated. Returns how many had their overlap clamped.
-// Output arrays hold n rounded up to a multiple of 8.
+// `results` holds n / 8 rounded up.
 long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
               std::size_t n, const Output& out);
 

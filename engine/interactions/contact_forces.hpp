@@ -339,9 +339,9 @@ class ContactForces final : public ForceModule<D> {
     std::vector<std::uint32_t> far;         // partners beyond the thread's rows it wrote forces for (several threads)
     std::vector<std::uint8_t> far_seen;     // per particle: listed in far
     // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
-    std::vector<double> fx, fy, fz, torque_i[3], torque_j[3], moment, rx, ry, rz;   // torques: 2D only [0]
+    std::vector<cohesive_contacts_avx512::Results8> results;   // the cohesive kernel's
+    std::vector<double> fx, fy, fz, torque_i[3], torque_j[3], rx, ry, rz;   // the linear kernel's
     std::vector<std::uint8_t> steady;
-    std::vector<std::uint8_t> interacting;   // the kernel's test per pair where it ran over the shell directly
     std::size_t tested = 0, selected = 0;    // this evaluation: pairs tested, pairs that interact
   };
 
@@ -472,33 +472,34 @@ class ContactForces final : public ForceModule<D> {
         gathered_row = g.row.data(), gathered_pair = g.pair.data(), gathered_image = g.image.data();
         g.selected += n;
       }
-      // Batched: the steady contacts evaluated first, their results added below in list order.
+      // Batched: the steady contacts evaluated first, their results added below in list order: the
+      // cohesive kernel's in blocks of eight pairs (cohesive), the linear kernel's in arrays (batched).
+      const cohesive_contacts_avx512::Results8* cohesive = nullptr;
       const std::uint8_t* batched = nullptr;
-      const std::uint8_t* interacting = nullptr;   // direct: which of the entries interact
-      if constexpr (batched_ || batched_linear_) {
-        if (batch.cohesive || batch.linear) {
+      if constexpr (batched_) {
+        if (batch.cohesive) {
+          if (g.results.size() < n / 8 + 1) g.results.resize(n / 8 + 1);
+          clamped += cohesive_contacts_avx512::evaluate(*batch.cohesive, gathered_row, gathered_pair, gathered_image, n,
+                                                        {g.results.data(), direct});
+          cohesive = g.results.data();
+        }
+      }
+      if constexpr (batched_linear_) {
+        if (batch.linear) {
           const std::size_t room = n + 8;
           for (auto* v : {&g.fx, &g.fy, &g.fz, &g.torque_i[0], &g.torque_i[1], &g.torque_i[2], &g.torque_j[0],
-                          &g.torque_j[1], &g.torque_j[2], &g.moment, &g.rx, &g.ry, &g.rz})
+                          &g.torque_j[1], &g.torque_j[2], &g.rx, &g.ry, &g.rz})
             if (v->size() < room) v->resize(room);
           if (g.steady.size() < room / 8) g.steady.resize(room / 8);
-          if (direct && g.interacting.size() < room / 8) g.interacting.resize(room / 8);
-          if (batch.cohesive) {
-            cohesive_contacts_avx512::Output out{g.steady.data(), g.fx.data(), g.fy.data(), g.torque_i[0].data(),
-                                                 g.torque_j[0].data(), g.moment.data(), g.rx.data(), g.ry.data()};
-            if (direct) out.interacting = g.interacting.data(), interacting = g.interacting.data();
-            clamped += cohesive_contacts_avx512::evaluate(*batch.cohesive, gathered_row, gathered_pair, gathered_image, n, out);
-          }
-          else
-            clamped += linear_contacts_avx512::evaluate(
-                *batch.linear, gathered_row, gathered_pair, gathered_image, n,
-                {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data(),
-                 {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()},
-                 {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()}});
+          clamped += linear_contacts_avx512::evaluate(
+              *batch.linear, gathered_row, gathered_pair, gathered_image, n,
+              {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data(),
+               {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()},
+               {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()}});
           batched = g.steady.data();
         }
       }
-      // The batched results, through plain pointers: stores into the force arrays cannot then make
+      // The linear kernel's results, through plain pointers: stores into the force arrays cannot then make
       // the compiler reload the vectors' data pointers.
       const double* const gfx = g.fx.data();
       const double* const gfy = g.fy.data();
@@ -508,13 +509,16 @@ class ContactForces final : public ForceModule<D> {
       const double* const grz = g.rz.data();
       const double* const gti[3] = {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()};
       const double* const gtj[3] = {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()};
-      const double* const gmoment = g.moment.data();
       // The row particle's force and torque, and the virial, are summed in registers (the row's
       // force and torque added once per row): in memory, each addition waited for the last one's store.
       std::size_t i = row_end;   // no row yet
-      Vec<D> xi = Vec<D>::Zero();
       double fi[D] = {};
       Spin<D> ti = Spin<D>::Zero();
+      const auto next_row = [&](std::size_t row) {
+        if (i != row_end) add_row(force, torque, i, fi, ti);
+        i = row, ti.setZero();
+        for (double& c : fi) c = 0;
+      };
       // A pair's force f on j (r: from i to j) into the sums, as Eigen's fi -= f and w += f r^T would.
       const auto take = [&](std::uint32_t j, const Vec<D>& f, const Vec<D>& r) {
         force_of(j)[j] += f;
@@ -523,45 +527,45 @@ class ContactForces final : public ForceModule<D> {
           for (int b = 0; b < D; ++b)
             for (int a = 0; a < D; ++a) w[a + D * b] += f[a] * r[b];
       };
-      double Ri = 0;
       for (std::size_t q = 0; q < n; ++q) {
-        if (interacting) {   // the kernel ran over every entry of the shell: only the interacting ones count
-          if (!(interacting[q >> 3] >> (q & 7) & 1)) continue;
-          ++g.selected;
-        }
-        if (gathered_row[q] != i) {
-          if (i != row_end) add_row(force, torque, i, fi, ti);
-          i = gathered_row[q], xi = position[i], Ri = radius[i], ti.setZero();
-          for (double& c : fi) c = 0;
-        }
-        const std::uint32_t k = gathered_pair[q], j = partner[k];
-        if constexpr (batched_ || batched_linear_) {
-          if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
-            Vec<D> f, r;
-            if constexpr (batched_) {
+        if constexpr (batched_) {
+          if (cohesive) {
+            const cohesive_contacts_avx512::Results8& c = cohesive[q >> 3];
+            const unsigned l = q & 7;
+            if (c.steady >> l & 1) {   // a steady contact (which interacts), as contact_force would have applied it
+              if (gathered_row[q] != i) next_row(gathered_row[q]);
+              const std::uint32_t j = c.partner[l];
               // j's torque through a local: one load and one store (through the array, the compiler
               // stored it after each operation, since the results could alias it).
               double& tj = torque_of(j)[j][0];
               double t = tj;
-              t -= gtj[0][q];
-              ti[0] -= gti[0][q];
+              t -= c.torque_j[l];
+              ti[0] -= c.torque_i[l];
               if constexpr (Rolling::enabled) {
-                t += gmoment[q];
-                ti[0] -= gmoment[q];
+                t += c.moment[l];
+                ti[0] -= c.moment[l];
               }
               tj = t;
-              f = Vec<D>(gfx[q], gfy[q]), r = Vec<D>(grx[q], gry[q]);
-            } else {
-              if constexpr (Friction::enabled) {
-                torque_of(j)[j] += Spin<D>(gtj[0][q], gtj[1][q], gtj[2][q]);
-                ti += Spin<D>(gti[0][q], gti[1][q], gti[2][q]);
-              }
-              f = Vec<D>(gfx[q], gfy[q], gfz[q]), r = Vec<D>(grx[q], gry[q], grz[q]);
+              take(j, Vec<D>(c.fx[l], c.fy[l]), Vec<D>(c.rx[l], c.ry[l]));
+              continue;
             }
-            take(j, f, r);
+            if (direct && !(c.interacting >> l & 1)) continue;   // the kernel ran over every entry of the shell
+          }
+        }
+        if (gathered_row[q] != i) next_row(gathered_row[q]);
+        const std::uint32_t k = gathered_pair[q], j = partner[k];
+        if constexpr (batched_linear_) {
+          if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
+            if constexpr (Friction::enabled) {
+              torque_of(j)[j] += Spin<D>(gtj[0][q], gtj[1][q], gtj[2][q]);
+              ti += Spin<D>(gti[0][q], gti[1][q], gti[2][q]);
+            }
+            take(j, Vec<D>(gfx[q], gfy[q], gfz[q]), Vec<D>(grx[q], gry[q], grz[q]));
             continue;
           }
         }
+        const Vec<D> xi = position[i];
+        const double Ri = radius[i];
         const Vec<D> r = position[j] + shift[gathered_image[q]] - xi;
         const double Rsum = Ri + radius[j];
         const double d2 = r.squaredNorm();
@@ -580,6 +584,9 @@ class ContactForces final : public ForceModule<D> {
         take(j, f, r);
       }
       if (i != row_end) add_row(force, torque, i, fi, ti);
+      if constexpr (batched_)
+        if (direct)   // the interacting entries
+          for (std::size_t q = 0; q < n; q += 8) g.selected += __builtin_popcount(cohesive[q >> 3].interacting);
     }
     if constexpr (Virial)
       for (int b = 0; b < D; ++b)
