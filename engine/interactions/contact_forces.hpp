@@ -527,26 +527,36 @@ class ContactForces final : public ForceModule<D> {
           for (int b = 0; b < D; ++b)
             for (int a = 0; a < D; ++a) w[a + D * b] += f[a] * r[b];
       };
+      // A steady contact of the cohesive kernel (which interacts), as contact_force would have applied it.
+      const auto steady_contact = [&](const auto& c, unsigned l, std::size_t q) {   // c: a Results8
+        if (gathered_row[q] != i) next_row(gathered_row[q]);
+        const std::uint32_t j = c.partner[l];
+        // j's torque through a local: one load and one store (through the array, the compiler
+        // stored it after each operation, since the results could alias it).
+        double& tj = torque_of(j)[j][0];
+        double t = tj;
+        t -= c.torque_j[l];
+        ti[0] -= c.torque_i[l];
+        if constexpr (Rolling::enabled) {
+          t += c.moment[l];
+          ti[0] -= c.moment[l];
+        }
+        tj = t;
+        take(j, Vec<D>(c.fx[l], c.fy[l]), Vec<D>(c.rx[l], c.ry[l]));
+      };
       for (std::size_t q = 0; q < n; ++q) {
         if constexpr (batched_) {
           if (cohesive) {
             const cohesive_contacts_avx512::Results8& c = cohesive[q >> 3];
             const unsigned l = q & 7;
-            if (c.steady >> l & 1) {   // a steady contact (which interacts), as contact_force would have applied it
-              if (gathered_row[q] != i) next_row(gathered_row[q]);
-              const std::uint32_t j = c.partner[l];
-              // j's torque through a local: one load and one store (through the array, the compiler
-              // stored it after each operation, since the results could alias it).
-              double& tj = torque_of(j)[j][0];
-              double t = tj;
-              t -= c.torque_j[l];
-              ti[0] -= c.torque_i[l];
-              if constexpr (Rolling::enabled) {
-                t += c.moment[l];
-                ti[0] -= c.moment[l];
-              }
-              tj = t;
-              take(j, Vec<D>(c.fx[l], c.fy[l]), Vec<D>(c.rx[l], c.ry[l]));
+            if (l == 0 && c.steady == 0xFF) {   // eight steady contacts: unrolled, every field at a fixed offset
+#pragma GCC unroll 8
+              for (unsigned m = 0; m < 8; ++m) steady_contact(c, m, q + m);
+              q += 7;
+              continue;
+            }
+            if (c.steady >> l & 1) {
+              steady_contact(c, l, q);
               continue;
             }
             if (direct && !(c.interacting >> l & 1)) continue;   // the kernel ran over every entry of the shell
@@ -586,12 +596,19 @@ class ContactForces final : public ForceModule<D> {
       if (i != row_end) add_row(force, torque, i, fi, ti);
       if constexpr (batched_)
         if (direct)   // the interacting entries
-          for (std::size_t q = 0; q < n; q += 8) g.selected += __builtin_popcount(cohesive[q >> 3].interacting);
+          for (std::size_t q = 0; q < n; q += 8) g.selected += bits_set(cohesive[q >> 3].interacting);
     }
     if constexpr (Virial)
       for (int b = 0; b < D; ++b)
         for (int a = 0; a < D; ++a) virial(a, b) += w[a + D * b];
     return clamped;
+  }
+
+  // The bits set in a byte (the portable build has no popcount instruction).
+  static unsigned bits_set(std::uint8_t b) {
+    unsigned x = b - ((b >> 1) & 0x55u);
+    x = (x & 0x33u) + ((x >> 2) & 0x33u);
+    return (x + (x >> 4)) & 0x0Fu;
   }
 
   static void add_row(Vec<D>* force, Spin<D>* torque, std::size_t i, const double* fi, const Spin<D>& ti) {
