@@ -332,16 +332,16 @@ class ContactForces final : public ForceModule<D> {
     double lag;
     Vec<D> n;   // unit vector from i to j at the evaluation
   };
+  // The batched kernel's results, eight pairs to a block (see batched_ and batched_linear_).
+  using Results8 = std::conditional_t<batched_, cohesive_contacts_avx512::Results8, linear_contacts_avx512::Results8>;
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint8_t> image;        // ... and its periodic image
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
     std::vector<std::uint32_t> far;         // partners beyond the thread's rows it wrote forces for (several threads)
     std::vector<std::uint8_t> far_seen;     // per particle: listed in far
-    // The batched contacts' results per gathered pair (see batched_), and which pairs were batched (a bit each).
-    std::vector<cohesive_contacts_avx512::Results8> results;   // the cohesive kernel's
-    std::vector<double> fx, fy, fz, torque_i[3], torque_j[3], rx, ry, rz;   // the linear kernel's
-    std::vector<std::uint8_t> steady;
+    // The batched kernel's results, eight pairs to a block.
+    std::vector<Results8> results;
     std::size_t tested = 0, selected = 0;    // this evaluation: pairs tested, pairs that interact
   };
 
@@ -472,43 +472,21 @@ class ContactForces final : public ForceModule<D> {
         gathered_row = g.row.data(), gathered_pair = g.pair.data(), gathered_image = g.image.data();
         g.selected += n;
       }
-      // Batched: the steady contacts evaluated first, their results added below in list order: the
-      // cohesive kernel's in blocks of eight pairs (cohesive), the linear kernel's in arrays (batched).
-      const cohesive_contacts_avx512::Results8* cohesive = nullptr;
-      const std::uint8_t* batched = nullptr;
-      if constexpr (batched_) {
-        if (batch.cohesive) {
+      // Batched: the steady contacts evaluated first, their results (in blocks of eight pairs, Results8)
+      // added below in list order.
+      const Results8* batched = nullptr;
+      if constexpr (batched_ || batched_linear_) {
+        if (batch.cohesive || batch.linear) {
           if (g.results.size() < n / 8 + 1) g.results.resize(n / 8 + 1);
-          clamped += cohesive_contacts_avx512::evaluate(*batch.cohesive, gathered_row, gathered_pair, gathered_image, n,
-                                                        {g.results.data(), direct});
-          cohesive = g.results.data();
+          if constexpr (batched_)
+            clamped += cohesive_contacts_avx512::evaluate(*batch.cohesive, gathered_row, gathered_pair, gathered_image, n,
+                                                          {g.results.data(), direct});
+          else
+            clamped += linear_contacts_avx512::evaluate(*batch.linear, gathered_row, gathered_pair, gathered_image, n,
+                                                        {g.results.data()});
+          batched = g.results.data();
         }
       }
-      if constexpr (batched_linear_) {
-        if (batch.linear) {
-          const std::size_t room = n + 8;
-          for (auto* v : {&g.fx, &g.fy, &g.fz, &g.torque_i[0], &g.torque_i[1], &g.torque_i[2], &g.torque_j[0],
-                          &g.torque_j[1], &g.torque_j[2], &g.rx, &g.ry, &g.rz})
-            if (v->size() < room) v->resize(room);
-          if (g.steady.size() < room / 8) g.steady.resize(room / 8);
-          clamped += linear_contacts_avx512::evaluate(
-              *batch.linear, gathered_row, gathered_pair, gathered_image, n,
-              {g.steady.data(), g.fx.data(), g.fy.data(), g.fz.data(), g.rx.data(), g.ry.data(), g.rz.data(),
-               {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()},
-               {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()}});
-          batched = g.steady.data();
-        }
-      }
-      // The linear kernel's results, through plain pointers: stores into the force arrays cannot then make
-      // the compiler reload the vectors' data pointers.
-      const double* const gfx = g.fx.data();
-      const double* const gfy = g.fy.data();
-      const double* const gfz = g.fz.data();
-      const double* const grx = g.rx.data();
-      const double* const gry = g.ry.data();
-      const double* const grz = g.rz.data();
-      const double* const gti[3] = {g.torque_i[0].data(), g.torque_i[1].data(), g.torque_i[2].data()};
-      const double* const gtj[3] = {g.torque_j[0].data(), g.torque_j[1].data(), g.torque_j[2].data()};
       // The row particle's force and torque, and the virial, are summed in registers (the row's
       // force and torque added once per row): in memory, each addition waited for the last one's store.
       std::size_t i = row_end;   // no row yet
@@ -527,27 +505,35 @@ class ContactForces final : public ForceModule<D> {
           for (int b = 0; b < D; ++b)
             for (int a = 0; a < D; ++a) w[a + D * b] += f[a] * r[b];
       };
-      // A steady contact of the cohesive kernel (which interacts), as contact_force would have applied it.
+      // A steady contact of the batched kernel (which interacts), as contact_force would have applied it.
       const auto steady_contact = [&](const auto& c, unsigned l, std::size_t q) {   // c: a Results8
         if (gathered_row[q] != i) next_row(gathered_row[q]);
         const std::uint32_t j = c.partner[l];
-        // j's torque through a local: one load and one store (through the array, the compiler
-        // stored it after each operation, since the results could alias it).
-        double& tj = torque_of(j)[j][0];
-        double t = tj;
-        t -= c.torque_j[l];
-        ti[0] -= c.torque_i[l];
-        if constexpr (Rolling::enabled) {
-          t += c.moment[l];
-          ti[0] -= c.moment[l];
+        if constexpr (batched_) {
+          // j's torque through a local: one load and one store (through the array, the compiler
+          // stored it after each operation, since the results could alias it).
+          double& tj = torque_of(j)[j][0];
+          double t = tj;
+          t -= c.torque_j[l];
+          ti[0] -= c.torque_i[l];
+          if constexpr (Rolling::enabled) {
+            t += c.moment[l];
+            ti[0] -= c.moment[l];
+          }
+          tj = t;
+          take(j, Vec<D>(c.fx[l], c.fy[l]), Vec<D>(c.rx[l], c.ry[l]));
+        } else {
+          if constexpr (Friction::enabled) {
+            torque_of(j)[j] += Spin<D>(c.torque_j[0][l], c.torque_j[1][l], c.torque_j[2][l]);
+            ti += Spin<D>(c.torque_i[0][l], c.torque_i[1][l], c.torque_i[2][l]);
+          }
+          take(j, Vec<D>(c.f[0][l], c.f[1][l], c.f[2][l]), Vec<D>(c.r[0][l], c.r[1][l], c.r[2][l]));
         }
-        tj = t;
-        take(j, Vec<D>(c.fx[l], c.fy[l]), Vec<D>(c.rx[l], c.ry[l]));
       };
       for (std::size_t q = 0; q < n; ++q) {
-        if constexpr (batched_) {
-          if (cohesive) {
-            const cohesive_contacts_avx512::Results8& c = cohesive[q >> 3];
+        if constexpr (batched_ || batched_linear_) {
+          if (batched) {
+            const Results8& c = batched[q >> 3];
             const unsigned l = q & 7;
             if (l == 0 && c.steady == 0xFF) {   // eight steady contacts: unrolled, every field at a fixed offset
 #pragma GCC unroll 8
@@ -559,21 +545,12 @@ class ContactForces final : public ForceModule<D> {
               steady_contact(c, l, q);
               continue;
             }
-            if (direct && !(c.interacting >> l & 1)) continue;   // the kernel ran over every entry of the shell
+            if constexpr (batched_)
+              if (direct && !(c.interacting >> l & 1)) continue;   // the kernel ran over every entry of the shell
           }
         }
         if (gathered_row[q] != i) next_row(gathered_row[q]);
         const std::uint32_t k = gathered_pair[q], j = partner[k];
-        if constexpr (batched_linear_) {
-          if (batched && (batched[q >> 3] >> (q & 7) & 1)) {   // as contact_force would have applied it
-            if constexpr (Friction::enabled) {
-              torque_of(j)[j] += Spin<D>(gtj[0][q], gtj[1][q], gtj[2][q]);
-              ti += Spin<D>(gti[0][q], gti[1][q], gti[2][q]);
-            }
-            take(j, Vec<D>(gfx[q], gfy[q], gfz[q]), Vec<D>(grx[q], gry[q], grz[q]));
-            continue;
-          }
-        }
         const Vec<D> xi = position[i];
         const double Ri = radius[i];
         const Vec<D> r = position[j] + shift[gathered_image[q]] - xi;
@@ -596,7 +573,7 @@ class ContactForces final : public ForceModule<D> {
       if (i != row_end) add_row(force, torque, i, fi, ti);
       if constexpr (batched_)
         if (direct)   // the interacting entries
-          for (std::size_t q = 0; q < n; q += 8) g.selected += bits_set(cohesive[q >> 3].interacting);
+          for (std::size_t q = 0; q < n; q += 8) g.selected += bits_set(batched[q >> 3].interacting);
     }
     if constexpr (Virial)
       for (int b = 0; b < D; ++b)

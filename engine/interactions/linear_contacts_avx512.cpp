@@ -25,7 +25,7 @@ GRAINS_AVX512_PAIRS inline void scaled(V s, const V v[3], V out[3]) {
 // adds F_t to `force` (on j) and stores both torques. fn: the normal force, elastic: k_n delta_used.
 // Loads take every live lane (see evaluate8).
 GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmask8 live, __mmask8 m, const V n[3], V elastic, V fn, V d,
-                                  const V flow[3], V force[3], std::size_t q, const Output& out) {
+                                  const V flow[3], V force[3], Results8& b) {
   const __m256i k3 = _mm256_mullo_epi32(c.k, _mm256_set1_epi32(3));
   // Lever arms to the middle of the overlap.
   const V half_overlap = mul(all(0.5), sub(c.Rsum, d));
@@ -75,10 +75,10 @@ GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmas
   V lever[3], minus_ft[3], torque[3];
   scaled(neg(arm_j), n, lever);
   cross(lever, ft, torque);
-  for (int a = 0; a < 3; ++a) _mm512_mask_storeu_pd(out.torque_j[a] + q, m, torque[a]);
+  for (int a = 0; a < 3; ++a) _mm512_mask_store_pd(b.torque_j[a], m, torque[a]);
   for (int a = 0; a < 3; ++a) minus_ft[a] = neg(ft[a]);
   cross(lever_i, minus_ft, torque);
-  for (int a = 0; a < 3; ++a) _mm512_mask_storeu_pd(out.torque_i[a] + q, m, torque[a]);
+  for (int a = 0; a < 3; ++a) _mm512_mask_store_pd(b.torque_i[a], m, torque[a]);
   for (int a = 0; a < 3; ++a) force[a] = add(force[a], ft[a]);
 }
 
@@ -92,7 +92,8 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const V* r = c.r;
   const V d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
   const __mmask8 m = c.steady;
-  out.steady[q / 8] = m;   // q is a multiple of 8
+  Results8& b = out.results[q / 8];   // q is a multiple of 8
+  b.steady = m;
   if (!m) return 0;
 
   const V d = _mm512_sqrt_pd(d2);
@@ -137,14 +138,11 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     V flow[3] = {all(0.0), all(0.0), all(0.0)};
     if (in.affine)
       for (int a = 0; a < 3; ++a) flow[a] = mul(all(in.strain_rate[a]), r[a]);
-    friction(in, c, live, m, n, elastic, f, d, flow, force, q, out);
+    friction(in, c, live, m, n, elastic, f, d, flow, force, b);
   }
-  _mm512_mask_storeu_pd(out.fx + q, m, force[0]);
-  _mm512_mask_storeu_pd(out.fy + q, m, force[1]);
-  _mm512_mask_storeu_pd(out.fz + q, m, force[2]);
-  _mm512_mask_storeu_pd(out.rx + q, m, r[0]);
-  _mm512_mask_storeu_pd(out.ry + q, m, r[1]);
-  _mm512_mask_storeu_pd(out.rz + q, m, r[2]);
+  _mm256_mask_storeu_epi32(b.partner, m, j);
+  for (int a = 0; a < 3; ++a) _mm512_mask_store_pd(b.f[a], m, force[a]);
+  for (int a = 0; a < 3; ++a) _mm512_mask_store_pd(b.r[a], m, r[a]);
   return __builtin_popcount(clamped & m);
 }
 

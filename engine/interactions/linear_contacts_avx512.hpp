@@ -32,16 +32,21 @@ struct Input {
   bool elastic_bound;
 };
 
-// Per gathered pair q: whether it was evaluated here (a bit per pair), its force on j, its pair vector and,
-// with friction, the torques to add to i and j.
+// The results of eight gathered pairs q .. q + 7 (q a multiple of 8), kept together so that the pair loop
+// reaches every field of a pair from one address: which were evaluated here (a bit per lane), and then the
+// pair's partner j, its force on j, its pair vector and, with friction, the torques to add to i and j.
+struct alignas(64) Results8 {
+  double f[3][8], r[3][8], torque_i[3][8], torque_j[3][8];
+  std::uint32_t partner[8];
+  std::uint8_t steady;
+};
+
 struct Output {
-  std::uint8_t* steady;
-  double *fx, *fy, *fz, *rx, *ry, *rz;
-  double *torque_i[3], *torque_j[3];
+  Results8* results;   // one per eight gathered pairs
 };
 
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]).
-// Returns how many had their overlap clamped. Output arrays hold n rounded up to a multiple of 8.
+// Returns how many had their overlap clamped. `results` holds n / 8 rounded up.
 long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
               std::size_t n, const Output& out);
 
