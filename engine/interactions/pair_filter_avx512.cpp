@@ -21,7 +21,7 @@ bool avx512() {
     const char* want = std::getenv("GRAINS_PAIR_ISA");
     if (want && std::strcmp(want, "portable") == 0) return false;
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq");
+           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("popcnt");
   }();
   return available && !portable_preferred.load(std::memory_order_relaxed);
 }
