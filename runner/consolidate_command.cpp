@@ -239,7 +239,7 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   restore_checkpoint(*sim, path, cp);
   StageProgress from{cp.stage + 1, 0, {}};
   if (!cp.stage_progress.empty()) try {   // stopped inside a stage
-      from = StageProgress::from_values(cp.stage_progress, settings);
+      from = StageProgress::from_values(cp.stage_progress, settings, sim->dt());
       if (from.stage != cp.stage + 1)
         throw std::invalid_argument(fmt::format("stage {} under way after stage {}", from.stage, cp.stage));
     } catch (const std::invalid_argument& e) {

@@ -117,6 +117,12 @@ bool first_compression(const std::string& phase, double P, const ProgrammeSettin
   return phase == "equilibrate" && P > 0 && P == p.start_pressure && p.preparation != "none";
 }
 
+// The steps of the ramp that begins the first compression (its budget counts from the ramp's end): the
+// ramp's time in whole chunks of check_every. The caller has checked that the time fits max_steps.
+long ramp_steps(double first_compression_time, double dt, const ProgrammeSettings& p) {
+  return first_compression_time > 0 ? long(std::ceil(first_compression_time / dt / double(p.check_every))) * p.check_every : 0;
+}
+
 // What a stage row records: whichever of these the scene has (the elastic moduli with
 // analysis.elastic_moduli), and the normal-force histogram.
 const char* const recorded[] = {
@@ -204,7 +210,7 @@ class Runner {
     const double T = first_compression ? p_.first_compression_time : 0.0;
     if (!(T / s_.dt() <= Simulation::max_steps))   // ProgrammeSettings::check_time_step names the key
       throw std::invalid_argument(fmt::format("programme.first_compression_time = {} is more than 1e15 steps", T));
-    const long ramp_steps = T > 0 ? long(std::ceil(T / s_.dt() / double(p_.check_every))) * p_.check_every : 0;
+    const long ramp = ramp_steps(T, s_.dt(), p_);
     const long at = records_.empty() ? from_.steps : 0;   // a resumed stage goes on where it stood
     // The quench sets its drags in units of the inertial time at the stage's target (above P* = 1 it depends
     // on it), also in a ramp and at a resume inside one: the ramp's own target comes after.
@@ -213,13 +219,13 @@ class Runner {
     if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
     StageQuench quench(s_, q);
     if (records_.empty() && from_.steps > 0) quench.resume(from_.quench);
-    if (at < ramp_steps) s_.set("cell.pressure", target * double(at) / double(ramp_steps));
+    if (at < ramp) s_.set("cell.pressure", target * double(at) / double(ramp));
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();
       r.quench_drag = quench.drag();
       return reached;
-    }, [&] { return quench.progress(); }, ramp_steps);
+    }, [&] { return quench.progress(); }, ramp);
     if (!stopped_) quench.end();   // stopped: the simulation stays as its checkpoint has it
   }
 
@@ -242,17 +248,19 @@ std::vector<double> StageProgress::values() const {
   return v;
 }
 
-StageProgress StageProgress::from_values(const std::vector<double>& v, const ProgrammeSettings& p) {
+StageProgress StageProgress::from_values(const std::vector<double>& v, const ProgrammeSettings& p, double dt) {
   const auto stages = programme_stages(p);
   if (v.size() < 2 || v[0] < 0 || v[0] >= double(stages.size()) || v[0] != std::floor(v[0]))
     throw std::invalid_argument(fmt::format("the stage under way is not one of the programme's {} stages", stages.size()));
   StageProgress s{int(v[0]), long(v[1]), std::vector<double>(v.begin() + 2, v.end())};
   const auto& [phase, P] = stages[std::size_t(s.stage)];
   const bool aggregation = phase == "aggregation";
+  const bool ramped = first_compression(phase, P, p) && p.first_compression_time / dt <= double(Simulation::max_steps);
+  const long ramp = ramped ? ramp_steps(p.first_compression_time, dt, p) : 0;   // the budget counts from its end
   const long budget = aggregation ? p.aggregation_budget : p.stage_budget;
-  const bool ramped = p.first_compression_time > 0 && first_compression(phase, P, p);   // its ramp adds to the budget
-  if (s.steps < 0 || (s.steps >= budget && !ramped))
-    throw std::invalid_argument(fmt::format("stage {} is {} steps in, outside its budget of {}", s.stage, s.steps, budget));
+  if (s.steps < 0 || s.steps >= budget + ramp)
+    throw std::invalid_argument(fmt::format("stage {} is {} steps in, outside its budget of {}{}", s.stage, s.steps, budget,
+                                            ramp > 0 ? fmt::format(" after a ramp of {} steps", ramp) : ""));
   if (s.quench.size() != (aggregation || s.steps == 0 ? 0u : 9u))
     throw std::invalid_argument(fmt::format("stage {}'s quench has {} numbers", s.stage, s.quench.size()));
   return s;

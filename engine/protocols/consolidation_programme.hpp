@@ -63,8 +63,8 @@ struct StageProgress {
   std::vector<double> quench;   // StageQuench::progress(); empty for the aggregation, which has no quench
 
   std::vector<double> values() const;   // stage, steps, quench..., as a checkpoint stores them
-  // Throws std::invalid_argument naming what does not fit the programme `p`.
-  static StageProgress from_values(const std::vector<double>& values, const ProgrammeSettings& p);
+  // Throws std::invalid_argument naming what does not fit the programme `p` run with time step dt.
+  static StageProgress from_values(const std::vector<double>& values, const ProgrammeSettings& p, double dt);
 };
 
 // on_stage: after every stage (the simulation at the stage's end, the next stage not begun: a state saved

@@ -140,7 +140,7 @@ TEST_CASE("programme: stopped inside a stage and continued from its state and pr
   REQUIRE(!saved.empty());   // the quench was on in stage 1: its counters are part of what continues
   CHECK(at.stage == 1);
   CHECK(at.quench.size() == 9);
-  CHECK(StageProgress::from_values(at.values(), settings).steps == at.steps);
+  CHECK(StageProgress::from_values(at.values(), settings, a->dt()).steps == at.steps);
 
   auto b = Simulation::create(scene);
   b->restore_state(saved);
@@ -167,10 +167,11 @@ TEST_CASE("programme: stopped inside a stage and continued from its state and pr
 
 TEST_CASE("programme: a stage's progress that does not fit the programme is refused", "[programme][checkpoint]") {
   const auto settings = ProgrammeSettings::from_scene(Scene::from_string(small_programme(1000), "programme"));
-  CHECK_THROWS_WITH(StageProgress::from_values({7, 100}, settings), Catch::Contains("3 stages"));
-  CHECK_THROWS_WITH(StageProgress::from_values({1, 1000}, settings), Catch::Contains("budget of 1000"));
-  CHECK_THROWS_WITH(StageProgress::from_values({1, 100, 0, 1}, settings), Catch::Contains("quench has 2 numbers"));
-  CHECK(StageProgress::from_values({2, 0}, settings).stage == 2);
+  const double dt = 1e-4;
+  CHECK_THROWS_WITH(StageProgress::from_values({7, 100}, settings, dt), Catch::Contains("3 stages"));
+  CHECK_THROWS_WITH(StageProgress::from_values({1, 1000}, settings, dt), Catch::Contains("budget of 1000"));
+  CHECK_THROWS_WITH(StageProgress::from_values({1, 100, 0, 1}, settings, dt), Catch::Contains("quench has 2 numbers"));
+  CHECK(StageProgress::from_values({2, 0}, settings, dt).stage == 2);
 }
 
 TEST_CASE("programme: a ramped first compression raises the target linearly, then waits its budget", "[programme][ramp]") {
@@ -227,7 +228,13 @@ TEST_CASE("programme: a ramped first compression stopped inside and after its ra
     });
     REQUIRE(!saved.empty());
     // As a checkpoint stores and reads it: past the stage budget of 3000 after the ramp, still the stage's own.
-    CHECK(StageProgress::from_values(at.values(), settings).steps == stop_at);
+    CHECK(StageProgress::from_values(at.values(), settings, a->dt()).steps == stop_at);
+    // ... but not past the budget after the ramp (6300 + 3000 steps).
+    std::vector<double> beyond = at.values();
+    beyond[1] = 9300;
+    CHECK_THROWS_WITH(StageProgress::from_values(beyond, settings, a->dt()), Catch::Contains("after a ramp of 6300 steps"));
+    beyond[1] = 9299;
+    CHECK(StageProgress::from_values(beyond, settings, a->dt()).steps == 9299);
     auto b = Simulation::create(scene);
     b->restore_state(saved);
     const auto rest = run_programme(*b, settings, {}, {}, at);
