@@ -1,13 +1,13 @@
-// AVX-512 build of the steady cohesive contacts (cohesive_contacts_avx512.hpp). Compiled for AVX-512
+// AVX-512 build of the steady cohesive contacts (cohesive_contacts.hpp). Compiled for AVX-512
 // whatever the build flags and without FMA contraction (engine/CMakeLists.txt). Every line mirrors an
 // expression of contact_forces.hpp / adhesive_contact_law.hpp / contact_step.hpp, in the same order.
-#include "interactions/cohesive_contacts_avx512.hpp"
+#include "interactions/cohesive_contacts.hpp"
 
 #include <atomic>
 
 #include "interactions/pair_avx512.hpp"
 
-namespace grains::cohesive_contacts_avx512 {
+namespace grains::cohesive_contacts {
 namespace {
 
 using namespace pair_avx512;
@@ -121,11 +121,11 @@ std::atomic<long> dense_evaluations_{0};
 void note_dense_evaluation() { dense_evaluations_.fetch_add(1, std::memory_order_relaxed); }
 long dense_evaluations() { return dense_evaluations_.load(); }
 
-long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
-              std::size_t n, const Output& out) {
+long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                     std::size_t n, const Output& out) {
   if (in.dense)
     return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<true>(in, rows, pairs, images, q, lanes, out); });
   return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<false>(in, rows, pairs, images, q, lanes, out); });
 }
 
-}  // namespace grains::cohesive_contacts_avx512
+}  // namespace grains::cohesive_contacts

@@ -18,7 +18,7 @@
 #include "core/thread_share.hpp"
 #include "interactions/force_module.hpp"
 #include "interactions/adhesive_contact_law.hpp"
-#include "interactions/cohesive_contacts_avx512.hpp"
+#include "interactions/cohesive_contacts.hpp"
 #include "interactions/linear_contact_law.hpp"
 #include "interactions/linear_contacts_avx512.hpp"
 #include "interactions/pair_filter.hpp"
@@ -43,7 +43,7 @@ template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {
   static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
   // Cohesive disks with friction (the consolidation scenes in 2D): steady contacts eight at a time where
-  // the processor has AVX-512 (cohesive_contacts_avx512.hpp).
+  // the processor has AVX-512, four where it has AVX2 (cohesive_contacts.hpp).
   static constexpr bool batched_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
   // Spheres with one global (k_n, c_n), with or without friction (the gas scenes): the same,
   // linear_contacts_avx512.hpp.
@@ -105,12 +105,13 @@ class ContactForces final : public ForceModule<D> {
     const int T = s.threads;
     gathered_.resize(T);
     // Set up once per evaluation, before the threads start (it may refresh damping_).
-    std::optional<cohesive_contacts_avx512::Input> batched;
+    std::optional<cohesive_contacts::Input> batched;
     std::optional<linear_contacts_avx512::Input> batched_linear;
+    const pair_filter::Isa isa = pair_filter::isa();
     if constexpr (batched_)
-      if (pair_filter::avx512()) batched = batch_input(s);
+      if (isa != pair_filter::Isa::portable) batched = batch_input(s);
     if constexpr (batched_linear_)
-      if (pair_filter::avx512()) batched_linear = linear_batch_input(s);
+      if (isa == pair_filter::Isa::avx512) batched_linear = linear_batch_input(s);
     // The cohesive kernel over the shell directly (note_selection) keeps the springs in the shell's slots.
     const bool direct = batched_ && batched && direct_ && s.shell.built();
     if (slots_.live && (!direct || slots_.shell_builds != s.shell.builds() || slots_.list_builds != s.neighbours.builds()))
@@ -119,14 +120,15 @@ class ContactForces final : public ForceModule<D> {
     history_ = direct ? History{slots_.touched.data(), slots_.tangential.data(), slots_.rolling_angle.data()}
                       : History{touched_.data(), tangential_.data(), rolling_angle_.data()};
     if (direct) {
-      cohesive_contacts_avx512::note_dense_evaluation();
+      cohesive_contacts::note_dense_evaluation();
       const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
       batched->dense = true, batched->partner = s.shell.partner.data(), batched->damping = slots_.damping.data();
       batched->touched = slots_.touched.data(), batched->tangential = flat(slots_.tangential);
       batched->slot_radius[0] = slots_.radius_i.data(), batched->slot_radius[1] = slots_.radius_j.data();
       if constexpr (Rolling::enabled) batched->rolling_angle = flat(slots_.rolling_angle);
     }
-    const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr, direct};
+    const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr, direct,
+                      isa == pair_filter::Isa::avx512};
     if (T == 1) {
       clamped_now = loop<Virial, false>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
       note_selection(s);
@@ -333,7 +335,7 @@ class ContactForces final : public ForceModule<D> {
     Vec<D> n;   // unit vector from i to j at the evaluation
   };
   // The batched kernel's results, eight pairs to a block (see batched_ and batched_linear_).
-  using Results8 = std::conditional_t<batched_, cohesive_contacts_avx512::Results8, linear_contacts_avx512::Results8>;
+  using Results8 = std::conditional_t<batched_, cohesive_contacts::Results8, linear_contacts_avx512::Results8>;
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint8_t> image;        // ... and its periodic image
@@ -347,9 +349,10 @@ class ContactForces final : public ForceModule<D> {
 
   // The batched kernel of this combination, if it has one and the processor runs it (else both null).
   struct Batch {
-    const cohesive_contacts_avx512::Input* cohesive;
+    const cohesive_contacts::Input* cohesive;
     const linear_contacts_avx512::Input* linear;
     bool direct;   // the cohesive kernel runs over the shell's slots (see slots_)
+    bool avx512;   // its AVX-512 build, else the AVX2 one
   };
 
   // The batched kernels' views of the state (a fixed cell and a deforming one alike).
@@ -372,11 +375,11 @@ class ContactForces final : public ForceModule<D> {
     }
     return in;
   }
-  cohesive_contacts_avx512::Input batch_input(System<D>& s) {
+  cohesive_contacts::Input batch_input(System<D>& s) {
     auto& P = s.particles;
     const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
     const auto cflat = [](const auto& v) { return reinterpret_cast<const double*>(v.data()); };
-    cohesive_contacts_avx512::Input in{};
+    cohesive_contacts::Input in{};
     in.position = cflat(P.position), in.radius = P.radius.data();
     in.velocity_predicted = cflat(P.velocity_predicted), in.velocity = cflat(P.velocity);
     in.angular_velocity = cflat(P.angular_velocity);
@@ -479,8 +482,8 @@ class ContactForces final : public ForceModule<D> {
         if (batch.cohesive || batch.linear) {
           if (g.results.size() < n / 8 + 1) g.results.resize(n / 8 + 1);
           if constexpr (batched_)
-            clamped += cohesive_contacts_avx512::evaluate(*batch.cohesive, gathered_row, gathered_pair, gathered_image, n,
-                                                          {g.results.data(), direct});
+            clamped += (batch.avx512 ? cohesive_contacts::evaluate_avx512 : cohesive_contacts::evaluate_avx2)(
+                *batch.cohesive, gathered_row, gathered_pair, gathered_image, n, {g.results.data(), direct});
           else
             clamped += linear_contacts_avx512::evaluate(*batch.linear, gathered_row, gathered_pair, gathered_image, n,
                                                         {g.results.data()});

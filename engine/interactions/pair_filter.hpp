@@ -1,9 +1,9 @@
 // The first pass of the pair loop: of a run of neighbour-list entries, which pairs interact (their
 // centres closer than R_i + R_j + tail_reach). Most listed pairs do not, so this pass is the hot one
-// in dilute scenes. Two builds of the same test, picked at run time so the binary stays portable
-// x86-64: plain scalar code, and AVX-512 (eight entries at a time, the result compressed into place).
-// Both form r = (x_j + shift) - x_i, d^2 = (r_x^2 + r_y^2) + r_z^2 and (R_i + R_j + tail)^2 with the same
-// operations in the same order (the AVX-512 file is compiled without FMA contraction), so they select
+// in dilute scenes. Three builds of the same test, picked at run time so the binary stays portable
+// x86-64: plain scalar code, AVX-512 (eight entries at a time, the result compressed into place) and AVX2
+// (four at a time, compressed by a permutation). All form r = (x_j + shift) - x_i, d^2 = (r_x^2 + r_y^2) + r_z^2 and (R_i + R_j + tail)^2 with the same
+// operations in the same order (the vector files are compiled without FMA contraction), so they select
 // exactly the same entries, in list order: the forces are bit-identical whichever runs.
 #pragma once
 #include <cstddef>
@@ -30,8 +30,8 @@ struct Geometry {
 
 // Writes the interacting entries k of rows [row_begin, row_end) (entries start[row_begin] ..
 // start[row_end] of g's arrays) to pairs[], their rows to rows[] and their images to images[], in list
-// order; returns how many. The arrays must hold the run's entries plus `slack` (the AVX-512 build
-// stores whole vectors).
+// order; returns how many. The arrays must hold the run's entries plus `slack` (the vector builds
+// store whole vectors).
 inline constexpr std::size_t slack = 8;
 
 template <int D>
@@ -52,22 +52,33 @@ std::size_t gather_portable(const Geometry<D>& g, const std::uint32_t* start, st
   return n;
 }
 
-// The AVX-512 build (pair_filter_avx512.cpp) over entries [k_begin, k_end) of g's arrays; only where avx512() is true.
+// The AVX-512 build (pair_filter_avx512.cpp) over entries [k_begin, k_end) of g's arrays; only where isa() is avx512.
 template <int D>
 std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
                           std::uint32_t* pairs, std::uint8_t* images);
+// The AVX2 build (pair_filter_avx2.cpp), likewise; only where isa() is avx2.
+template <int D>
+std::size_t gather_avx2(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
+                        std::uint32_t* pairs, std::uint8_t* images);
 
-// Whether the pair loop's AVX-512 pieces run (this filter and cohesive_contacts_avx512): the processor has
-// AVX-512 F, VL, BW and DQ, unless the environment variable GRAINS_PAIR_ISA is "portable" (read once) or a
-// test has asked for the portable build with prefer_portable(true).
-bool avx512();
-void prefer_portable(bool yes);
+// Which build of the pair loop's vector pieces runs (this filter, the batched contact kernels, the
+// neighbour build's candidate test): the widest the processor has, AVX-512 (F, VL, BW, DQ) or AVX2, else
+// the portable code. The environment variable GRAINS_PAIR_ISA (read once) caps it: "portable" or "avx2";
+// so does a test, with cap_isa. Every build gives the same results, bit for bit.
+enum class Isa { portable, avx2, avx512 };
+Isa isa();
+void cap_isa(Isa widest);
+inline bool avx512() { return isa() == Isa::avx512; }
+inline void prefer_portable(bool yes) { cap_isa(yes ? Isa::portable : Isa::avx512); }
 
 template <int D>
 std::size_t gather(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,
                    std::uint32_t* rows, std::uint32_t* pairs, std::uint8_t* images) {
-  if (avx512()) return gather_avx512<D>(g, start[row_begin], start[row_end], rows, pairs, images);
-  return gather_portable<D>(g, start, row_begin, row_end, rows, pairs, images);
+  switch (isa()) {
+    case Isa::avx512: return gather_avx512<D>(g, start[row_begin], start[row_end], rows, pairs, images);
+    case Isa::avx2: return gather_avx2<D>(g, start[row_begin], start[row_end], rows, pairs, images);
+    default: return gather_portable<D>(g, start, row_begin, row_end, rows, pairs, images);
+  }
 }
 
 }  // namespace grains::pair_filter

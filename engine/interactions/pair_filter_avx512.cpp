@@ -2,31 +2,11 @@
 // without FMA contraction (engine/CMakeLists.txt), so each lane does the portable build's operations.
 #include "interactions/pair_filter.hpp"
 
-#include <atomic>
-#include <cstdlib>
-#include <cstring>
-
 #include "interactions/pair_avx512.hpp"
 
 namespace grains::pair_filter {
 
 static_assert(sizeof(Vec<2>) == 2 * sizeof(double) && sizeof(Vec<3>) == 3 * sizeof(double), "positions are packed");
-
-namespace {
-std::atomic<bool> portable_preferred{false};
-}
-
-bool avx512() {
-  static const bool available = [] {
-    const char* want = std::getenv("GRAINS_PAIR_ISA");
-    if (want && std::strcmp(want, "portable") == 0) return false;
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("popcnt");
-  }();
-  return available && !portable_preferred.load(std::memory_order_relaxed);
-}
-
-void prefer_portable(bool yes) { portable_preferred.store(yes, std::memory_order_relaxed); }
 
 namespace {
 

@@ -46,21 +46,22 @@ void check_selection(const Packing<D>& p, const ShellList<D>& shell, double thic
 
 template <int D>
 void selection_cases() {
-  for (bool portable : {false, true}) {
-    pair_filter::prefer_portable(portable);
+  using pair_filter::Isa;
+  for (Isa isa : {Isa::avx512, Isa::avx2, Isa::portable}) {   // each capped at what the processor has
+    pair_filter::cap_isa(isa);
     for (double range : {0.0, 1e-3})
       for (double thickness : {0.005, 0.05}) {
         const auto p = random_packing<D>(true, range, 3, 0.09);
         ShellList<D> shell;
         shell.configure(thickness, false, 0.2);
         shell.build(p.list, p.x, p.radius, 0.09, 0, false);
-        INFO("D = " << D << ", portable " << portable << ", range " << range << ", thickness " << thickness);
+        INFO("D = " << D << ", pair loop build " << int(pair_filter::isa()) << ", range " << range << ", thickness " << thickness);
         CHECK(shell.pair_count() > 100);                              // pairs near contact ...
         CHECK(shell.pair_count() + 50 < p.list.pair_count());         // ... not all the listed ones
         check_selection(p, shell, thickness);
       }
   }
-  pair_filter::prefer_portable(false);
+  pair_filter::cap_isa(Isa::avx512);
 }
 
 // The list's own measure: the largest squared distance from its reference positions as carried.

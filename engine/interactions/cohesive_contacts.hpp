@@ -1,4 +1,4 @@
-// The steady contacts of cohesive disks, eight at a time (AVX-512): the consolidation scene's law in 2D
+// The steady contacts of cohesive disks, eight at a time (AVX-512) or four (AVX2): the consolidation scene's law in 2D
 // (adhesion, friction, optionally rolling resistance; physics.md sections 4-6) for the contacts that
 // already touched at the last force evaluation. Those take no onset corrections, so each is the same
 // straight-line arithmetic; the pair loop (contact_forces.hpp) evaluates a contact's first step and
@@ -11,7 +11,7 @@
 
 #include "core/vec.hpp"
 
-namespace grains::cohesive_contacts_avx512 {
+namespace grains::cohesive_contacts {
 
 struct Input {
   // Particle arrays (positions and velocities as x, y pairs).
@@ -66,12 +66,16 @@ struct Output {
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]): their forces
 // into `out`, their springs and touched stamps updated. Returns how many had their overlap clamped.
 // `results` holds n / 8 rounded up.
-long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
-              std::size_t n, const Output& out);
+// Two builds: cohesive_contacts_avx512.cpp (eight pairs a vector) and cohesive_contacts_avx2.cpp (four, each
+// filling half a Results8); only where pair_filter::isa() names them.
+long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                     std::size_t n, const Output& out);
+long evaluate_avx2(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                   std::size_t n, const Output& out);
 
 // Force evaluations that ran the kernel over the shell's slots (Input::dense), counted once per evaluation
 // by the pair loop, in this process: for tests, that this path ran.
 void note_dense_evaluation();
 long dense_evaluations();
 
-}  // namespace grains::cohesive_contacts_avx512
+}  // namespace grains::cohesive_contacts

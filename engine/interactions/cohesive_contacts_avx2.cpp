@@ -1,0 +1,135 @@
+// AVX2 build of the steady cohesive contacts (cohesive_contacts.hpp), for processors without AVX-512: four
+// pairs a vector, each batch filling half of a Results8. Compiled for AVX2 whatever the build flags and
+// without FMA contraction (engine/CMakeLists.txt). It mirrors cohesive_contacts_avx512.cpp line by line
+// (which mirrors contact_forces.hpp / adhesive_contact_law.hpp / contact_step.hpp), in the same order, so
+// the forces, torques and springs are bit-identical to the portable pair loop's.
+#include "interactions/cohesive_contacts.hpp"
+
+#include "interactions/pair_avx2.hpp"
+
+namespace grains::cohesive_contacts {
+namespace {
+
+using namespace pair_avx2;
+
+template <bool Dense>
+[[gnu::always_inline]] GRAINS_AVX2_PAIRS inline long evaluate4(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
+                                 const std::uint8_t* images, std::size_t q, std::size_t left, const Output& out) {
+  // The pairs' geometry; the steady contacts among them. Loads take every live lane, not only the steady
+  // ones; the other lanes' results are stored too, and never read.
+  const Contacts4<Dense> c(rows, pairs, images, q, left, in.partner, in.shift, in.position, in.radius, in.touched,
+                           in.evaluation, in.slot_radius);
+  const Lanes4 &i = c.il, &j = c.jl, &k = c.kl;
+  const std::uint32_t k0 = c.k0;
+  const V live = c.live, rx = c.rx, ry = c.ry, d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
+  const V m = widen(c.steady);
+  const unsigned steady = bits(c.steady);
+  Results8& b = out.results[q / 8];
+  const unsigned half = q & 7;   // 0 or 4: the block's first or second half (the first one writes the bits)
+  b.steady = std::uint8_t(half ? b.steady | steady << 4 : steady);
+  if (out.interacting) {   // the pair filter's test: d^2 < ((R_i + R_j) + tail)^2
+    const V reach = add(Rsum, all(in.tail_reach));
+    const unsigned interacting = bits(both(live, less(d2, mul(reach, reach))));
+    b.interacting = std::uint8_t(half ? b.interacting | interacting << 4 : interacting);
+  }
+  if (!steady) return 0;
+
+  const V d = _mm256_sqrt_pd(d2);
+  const V nx = div(rx, d), ny = div(ry, d);
+  const V cn = per_entry<Dense>(in.damping, k, k0, live);
+  V vxi, vyi, vxj, vyj;
+  gather_pairs(in.velocity_predicted, i, vxi, vyi), gather_pairs(in.velocity_predicted, j, vxj, vyj);
+  const V dvx = sub(vxj, vxi), dvy = sub(vyj, vyi);
+  V vn = add(mul(dvx, nx), mul(dvy, ny));
+  V flow_x = zero(), flow_y = zero();
+  if (in.affine) {
+    flow_x = mul(all(in.strain_rate_x), rx), flow_y = mul(all(in.strain_rate_y), ry);
+    vn = add(vn, add(mul(flow_x, nx), mul(flow_y, ny)));
+  }
+
+  // Normal law (AdhesiveContactLaw::force with onset {1, 0} and the parting charge).
+  const V overlap = sub(Rsum, d);
+  const V limit = mul(all(in.overlap_limit), _mm256_min_pd(Rj, Ri));   // std::min(Ri, Rj)
+  const V clamped = both(m, greater(overlap, limit));
+  const V elastic = mul(all(in.k), blend(clamped, overlap, limit));
+  const V travel = mul(vn, all(in.dt));
+  // The divisions of rare lanes (a contact parting within the step, a sliding or rolling spring) run only
+  // when some lane needs them.
+  const V parts = both(m, greater(travel, overlap));
+  V weight = all(1.0), extra = all(0.0);
+  if (bits(parts)) {
+    const V sigma = blend(parts, zero(), div(overlap, travel));
+    const V two_sigma_less_one = sub(mul(all(2.0), sigma), all(1.0));
+    weight = blend(parts, weight, sub(add(all(1.0), sigma), all(0.5)));
+    extra = blend(parts, extra, add(all(0.0), div(mul(mul(travel, two_sigma_less_one), two_sigma_less_one), all(8.0))));
+  }
+  const V fn = sub(sub(add(elastic, mul(all(in.k), extra)), all(in.attraction)), mul(mul(cn, vn), weight));
+
+  // Friction (tangential_force, 2D): everything along t = z x n.
+  const V half_overlap = mul(all(0.5), sub(Rsum, d));
+  const V arm_i = sub(Ri, half_overlap), arm_j = sub(Rj, half_overlap);
+  const V kt = all(in.friction_stiffness_ratio * in.k);
+  const V ct = mul(all(in.friction_damping_ratio), cn);
+  const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
+  const V tx = neg(ny), ty = nx;   // t = (-n_y, n_x)
+  const V wi = gather(in.angular_velocity, i), wj = gather(in.angular_velocity, j);
+  V uxi, uyi, uxj, uyj;
+  gather_pairs(in.velocity, i, uxi, uyi), gather_pairs(in.velocity, j, uxj, uyj);
+  const V ux = add(sub(uxj, uxi), flow_x), uy = add(sub(uyj, uyi), flow_y);
+  const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
+  V xi = add(per_entry<Dense>(in.tangential, k, k0, live), mul(vt, all(in.dt)));
+  const V minus_kt = neg(kt);
+  V ft = sub(mul(minus_kt, xi), mul(ct, vt));
+  const V slides = both(m, greater(abs(ft), bound));
+  if (bits(slides)) {   // cap the force; shorten the spring only if it alone passes the bound
+    ft = blend(slides, ft, copysign(bound, ft));
+    const V shortened = both(slides, greater(abs(mul(kt, xi)), bound));
+    xi = blend(shortened, xi, div(copysign(bound, xi), kt));
+  }
+  set_per_entry<Dense>(in.tangential, k, k0, m, xi);
+  std::memcpy(b.partner + half, j.at, sizeof j.at);
+  _mm256_store_pd(b.torque_j + half, mul(arm_j, ft));
+  _mm256_store_pd(b.torque_i + half, mul(arm_i, ft));
+  _mm256_store_pd(b.fx + half, add(mul(fn, nx), mul(ft, tx)));
+  _mm256_store_pd(b.fy + half, add(mul(fn, ny), mul(ft, ty)));
+  _mm256_store_pd(b.rx + half, rx);
+  _mm256_store_pd(b.ry + half, ry);
+
+  // Rolling resistance (rolling_moment, 2D): a scalar spring, the bound a comparison of absolute values.
+  if (in.rolling_angle) {
+    const V spin = sub(wj, wi);
+    V moment = zero();
+    if (in.rolling_stiffness > 0) {
+      const V bound_r = mul(all(in.rolling_coefficient), elastic);
+      V theta = add(per_entry<Dense>(in.rolling_angle, k, k0, live), mul(spin, all(in.dt)));
+      const V minus_kr = all(-in.rolling_stiffness);
+      moment = mul(minus_kr, theta);
+      const V rolls = both(m, greater(abs(moment), bound_r));
+      if (bits(rolls)) {
+        moment = blend(rolls, moment, copysign(bound_r, moment));
+        theta = blend(rolls, theta, div(moment, minus_kr));
+      }
+      set_per_entry<Dense>(in.rolling_angle, k, k0, m, theta);
+    }
+    if (in.rolling_damping > 0) moment = sub(moment, mul(mul(mul(mul(all(in.rolling_damping), cn), Ri), Rj), spin));
+    _mm256_store_pd(b.moment + half, moment);
+  }
+  return __builtin_popcount(bits(clamped));
+}
+
+template <bool Dense>
+GRAINS_AVX2_PAIRS long evaluate_all(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                  std::size_t n, const Output& out) {
+  long clamped = 0;
+  for (std::size_t q = 0; q < n; q += 4) clamped += evaluate4<Dense>(in, rows, pairs, images, q, n - q, out);
+  return clamped;
+}
+
+}  // namespace
+
+long evaluate_avx2(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                   std::size_t n, const Output& out) {
+  return in.dense ? evaluate_all<true>(in, rows, pairs, images, n, out) : evaluate_all<false>(in, rows, pairs, images, n, out);
+}
+
+}  // namespace grains::cohesive_contacts

@@ -1,0 +1,169 @@
+// AVX2 pieces of the pair loop's batched kernels (cohesive_contacts_avx2.cpp, pair_filter_avx2.cpp): four
+// doubles per vector, one lane per gathered pair, for processors without AVX-512 (pair_avx512.hpp is the
+// eight-lane build). AVX2 has gathers but no mask registers, scatters or compression: a mask is a vector
+// of all-ones or all-zero lanes, and its bits (movemask) decide the rare branches. Compiled for AVX2
+// whatever the build flags (the binary stays portable x86-64): call these only from GRAINS_AVX2_PAIRS
+// functions, and those only where pair_filter::isa() is Isa::avx2. Include this header only in files
+// compiled without multiply-add contraction (engine/CMakeLists.txt); the target has no FMA either.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+
+#include <immintrin.h>
+
+#include "core/vec.hpp"
+
+#define GRAINS_AVX2_PAIRS __attribute__((target("avx2,popcnt")))
+
+namespace grains::pair_avx2 {
+
+using V = __m256d;
+
+GRAINS_AVX2_PAIRS inline V add(V a, V b) { return _mm256_add_pd(a, b); }
+GRAINS_AVX2_PAIRS inline V sub(V a, V b) { return _mm256_sub_pd(a, b); }
+GRAINS_AVX2_PAIRS inline V mul(V a, V b) { return _mm256_mul_pd(a, b); }
+GRAINS_AVX2_PAIRS inline V div(V a, V b) { return _mm256_div_pd(a, b); }
+GRAINS_AVX2_PAIRS inline V all(double a) { return _mm256_set1_pd(a); }
+GRAINS_AVX2_PAIRS inline V zero() { return _mm256_setzero_pd(); }
+GRAINS_AVX2_PAIRS inline V sign_bit() { return _mm256_set1_pd(-0.0); }
+// |a|, -a and std::copysign(magnitude, sign): sign-bit operations, exactly as the scalar ones.
+GRAINS_AVX2_PAIRS inline V abs(V a) { return _mm256_andnot_pd(sign_bit(), a); }
+GRAINS_AVX2_PAIRS inline V neg(V a) { return _mm256_xor_pd(a, sign_bit()); }
+GRAINS_AVX2_PAIRS inline V copysign(V magnitude, V sign) {
+  return _mm256_or_pd(_mm256_andnot_pd(sign_bit(), magnitude), _mm256_and_pd(sign, sign_bit()));
+}
+
+// Masks: all-ones lanes. blend(m, a, b) takes b where m is set; bits(m) has bit l set for lane l.
+GRAINS_AVX2_PAIRS inline V blend(V m, V a, V b) { return _mm256_blendv_pd(a, b, m); }
+GRAINS_AVX2_PAIRS inline unsigned bits(V m) { return unsigned(_mm256_movemask_pd(m)); }
+GRAINS_AVX2_PAIRS inline V both(V m, V n) { return _mm256_and_pd(m, n); }
+GRAINS_AVX2_PAIRS inline V less(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+GRAINS_AVX2_PAIRS inline V greater(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+// The four 32-bit lanes of an index mask widened to a mask of doubles, and back.
+GRAINS_AVX2_PAIRS inline V widen(__m128i m) { return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(m)); }
+GRAINS_AVX2_PAIRS inline __m128i narrow(V m) {
+  return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(m), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+}
+GRAINS_AVX2_PAIRS inline unsigned bits(__m128i m) { return unsigned(_mm_movemask_ps(_mm_castsi128_ps(m))); }
+
+// The mask of the first `left` lanes (all four from left = 4 on), as indices.
+GRAINS_AVX2_PAIRS inline __m128i first_lanes(std::size_t left) {
+  const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
+  return _mm_cmplt_epi32(iota, _mm_set1_epi32(int(left < 4 ? left : 4)));
+}
+
+// The lanes' indices as plain integers, for the loads below (a dead lane's is 0: the loads that gave
+// them are masked).
+struct Lanes4 {
+  alignas(16) std::uint32_t at[4];
+  GRAINS_AVX2_PAIRS explicit Lanes4(__m128i v) { _mm_store_si128(reinterpret_cast<__m128i*>(at), v); }
+  // a[0 .. left) (at most four), read as integers: a vector's store would delay the loads that use them.
+  Lanes4(const std::uint32_t* a, std::size_t left) {
+    if (left >= 4) {
+      std::memcpy(at, a, sizeof at);
+    } else {
+      for (std::size_t l = 0; l < 4; ++l) at[l] = l < left ? a[l] : 0;
+    }
+  }
+};
+// The lanes' a[idx]: four loads. On processors with AVX2 but not AVX-512 (AMD's before Zen 4) a gather
+// instruction is slower than the loads it stands for. Dead lanes read a[0].
+GRAINS_AVX2_PAIRS inline V gather(const double* a, const Lanes4& idx) {
+  return _mm256_setr_pd(a[idx.at[0]], a[idx.at[1]], a[idx.at[2]], a[idx.at[3]]);
+}
+// The lanes' pairs (a[2 idx], a[2 idx + 1]) (2D positions and velocities) as the vectors of their first
+// and second components: four 16-byte loads, transposed.
+GRAINS_AVX2_PAIRS inline void gather_pairs(const double* a, const Lanes4& idx, V& first, V& second) {
+  const __m128d p0 = _mm_loadu_pd(a + 2 * std::size_t(idx.at[0])), p1 = _mm_loadu_pd(a + 2 * std::size_t(idx.at[1]));
+  const __m128d p2 = _mm_loadu_pd(a + 2 * std::size_t(idx.at[2])), p3 = _mm_loadu_pd(a + 2 * std::size_t(idx.at[3]));
+  const V even = _mm256_insertf128_pd(_mm256_castpd128_pd256(p0), p2, 1);   // (x0, y0, x2, y2)
+  const V odd = _mm256_insertf128_pd(_mm256_castpd128_pd256(p1), p3, 1);    // (x1, y1, x3, y3)
+  first = _mm256_unpacklo_pd(even, odd), second = _mm256_unpackhi_pd(even, odd);
+}
+// a[0..3] on the lanes of m (the others read nothing and hold zero); m is all four lanes unless `left` is
+// below four.
+GRAINS_AVX2_PAIRS inline __m128i load_index(const std::uint32_t* a, __m128i m, std::size_t left = 0) {
+  if (left >= 4) return _mm_loadu_si128(reinterpret_cast<const __m128i*>(a));
+  return _mm_maskload_epi32(reinterpret_cast<const int*>(a), m);
+}
+// The first `left` (at most four) bytes of a, widened to 32-bit lanes; the rest zero. Reads no further.
+GRAINS_AVX2_PAIRS inline __m128i load_bytes(const std::uint8_t* a, std::size_t left) {
+  std::uint32_t word = 0;
+  std::memcpy(&word, a, left < 4 ? left : 4);
+  return _mm_cvtepu8_epi32(_mm_cvtsi32_si128(int(word)));
+}
+
+// Of the touching lanes (list entries k), those that touched at the last evaluation too (stamp + 1 ==
+// evaluation; the contact's first step otherwise), restamped with this evaluation. Dense: the lanes' k are
+// consecutive, from k0 (the shell's slots): loads and stores; else read and stored lane by lane.
+template <bool Dense>
+GRAINS_AVX2_PAIRS inline __m128i steady_contacts(__m128i touching, const Lanes4& k, std::uint32_t k0, std::size_t left,
+                                                 std::uint32_t* touched, std::uint32_t evaluation) {
+  const __m128i now = _mm_set1_epi32(int(evaluation));
+  const __m128i stamp = Dense ? load_index(touched + k0, touching, left)
+                              : _mm_setr_epi32(int(touched[k.at[0]]), int(touched[k.at[1]]), int(touched[k.at[2]]),
+                                               int(touched[k.at[3]]));
+  const __m128i steady = _mm_and_si128(touching, _mm_cmpeq_epi32(_mm_add_epi32(stamp, _mm_set1_epi32(1)), now));
+  if constexpr (Dense) {
+    _mm_maskstore_epi32(reinterpret_cast<int*>(touched + k0), steady, now);
+  } else {
+    for (unsigned m = bits(steady); m; m &= m - 1) touched[k.at[__builtin_ctz(m)]] = evaluation;
+  }
+  return steady;
+}
+
+// The lanes' a[k] for per-entry data: gathered, or loaded from a + k0 where the lanes' k are consecutive.
+template <bool Dense>
+GRAINS_AVX2_PAIRS inline V per_entry(const double* a, const Lanes4& k, std::uint32_t k0, V m) {
+  if constexpr (Dense) return _mm256_maskload_pd(a + k0, _mm256_castpd_si256(m));
+  else return gather(a, k);
+}
+// a[k] = v on the lanes of m: stored to a + k0, or lane by lane.
+template <bool Dense>
+GRAINS_AVX2_PAIRS inline void set_per_entry(double* a, const Lanes4& k, std::uint32_t k0, V m, V v) {
+  if constexpr (Dense) {
+    _mm256_maskstore_pd(a + k0, _mm256_castpd_si256(m), v);
+  } else {
+    alignas(32) double value[4];
+    _mm256_store_pd(value, v);
+    for (unsigned b = bits(m); b; b &= b - 1) a[k.at[__builtin_ctz(b)]] = value[__builtin_ctz(b)];
+  }
+}
+
+// The geometry of four gathered pairs q .. q + 3, as pair_avx512::Contacts8 (the same operations in the
+// same order): r = (x_j + shift) - x_i, d2 = r_x^2 + r_y^2 (2D), touching when d2 < (R_i + R_j)^2, and
+// which touched at the last evaluation too (restamped). The lanes' rows i, partners j and entries k are
+// kept as integers too, for the kernel's loads.
+template <bool Dense>
+struct Contacts4 {
+  Lanes4 il, kl, jl;
+  std::uint32_t k0;
+  V live, rx, ry, d2, Ri, Rj, Rsum;
+  __m128i steady;
+  GRAINS_AVX2_PAIRS Contacts4(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
+                              std::size_t left, const std::uint32_t* partner, const Vec<2>* shift, const double* position,
+                              const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
+                              const double* const* slot_radius)
+      : il(rows + q, left), kl(pairs + q, left), jl(kl), k0(pairs[q]) {
+    if constexpr (Dense) jl = Lanes4(partner + k0, left);
+    else
+      for (int l = 0; l < 4; ++l) jl.at[l] = partner[kl.at[l]];   // a dead lane's k is 0, a listed entry
+    const __m128i lanes = first_lanes(left);
+    live = widen(lanes);
+    const Lanes4 sl(_mm_slli_epi32(load_bytes(images + q, left), 1));   // the shifts' first components
+    V xi, yi, xj, yj;
+    gather_pairs(position, il, xi, yi), gather_pairs(position, jl, xj, yj);
+    const double* s = shift[0].data();
+    rx = sub(add(xj, gather(s, sl)), xi);
+    ry = sub(add(yj, gather(s + 1, sl)), yi);
+    d2 = add(mul(rx, rx), mul(ry, ry));
+    if constexpr (Dense) Ri = per_entry<true>(slot_radius[0], kl, k0, live), Rj = per_entry<true>(slot_radius[1], kl, k0, live);
+    else Ri = gather(radius, il), Rj = gather(radius, jl);
+    Rsum = add(Ri, Rj);
+    const V touching = both(live, less(d2, mul(Rsum, Rsum)));
+    steady = steady_contacts<Dense>(narrow(touching), kl, k0, left, touched, evaluation);
+  }
+};
+
+}  // namespace grains::pair_avx2
