@@ -17,11 +17,11 @@ template <bool Dense>
                                  const std::uint8_t* images, std::size_t q, std::size_t left, const Output& out) {
   // The pairs' geometry; the steady contacts among them. Loads take every live lane, not only the steady
   // ones; the other lanes' results are stored too, and never read.
-  const Contacts4<Dense> c(rows, pairs, images, q, left, in.partner, in.shift, in.position, in.radius, in.touched,
-                           in.evaluation, in.slot_radius);
+  const Contacts4<2, Dense> c(rows, pairs, images, q, left, in.partner, in.shift, in.position, in.radius, in.touched,
+                              in.evaluation, in.slot_radius);
   const Lanes4 &i = c.il, &j = c.jl, &k = c.kl;
   const std::uint32_t k0 = c.k0;
-  const V live = c.live, rx = c.rx, ry = c.ry, d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
+  const V live = c.live, rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
   const V m = widen(c.steady);
   const unsigned steady = bits(c.steady);
   Results8& b = out.results[q / 8];

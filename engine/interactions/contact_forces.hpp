@@ -20,7 +20,7 @@
 #include "interactions/adhesive_contact_law.hpp"
 #include "interactions/cohesive_contacts.hpp"
 #include "interactions/linear_contact_law.hpp"
-#include "interactions/linear_contacts_avx512.hpp"
+#include "interactions/linear_contacts.hpp"
 #include "interactions/pair_filter.hpp"
 #include "interactions/rolling_resistance.hpp"
 
@@ -46,7 +46,7 @@ class ContactForces final : public ForceModule<D> {
   // the processor has AVX-512, four where it has AVX2 (cohesive_contacts.hpp).
   static constexpr bool batched_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
   // Spheres with one global (k_n, c_n), with or without friction (the gas scenes): the same,
-  // linear_contacts_avx512.hpp.
+  // linear_contacts.hpp.
   static constexpr bool batched_linear_ = D == 3 && std::is_same_v<Law, LinearContactLaw<false>> && !Rolling::enabled;
   // The tangential spring xi. 2D: a scalar along t = z x n; the tangent "plane" is a line that turns
   // with n, so the spring follows it for free (no projection, no square root) and keeps its length
@@ -106,12 +106,12 @@ class ContactForces final : public ForceModule<D> {
     gathered_.resize(T);
     // Set up once per evaluation, before the threads start (it may refresh damping_).
     std::optional<cohesive_contacts::Input> batched;
-    std::optional<linear_contacts_avx512::Input> batched_linear;
+    std::optional<linear_contacts::Input> batched_linear;
     const pair_filter::Isa isa = pair_filter::isa();
     if constexpr (batched_)
       if (isa != pair_filter::Isa::portable) batched = batch_input(s);
     if constexpr (batched_linear_)
-      if (isa == pair_filter::Isa::avx512) batched_linear = linear_batch_input(s);
+      if (isa != pair_filter::Isa::portable) batched_linear = linear_batch_input(s);
     // The cohesive kernel over the shell directly (note_selection) keeps the springs in the shell's slots.
     const bool direct = batched_ && batched && direct_ && s.shell.built();
     if (slots_.live && (!direct || slots_.shell_builds != s.shell.builds() || slots_.list_builds != s.neighbours.builds()))
@@ -335,7 +335,7 @@ class ContactForces final : public ForceModule<D> {
     Vec<D> n;   // unit vector from i to j at the evaluation
   };
   // The batched kernel's results, eight pairs to a block (see batched_ and batched_linear_).
-  using Results8 = std::conditional_t<batched_, cohesive_contacts::Results8, linear_contacts_avx512::Results8>;
+  using Results8 = std::conditional_t<batched_, cohesive_contacts::Results8, linear_contacts::Results8>;
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint8_t> image;        // ... and its periodic image
@@ -350,15 +350,15 @@ class ContactForces final : public ForceModule<D> {
   // The batched kernel of this combination, if it has one and the processor runs it (else both null).
   struct Batch {
     const cohesive_contacts::Input* cohesive;
-    const linear_contacts_avx512::Input* linear;
+    const linear_contacts::Input* linear;
     bool direct;   // the cohesive kernel runs over the shell's slots (see slots_)
-    bool avx512;   // its AVX-512 build, else the AVX2 one
+    bool avx512;   // the kernels' AVX-512 builds, else the AVX2 ones
   };
 
   // The batched kernels' views of the state (a fixed cell and a deforming one alike).
-  linear_contacts_avx512::Input linear_batch_input(System<D>& s) {
+  linear_contacts::Input linear_batch_input(System<D>& s) {
     auto& P = s.particles;
-    linear_contacts_avx512::Input in{};
+    linear_contacts::Input in{};
     in.position = reinterpret_cast<const double*>(P.position.data()), in.radius = P.radius.data(), in.mass = P.mass.data();
     in.velocity_predicted = reinterpret_cast<const double*>(P.velocity_predicted.data());
     in.partner = s.neighbours.partner.data(), in.shift = reinterpret_cast<const Vec<3>*>(s.neighbours.shift.data());
@@ -485,8 +485,8 @@ class ContactForces final : public ForceModule<D> {
             clamped += (batch.avx512 ? cohesive_contacts::evaluate_avx512 : cohesive_contacts::evaluate_avx2)(
                 *batch.cohesive, gathered_row, gathered_pair, gathered_image, n, {g.results.data(), direct});
           else
-            clamped += linear_contacts_avx512::evaluate(*batch.linear, gathered_row, gathered_pair, gathered_image, n,
-                                                        {g.results.data()});
+            clamped += (batch.avx512 ? linear_contacts::evaluate_avx512 : linear_contacts::evaluate_avx2)(
+                *batch.linear, gathered_row, gathered_pair, gathered_image, n, {g.results.data()});
           batched = g.results.data();
         }
       }

@@ -1,11 +1,11 @@
-// AVX-512 build of the steady contacts of spheres (linear_contacts_avx512.hpp). Compiled for AVX-512
+// AVX-512 build of the steady contacts of spheres (linear_contacts.hpp). Compiled for AVX-512
 // whatever the build flags and without FMA contraction (engine/CMakeLists.txt). Every line mirrors an
 // expression of contact_forces.hpp / linear_contact_law.hpp / contact_step.hpp, in the same order.
-#include "interactions/linear_contacts_avx512.hpp"
+#include "interactions/linear_contacts.hpp"
 
 #include "interactions/pair_avx512.hpp"
 
-namespace grains::linear_contacts_avx512 {
+namespace grains::linear_contacts {
 namespace {
 
 using namespace pair_avx512;
@@ -148,9 +148,9 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
 
 }  // namespace
 
-long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
-              std::size_t n, const Output& out) {
+long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                     std::size_t n, const Output& out) {
   return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8(in, rows, pairs, images, q, lanes, out); });
 }
 
-}  // namespace grains::linear_contacts_avx512
+}  // namespace grains::linear_contacts

@@ -131,33 +131,45 @@ GRAINS_AVX2_PAIRS inline void set_per_entry(double* a, const Lanes4& k, std::uin
   }
 }
 
+// The lanes' indices times `scale` (the D-vectors of the particle arrays).
+inline Lanes4 times(const Lanes4& idx, std::uint32_t scale) {
+  Lanes4 out = idx;
+  for (std::uint32_t& v : out.at) v *= scale;
+  return out;
+}
+
 // The geometry of four gathered pairs q .. q + 3, as pair_avx512::Contacts8 (the same operations in the
-// same order): r = (x_j + shift) - x_i, d2 = r_x^2 + r_y^2 (2D), touching when d2 < (R_i + R_j)^2, and
+// same order): r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2, touching when d2 < (R_i + R_j)^2, and
 // which touched at the last evaluation too (restamped). The lanes' rows i, partners j and entries k are
-// kept as integers too, for the kernel's loads.
-template <bool Dense>
+// kept as integers too, for the kernels' loads; Dense as in per_entry (2D only).
+template <int D, bool Dense = false>
 struct Contacts4 {
   Lanes4 il, kl, jl;
   std::uint32_t k0;
-  V live, rx, ry, d2, Ri, Rj, Rsum;
+  V live, r[D], d2, Ri, Rj, Rsum;
   __m128i steady;
   GRAINS_AVX2_PAIRS Contacts4(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
-                              std::size_t left, const std::uint32_t* partner, const Vec<2>* shift, const double* position,
+                              std::size_t left, const std::uint32_t* partner, const Vec<D>* shift, const double* position,
                               const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
-                              const double* const* slot_radius)
+                              const double* const* slot_radius = nullptr)
       : il(rows + q, left), kl(pairs + q, left), jl(kl), k0(pairs[q]) {
+    static_assert(D == 2 || !Dense);
     if constexpr (Dense) jl = Lanes4(partner + k0, left);
     else
       for (int l = 0; l < 4; ++l) jl.at[l] = partner[kl.at[l]];   // a dead lane's k is 0, a listed entry
-    const __m128i lanes = first_lanes(left);
-    live = widen(lanes);
-    const Lanes4 sl(_mm_slli_epi32(load_bytes(images + q, left), 1));   // the shifts' first components
-    V xi, yi, xj, yj;
-    gather_pairs(position, il, xi, yi), gather_pairs(position, jl, xj, yj);
+    live = widen(first_lanes(left));
+    const Lanes4 sl(_mm_mullo_epi32(load_bytes(images + q, left), _mm_set1_epi32(D)));   // the shifts' first components
     const double* s = shift[0].data();
-    rx = sub(add(xj, gather(s, sl)), xi);
-    ry = sub(add(yj, gather(s + 1, sl)), yi);
-    d2 = add(mul(rx, rx), mul(ry, ry));
+    if constexpr (D == 2) {
+      V xi, yi, xj, yj;
+      gather_pairs(position, il, xi, yi), gather_pairs(position, jl, xj, yj);
+      r[0] = sub(add(xj, gather(s, sl)), xi);
+      r[1] = sub(add(yj, gather(s + 1, sl)), yi);
+    } else {
+      const Lanes4 iD = times(il, D), jD = times(jl, D);
+      for (int a = 0; a < D; ++a) r[a] = sub(add(gather(position + a, jD), gather(s + a, sl)), gather(position + a, iD));
+    }
+    for (int a = 0; a < D; ++a) d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
     if constexpr (Dense) Ri = per_entry<true>(slot_radius[0], kl, k0, live), Rj = per_entry<true>(slot_radius[1], kl, k0, live);
     else Ri = gather(radius, il), Rj = gather(radius, jl);
     Rsum = add(Ri, Rj);

@@ -5,7 +5,7 @@
 //   resistance (rolling dashpot on), in a fixed cell and compressed in a pressure-controlled one. It gains
 //   contacts, slides and rolls on the way, so steady contacts, first steps, distant bonds, the parting
 //   charge and both Coulomb caps all occur.
-// - Spheres (interactions/linear_contacts_avx512.hpp; with AVX2, only the filter is vectorised): a dense hot gas, fixed and compressed (so the
+// - Spheres (interactions/linear_contacts.hpp, both builds): a dense hot gas, fixed and compressed (so the
 //   release charge, clamped overlaps and the affine flow occur), frictionless and with Coulomb friction
 //   (mu = 0.1: most contacts slide; mu = 0.5 with k_t = 2/7 k_n and c_t = c_n / 2 as in the gas-friction scene).
 #include <cstring>

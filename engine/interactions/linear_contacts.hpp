@@ -1,4 +1,4 @@
-// The steady contacts of spheres, eight at a time (AVX-512): the linear spring-dashpot law with one
+// The steady contacts of spheres, eight at a time (AVX-512) or four (AVX2): the linear spring-dashpot law with one
 // global (k_n, c_n) (physics.md section 2) and optionally Coulomb friction (section 4), for the contacts
 // that already touched at the last force evaluation, as the gas scenes have them. Those take no onset
 // corrections; the pair loop (contact_forces.hpp) evaluates a contact's first step itself and adds every
@@ -12,7 +12,7 @@
 
 #include "core/vec.hpp"
 
-namespace grains::linear_contacts_avx512 {
+namespace grains::linear_contacts {
 
 struct Input {
   const double *position, *radius, *mass, *velocity_predicted;   // positions and velocities as x, y, z triples
@@ -47,7 +47,11 @@ struct Output {
 
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]).
 // Returns how many had their overlap clamped. `results` holds n / 8 rounded up.
-long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
-              std::size_t n, const Output& out);
+// Two builds: linear_contacts_avx512.cpp (eight pairs a vector) and linear_contacts_avx2.cpp (four, each
+// filling half a Results8); only where pair_filter::isa() names them.
+long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                     std::size_t n, const Output& out);
+long evaluate_avx2(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
+                   std::size_t n, const Output& out);
 
-}  // namespace grains::linear_contacts_avx512
+}  // namespace grains::linear_contacts
