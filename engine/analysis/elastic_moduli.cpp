@@ -179,7 +179,10 @@ ElasticModuli<D> elastic_moduli(std::size_t grains, double volume, const std::ve
     for (int refine = 0; refine < 3; ++refine) Y += ldlt.solve(Eigen::MatrixXd(rhs - A * Y));
     X = scale.asDiagonal() * Y;
   }
-  Mat S = strain_block + coupling.transpose() * X;
+  // Summed coefficient by coefficient: Eigen's blocked product would cut the long sum where the processor's
+  // caches say, so that its last bits, and a loose network's near-zero moduli with them, depended on the
+  // machine.
+  Mat S = strain_block + coupling.transpose().lazyProduct(X);
   S = 0.5 * (S + S.transpose()).eval();
 
   // Zero and negative modes of the condensed stiffness, against the Voigt stiffness's scale.
