@@ -225,28 +225,39 @@ GRAINS_KICK(2)
 GRAINS_KICK(3)
 #undef GRAINS_KICK
 
-// In particle order and without vectors across particles: the sums must be kinetic_stress's own.
-template <int D>
-void add_kinetic_stress_body(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
-                             const double* v, const PendingKick* kick, double* s) {
+// In particle order and without vectors across particles: the sums must be kinetic_stress's own. They run
+// in a local copy of s: through s itself, which might alias the arrays read, every addition was stored and
+// loaded back before the next particle's.
+template <int D, bool Kick>
+void add_kinetic_stress_body(std::size_t n, const double* __restrict mass, const double* __restrict inverse_mass,
+                             const double* __restrict f, const double* __restrict v, double h, double keep, double* s) {
+  double sum[D * D];
+  for (int e = 0; e < D * D; ++e) sum[e] = s[e];
   for (std::size_t i = 0; i < n; ++i) {
     double u[D], mu[D];
     for (int c = 0; c < D; ++c) {
       const std::size_t k = i * D + c;
-      u[c] = kick ? second_half(v[k], kick->h, inverse_mass[i] * f[k], kick->keep) : v[k];
+      u[c] = Kick ? second_half(v[k], h, inverse_mass[i] * f[k], keep) : v[k];
       mu[c] = mass[i] * u[c];
     }
     for (int c = 0; c < D; ++c)
-      for (int r = 0; r < D; ++r) s[r + D * c] += mu[r] * u[c];
+      for (int r = 0; r < D; ++r) sum[r + D * c] += mu[r] * u[c];
   }
+  for (int e = 0; e < D * D; ++e) s[e] = sum[e];
+}
+template <int D>
+void add_kinetic_stress_any(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                            const double* v, const PendingKick* kick, double* s) {
+  if (kick) add_kinetic_stress_body<D, true>(n, mass, inverse_mass, f, v, kick->h, kick->keep, s);
+  else add_kinetic_stress_body<D, false>(n, mass, inverse_mass, f, v, 0, 1, s);
 }
 void add_kinetic_stress_2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s) {
-  add_kinetic_stress_body<2>(n, mass, inverse_mass, f, v, kick, s);
+  add_kinetic_stress_any<2>(n, mass, inverse_mass, f, v, kick, s);
 }
 void add_kinetic_stress_3(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s) {
-  add_kinetic_stress_body<3>(n, mass, inverse_mass, f, v, kick, s);
+  add_kinetic_stress_any<3>(n, mass, inverse_mass, f, v, kick, s);
 }
 
 void turn(std::size_t n, double h, const double* w, double* q) {
