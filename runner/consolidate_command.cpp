@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "interactions/pair_filter.hpp"
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
@@ -176,6 +177,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   out.set_scalar("particle_steps_per_second",
                  total_seconds > 0 ? double(sim.step_count()) * double(sim.particle_count()) / total_seconds : 0.0);
   out.set_scalar("cvode_share", total_seconds > 0 ? (earlier_cvode + cvode) / total_seconds : 0.0);
+  out.set_attribute("pair_loop_build", pair_filter::isa_name(pair_filter::isa()));
   out.flush();
   const long finished = from.stage + long(records.size());
   if (stopped)
@@ -187,7 +189,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     fmt::print("  resumed      at step {}, {} steps into stage {} (the wall time, rate and CVODE figures below are since "
                "then)\n", first_step, from.steps, from.stage);
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g})\n", sim.step_count(), sim.dt(), sim.time());
-  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim.threads());
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s), pair loop {})\n", seconds, rate, sim.threads(),
+             pair_filter::isa_name(pair_filter::isa()));
   fmt::print("  CVODE        {:.3f} s = {:.2f} % of the wall time ({} internal steps, {} restarts)\n", cvode,
              seconds > 0 ? 100 * cvode / seconds : 0.0, sim.get("cvode_steps"), sim.get("cvode_reinitialisations"));
   fmt::print("  table        {}\n  output       {}\n", table, path);

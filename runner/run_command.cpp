@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "interactions/pair_filter.hpp"
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
@@ -165,6 +166,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   out.set_scalar("wall_seconds", total_seconds);
   out.set_scalar("particle_steps_per_second",
                  total_seconds > 0 ? double(done) * double(sim.particle_count()) / total_seconds : 0.0);
+  out.set_attribute("pair_loop_build", pair_filter::isa_name(pair_filter::isa()));
   out.flush();
 
   // One-screen summary.
@@ -174,7 +176,8 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
              stopping ? "  INTERRUPTED (continue it with grains resume)"
                       : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
   if (first > 0) fmt::print("  resumed      at step {} (the wall time and rate below are since then)\n", first);
-  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s))\n", seconds, rate, sim.threads());
+  fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s), pair loop {})\n", seconds, rate, sim.threads(),
+             pair_filter::isa_name(pair_filter::isa()));
   fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim.get("kinetic_energy"));
   // Whatever of these the scene's modules provide.
   for (const char* name : {"contacts", "max_overlap_ratio", "clamped_contacts_total", "neighbour_builds",

@@ -36,4 +36,6 @@ Isa isa() {
 
 void cap_isa(Isa widest) { cap.store(widest, std::memory_order_relaxed); }
 
+const char* isa_name(Isa isa) { return isa == Isa::avx512 ? "avx512" : isa == Isa::avx2 ? "avx2" : "portable"; }
+
 }  // namespace grains::pair_filter
