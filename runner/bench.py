@@ -30,7 +30,9 @@ def grains_rate(binary, scene, steps, threads, workdir):
                     "--set", "output.snapshots_every=0", "--set", f"output.observables_every={steps}",
                     "--set", "output.xdmf=false"], check=True, stdout=subprocess.DEVNULL)
     with h5py.File(out, "r") as f:
-        return float(f["grains"].attrs["particle_steps_per_second"])
+        build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
+        build = build.decode() if isinstance(build, bytes) else str(build)
+        return float(f["grains"].attrs["particle_steps_per_second"]), build
 
 
 def lammps_rate(peers, steps, threads, friction, workdir):
@@ -72,7 +74,7 @@ def main():
         for r in range(max(1, args.repeat)):
             for scene, friction in (("gas", False), ("gas-friction", True)):
                 for threads in (1, 2):
-                    g = grains_rate(args.binary, scene, args.steps, threads, work)
+                    g, build = grains_rate(args.binary, scene, args.steps, threads, work)
                     lmp = lammps_rate(args.peers, args.steps, threads, friction, work) if have_lammps else float("nan")
                     runs.setdefault((scene, threads), []).append((g, lmp))
                     print(f"{scene:13s} {threads} core(s), run {r + 1}: grains {g:.3g}  LAMMPS {lmp:.3g}  ratio {g / lmp:.2f}",
@@ -84,7 +86,8 @@ def main():
                      statistics.median(ratios), min(ratios), max(ratios),
                      max(g for g, _ in pairs) / max(l for _, l in pairs)))
     n = max(1, args.repeat)
-    print(f"\nparticle-steps per second, gas scene (17,576 spheres), {args.steps} steps" + (f", medians of {n} runs" if n > 1 else ""))
+    print(f"\nparticle-steps per second, gas scene (17,576 spheres), {args.steps} steps" + (f", medians of {n} runs" if n > 1 else "") +
+          f"; grains' pair loop: {build}")
     # The host's noise only ever slows a run down, so each code's fastest run is the best estimate of its
     # undisturbed speed: "best / best" is the ratio of the two.
     print("| scene | cores | grains | LAMMPS | grains / LAMMPS | range | best / best |")

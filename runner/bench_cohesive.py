@@ -100,7 +100,9 @@ def grains_rate(binary, scene, steps, threads, work):
                    check=True, stdout=subprocess.DEVNULL)
     with h5py.File(out, "r") as f:
         contacts = float(f["observables/contacts/value"][-1])
-        return float(f["grains"].attrs["particle_steps_per_second"]), contacts
+        build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
+        build = build.decode() if isinstance(build, bytes) else str(build)
+        return float(f["grains"].attrs["particle_steps_per_second"]), contacts, build
 
 
 def lammps_rate(peers, cells_x, steps, threads, work):
@@ -143,13 +145,13 @@ def main():
                     # earlier can be half or twice the one of the moment.
                     lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
                     scene, n = grains_scene(work, args.cells, variant)
-                    g, contacts = grains_rate(args.binary, scene, args.steps, threads, work)
+                    g, contacts, build = grains_rate(args.binary, scene, args.steps, threads, work)
                     runs.setdefault((variant, threads), []).append((g, lmp, contacts))
                     print(f"{variant:26s} {threads} core(s), round {r + 1}: grains {g:.3g} (contacts at the end "
                           f"{contacts:.0f})  LAMMPS gran/hooke/history {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
     rounds = max(1, args.repeat)
     print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps" +
-          (f", medians of {rounds} rounds" if rounds > 1 else ""))
+          (f", medians of {rounds} rounds" if rounds > 1 else "") + f"; grains' pair loop: {build}")
     # best / best: each code's fastest run (the host's noise only ever slows a run down).
     print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS | range | best / best |")
     print("|---|---|---|---|---|---|---|")
