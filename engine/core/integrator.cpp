@@ -217,8 +217,8 @@ __attribute__((target("avx2"))) DriftSums drift_2_avx2_measured(std::size_t n, d
   return drift_2_avx2_body<1, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
 }
 template <bool Kick>
-DriftSums drift_2_avx2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
-                       double* f_prev, const DriftGeometry& g, double hk, double keep) {
+DriftSums drift_2_avx2_any(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
+                           double* f_prev, const DriftGeometry& g, double hk, double keep) {
   return g.follow ? drift_2_avx2_measured<true, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep)
                   : drift_2_avx2_measured<false, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
 }
@@ -230,11 +230,16 @@ bool drift_2_hand_written() {
   return yes;
 }
 
+DriftSums drift_2_avx2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
+                       double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
+  return kick ? drift_2_avx2_any<true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)
+              : drift_2_avx2_any<false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
+}
+
 DriftSums drift_2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
                   double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
   if (!drift_2_hand_written()) return drift_2_compiled(n, h, m, x, v, vp, f, f_prev, geometry, kick);
-  return kick ? drift_2_avx2<true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)
-              : drift_2_avx2<false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
+  return drift_2_avx2(n, h, m, x, v, vp, f, f_prev, geometry, kick);
 }
 
 // The drift's measure alone, over positions that have already moved.

@@ -68,9 +68,13 @@ DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass
 DriftSums drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                   const DriftGeometry& geometry, const PendingKick* kick);
-// drift_2 runs a loop written for AVX2 where the processor has AVX2 but not AVX-512 (drift_2_hand_written),
-// else drift_2_compiled, the loop the compilers vectorise for each instruction set. Both write the same bits.
+// drift_2 runs a loop written for AVX2 (drift_2_avx2) where the processor has AVX2 but not AVX-512
+// (drift_2_hand_written), else drift_2_compiled, the loop the compilers vectorise for each instruction set.
+// Both write the same bits. drift_2_avx2 runs on any processor with AVX2 (for tests).
 bool drift_2_hand_written();
+DriftSums drift_2_avx2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+                       double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
+                       const DriftGeometry& geometry, const PendingKick* kick);
 DriftSums drift_2_compiled(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                            double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                            const DriftGeometry& geometry, const PendingKick* kick);

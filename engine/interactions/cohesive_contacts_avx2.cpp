@@ -36,7 +36,8 @@ template <bool Dense>
 
   const V d = _mm256_sqrt_pd(d2);
   const V nx = div(rx, d), ny = div(ry, d);
-  const V cn = per_entry<Dense>(in.damping, k, k0, live);
+  const bool full = c.full;
+  const V cn = per_entry<Dense>(in.damping, k, k0, live, full);
   V vxi, vyi, vxj, vyj;
   gather_pairs(in.velocity_predicted, i, vxi, vyi), gather_pairs(in.velocity_predicted, j, vxj, vyj);
   const V dvx = sub(vxj, vxi), dvy = sub(vyj, vyi);
@@ -77,7 +78,8 @@ template <bool Dense>
   gather_pairs(in.velocity, i, uxi, uyi), gather_pairs(in.velocity, j, uxj, uyj);
   const V ux = add(sub(uxj, uxi), flow_x), uy = add(sub(uyj, uyi), flow_y);
   const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
-  V xi = add(per_entry<Dense>(in.tangential, k, k0, live), mul(vt, all(in.dt)));
+  const V xi_before = per_entry<Dense>(in.tangential, k, k0, live, full);
+  V xi = add(xi_before, mul(vt, all(in.dt)));
   const V minus_kt = neg(kt);
   V ft = sub(mul(minus_kt, xi), mul(ct, vt));
   const V slides = both(m, greater(abs(ft), bound));
@@ -86,7 +88,7 @@ template <bool Dense>
     const V shortened = both(slides, greater(abs(mul(kt, xi)), bound));
     xi = blend(shortened, xi, div(copysign(bound, xi), kt));
   }
-  set_per_entry<Dense>(in.tangential, k, k0, m, xi);
+  set_per_entry<Dense>(in.tangential, k, k0, m, xi, xi_before, full);
   std::memcpy(b.partner + half, j.at, sizeof j.at);
   _mm256_store_pd(b.torque_j + half, mul(arm_j, ft));
   _mm256_store_pd(b.torque_i + half, mul(arm_i, ft));
@@ -101,7 +103,8 @@ template <bool Dense>
     V moment = zero();
     if (in.rolling_stiffness > 0) {
       const V bound_r = mul(all(in.rolling_coefficient), elastic);
-      V theta = add(per_entry<Dense>(in.rolling_angle, k, k0, live), mul(spin, all(in.dt)));
+      const V theta_before = per_entry<Dense>(in.rolling_angle, k, k0, live, full);
+      V theta = add(theta_before, mul(spin, all(in.dt)));
       const V minus_kr = all(-in.rolling_stiffness);
       moment = mul(minus_kr, theta);
       const V rolls = both(m, greater(abs(moment), bound_r));
@@ -109,7 +112,7 @@ template <bool Dense>
         moment = blend(rolls, moment, copysign(bound_r, moment));
         theta = blend(rolls, theta, div(moment, minus_kr));
       }
-      set_per_entry<Dense>(in.rolling_angle, k, k0, m, theta);
+      set_per_entry<Dense>(in.rolling_angle, k, k0, m, theta, theta_before, full);
     }
     if (in.rolling_damping > 0) moment = sub(moment, mul(mul(mul(mul(all(in.rolling_damping), cn), Ri), Rj), spin));
     _mm256_store_pd(b.moment + half, moment);

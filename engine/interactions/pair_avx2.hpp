@@ -53,22 +53,23 @@ GRAINS_AVX2_PAIRS inline __m128i first_lanes(std::size_t left) {
   return _mm_cmplt_epi32(iota, _mm_set1_epi32(int(left < 4 ? left : 4)));
 }
 
-// The lanes' indices as plain integers, for the loads below (a dead lane's is 0: the loads that gave
-// them are masked).
+// The lanes' indices as plain integers, for the loads below.
 struct Lanes4 {
   alignas(16) std::uint32_t at[4];
   GRAINS_AVX2_PAIRS explicit Lanes4(__m128i v) { _mm_store_si128(reinterpret_cast<__m128i*>(at), v); }
   // a[0 .. left) (at most four), read as integers: a vector's store would delay the loads that use them.
+  // A dead lane repeats lane 0, so that what it reads (its results are never stored) is the batch's own:
+  // an entry of another thread's rows might be being written.
   Lanes4(const std::uint32_t* a, std::size_t left) {
     if (left >= 4) {
       std::memcpy(at, a, sizeof at);
     } else {
-      for (std::size_t l = 0; l < 4; ++l) at[l] = l < left ? a[l] : 0;
+      for (std::size_t l = 0; l < 4; ++l) at[l] = l < left ? a[l] : a[0];
     }
   }
 };
 // The lanes' a[idx]: four loads. On processors with AVX2 but not AVX-512 (AMD's before Zen 4) a gather
-// instruction is slower than the loads it stands for. Dead lanes read a[0].
+// instruction is slower than the loads it stands for.
 GRAINS_AVX2_PAIRS inline V gather(const double* a, const Lanes4& idx) {
   return _mm256_setr_pd(a[idx.at[0]], a[idx.at[1]], a[idx.at[2]], a[idx.at[3]]);
 }
@@ -105,25 +106,30 @@ GRAINS_AVX2_PAIRS inline __m128i steady_contacts(__m128i touching, const Lanes4&
                               : _mm_setr_epi32(int(touched[k.at[0]]), int(touched[k.at[1]]), int(touched[k.at[2]]),
                                                int(touched[k.at[3]]));
   const __m128i steady = _mm_and_si128(touching, _mm_cmpeq_epi32(_mm_add_epi32(stamp, _mm_set1_epi32(1)), now));
-  if constexpr (Dense) {
-    _mm_maskstore_epi32(reinterpret_cast<int*>(touched + k0), steady, now);
+  if constexpr (Dense) {   // a whole batch: the old stamps blended in and stored (see set_per_entry)
+    if (left >= 4) _mm_storeu_si128(reinterpret_cast<__m128i*>(touched + k0), _mm_blendv_epi8(stamp, now, steady));
+    else _mm_maskstore_epi32(reinterpret_cast<int*>(touched + k0), steady, now);
   } else {
     for (unsigned m = bits(steady); m; m &= m - 1) touched[k.at[__builtin_ctz(m)]] = evaluation;
   }
   return steady;
 }
 
-// The lanes' a[k] for per-entry data: gathered, or loaded from a + k0 where the lanes' k are consecutive.
+// The lanes' a[k] for per-entry data: gathered, or loaded from a + k0 where the lanes' k are consecutive
+// (all four lanes where `full`, else those of m).
 template <bool Dense>
-GRAINS_AVX2_PAIRS inline V per_entry(const double* a, const Lanes4& k, std::uint32_t k0, V m) {
-  if constexpr (Dense) return _mm256_maskload_pd(a + k0, _mm256_castpd_si256(m));
+GRAINS_AVX2_PAIRS inline V per_entry(const double* a, const Lanes4& k, std::uint32_t k0, V m, bool full) {
+  if constexpr (Dense) return full ? _mm256_loadu_pd(a + k0) : _mm256_maskload_pd(a + k0, _mm256_castpd_si256(m));
   else return gather(a, k);
 }
-// a[k] = v on the lanes of m: stored to a + k0, or lane by lane.
+// a[k] = v on the lanes of m: stored to a + k0, or lane by lane. A whole batch (`full`, its entries the
+// batch's own) stores `old` (what per_entry read) on the other lanes with a plain store: AMD's Zen cores
+// run a masked store as a long microcoded sequence.
 template <bool Dense>
-GRAINS_AVX2_PAIRS inline void set_per_entry(double* a, const Lanes4& k, std::uint32_t k0, V m, V v) {
+GRAINS_AVX2_PAIRS inline void set_per_entry(double* a, const Lanes4& k, std::uint32_t k0, V m, V v, V old, bool full) {
   if constexpr (Dense) {
-    _mm256_maskstore_pd(a + k0, _mm256_castpd_si256(m), v);
+    if (full) _mm256_storeu_pd(a + k0, blend(m, old, v));
+    else _mm256_maskstore_pd(a + k0, _mm256_castpd_si256(m), v);
   } else {
     alignas(32) double value[4];
     _mm256_store_pd(value, v);
@@ -146,17 +152,18 @@ template <int D, bool Dense = false>
 struct Contacts4 {
   Lanes4 il, kl, jl;
   std::uint32_t k0;
+  bool full;   // all four lanes live
   V live, r[D], d2, Ri, Rj, Rsum;
   __m128i steady;
   GRAINS_AVX2_PAIRS Contacts4(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
                               std::size_t left, const std::uint32_t* partner, const Vec<D>* shift, const double* position,
                               const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
                               const double* const* slot_radius = nullptr)
-      : il(rows + q, left), kl(pairs + q, left), jl(kl), k0(pairs[q]) {
+      : il(rows + q, left), kl(pairs + q, left), jl(kl), k0(pairs[q]), full(left >= 4) {
     static_assert(D == 2 || !Dense);
     if constexpr (Dense) jl = Lanes4(partner + k0, left);
     else
-      for (int l = 0; l < 4; ++l) jl.at[l] = partner[kl.at[l]];   // a dead lane's k is 0, a listed entry
+      for (int l = 0; l < 4; ++l) jl.at[l] = partner[kl.at[l]];   // a dead lane's k is lane 0's
     live = widen(first_lanes(left));
     const Lanes4 sl(_mm_mullo_epi32(load_bytes(images + q, left), _mm_set1_epi32(D)));   // the shifts' first components
     const double* s = shift[0].data();
@@ -170,7 +177,8 @@ struct Contacts4 {
       for (int a = 0; a < D; ++a) r[a] = sub(add(gather(position + a, jD), gather(s + a, sl)), gather(position + a, iD));
     }
     for (int a = 0; a < D; ++a) d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
-    if constexpr (Dense) Ri = per_entry<true>(slot_radius[0], kl, k0, live), Rj = per_entry<true>(slot_radius[1], kl, k0, live);
+    if constexpr (Dense)
+      Ri = per_entry<true>(slot_radius[0], kl, k0, live, full), Rj = per_entry<true>(slot_radius[1], kl, k0, live, full);
     else Ri = gather(radius, il), Rj = gather(radius, jl);
     Rsum = add(Ri, Rj);
     const V touching = both(live, less(d2, mul(Rsum, Rsum)));

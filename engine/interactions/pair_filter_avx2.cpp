@@ -10,7 +10,7 @@ namespace grains::pair_filter {
 namespace {
 
 // For each mask of four lanes, the byte shuffle that packs the set lanes' 32-bit words to the front.
-constexpr std::array<std::array<std::uint8_t, 16>, 16> packing = [] {
+alignas(16) constexpr std::array<std::array<std::uint8_t, 16>, 16> packing = [] {
   std::array<std::array<std::uint8_t, 16>, 16> table{};
   for (unsigned m = 0; m < 16; ++m) {
     unsigned to = 0;

@@ -61,6 +61,30 @@ Selection compare_builds(const Packing<D>& p, double tail, std::size_t block) {
     };
     if (has_avx512()) compare("AVX-512", pair_filter::gather_avx512<D>);
     if (has_avx2()) compare("AVX2", pair_filter::gather_avx2<D>);
+    // A selection of the list's entries (the shell's case): entry m stands for list entry `entry[m]`,
+    // which every build writes in place of m.
+    std::vector<std::uint32_t> entry(nl.pair_count());
+    for (std::size_t m = 0; m < entry.size(); ++m) entry[m] = std::uint32_t(7 * m + 3);
+    pair_filter::Geometry<D> selection = g;
+    selection.entry = entry.data();
+    std::vector<std::uint32_t> rows_s(room), pairs_s(room);
+    std::vector<std::uint8_t> images_s(room);
+    const std::size_t n_s = pair_filter::gather_portable<D>(selection, nl.start.data(), b, e, rows_s.data(), pairs_s.data(),
+                                                            images_s.data());
+    REQUIRE(n_s == n);
+    for (std::size_t q = 0; q < n; ++q) CHECK(pairs_s[q] == 7 * pairs[q] + 3);
+    const auto compare_selection = [&](const char* build, auto select) {
+      std::vector<std::uint32_t> rows_v(room, 0xFFFFFFFFu), pairs_v(room, 0xFFFFFFFFu);
+      std::vector<std::uint8_t> images_v(room, 0xFF);
+      const std::size_t n_v = select(selection, nl.start[b], nl.start[e], rows_v.data(), pairs_v.data(), images_v.data());
+      INFO(build << " over a selection, rows " << b << " to " << e);
+      REQUIRE(n_v == n_s);
+      CHECK(std::equal(pairs_s.begin(), pairs_s.begin() + n_s, pairs_v.begin()));
+      CHECK(std::equal(rows_s.begin(), rows_s.begin() + n_s, rows_v.begin()));
+      CHECK(std::equal(images_s.begin(), images_s.begin() + n_s, images_v.begin()));
+    };
+    if (has_avx512()) compare_selection("AVX-512", pair_filter::gather_avx512<D>);
+    if (has_avx2()) compare_selection("AVX2", pair_filter::gather_avx2<D>);
     all.rows.insert(all.rows.end(), rows.begin(), rows.begin() + n);
     all.pairs.insert(all.pairs.end(), pairs.begin(), pairs.begin() + n);
     all.images.insert(all.images.end(), images.begin(), images.begin() + n);
