@@ -70,7 +70,6 @@ Isa isa();
 void cap_isa(Isa widest);
 const char* isa_name(Isa isa);   // "portable", "avx2", "avx512": for run summaries
 inline bool avx512() { return isa() == Isa::avx512; }
-inline void prefer_portable(bool yes) { cap_isa(yes ? Isa::portable : Isa::avx512); }
 
 template <int D>
 std::size_t gather(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,

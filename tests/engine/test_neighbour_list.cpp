@@ -136,9 +136,9 @@ void check_exact(const Config<D>& c, double skin) {
   // The portable candidate test (what a processor without AVX-512 runs): the very same arrays too.
   NeighbourList<D> portable;
   portable.configure(0.0, skin);
-  pair_filter::prefer_portable(true);
+  pair_filter::cap_isa(pair_filter::Isa::portable);
   portable.build(c.x, c.radius, c.box, 1);
-  pair_filter::prefer_portable(false);
+  pair_filter::cap_isa(pair_filter::Isa::avx512);
   CHECK(one.start == portable.start);
   CHECK(one.partner == portable.partner);
   CHECK(one.image == portable.image);
