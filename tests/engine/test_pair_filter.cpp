@@ -46,45 +46,51 @@ Selection compare_builds(const Packing<D>& p, double tail, std::size_t block) {
   for (std::size_t b = 0; b < N; b += block) {
     const std::size_t e = std::min(N, b + block);
     const std::size_t room = nl.start[e] - nl.start[b] + pair_filter::slack;
-    std::vector<std::uint32_t> rows(room, 0xFFFFFFFFu), pairs(room, 0xFFFFFFFFu);
-    std::vector<std::uint8_t> images(room, 0xFF);
-    const std::size_t n = pair_filter::gather_portable<D>(g, nl.start.data(), b, e, rows.data(), pairs.data(), images.data());
-    const auto compare = [&](const char* build, auto select) {
-      std::vector<std::uint32_t> rows_v(room, 0xFFFFFFFFu), pairs_v(room, 0xFFFFFFFFu);
-      std::vector<std::uint8_t> images_v(room, 0xFF);
-      const std::size_t n_v = select(g, nl.start[b], nl.start[e], rows_v.data(), pairs_v.data(), images_v.data());
-      INFO(build << ", rows " << b << " to " << e);
-      REQUIRE(n_v == n);
-      CHECK(std::equal(pairs.begin(), pairs.begin() + n, pairs_v.begin()));
-      CHECK(std::equal(rows.begin(), rows.begin() + n, rows_v.begin()));
-      CHECK(std::equal(images.begin(), images.begin() + n, images_v.begin()));
+    // One selection of rows [b, e): its count and arrays.
+    struct Run {
+      std::size_t n = 0;
+      std::vector<std::uint32_t> rows, pairs;
+      std::vector<std::uint8_t> images;
     };
-    if (has_avx512()) compare("AVX-512", pair_filter::gather_avx512<D>);
-    if (has_avx2()) compare("AVX2", pair_filter::gather_avx2<D>);
-    // A selection of the list's entries (the shell's case): entry m stands for list entry `entry[m]`,
-    // which every build writes in place of m.
+    const auto run = [&](const pair_filter::Geometry<D>& geom, auto select) {
+      Run r{0, std::vector<std::uint32_t>(room, 0xFFFFFFFFu), std::vector<std::uint32_t>(room, 0xFFFFFFFFu),
+            std::vector<std::uint8_t>(room, 0xFF)};
+      r.n = select(geom, nl.start[b], nl.start[e], r.rows.data(), r.pairs.data(), r.images.data());
+      return r;
+    };
+    // The portable build with the vector builds' signature (it takes the rows, they the entries).
+    const auto gather_portable = [&](const pair_filter::Geometry<D>& geom, std::uint32_t, std::uint32_t, std::uint32_t* rows_out,
+                                     std::uint32_t* pairs_out, std::uint8_t* images_out) {
+      return pair_filter::gather_portable<D>(geom, nl.start.data(), b, e, rows_out, pairs_out, images_out);
+    };
+    // Each vector build against the portable one, over the list's entries and over a selection of them
+    // (the shell's case: entry m stands for list entry `entry[m]`, which every build writes in place of m).
     std::vector<std::uint32_t> entry(nl.pair_count());
     for (std::size_t m = 0; m < entry.size(); ++m) entry[m] = std::uint32_t(7 * m + 3);
     pair_filter::Geometry<D> selection = g;
     selection.entry = entry.data();
-    std::vector<std::uint32_t> rows_s(room), pairs_s(room);
-    std::vector<std::uint8_t> images_s(room);
-    const std::size_t n_s = pair_filter::gather_portable<D>(selection, nl.start.data(), b, e, rows_s.data(), pairs_s.data(),
-                                                            images_s.data());
-    REQUIRE(n_s == n);
-    for (std::size_t q = 0; q < n; ++q) CHECK(pairs_s[q] == 7 * pairs[q] + 3);
-    const auto compare_selection = [&](const char* build, auto select) {
-      std::vector<std::uint32_t> rows_v(room, 0xFFFFFFFFu), pairs_v(room, 0xFFFFFFFFu);
-      std::vector<std::uint8_t> images_v(room, 0xFF);
-      const std::size_t n_v = select(selection, nl.start[b], nl.start[e], rows_v.data(), pairs_v.data(), images_v.data());
-      INFO(build << " over a selection, rows " << b << " to " << e);
-      REQUIRE(n_v == n_s);
-      CHECK(std::equal(pairs_s.begin(), pairs_s.begin() + n_s, pairs_v.begin()));
-      CHECK(std::equal(rows_s.begin(), rows_s.begin() + n_s, rows_v.begin()));
-      CHECK(std::equal(images_s.begin(), images_s.begin() + n_s, images_v.begin()));
+    const Run portable = run(g, gather_portable);
+    const Run portable_selection = run(selection, gather_portable);
+    REQUIRE(portable_selection.n == portable.n);
+    for (std::size_t q = 0; q < portable.n; ++q) CHECK(portable_selection.pairs[q] == 7 * portable.pairs[q] + 3);
+    const auto compare = [&](const char* build, auto select) {
+      for (const bool over_selection : {false, true}) {
+        const Run& want = over_selection ? portable_selection : portable;
+        const Run got = run(over_selection ? selection : g, select);
+        const std::size_t n = want.n;
+        INFO(build << (over_selection ? " over a selection" : "") << ", rows " << b << " to " << e);
+        REQUIRE(got.n == n);
+        CHECK(std::equal(want.pairs.begin(), want.pairs.begin() + n, got.pairs.begin()));
+        CHECK(std::equal(want.rows.begin(), want.rows.begin() + n, got.rows.begin()));
+        CHECK(std::equal(want.images.begin(), want.images.begin() + n, got.images.begin()));
+      }
     };
-    if (has_avx512()) compare_selection("AVX-512", pair_filter::gather_avx512<D>);
-    if (has_avx2()) compare_selection("AVX2", pair_filter::gather_avx2<D>);
+    if (has_avx512()) compare("AVX-512", pair_filter::gather_avx512<D>);
+    if (has_avx2()) compare("AVX2", pair_filter::gather_avx2<D>);
+    const std::size_t n = portable.n;
+    const auto& rows = portable.rows;
+    const auto& pairs = portable.pairs;
+    const auto& images = portable.images;
     all.rows.insert(all.rows.end(), rows.begin(), rows.begin() + n);
     all.pairs.insert(all.pairs.end(), pairs.begin(), pairs.begin() + n);
     all.images.insert(all.images.end(), images.begin(), images.begin() + n);
