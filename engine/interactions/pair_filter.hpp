@@ -68,6 +68,7 @@ std::size_t gather_avx2(const Geometry<D>& g, std::uint32_t k_begin, std::uint32
 enum class Isa { portable, avx2, avx512 };
 Isa isa();
 void cap_isa(Isa widest);
+bool supported(Isa isa);   // the processor can run that build (whatever the caps)
 const char* isa_name(Isa isa);   // "portable", "avx2", "avx512": for run summaries
 inline bool avx512() { return isa() == Isa::avx512; }
 

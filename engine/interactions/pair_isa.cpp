@@ -6,17 +6,24 @@
 #include "interactions/pair_filter.hpp"
 
 namespace grains::pair_filter {
+// What each vector build needs of the processor. POPCNT: the vector builds' bit counts (every AVX2
+// processor has it).
+bool supported(Isa isa) {
+  switch (isa) {
+    case Isa::avx512:
+      return supported(Isa::avx2) && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq");
+    case Isa::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt");
+    default: return true;
+  }
+}
+
 namespace {
 
-// The widest build the processor runs, capped by GRAINS_PAIR_ISA (read once). POPCNT: the vector builds'
-// bit counts (every AVX2 processor has it).
+// The widest build the processor runs, capped by GRAINS_PAIR_ISA (read once).
 Isa available() {
   static const Isa widest = [] {
-    Isa best = Isa::portable;
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt")) best = Isa::avx2;
-    if (best == Isa::avx2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-        __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq"))
-      best = Isa::avx512;
+    const Isa best = supported(Isa::avx512) ? Isa::avx512 : supported(Isa::avx2) ? Isa::avx2 : Isa::portable;
     const char* want = std::getenv("GRAINS_PAIR_ISA");
     if (want && std::strcmp(want, "portable") == 0) return Isa::portable;
     if (want && std::strcmp(want, "avx2") == 0 && best == Isa::avx512) return Isa::avx2;

@@ -18,11 +18,8 @@ using namespace grains;
 
 namespace {
 
-bool has_avx512() {
-  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-         __builtin_cpu_supports("avx512dq");
-}
-bool has_avx2() { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt"); }
+bool has_avx512() { return pair_filter::supported(pair_filter::Isa::avx512); }
+bool has_avx2() { return pair_filter::supported(pair_filter::Isa::avx2); }
 
 template <int D>
 pair_filter::Geometry<D> geometry(const Packing<D>& p, double tail) {
