@@ -131,8 +131,14 @@ double kick(std::size_t n, double h, double keep, const double* inverse_mass, co
 // velocity the pending kick will give (its second half, the operations of kick) or, without one, the
 // stored velocity: the barostat reads the kinetic stress while the kick is still pending, bit for bit
 // the kinetic_stress (analysis/stress.hpp) of the kicked velocities.
+// In 2D, a loop written for AVX2 (add_kinetic_stress_2_avx2) where the processor has it, else the compiled
+// one: both give the same bits (tested).
 void add_kinetic_stress_2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s);
+void add_kinetic_stress_2_avx2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                               const double* v, const PendingKick* kick, double* s);
+void add_kinetic_stress_2_compiled(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
+                                   const double* v, const PendingKick* kick, double* s);
 void add_kinetic_stress_3(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s);
 
