@@ -15,8 +15,9 @@ Tensor<D> contact_stress(const Tensor<D>& virial, double volume) {
   return virial / volume;
 }
 
-// The sum in particle order, by the integrator's add_kinetic_stress: the barostat reads the same sum
-// (of the velocities a pending kick will give) between the steps of a run.
+// The sum in particle order, by the integrator's add_kinetic_stress: a simulation on one thread forms the
+// same sum (on several, each thread's particles in order, the threads' sums in thread order), and its barostat
+// that of the velocities a pending kick will give between the steps of a run.
 template <int D>
 Tensor<D> kinetic_stress(const Particles<D>& P, double volume) {
   Tensor<D> s = Tensor<D>::Zero();

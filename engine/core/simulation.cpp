@@ -514,19 +514,40 @@ class SimulationImpl final : public Simulation {
             "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles",
             sys_.step + 1, sys_.box.length[a], a, cell_list_reach_));
   }
-  Tensor<D> stress() const { return contact_stress_ + kinetic_stress<D>(sys_.particles, sys_.box.volume()); }
+  Tensor<D> stress() const { return contact_stress_ + kinetic_sum(nullptr) / sys_.box.volume(); }
   // The stress the barostat reads between the steps of a run: while the last kick is pending, its
   // kinetic part is that of the velocities the kick will give (bit for bit: integrator.hpp).
   Tensor<D> stress_between_steps() {
     auto& pending = sys_.pending_kick;
     if (!pending.active) return stress();
-    const auto& P = sys_.particles;
-    Tensor<D> kinetic = Tensor<D>::Zero();
     std::sort(pending.early.begin(), pending.early.end());
-    each_run_between(pending.early, 0, P.size(), [&](std::size_t from, std::size_t to) {
-        add_kinetic_stress<D>(P, from, to, &pending, kinetic);
-      }, [&](std::size_t p) { add_kinetic_stress<D>(P, p, p + 1, nullptr, kinetic); });
-    return contact_stress_ + kinetic / sys_.box.volume();
+    return contact_stress_ + kinetic_sum(&pending) / sys_.box.volume();
+  }
+  // sum m u u^T, u the velocity after the pending kick `kick` (its `early` sorted) or, without one, the stored
+  // velocity. Each thread sums the particles it drifts and kicks (thread_share), whose lines its own cache
+  // holds, and the sums are added in thread order: deterministic for a thread count, and on one thread the
+  // particle-order sum of analysis/stress.hpp. (Summed by one thread over every particle, at each step of a
+  // moving cell, it fetched the other threads' lines and made their next drift fetch them back.)
+  Tensor<D> kinetic_sum(const PendingKick* kick) const {
+    const auto& P = sys_.particles;
+    const auto add_share = [&](int t, int threads, Tensor<D>& sum) {
+      const auto [b, e] = thread_share(P.size(), t, threads);
+      if (!kick) return add_kinetic_stress<D>(P, b, e, nullptr, sum);
+      each_run_between(kick->early, b, e, [&](std::size_t from, std::size_t to) {
+          add_kinetic_stress<D>(P, from, to, kick, sum);
+        }, [&](std::size_t p) { add_kinetic_stress<D>(P, p, p + 1, nullptr, sum); });
+    };
+    const int T = std::max(1, sys_.threads);
+    std::vector<Tensor<D>> part(std::size_t(T), Tensor<D>::Zero());
+    if (T == 1) {
+      add_share(0, 1, part[0]);
+    } else {
+#pragma omp parallel num_threads(T)
+      add_share(omp_get_thread_num(), omp_get_num_threads(), part[std::size_t(omp_get_thread_num())]);
+    }
+    Tensor<D> sum = part[0];
+    for (std::size_t t = 1; t < part.size(); ++t) sum += part[t];
+    return sum;
   }
 
   void rebuild() {
@@ -1066,7 +1087,7 @@ class SimulationImpl final : public Simulation {
       for (int b = a; b < D; ++b) o[fmt::format("stress_{}{}", xyz[a], xyz[b])] = sigma(a, b);
     }
     o["pressure"] = pressure<D>(sigma);
-    o["pressure_kinetic"] = pressure<D>(kinetic_stress<D>(P, V));
+    o["pressure_kinetic"] = pressure<D>(kinetic_sum(nullptr) / V);
     o["pressure_reduced"] = pressure<D>(sigma) / pressure_scale_;
     o["pressure_target"] = target_reduced_;
     double solid = 0;
