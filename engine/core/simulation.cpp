@@ -538,13 +538,14 @@ class SimulationImpl final : public Simulation {
         }, [&](std::size_t p) { add_kinetic_stress<D>(P, p, p + 1, nullptr, sum); });
     };
     const int T = std::max(1, sys_.threads);
-    std::vector<Tensor<D>> part(std::size_t(T), Tensor<D>::Zero());
     if (T == 1) {
-      add_share(0, 1, part[0]);
-    } else {
-#pragma omp parallel num_threads(T)
-      add_share(omp_get_thread_num(), omp_get_num_threads(), part[std::size_t(omp_get_thread_num())]);
+      Tensor<D> sum = Tensor<D>::Zero();
+      add_share(0, 1, sum);
+      return sum;
     }
+    std::vector<Tensor<D>> part(std::size_t(T), Tensor<D>::Zero());
+#pragma omp parallel num_threads(T)
+    add_share(omp_get_thread_num(), omp_get_num_threads(), part[std::size_t(omp_get_thread_num())]);
     Tensor<D> sum = part[0];
     for (std::size_t t = 1; t < part.size(); ++t) sum += part[t];
     return sum;
