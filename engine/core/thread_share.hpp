@@ -1,7 +1,7 @@
 // How the particles are shared among threads: thread t of T owns a contiguous range, in thread order.
-// Every per-particle loop (integration, force clearing, the pair loop's reduction) uses this one split,
-// so a thread mostly touches the cache lines it wrote itself; the pair loop's rows follow it closely
-// (row_share).
+// Every per-particle loop (integration, force clearing, the kinetic stress, the pair loop's reduction) uses
+// this one split, so a thread mostly touches the cache lines it wrote itself; the pair loop's rows follow it
+// closely (row_share, and row_bounds, which the pair loop uses).
 #pragma once
 #include <algorithm>
 #include <cstddef>
