@@ -90,9 +90,9 @@ bool Instance::enabled(const char* category) const {
 }
 
 Status Instance::set_debug_logging(bool on, std::span<const char* const> categories) {
-  logging_on_ = on;
-  categories_.clear();
+  // Every category is checked before any is applied: a refused call leaves the logging as it was.
   for (const char* c : categories) {
+    if (!c) return error("a log category is a null pointer: each entry of categories must name a category");
     bool known = false;
     for (const auto& [name, doc] : log_categories()) known |= std::strcmp(c, name) == 0;
     if (!known) {
@@ -100,8 +100,10 @@ Status Instance::set_debug_logging(bool on, std::span<const char* const> categor
       for (const auto& [name, doc] : log_categories()) list += fmt::format("{}{}", list.empty() ? "" : ", ", name);
       return error(fmt::format("unknown log category '{}': this FMU declares {}", c, list));
     }
-    categories_[c] = on;
   }
+  logging_on_ = on;
+  categories_.clear();
+  for (const char* c : categories) categories_[c] = on;
   return Status::ok;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace grains {
 
@@ -91,6 +92,14 @@ void CollisionLog<D>::load(ByteReader& r) {
   r.get_vector(pairs_);
   r.get_vector(events_);
   adhesive_ = r.get<long>(), open_ = r.get<long>();
+}
+
+template <int D>
+void CollisionLog<D>::check_loaded(const NeighbourList<D>& list) const {
+  bool ok = pairs_.size() == list.pair_count() || pairs_.empty();
+  for (const PairState& p : pairs_)
+    ok = ok && p.event >= -1 && p.event < std::int64_t(events_.size()) && p.phase >= unknown && p.phase <= resting;
+  if (!ok) throw std::runtime_error("saved collision log does not fit the saved neighbour list");
 }
 
 template class CollisionLog<2>;

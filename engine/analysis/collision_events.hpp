@@ -40,6 +40,8 @@ class CollisionLog {
 
   void save(ByteWriter& w) const;
   void load(ByteReader& r);
+  // After a whole state is loaded: throws if the per-pair states do not fit the saved list.
+  void check_loaded(const NeighbourList<D>& list) const;
 
  private:
   enum Phase : std::int64_t { unknown, apart, approaching, receding, resting };   // a full word: no padding

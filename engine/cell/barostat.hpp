@@ -3,11 +3,15 @@
 // caller moves the particles affinely by the returned per-axis scale (their velocities stay relative
 // to the affine flow).
 //
-// Saved states: CVODE's internal history cannot be serialised, so saving marks a re-initialisation at
-// the next step, and restoring does the same: both paths restart CVODE from the same (L, dL/dt), and a
-// run restored from a state continues bit-identically with the run that saved it.
+// Saved states: CVODE's internal history (order, step size, Nordsieck array) cannot be serialised, so a
+// state carries what built it instead: the (L, dL/dt, t) of CVODE's last restart and the advances since,
+// with their forcing. Restoring restarts there and replays them, which rebuilds the history bit for bit:
+// saving changes nothing (a host may take states at will), and a restored run continues bit-identically
+// with the run that saved it. CVODE restarts every replay_limit advances, which bounds what a state carries.
 #pragma once
 #include <algorithm>
+#include <stdexcept>
+#include <vector>
 
 #include "analysis/stress.hpp"
 #include "cell/cell_length_ode.hpp"
@@ -20,7 +24,7 @@ class Barostat {
  public:
   Barostat(const CellLengthParameters& p, const Vec<D>& length, double target_pressure, double t)
       : ode_(p), length_(length), rate_(Vec<D>::Zero()), target_(target_pressure) {
-    ode_.reset(length_.data(), rate_.data(), t);
+    restart(t);
   }
 
   // Restart CVODE at every particle step (for measuring what its kept history saves).
@@ -62,31 +66,70 @@ class Barostat {
 
   // Advance the lengths over [t, t + h] under `stress` (frozen); returns L(t + h) / L(t) per axis.
   Vec<D> advance(double t, double h, const Tensor<D>& stress) {
-    if (reset_pending_ || restart_every_step_ || ode_.time() != t) ode_.reset(length_.data(), rate_.data(), t);
-    reset_pending_ = false;
+    if (reset_pending_ || restart_every_step_ || ode_.time() != t || since_restart_.size() >= replay_limit) restart(t);
     Vec<D> excess;
     for (int a = 0; a < D; ++a) excess[a] = stress(a, a) - target_;
     ode_.advance(t + h, excess.data());
+    Advance done{t + h, ode_.parameters().rate_cap, {}, {}};
+    for (int a = 0; a < D; ++a) done.excess[a] = excess[a], done.extra_damping[a] = ode_.extra_damping(a);
+    since_restart_.push_back(done);
     const Vec<D> before = length_;
     for (int a = 0; a < D; ++a) length_[a] = ode_.length(a), rate_[a] = ode_.state_rate(a);
     return length_.cwiseQuotient(before);
   }
 
   void save(ByteWriter& w) const {
-    reset_pending_ = true;   // see the header comment
-    w.put(length_), w.put(rate_), w.put(target_);
+    w.put(length_), w.put(rate_), w.put(target_), w.put(reset_pending_);
+    w.put(restart_), w.put_vector(since_restart_), w.put(ode_.statistics());
   }
   void load(ByteReader& r) {
-    length_ = r.get<Vec<D>>(), rate_ = r.get<Vec<D>>(), target_ = r.get<double>();
-    reset_pending_ = true;
+    length_ = r.get<Vec<D>>(), rate_ = r.get<Vec<D>>(), target_ = r.get<double>(), reset_pending_ = r.get<bool>();
+    restart_ = r.get<Restart>(), r.get_vector(since_restart_);
+    const auto statistics = r.get<CellLengthStatistics>();
+    if (since_restart_.size() > replay_limit) throw std::runtime_error("saved barostat history is longer than this build keeps");
+    // Replayed with the forcing each advance had; the last advance's damping and cap stay, as they did.
+    const Vec<D> damping = contact_damping();
+    const double cap = ode_.parameters().rate_cap;
+    ode_.reset(restart_.length, restart_.rate, restart_.t);
+    for (const Advance& a : since_restart_) {
+      ode_.set_extra_damping(a.extra_damping);
+      ode_.set_rate_cap(a.rate_cap);
+      ode_.advance(a.t_end, a.excess);
+    }
+    if (since_restart_.empty()) ode_.set_extra_damping(damping.data()), ode_.set_rate_cap(cap);
+    for (int a = 0; a < D; ++a)
+      if (!since_restart_.empty() && (ode_.length(a) != length_[a] || ode_.state_rate(a) != rate_[a]))
+        throw std::runtime_error("saved barostat history does not lead to the saved cell lengths");
+    ode_.set_statistics(statistics);
+  }
+
+ private:
+  // CVODE's last restart and the advances since (see the header comment). Plain arrays: no padding bytes
+  // (an Eigen 2-vector is aligned to 16), so a saved state is the same bytes for the same run.
+  struct Restart {
+    double length[D], rate[D], t;
+  };
+  struct Advance {
+    double t_end, rate_cap, excess[D], extra_damping[D];
+  };
+  static constexpr std::size_t replay_limit = 500;
+  void restart(double t) {
+    ode_.reset(length_.data(), rate_.data(), t);
+    restart_ = Restart{};
+    for (int a = 0; a < D; ++a) restart_.length[a] = length_[a], restart_.rate[a] = rate_[a];
+    restart_.t = t;
+    since_restart_.clear();
+    reset_pending_ = false;
   }
 
  private:
   CellLengthOde ode_;
   Vec<D> length_, rate_;   // rate_: CVODE's rate variable, what a restart starts from
   double target_;
-  mutable bool reset_pending_ = false;
+  bool reset_pending_ = false;
   bool restart_every_step_ = false;
+  Restart restart_{};
+  std::vector<Advance> since_restart_;
 };
 
 }  // namespace grains

@@ -126,4 +126,11 @@ CellLengthStatistics CellLengthOde::statistics() const {
   return {steps_before_ + steps, rhs_before_ + rhs_evals, reinitialisations_};
 }
 
+void CellLengthOde::set_statistics(const CellLengthStatistics& totals) {
+  const auto now = statistics();
+  steps_before_ += totals.internal_steps - now.internal_steps;
+  rhs_before_ += totals.rhs_evaluations - now.rhs_evaluations;
+  reinitialisations_ = totals.reinitialisations;
+}
+
 }  // namespace grains

@@ -53,6 +53,8 @@ class CellLengthOde {
   double time() const { return t_; }
   const CellLengthParameters& parameters() const { return p_; }
   CellLengthStatistics statistics() const;
+  // Sets the running totals (a restored state's), whatever CVODE counted since its last restart.
+  void set_statistics(const CellLengthStatistics& totals);
 
  private:
   static int rhs(double t, void* y, void* ydot, void* self);

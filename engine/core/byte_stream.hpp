@@ -1,6 +1,7 @@
 // Minimal binary serialisation for save_state()/restore_state(): raw bytes of trivially copyable data.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <span>
 #include <stdexcept>
@@ -9,6 +10,23 @@
 #include <vector>
 
 namespace grains {
+
+// A 64-bit check sum of a saved state's bytes (FNV-1a over 8-byte words, then the tail bytes): a state
+// corrupted on its way back (a flipped bit, a truncated or spliced copy) is refused before it is read.
+// Not a defence against a state crafted to pass it; the loaders check their indices as well.
+inline std::uint64_t check_sum(std::span<const std::byte> bytes) {
+  constexpr std::uint64_t prime = 1099511628211ull;
+  std::uint64_t h = 1469598103934665603ull ^ bytes.size();
+  std::size_t k = 0;
+  for (; k + 8 <= bytes.size(); k += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, bytes.data() + k, 8);
+    h = (h ^ word) * prime;
+    h ^= h >> 29;   // fold the high bits back: a word's high bits would otherwise only reach the hash's high bits
+  }
+  for (; k < bytes.size(); ++k) h = (h ^ std::uint64_t(bytes[k])) * prime;
+  return h;
+}
 
 class ByteWriter {
  public:
@@ -24,6 +42,8 @@ class ByteWriter {
     bytes_.insert(bytes_.end(), p, p + v.size() * sizeof(T));
   }
   std::vector<std::byte> take() { return std::move(bytes_); }
+  // The bytes written so far.
+  std::span<const std::byte> written() const { return bytes_; }
 
  private:
   std::vector<std::byte> bytes_;

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
@@ -224,9 +225,9 @@ class SimulationImpl final : public Simulation {
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
   // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact; a scene with
   // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
-  // contact damping).
+  // contact damping; 8: a check sum ends the state).
   // States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e07;
+  static constexpr std::uint32_t state_format = 0x47524e08;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -247,8 +248,28 @@ class SimulationImpl final : public Simulation {
     // The contacts' damping of the cell, updated every contact_damping_every_ steps: a state saved between two
     // updates continues with the last one (a new simulation would have none until the next).
     if (barostat_ && contact_damping_ > 0) w.put(barostat_->contact_damping());
+    const std::uint64_t sum = check_sum(w.written());   // last: over everything before it
+    w.put(sum);
     return w.take();
   }
+  // What a loaded state's indices address must exist: the lists' rows are the particles, the shell's entries
+  // the list's, the modules' per-pair arrays the list's pairs.
+  void check_loaded() const {
+    const std::size_t N = sys_.particles.size();
+    const auto& list = sys_.neighbours;
+    const auto& shell = sys_.shell;
+    if (!list.start.empty() && list.start.size() != N + 1)
+      throw SimulationError("the saved neighbour list has another particle count");
+    if (!shell.start.empty() && shell.start.size() != N + 1)
+      throw SimulationError("the saved shell list has another particle count");
+    for (std::size_t e = 0; e < shell.entry.size(); ++e)
+      if (shell.entry[e] >= list.pair_count() || list.partner[shell.entry[e]] != shell.partner[e] ||
+          list.owner[shell.entry[e]] != shell.owner[e])
+        throw SimulationError("the saved shell list does not fit the saved neighbour list");
+    for (const auto& m : modules_) m->check_loaded(sys_);
+    if (collisions_) collisions_->check_loaded(list);
+  }
+
   // A state that does not fit leaves the simulation as it was.
   void restore_state(std::span<const std::byte> bytes) override {
     const auto backup = save_state();
@@ -261,12 +282,25 @@ class SimulationImpl final : public Simulation {
   }
 
  private:
-  void load_state(std::span<const std::byte> bytes) {
+  void load_state(std::span<const std::byte> all) {
+    // The format word first (another build's state is named as such), then the check sum over the rest.
+    if (all.size() >= sizeof(std::uint32_t)) {
+      std::uint32_t format;
+      std::memcpy(&format, all.data(), sizeof format);
+      if (format != state_format)
+        throw SimulationError(fmt::format("the saved state has format {:#x}, this build reads {:#x} (saved by another "
+                                          "version of grains)", format, state_format));
+    }
+    constexpr std::size_t sum_size = sizeof(std::uint64_t);
+    if (all.size() < sizeof(std::uint32_t) + sum_size) throw SimulationError("the saved state is empty or truncated");
+    const std::span<const std::byte> bytes = all.first(all.size() - sum_size);
+    std::uint64_t sum;
+    std::memcpy(&sum, all.data() + bytes.size(), sum_size);
+    if (sum != check_sum(bytes))
+      throw SimulationError("the saved state is corrupted or truncated (its check sum does not match its bytes)");
     ByteReader r(bytes);
     auto& P = sys_.particles;
-    if (const auto format = r.get<std::uint32_t>(); format != state_format)
-      throw SimulationError(fmt::format("the saved state has format {:#x}, this build reads {:#x} (saved by another "
-                                        "version of grains)", format, state_format));
+    r.get<std::uint32_t>();   // the format word, checked above
     if (r.get<int>() != D || r.get<std::uint64_t>() != P.size())
       throw SimulationError("the saved state belongs to a scene of another dimension or particle count");
     sys_.time = r.get<double>(), sys_.step = r.get<long>();
@@ -287,6 +321,7 @@ class SimulationImpl final : public Simulation {
     if (has_ramp_) ramp_.on = r.get<bool>();
     if (barostat_ && contact_damping_ > 0) barostat_->set_contact_damping(r.get<Vec<D>>());
     if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
+    check_loaded();
     for (auto& stamp : refreshed_) stamp = {};
   }
 
@@ -1042,7 +1077,7 @@ class SimulationImpl final : public Simulation {
         "strain-rate cap (I_a / T) and of programme.quench_drag");
     out("cvode_steps", "", "CVODE internal steps of the cell-length equations so far");
     out("cvode_rhs_evaluations", "", "CVODE right-hand-side evaluations so far");
-    out("cvode_reinitialisations", "", "CVODE restarts (new target pressure, saved or restored state)");
+    out("cvode_reinitialisations", "", "CVODE restarts (a new target pressure, a released cell, and one every 500 particle steps: a saved state carries the steps since the last)");
     out("cvode_seconds", "s", "wall time spent in CVODE (this process)");
     add_control({"cell.pressure", "", Causality::input, Variability::continuous,
                  "target reduced pressure P* (a P / F0 in 2D, a^2 P / F0 in 3D)", 0, 1e6},
@@ -1062,6 +1097,7 @@ class SimulationImpl final : public Simulation {
     add_control(active, [this] { return cell_active_ ? 1.0 : 0.0; },
                 [this](double v) {
                   if (v != 0 && v != 1) throw SimulationError(fmt::format("cell.active = {} is not allowed: 0 or 1", v));
+                  if ((v == 1) == cell_active_) return;   // unchanged (a restored state sets every control)
                   cell_active_ = v == 1;
                   if (cell_active_) barostat_->release();
                   else barostat_->hold();

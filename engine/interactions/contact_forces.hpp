@@ -269,6 +269,14 @@ class ContactForces final : public ForceModule<D> {
     r.get_vector(tangential_);
     if constexpr (Rolling::enabled) r.get_vector(rolling_angle_);
   }
+  void check_loaded(const System<D>& s) const override {
+    const std::size_t pairs = s.neighbours.pair_count(), N = s.particles.size(), n = touched_.size();
+    // The stamps follow the list once the forces were evaluated (before, none), and the springs the stamps.
+    bool ok = (n == pairs || n == 0) && tangential_.size() == (Friction::enabled ? n : 0);
+    if constexpr (Rolling::enabled) ok = ok && rolling_angle_.size() == n;
+    for (const OnsetLag& o : pending_) ok = ok && o.i < N && o.j < N;
+    if (!ok) throw std::runtime_error("saved contact history does not fit the saved neighbour list");
+  }
 
   // Interacting pairs (contacts and, with an attractive tail, distant bonds) with their static normal
   // force, for the contact-network analysis.

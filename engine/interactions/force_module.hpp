@@ -40,6 +40,8 @@ class ForceModule {
   virtual void list_springs(const System<D>&, std::vector<ElasticSpring<D>>&) const {}
   virtual void save(ByteWriter&) const {}
   virtual void load(ByteReader&) {}
+  // After a whole state is loaded (the lists included): throws if what load read does not fit them.
+  virtual void check_loaded(const System<D>&) const {}
 };
 
 }  // namespace grains

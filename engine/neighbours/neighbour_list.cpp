@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <limits>
 #include <numeric>
 
@@ -271,6 +273,20 @@ void NeighbourList<D>::load(ByteReader& r) {
   range_ = r.get<double>(), skin_ = r.get<double>(), builds_ = r.get<long>();
   r.get_vector(start), r.get_vector(partner), r.get_vector(image), r.get_vector(shift), r.get_vector(reference_);
   strain_since_build_ = r.get<Vec<D>>(), list_reach_ = r.get<double>(), reference_lower_ = r.get<Vec<D>>();
+  // Its indices address arrays at the next step: a state that does not hold together is refused here.
+  const auto refuse = [](const char* what) {
+    throw std::runtime_error(std::string("saved neighbour list is inconsistent: ") + what);
+  };
+  const std::size_t rows = start.empty() ? 0 : start.size() - 1;
+  if (!start.empty() && (start.front() != 0 || start.back() != partner.size())) refuse("its rows do not cover its pairs");
+  if (image.size() != partner.size()) refuse("an image per pair");
+  if (!shift.empty() && shift.size() != (D == 3 ? 27u : 9u)) refuse("3^D image shifts");
+  if (!reference_.empty() && reference_.size() != rows) refuse("a reference position per row");
+  for (std::size_t i = 0; i < rows; ++i) {
+    if (start[i] > start[i + 1]) refuse("rows out of order");
+    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k)
+      if (partner[k] <= i || partner[k] >= rows || image[k] >= shift.size()) refuse("a pair's partner or image out of range");
+  }
   previous_entry_.assign(partner.size(), -1);
   fill_owners();
 }

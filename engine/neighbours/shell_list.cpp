@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "interactions/pair_filter.hpp"
 
@@ -73,6 +75,17 @@ void ShellList<D>::load(ByteReader& r) {
   strain_since_build_ = r.get<Vec<D>>(), reference_lower_ = r.get<Vec<D>>();
   r.get_vector(reference_), r.get_vector(start), r.get_vector(entry), r.get_vector(owner), r.get_vector(partner),
       r.get_vector(image);
+  // Its indices address arrays at the next step: a state that does not hold together is refused here.
+  const auto refuse = [](const char* what) { throw std::runtime_error(std::string("saved shell list is inconsistent: ") + what); };
+  const std::size_t n = entry.size(), rows = start.empty() ? 0 : start.size() - 1;
+  if (owner.size() != n || partner.size() != n || image.size() != n) refuse("a row, partner and image per entry");
+  if (start.empty() ? n != 0 : start.front() != 0 || start.back() != n) refuse("its rows do not cover its entries");
+  for (std::size_t i = 0; i < rows; ++i) {
+    if (start[i] > start[i + 1]) refuse("rows out of order");
+    for (std::uint32_t e = start[i]; e < start[i + 1]; ++e)
+      if (owner[e] != i || partner[e] <= i || partner[e] >= rows || image[e] >= (D == 3 ? 27 : 9))
+        refuse("an entry's row, partner or image out of range");
+  }
   if (off_) {   // configured without a shell: as if it had never been built
     thickness_ = 0, built_ = false, builds_ = 0, built_at_ = 0, list_reach_ = 0, list_move_ = 0;
     strain_since_build_.setOnes(), reference_lower_.setZero();

@@ -1,5 +1,5 @@
 // A continuous ramp of the barostat's target pressure (cell.pressure_final, cell.ramp_duration): the target
-// follows the geometric law with CVODE's history kept, the packing ends at the final pressure, a host's
+// follows the geometric law with CVODE's history kept (restarted only on its schedule), the packing ends at the final pressure, a host's
 // cell.pressure takes over, a saved state continues the ramp exactly, and bad ramps are refused.
 #include <catch2/catch.hpp>
 
@@ -19,7 +19,7 @@ std::string ramp_scene(const std::string& extra = "") {
 }
 }  // namespace
 
-TEST_CASE("pressure ramp: the target follows P0 (P1/P0)^(t/T), the cell follows it, CVODE never restarts",
+TEST_CASE("pressure ramp: the target follows P0 (P1/P0)^(t/T), the cell follows it, CVODE restarts only on schedule",
           "[barostat][ramp]") {
   auto s = Simulation::create(Scene::from_string(ramp_scene(), "ramp"));
   const double dt = s->dt();
@@ -35,7 +35,9 @@ TEST_CASE("pressure ramp: the target follows P0 (P1/P0)^(t/T), the cell follows 
   CHECK(worst < 1e-14);   // measured 0: the same expression
   s->step_n(100);   // past the end: held at the final value exactly
   CHECK(s->get("pressure_target") == 4e-3);
-  CHECK(s->get("cvode_reinitialisations") == 1);   // the start only: a ramp is no new target
+  // The start and the scheduled restarts only, one every 500 advances (what a saved state carries): a ramp is
+  // no new target.
+  CHECK(s->get("cvode_reinitialisations") == 1 + (s->step_count() - 1) / 500);
   // A slow ramp over a jammed packing: the stress has followed it (3.2e-4 behind), and it settles at the
   // final pressure.
   CHECK(std::abs(s->get("pressure_reduced") / 4e-3 - 1) < 1e-3);

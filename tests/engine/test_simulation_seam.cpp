@@ -1,6 +1,8 @@
 // The Simulation seam: reading is side-effect free, time lands exactly, parameters are guarded.
 #include <catch2/catch.hpp>
 
+#include <cstring>
+
 #include "core/byte_stream.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
@@ -103,6 +105,61 @@ TEST_CASE("a state saved by a build with another layout is refused by name, leav
   CHECK_THROWS_AS(s->restore_state(saved), SimulationError);
   CHECK(s->step_count() == 25);
   CHECK(s->particles().position == before.position);
+}
+
+TEST_CASE("a saved state with a changed byte is refused by its check sum, leaving the simulation as it was", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  s->step_n(20);
+  const auto saved = s->save_state();
+  s->step_n(5);
+  const auto before = s->particles();
+  // One byte flipped anywhere after the format word: in the particles, the lists' indices, the springs, the sum.
+  for (std::size_t at = 4; at < saved.size(); at += saved.size() / 97 + 1) {
+    auto changed = saved;
+    changed[at] ^= std::byte{0x10};
+    REQUIRE_THROWS_WITH(s->restore_state(changed), Catch::Contains("check sum"));
+  }
+  CHECK_THROWS_WITH(s->restore_state(std::span(saved).first(saved.size() - 1)), Catch::Contains("check sum"));
+  CHECK(s->step_count() == 25);
+  s->step_n(5);   // and it runs on as if nothing had been tried
+  auto t = Simulation::create(Scene::from_string(small_gas, "gas"));
+  t->step_n(30);
+  CHECK(s->particles().position == t->particles().position);
+  CHECK(before.position != s->particles().position);
+}
+
+TEST_CASE("a saved neighbour list whose indices do not hold together is refused even under a valid check sum", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  s->step_n(200);   // the lattice gas has pairs by then
+  auto saved = s->save_state();
+  const std::size_t N = s->particle_count();
+  // Its layout: format, D, N, time, step, six vectors of 3-vectors and the orientations, then the list's
+  // range, skin and build count, then its row starts.
+  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 6 * (8 + N * 24) + (8 + N * 32) + 3 * 8;
+  std::uint64_t rows;
+  std::memcpy(&rows, saved.data() + at, 8);
+  REQUIRE(rows == N + 1);
+  const auto reseal = [](std::vector<std::byte> bytes) {   // a new check sum over the changed bytes
+    const auto body = std::span(bytes).first(bytes.size() - 8);
+    const std::uint64_t sum = check_sum(body);
+    std::memcpy(bytes.data() + body.size(), &sum, 8);
+    return bytes;
+  };
+  for (const std::uint32_t bad : {0x40000000u, 1u}) {   // past the pairs; a row ending before it starts
+    auto changed = saved;
+    std::memcpy(changed.data() + at + 8 + 4 * N, &bad, 4);   // the last row's end
+    CHECK_THROWS_WITH(s->restore_state(reseal(changed)), Catch::Contains("neighbour list is inconsistent"));
+  }
+  std::uint64_t pairs;   // just after the row starts
+  std::memcpy(&pairs, saved.data() + at + 8 + 4 * (N + 1), 8);
+  REQUIRE(pairs > 0);
+  std::uint32_t first_partner;
+  std::memcpy(&first_partner, saved.data() + at + 8 + 4 * (N + 1) + 8, 4);
+  REQUIRE(first_partner < N);
+  const std::uint32_t beyond = std::uint32_t(N);
+  std::memcpy(saved.data() + at + 8 + 4 * (N + 1) + 8, &beyond, 4);
+  CHECK_THROWS_WITH(s->restore_state(reseal(saved)), Catch::Contains("neighbour list is inconsistent"));
+  CHECK(s->step_count() == 200);
 }
 
 TEST_CASE("step(k dt) takes exactly the k steps of step_n(k), also late in a run", "[seam]") {
