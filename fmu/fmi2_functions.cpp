@@ -48,9 +48,7 @@ template <class T>
 fmi2Status get_values(fmi2Component c, const char* function, const fmi2ValueReference vr[], size_t nvr, T value[], ValueType type) {
   return guarded(c, function, [&](Instance& in) {
     if (nvr > 0 && (!vr || !value)) return in.error(fmt::format("{}: null array", function));
-    for (size_t i = 0; i < nvr; ++i)
-      if (in.element_count(vr[i]).value_or(1) != 1)
-        return in.error(fmt::format("{}: reference {} is an array, which FMI 2 cannot read", function, vr[i]));
+    if (Status s = in.check_fmi2_references(std::span<const std::uint32_t>(vr, nvr)); s != Status::ok) return s;
     std::vector<double> v(nvr);
     Status s = in.get(std::span<const std::uint32_t>(vr, nvr), type, v);
     if (s == Status::ok)
@@ -63,6 +61,7 @@ template <class T>
 fmi2Status set_values(fmi2Component c, const char* function, const fmi2ValueReference vr[], size_t nvr, const T value[], ValueType type) {
   return guarded(c, function, [&](Instance& in) {
     if (nvr > 0 && (!vr || !value)) return in.error(fmt::format("{}: null array", function));
+    if (Status s = in.check_fmi2_references(std::span<const std::uint32_t>(vr, nvr)); s != Status::ok) return s;
     std::vector<double> v(value, value + nvr);
     return in.set(std::span<const std::uint32_t>(vr, nvr), type, v);
   });

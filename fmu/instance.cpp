@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/byte_stream.hpp"
 #include "io/file_name.hpp"
@@ -19,7 +20,7 @@ const char* phase_name(Phase p) {
     case Phase::initialization: return "initialization mode";
     case Phase::stepping: return "step mode (after initialization)";
     case Phase::terminated: return "the terminated state";
-    default: return "the error state (after a failed call; only get, reset and free are allowed)";
+    default: return "the error state (after a failed step; only get, reset, free and setting a state saved before are allowed)";
   }
 }
 const char* type_name(ValueType t) {
@@ -44,7 +45,14 @@ std::string toml_value(ValueType type, double value) {
   return s;
 }
 
-constexpr std::uint64_t state_magic = 0x31534d4649524721ull;   // "!GRIFMS1"
+// A fixed parameter's value in a scene (its type's reading of the scene key).
+double scene_value(const Scene& scene, const FmuVariable& v) {
+  return v.type == ValueType::real      ? scene.real(v.scene_key)
+         : v.type == ValueType::integer ? double(scene.integer(v.scene_key))
+                                        : double(scene.boolean(v.scene_key));
+}
+
+constexpr std::uint64_t state_magic = 0x32534d4649524721ull;   // "!GRIFMS2": with the host's time
 
 std::uint64_t fnv1a(std::string_view text, std::uint64_t h = 1469598103934665603ull) {
   for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
@@ -130,9 +138,15 @@ Status Instance::ensure_built() {
   if (sim_ && !dirty_) return Status::ok;
   try {
     auto sim = Simulation::create(scene_);
-    if (!same_structure(describe_model(scene_, *sim), table_))
-      return error("these parameter values change the FMU's set of variables (e.g. a module switched on or off); "
-                   "only values that keep the packaged scene's variables are allowed");
+    if (const ModelTable now = describe_model(scene_, *sim); !same_structure(now, table_)) {
+      std::vector<std::string> changed;   // the fixed parameters the host moved from the packaged scene's values
+      for (const FmuVariable& v : table_.variables)
+        if (v.role == Role::scene_parameter && scene_value(scene_, v) != scene_value(packaged_, v))
+          changed.push_back(fmt::format("{} = {}", v.name, scene_value(scene_, v)));
+      return error(fmt::format("the parameter values set ({}) change the FMU's set of variables (the simulation would be {}): "
+                               "only values that keep the packaged scene's variables are allowed",
+                               fmt::join(changed, ", "), structure_change(now, table_)));
+    }
     for (const auto& [index, value] : pending_controls_) sim->set(index, value);
     for (const auto& w : sim->warnings())
       if (enabled(log_warning)) logger_(Status::warning, log_warning, w);
@@ -159,7 +173,7 @@ Status Instance::enter_initialization(double start_time) {
   if (Status s = check_phase("EnterInitializationMode", {Phase::instantiated}); s != Status::ok) return s;
   if (!std::isfinite(start_time)) return error(fmt::format("start time {} is not allowed: a finite number", start_time));
   if (Status s = ensure_built(); s != Status::ok) return s;
-  start_time_ = start_time;
+  start_time_ = host_time_ = start_time;
   phase_ = Phase::initialization;
   return Status::ok;
 }
@@ -196,23 +210,32 @@ Status Instance::write_snapshot_if_due() {
   return Status::ok;
 }
 
-double Instance::time() const { return start_time_ + (sim_ ? sim_->time() : 0.0); }
+double Instance::time() const { return host_time_; }
 
 Status Instance::do_step(double current_time, double step, double* reached_time) {
   if (reached_time) *reached_time = time();
   if (Status s = check_phase("DoStep", {Phase::stepping}); s != Status::ok) return s;
   if (!std::isfinite(step) || step < 0)
     return error(fmt::format("DoStep: communication step size {} is not allowed: a finite value >= 0", step));
-  const double now = time();
-  if (!std::isfinite(current_time) || std::abs(current_time - now) > 1e-6 * sim_->dt() + 1e-12 * std::abs(now))
+  if (step / sim_->dt() > Simulation::max_steps)   // refused before stepping: the instance stays usable
+    return error(fmt::format("DoStep: communication step size {} is {:.3g} steps of dt = {:.6g}: allowed at most 1e15 steps "
+                             "at a time", step, step / sim_->dt(), sim_->dt()));
+  const double now = time(), tolerance = 1e-6 * sim_->dt() + 1e-12 * std::abs(now);
+  if (!std::isfinite(current_time) || std::abs(current_time - now) > tolerance)
     return error(fmt::format("DoStep: current communication point {:.17g} is not the FMU's time {:.17g}", current_time, now));
+  // The simulation steps h, which keeps whole multiples of dt whole (the runner's steps, bit for bit). Where it
+  // has fallen behind the host's clock by half the tolerance (a host that adds its steps up, whose rounding
+  // drifts from ours, or steps far below dt, which the simulation leaves for later), it makes that up too.
+  const double behind = (current_time - start_time_) - sim_->time();
+  const double duration = std::abs(behind) > 0.5 * tolerance ? std::max(0.0, step + behind) : step;
   const std::size_t warnings_before = sim_->warnings().size();
   try {
-    sim_->step(step);
+    sim_->step(duration);
   } catch (const std::exception& e) {
     phase_ = Phase::failed;
     return error(fmt::format("DoStep from t = {:.9g} by {:.9g} failed: {}", now, step, e.what()));
   }
+  host_time_ = current_time + step;
   const auto& w = sim_->warnings();
   for (std::size_t i = warnings_before; i < w.size(); ++i)
     if (enabled(log_warning)) logger_(Status::warning, log_warning, w[i]);
@@ -228,14 +251,25 @@ Status Instance::terminate() {
 
 Status Instance::reset() {
   scene_ = packaged_;
-  overrides_.clear();
   pending_controls_.clear();
   dirty_ = true;
-  start_time_ = 0;
+  start_time_ = host_time_ = 0;
   snapshots_.reset();
   snapshots_every_ = 0;
   phase_ = Phase::instantiated;
   return ensure_built();
+}
+
+Status Instance::check_fmi2_references(std::span<const std::uint32_t> refs) {
+  for (std::uint32_t ref : refs)
+    if (ref >= table_.variables.size() || table_.variables[ref].role == Role::particle_array) {
+      std::vector<std::uint32_t> declared;   // the arrays come last in the table, after every scalar
+      for (std::uint32_t r = 0; r < table_.variables.size(); ++r)
+        if (table_.variables[r].role != Role::particle_array) declared.push_back(r);
+      return error(fmt::format("unknown value reference {}: this FMU's FMI 2 references are 0 to {}{}", ref, declared.back(),
+                               ref < table_.variables.size() ? fmt::format(" ({} is an FMI 3 array)", table_.variables[ref].name) : ""));
+    }
+  return Status::ok;
 }
 
 std::optional<std::size_t> Instance::element_count(std::uint32_t ref) const {
@@ -262,10 +296,7 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
       continue;
     }
     if (v.role == Role::scene_parameter) {
-      if (k < values.size())
-        values[k] = v.type == ValueType::real ? scene_.real(v.scene_key)
-                    : v.type == ValueType::integer ? double(scene_.integer(v.scene_key))
-                                                   : double(scene_.boolean(v.scene_key));
+      if (k < values.size()) values[k] = scene_value(scene_, v);
       ++k;
       continue;
     }
@@ -350,7 +381,6 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
     }
     if (outside_control_range) return control_range_error();
     scene_ = std::move(changed);
-    overrides_[v.scene_key] = text;
     dirty_ = true;
     return Status::ok;
   }
@@ -366,9 +396,14 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
   return Status::ok;
 }
 
+// The fixed parameters' effective values (a host that sets a default, or sets a value and then the default
+// again, has the packaged scene's): a state restores where they are the same.
 std::uint64_t Instance::parameter_fingerprint() const {
   std::uint64_t h = fnv1a(instantiation_token(table_));
-  for (const auto& [key, value] : overrides_) h = fnv1a(fmt::format("{}={};", key, value), h);
+  for (const FmuVariable& v : table_.variables) {
+    if (v.role != Role::scene_parameter) continue;
+    h = fnv1a(fmt::format("{}={:.17g};", v.scene_key, scene_value(scene_, v)), h);
+  }
   return h;
 }
 
@@ -376,7 +411,7 @@ Status Instance::save(SavedState& state) {
   if (phase_ == Phase::failed) return error("GetFMUState is not allowed in the error state: the simulation is not valid");
   if (Status s = ensure_built(); s != Status::ok) return s;
   ByteWriter w;
-  w.put(state_magic), w.put(parameter_fingerprint()), w.put(start_time_);
+  w.put(state_magic), w.put(parameter_fingerprint()), w.put(start_time_), w.put(host_time_);
   auto header = w.take();
   auto body = sim_->save_state();
   header.insert(header.end(), body.begin(), body.end());
@@ -384,22 +419,26 @@ Status Instance::save(SavedState& state) {
   return Status::ok;
 }
 
+// Also after a failed step (FMI 2.0, 2.1.3: a host may restart from a state it stored before the error): the
+// state replaces the whole simulation, and stepping may go on.
 Status Instance::restore(const SavedState& state) {
-  if (phase_ == Phase::failed) return error("SetFMUState is not allowed in the error state; reset the FMU first");
+  const bool failed = phase_ == Phase::failed;
   if (Status s = ensure_built(); s != Status::ok) return s;
-  constexpr std::size_t header = 3 * 8;
+  constexpr std::size_t header = 4 * 8;
   if (state.bytes.size() < header) return error("SetFMUState: the state is empty or truncated");
   ByteReader r(std::span(state.bytes).first(header));
   if (r.get<std::uint64_t>() != state_magic) return error("SetFMUState: this is not a state of a grains FMU");
   if (r.get<std::uint64_t>() != parameter_fingerprint())
     return error("SetFMUState: the state was saved with other parameter values or by another FMU; it cannot be restored here");
-  const double start = r.get<double>();
+  const double start = r.get<double>(), host = r.get<double>();
+  if (!std::isfinite(start) || !std::isfinite(host)) return error("SetFMUState: the state's start or current time is not finite");
   try {
     sim_->restore_state(std::span(state.bytes).subspan(header));
   } catch (const std::exception& e) {
     return error(fmt::format("SetFMUState: {}", e.what()));
   }
-  start_time_ = start;
+  start_time_ = start, host_time_ = host;
+  if (failed) phase_ = Phase::stepping;
   return Status::ok;
 }
 

@@ -70,6 +70,8 @@ class Instance {
   // `values` receives or holds every element of the listed variables in order (arrays flattened).
   Status get(std::span<const std::uint32_t> refs, ValueType type, std::span<double> values);
   Status set(std::span<const std::uint32_t> refs, ValueType type, std::span<const double> values);
+  // FMI 2 declares no arrays: a reference to one is refused as unknown there (whatever its size).
+  Status check_fmi2_references(std::span<const std::uint32_t> refs);
   // Element count of a variable (1 for scalars) for sizing array calls; nullopt for an unknown reference.
   std::optional<std::size_t> element_count(std::uint32_t ref) const;
 
@@ -99,13 +101,15 @@ class Instance {
   std::map<std::string, bool> categories_;   // empty = all categories on
   Scene packaged_;            // the scene in resources/, as shipped
   Scene scene_;               // packaged_ plus the host's overrides
-  std::map<std::string, std::string> overrides_;   // scene key -> TOML value, for the state fingerprint
   std::map<std::size_t, double> pending_controls_;   // control values set before the Simulation exists
   std::unique_ptr<Simulation> sim_;
   bool dirty_ = true;         // scene_ changed since sim_ was built
   ModelTable table_;          // of the packaged scene: references and types never change
   Phase phase_ = Phase::instantiated;
-  double start_time_ = 0;     // host time = start_time_ + simulation time
+  double start_time_ = 0;     // host time = start_time_ + simulation time, to within the host's rounding
+  // The host's time of the FMU: the last communication point reached (current + h as the host passed
+  // them), which time() reports; the simulation follows it (do_step).
+  double host_time_ = 0;
   long snapshots_every_ = 0;  // fmu.snapshots_every
   long next_snapshot_ = 0;
   std::unique_ptr<SnapshotOutput> snapshots_;

@@ -1,9 +1,12 @@
 #include "model_variables.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <set>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
@@ -143,6 +146,26 @@ bool same_structure(const ModelTable& a, const ModelTable& b) {
       return false;
   }
   return true;
+}
+
+std::string structure_change(const ModelTable& now, const ModelTable& packaged) {
+  std::set<std::string> before, after;
+  for (const auto& v : packaged.variables) before.insert(v.name);
+  for (const auto& v : now.variables) after.insert(v.name);
+  std::vector<std::string> parts;
+  const auto list = [&](const char* what, const std::set<std::string>& from, const std::set<std::string>& without) {
+    std::vector<std::string> names;
+    for (const auto& n : from)
+      if (!without.count(n)) names.push_back(n);
+    if (names.empty()) return;
+    const std::size_t shown = std::min<std::size_t>(names.size(), 6);
+    parts.push_back(fmt::format("{} {}{}", what, fmt::join(names.begin(), names.begin() + std::ptrdiff_t(shown), ", "),
+                                names.size() > shown ? fmt::format(" and {} more", names.size() - shown) : ""));
+  };
+  list("without", before, after);
+  list("with", after, before);
+  if (parts.empty()) return now.dimension != packaged.dimension ? "another dimension" : "its variables in another order or kind";
+  return fmt::format("{}", fmt::join(parts, "; "));
 }
 
 }  // namespace grains::fmu

@@ -61,5 +61,7 @@ std::string instantiation_token(const ModelTable& table);
 
 // Same structure (names, types, causality, references): a parameter override must not change it.
 bool same_structure(const ModelTable& a, const ModelTable& b);
+// What differs when they are not: the variables `now` lacks and has beyond `packaged`, by name.
+std::string structure_change(const ModelTable& now, const ModelTable& packaged);
 
 }  // namespace grains::fmu

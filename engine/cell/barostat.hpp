@@ -64,13 +64,14 @@ class Barostat {
     return eta;
   }
 
-  // Advance the lengths over [t, t + h] under `stress` (frozen); returns L(t + h) / L(t) per axis.
-  Vec<D> advance(double t, double h, const Tensor<D>& stress) {
+  // Advance the lengths over [t, t_end] under `stress` (frozen); returns L(t_end) / L(t) per axis. The next
+  // advance continues CVODE's history if it starts at this one's t_end exactly.
+  Vec<D> advance(double t, double t_end, const Tensor<D>& stress) {
     if (reset_pending_ || restart_every_step_ || ode_.time() != t || since_restart_.size() >= replay_limit) restart(t);
     Vec<D> excess;
     for (int a = 0; a < D; ++a) excess[a] = stress(a, a) - target_;
-    ode_.advance(t + h, excess.data());
-    Advance done{t + h, ode_.parameters().rate_cap, {}, {}};
+    ode_.advance(t_end, excess.data());
+    Advance done{t_end, ode_.parameters().rate_cap, {}, {}};
     for (int a = 0; a < D; ++a) done.excess[a] = excess[a], done.extra_damping[a] = ode_.extra_damping(a);
     since_restart_.push_back(done);
     const Vec<D> before = length_;

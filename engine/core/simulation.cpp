@@ -176,10 +176,7 @@ class SimulationImpl final : public Simulation {
     const bool remainder = duration - double(whole) * dt_ > 1e-9 * dt_;
     run_steps([&] {
       for (long k = 0; k < whole; ++k) one_step(dt_, !remainder && k == whole - 1);
-      if (remainder) {
-        one_step(target - sys_.time, true);
-        sys_.time = target;
-      }
+      if (remainder) one_step(target - sys_.time, true, target);
     });
   }
   void step_n(long n) override {
@@ -225,7 +222,7 @@ class SimulationImpl final : public Simulation {
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
   // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact; a scene with
   // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
-  // contact damping; 8: a check sum ends the state).
+  // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count).
   // States of builds before the word start with D (2, 3).
   static constexpr std::uint32_t state_format = 0x47524e08;
 
@@ -233,7 +230,7 @@ class SimulationImpl final : public Simulation {
     ByteWriter w;
     const auto& P = sys_.particles;
     w.put(state_format), w.put<int>(D), w.put<std::uint64_t>(P.size());
-    w.put(sys_.time), w.put(sys_.step);
+    w.put(sys_.time), w.put(sys_.step), w.put(clock_origin_), w.put(clock_steps_);
     w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.force_prev),
         w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.orientation);
     sys_.neighbours.save(w);
@@ -301,9 +298,10 @@ class SimulationImpl final : public Simulation {
     ByteReader r(bytes);
     auto& P = sys_.particles;
     r.get<std::uint32_t>();   // the format word, checked above
+    if (sys_.pending_kick.active) clear_pending_kick();   // a state has none (a failed step may have left one)
     if (r.get<int>() != D || r.get<std::uint64_t>() != P.size())
       throw SimulationError("the saved state belongs to a scene of another dimension or particle count");
-    sys_.time = r.get<double>(), sys_.step = r.get<long>();
+    sys_.time = r.get<double>(), sys_.step = r.get<long>(), clock_origin_ = r.get<double>(), clock_steps_ = r.get<long>();
     r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.force_prev),
         r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.orientation);
     sys_.neighbours.load(r);
@@ -767,8 +765,17 @@ class SimulationImpl final : public Simulation {
     settle();
   }
 
+  // The time after a step of h: a whole step's is the clock's origin plus the whole steps since, times dt
+  // (one rounding, however long the run: a sum of dt drifted from a host's own clock by ~1e-16 t per step);
+  // a shorter step's (a host's remainder) is the clock's new origin.
+  double time_after(double h) const {
+    return h == dt_ ? clock_origin_ + double(clock_steps_ + 1) * dt_ : sys_.time + h;
+  }
+
   // `last`: the run's last step, after which a host, an observer or a moving cell may read the stress.
-  void one_step(double h, bool last) {
+  // `end`: where the step lands (a remainder step's target), else time_after(h).
+  void one_step(double h, bool last, double end = std::numeric_limits<double>::quiet_NaN()) {
+    const double t_end = std::isnan(end) ? time_after(h) : end;
     Vec<D> scale = Vec<D>::Ones();
     const bool cell_moves = barostat_ && cell_active_;
     // The contact virial is summed where the stress will be read: for the barostat at every step while
@@ -780,7 +787,7 @@ class SimulationImpl final : public Simulation {
         barostat_->set_contact_damping(contact_damping_ * affine_contact_damping<D>(sys_, cn_));
       const Tensor<D> sigma = stress_between_steps();   // outside the clock: cvode_seconds is the integrator's own time
       const auto start = std::chrono::steady_clock::now();
-      scale = barostat_->advance(sys_.time, h, sigma);
+      scale = barostat_->advance(sys_.time, t_end, sigma);
       cvode_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       resize_cell(scale);
     }
@@ -802,7 +809,9 @@ class SimulationImpl final : public Simulation {
     if (collisions_) witness += do_pending_kick();
     for (auto& m : modules_) m->finish_step(sys_);
     if (sys_.want_virial) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());
-    sys_.time += h;
+    sys_.time = t_end;
+    if (h == dt_ && std::isnan(end)) ++clock_steps_;
+    else clock_origin_ = t_end, clock_steps_ = 0;
     ++sys_.step;
     if (!std::isfinite(witness)) check_finite_at_step(sys_.step);
     if (analysis_ && sys_.step % analysis_every_ == 0) track_aggregation();
@@ -1254,6 +1263,10 @@ class SimulationImpl final : public Simulation {
   bool uses_list_ = false, rotate_ = false;
   bool orient_ = true;   // particles.track_orientation
   double dt_ = 0, kn_ = 0, cn_ = 0;
+  // The clock (time_after): the time of the last step that was not a whole dt (or of the start), and the
+  // whole steps since.
+  double clock_origin_ = 0;
+  long clock_steps_ = 0;
   // A pair's k and c are kn_ (m* / m*_min)^first and cn_ (m* / m*_min)^second (global calibration: 0, 0).
   std::pair<double, double> pair_law_scaling_{0.0, 0.0};
   bool analysis_ = false;   // gravity scenes only

@@ -58,6 +58,24 @@ TEST_CASE("step(duration) lands exactly on t + duration, also for a remainder", 
   CHECK(s->step_count() == 13);   // unchanged by the refused call
 }
 
+TEST_CASE("the clock is the whole steps times dt, one rounding, not a sum that drifts", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  const double dt = s->dt();
+  s->step_n(1000);   // a sum of 1000 dt = 0.001 is 1.0000000000000007
+  CHECK(s->time() == 1000 * dt);
+  s->step(0.0005);   // a remainder: the clock's new origin, exactly
+  CHECK(s->time() == 1000 * dt + 0.0005);
+  for (int k = 0; k < 10; ++k) s->step(100 * dt);
+  CHECK(s->time() == (1000 * dt + 0.0005) + 1000 * dt);
+  const auto saved = s->save_state();   // a restored clock goes on from the same origin
+  s->step_n(7);
+  const double after = s->time();
+  s->restore_state(saved);
+  s->step_n(7);
+  CHECK(s->time() == after);
+  CHECK(after == (1000 * dt + 0.0005) + 1007 * dt);
+}
+
 TEST_CASE("fixed parameters cannot be set and unknown names are named", "[seam]") {
   auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
   CHECK(s->get("contact.restitution") == 0.7);
@@ -133,9 +151,9 @@ TEST_CASE("a saved neighbour list whose indices do not hold together is refused 
   s->step_n(200);   // the lattice gas has pairs by then
   auto saved = s->save_state();
   const std::size_t N = s->particle_count();
-  // Its layout: format, D, N, time, step, six vectors of 3-vectors and the orientations, then the list's
-  // range, skin and build count, then its row starts.
-  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 6 * (8 + N * 24) + (8 + N * 32) + 3 * 8;
+  // Its layout: format, D, N, time, step, the clock's origin and whole steps, six vectors of 3-vectors and
+  // the orientations, then the list's range, skin and build count, then its row starts.
+  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 8 + 8 + 6 * (8 + N * 24) + (8 + N * 32) + 3 * 8;
   std::uint64_t rows;
   std::memcpy(&rows, saved.data() + at, 8);
   REQUIRE(rows == N + 1);

@@ -183,3 +183,52 @@ def test_a_freed_instance_is_refused_not_dereferenced(version):
     # fmi2Error / fmi3Error for the freed handle and for a stranger; then a new handle, which works, while the
     # freed one is still refused
     assert r.stdout.split() == ["3", "3", "True", "3", "0"], r.stdout
+
+
+def test_a_step_beyond_the_step_counter_is_refused_and_the_instance_goes_on(unit):
+    unit.initialize({"particles.count": 100})
+    fails(unit, lambda: unit.fmu.doStep(0.0, 1e300), "communication step size 1e+300", "at most 1e15 steps")
+    unit.step(unit.get("time.dt"))   # refused before stepping: not an error state
+    assert unit.get("step") == 1
+
+
+def test_fmi2_refuses_the_fmi3_arrays_whatever_their_size():
+    """FMI 2's modelDescription declares no arrays; with one particle an array has one element, and must
+    still be an unknown reference there."""
+    unit = Unit(fmu_path("aggregation", 2))
+    unit.initialize({"particles.count": 1, "run.threads": 1})
+    last = max(v.valueReference for v in unit.md.modelVariables)
+    fails(unit, lambda: unit.fmu.getReal([last + 2]), f"unknown value reference {last + 2}", f"0 to {last}",
+          "particles.radius is an FMI 3 array")
+    fails(unit, lambda: unit.fmu.setReal([last + 1], [1.0]), f"unknown value reference {last + 1}")
+    unit.free()
+
+
+def test_values_that_change_the_variables_are_named_with_what_they_change(unit):
+    unit.set("particles.count", 100)
+    unit.set("contact.duration", 1e200)   # k_n underflows to 0: no normalised stiffness any more
+    fails(unit, lambda: unit.fmu.enterInitializationMode(), "contact.duration = 1e+200", "particles.count = 100",
+          "without normalised_stiffness")
+
+
+NULL_CATEGORY_HOST = """
+import ctypes, sys
+from fmu_host import Unit, fmu_path
+version = int(sys.argv[1])
+unit = Unit(fmu_path("collision", version))
+f = unit.fmu.dll[f"fmi{version}SetDebugLogging"]
+f.argtypes = [ctypes.c_void_p, ctypes.c_int if version == 2 else ctypes.c_bool, ctypes.c_size_t, ctypes.POINTER(ctypes.c_char_p)]
+f.restype = ctypes.c_int
+print(f(unit.fmu.component, 1, 2, (ctypes.c_char_p * 2)(b"logCalls", None)))
+print(unit.errors()[-1])
+"""
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_null_log_category_is_an_error_not_a_crash(version):
+    here = pathlib.Path(__file__).parent
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
+    r = subprocess.run([sys.executable, "-c", NULL_CATEGORY_HOST, str(version)], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    status, message = r.stdout.splitlines()[:2]
+    assert status == "3" and "null pointer" in message, r.stdout

@@ -145,3 +145,127 @@ def test_gravity_is_tunable_while_stepping(version):
     unit.step(h)
     assert unit.get("kinetic_energy") > 2 * coasting
     unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_taking_a_consolidation_state_changes_nothing_and_restoring_it_continues_exactly(version):
+    """The barostat's CVODE history is rebuilt from what the state carries: taking a state leaves the run as
+    it was, and a restored one continues bit for bit, its CVODE counters back at their values."""
+    def run(take_at):
+        unit = Unit(fmu_path("consolidation", version), name="c").initialize({"particles.count": 100})
+        h = 7 * unit.get("time.dt")
+        state, trace, counters = None, [], None
+        for k in range(40):
+            if k == take_at:
+                state = unit.get_state()
+                counters = (unit.get("cvode_steps"), unit.get("cvode_reinitialisations"), unit.time)
+            unit.step(h)
+            trace.append(unit.outputs())
+        return unit, state, counters, trace
+
+    plain = run(None)[3]
+    unit, state, counters, taken = run(3)
+    assert taken[-1]["cell_length_x"] != taken[0]["cell_length_x"]   # the cell moved
+    same([dict(t, cvode_seconds=0) for t in taken], [dict(t, cvode_seconds=0) for t in plain])
+    unit.set_state(state)
+    assert (unit.get("cvode_steps"), unit.get("cvode_reinitialisations")) == counters[:2]
+    unit.time = counters[2]
+    again = [None] * 3
+    for k in range(3, 40):
+        unit.step(7 * unit.get("time.dt"))
+        again.append(unit.outputs())
+    same([dict(t, cvode_seconds=0) for t in again[3:]], [dict(t, cvode_seconds=0) for t in taken[3:]])
+    assert unit.errors() == []
+    unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_corrupted_state_is_refused_and_the_instance_goes_on(version):
+    unit = Unit(fmu_path("aggregation", version)).initialize(SMALL)
+    h = 20 * unit.get("time.dt")
+    unit.step(h)
+    good = unit.serialize(unit.get_state())
+    unit.step(h)
+    reference = unit.outputs()
+    for at in range(40, len(good), len(good) // 13):   # past the FMU's header: particles, lists, springs, the sum
+        bad = bytearray(good)
+        bad[at] ^= 0x40
+        with pytest.raises(Exception):
+            unit.set_state(unit.deserialize(bytes(bad)))
+        assert "check sum" in unit.errors()[-1]
+    unit.set_state(unit.deserialize(good))   # the good one still restores, and continues as before
+    unit.time = h
+    unit.step(h)
+    same([unit.outputs()], [reference])
+    unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_state_restores_where_the_fixed_parameters_have_the_same_values(version):
+    """A host that writes every parameter's start value (the default among them), or sets one and then sets
+    it back, has the packaged values: the state of an instance that set nothing restores there."""
+    path = fmu_path("collision", version)
+    a = Unit(path, name="a").initialize()
+    a.step(0.05)
+    saved = a.serialize(a.get_state())
+    b = Unit(path, name="b").initialize({"contact.restitution": 0.5})   # the packaged value
+    b.set_state(b.deserialize(saved))
+    c = Unit(path, name="c")
+    c.set("contact.restitution", 0.7)
+    c.set("contact.restitution", 0.5)
+    c.initialize()
+    c.set_state(c.deserialize(saved))
+    d = Unit(path, name="d").initialize({"contact.restitution": 0.7})   # really other values: refused
+    with pytest.raises(Exception):
+        d.set_state(d.deserialize(saved))
+    assert "other parameter values" in d.errors()[-1]
+    for u in (b, c):
+        u.time = 0.05
+        u.step(0.05)
+    a.step(0.05)
+    assert b.outputs() == a.outputs() == c.outputs()
+    for u in (a, b, c, d):
+        u.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_host_restarts_from_a_state_stored_before_a_failed_step(version):
+    """FMI 2.0 section 2.1.3: after an error a host may restart from a state it stored before."""
+    unit = Unit(fmu_path("aggregation", version)).initialize(dict(SMALL, **{"particles.mass": 100.0}))
+    dt = unit.get("time.dt")
+    unit.step(dt)
+    state = unit.get_state()
+    unit.set("gravity.G", 1e308)   # the next forces overflow
+    with pytest.raises(Exception):
+        unit.step(dt)
+    assert "non-finite" in unit.errors()[-1]
+    unit.set_state(state)
+    unit.time = dt
+    unit.set("gravity.G", 1.0)
+    unit.step(dt)
+    assert unit.get("step") == 2
+    unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_the_fmu_keeps_the_host_clock_over_a_long_run(version):
+    """40,000 communication steps of 0.02 (ten steps of dt each) to t = 800, as fmpy counts them (k h) and as
+    a host that adds its steps up: each step starts where the host says the FMU is, and ends on t + h.
+    A sum of dt drifted 3e-9 from the host's clock by t = 700, beyond the tolerance of the check."""
+    path = fmu_path("collision", version)
+    counting, adding = Unit(path, name="k").initialize(), Unit(path, name="a").initialize()
+    h, t = 0.02, 0.0
+    for k in range(40000):
+        counting.fmu.doStep(k * h, h)
+        adding.fmu.doStep(t, h)
+        t += h
+    assert counting.get("time") == 39999 * h + h and adding.get("time") == t
+    assert counting.get("step") == adding.get("step") == 400000
+    for tiny in range(10):   # steps far below dt: the FMU is still where the host says
+        adding.fmu.doStep(t, 1e-13)
+        t += 1e-13
+    adding.fmu.doStep(t, h)
+    assert adding.get("time") == t + h
+    assert counting.errors() == adding.errors() == []
+    counting.free()
+    adding.free()

@@ -17,13 +17,16 @@ def test_a_run_ramps_the_pressure_geometrically_and_the_packing_follows(grains_b
         o = f["observables"]
         t, target = o["pressure_target/time"][()], o["pressure_target/value"][()]
         measured, restarts = o["pressure_reduced/value"][()], o["cvode_reinitialisations/value"][()]
+        steps = o["cvode_reinitialisations/step"][()]
     dt = (t[1] - t[0]) / 20000   # the records are 20,000 steps apart
     # The target of each recorded step: the ramp at the start of the step that ended there.
     expected = 1e-5 * 10 ** (np.clip((t - dt) / 30, 0, 1))
     expected[0] = 1e-5
     assert np.allclose(target, expected, rtol=1e-12, atol=0)
     assert target[-1] == 1e-4 and (t > 30).sum() >= 4   # held at the final value after the ramp
-    assert np.all(restarts == 1)                         # CVODE kept its history throughout the ramp
+    # CVODE kept its history throughout the ramp: restarted at the start and on its schedule only, every 500
+    # advances (what a saved state carries), never for the ramp
+    assert np.all(restarts == 1 + np.maximum(steps - 1, 0) // 500)
     # Jammed from t = 14 on (Phi 0.75 to 0.79) and settled by t = 20: from there the stress follows the ramp
     # within 1e-3 (measured: up to 4.4e-4).
     late = t > 20
