@@ -173,6 +173,7 @@ InitialState<D> make_initial_state(const Scene& s) {
     std::ifstream in(path);
     if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
     std::string line;
+    int first_row_line = 0;
     for (int lineno = 1; std::getline(in, line); ++lineno) {
       if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
       std::istringstream ls(line);
@@ -189,6 +190,13 @@ InitialState<D> make_initial_state(const Scene& s) {
       if (r.size() != std::size_t(D + 2) && r.size() != std::size_t(2 * D + 2))
         s.fail("particles.file", fmt::format("{}:{}: {} columns; expected {} (x.. diameter mass) or {} (with velocity)",
                                              path.string(), lineno, r.size(), D + 2, 2 * D + 2));
+      // The first row decides whether the file gives velocities: every row must follow it.
+      if (!rows.empty() && r.size() != rows[0].size())
+        s.fail("particles.file", fmt::format("{}:{}: {} columns, but the first particle row (line {}) has {}: every row "
+                                             "needs the same columns ({} without velocity, {} with)",
+                                             path.string(), lineno, r.size(), first_row_line, rows[0].size(), D + 2,
+                                             2 * D + 2));
+      if (rows.empty()) first_row_line = lineno;
       rows.push_back(r);
     }
     N = rows.size();

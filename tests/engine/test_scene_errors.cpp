@@ -194,6 +194,27 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
   std::filesystem::remove(path);
 }
 
+TEST_CASE("scene errors: particle file rows with different column counts are refused, naming the line", "[scene][errors]") {
+  // Velocities were read from every row by the first row's width: past the end of a shorter row (a heap
+  // read out of bounds), or silently dropped when the first row had none.
+  const auto path = std::filesystem::temp_directory_path() / "grains-ragged-rows.txt";
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.periodic=false"};
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass vx vy vz\n0 0 0 1 1 1 0 0\n2 0 0 1 1\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
+                                             Contains("5 columns") && Contains("first particle row (line 2) has 8"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1\n\n2 0 0 1 1 -1 0 0\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
+                                             Contains("8 columns") && Contains("first particle row (line 1) has 5"));
+  std::filesystem::remove(path);
+}
+
 TEST_CASE("scene errors: a bad --set override is named", "[scene][errors]") {
   REQUIRE_THROWS_AS(build(good, {"contact.restitutoin=0.3"}), SceneError);
   REQUIRE_THROWS_WITH(build(good, {"contact.restitutoin=0.3"}),
