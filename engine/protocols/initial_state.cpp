@@ -184,6 +184,10 @@ InitialState<D> make_initial_state(const Scene& s) {
         if (end == word.c_str() || *end != '\0')
           s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is not a number", path.string(), lineno,
                                                r.size() + 1, word));
+        // strtod reads "nan", "inf" and overflowing literals such as 1e999 too
+        if (!std::isfinite(v))
+          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is {}, expected a finite number", path.string(),
+                                               lineno, r.size() + 1, word, v));
         r.push_back(v);
       }
       if (r.empty()) continue;

@@ -186,6 +186,15 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
                                          "box.periodic=false"};
   REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
                                              Contains("column 5") && Contains("'np.float64(1.0)' is not a number"));
+  // Words strtod reads as non-finite numbers failed only later, naming neither the file nor the line.
+  for (const auto& [word, value] : {std::pair{"nan", "nan"}, std::pair{"-inf", "-inf"}, std::pair{"1e999", "inf"}}) {
+    {
+      std::ofstream f(path);
+      f << "0 0 0 1 1\n2 " << word << " 0 1 1\n";
+    }
+    REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:2: column 2") &&
+                                               Contains(fmt::format("'{}' is {}, expected a finite number", word, value)));
+  }
   {
     std::ofstream f(path);
     f << "0 0 0 1 1\n2 0 0 1 1\n";
