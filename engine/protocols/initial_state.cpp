@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace grains {
 namespace {
@@ -163,12 +164,15 @@ InitialState<D> make_initial_state(const Scene& s) {
 
   // --- count and explicit rows ---
   std::vector<std::vector<double>> rows;   // layout = file
+  std::vector<int> row_lines;              // each row's line in the file, for messages
+  std::filesystem::path file_path;
   std::size_t N = 0;
   if (layout == "list") {
     N = s.matrix("particles.positions").size();
     if (N == 0) s.fail("particles.positions", "layout \"list\" needs at least one position");
   } else if (layout == "file") {
-    auto path = std::filesystem::path(s.text("particles.file"));
+    auto& path = file_path;
+    path = std::filesystem::path(s.text("particles.file"));
     if (path.is_relative()) path = s.directory() / path;
     std::ifstream in(path);
     if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
@@ -202,6 +206,7 @@ InitialState<D> make_initial_state(const Scene& s) {
                                              2 * D + 2));
       if (rows.empty()) first_row_line = lineno;
       rows.push_back(r);
+      row_lines.push_back(lineno);
     }
     N = rows.size();
     if (N == 0) s.fail("particles.file", fmt::format("'{}' holds no particle rows", path.string()));
@@ -343,6 +348,18 @@ InitialState<D> make_initial_state(const Scene& s) {
     for (std::size_t i = 0; i < N; ++i)
       for (int a = 0; a < D; ++a) P.velocity[i][a] = rows[i][D + 2 + a];
   }
+  // Given speeds must keep the kinetic energy finite, as the Gaussian's above (the energies and the time-step
+  // checks square them): name the row at which the sum overflows.
+  double kinetic = 0;
+  for (std::size_t i = 0; i < N; ++i) {
+    kinetic += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
+    if (std::isfinite(kinetic)) continue;
+    const std::string what = fmt::format("the velocity ({}) of particle {} (mass {:.3g}) makes the kinetic energy summed "
+                                         "up to it overflow a double: allowed speeds whose total energy is finite",
+                                         fmt::join(P.velocity[i], ", "), i, P.mass[i]);
+    if (vel == "list") s.fail("particles.velocities", fmt::format("row {}: {}", i, what));
+    s.fail("particles.file", fmt::format("{}:{}: {}", file_path.string(), row_lines[i], what));
+  }
   if (s.has("particles.angular_velocities")) {
     auto w = s.matrix("particles.angular_velocities");
     constexpr std::size_t comps = D == 3 ? 3 : 1;
@@ -351,6 +368,14 @@ InitialState<D> make_initial_state(const Scene& s) {
       if (w[i].size() != comps)
         s.fail("particles.angular_velocities", fmt::format("row {} has {} components; need {}", i, w[i].size(), comps));
       for (std::size_t a = 0; a < comps; ++a) P.angular_velocity[i][a] = w[i][a];
+    }
+    double rotational = 0;
+    for (std::size_t i = 0; i < N; ++i) {
+      rotational += 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
+      if (!std::isfinite(rotational))
+        s.fail("particles.angular_velocities", fmt::format("row {}: the spin of particle {} makes the rotational energy "
+                                                           "summed up to it overflow a double: allowed spins whose total "
+                                                           "energy is finite", i, i));
     }
   }
   return st;

@@ -281,3 +281,25 @@ TEST_CASE("scene errors: a kinetic energy whose total overflows names particles.
                       Contains("particles.kinetic_energy") && Contains("value 1e+308") && Contains("27 particles"));
   build(hot, {"particles.kinetic_energy=1e300"});   // large but finite: accepted
 }
+
+TEST_CASE("scene errors: given velocities whose kinetic energy overflows name the key, or the file and line", "[scene][errors]") {
+  // The run once "completed" with kinetic_energy inf.
+  const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
+                                        "box.periodic=false", "particles.velocity=\"list\""};
+  auto plus = [&](std::string extra) { auto v = two; v.push_back(std::move(extra)); return v; };
+  REQUIRE_THROWS_WITH(build(good, plus("particles.velocities=[[0,0,0],[1e160,0,0]]")),
+                      Contains("particles.velocities: row 1") && Contains("1e+160") && Contains("overflow a double"));
+  REQUIRE_NOTHROW(build(good, plus("particles.velocities=[[0,0,0],[1e150,0,0]]")));   // large, finite energy
+  auto spun = plus("particles.velocities=[[0,0,0],[0,0,0]]");
+  spun.push_back("particles.angular_velocities=[[0,0,0],[0,1e200,0]]");
+  REQUIRE_THROWS_WITH(build(good, spun), Contains("particles.angular_velocities: row 1") && Contains("overflow a double"));
+  const auto path = std::filesystem::temp_directory_path() / "grains-fast-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass vx vy vz\n0 0 0 1 1 0 0 0\n2 0 0 1 1 0 -1e160 0\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                   "box.periodic=false"}),
+                      Contains("particles.file") && Contains("grains-fast-rows.txt:3") && Contains("overflow a double"));
+  std::filesystem::remove(path);
+}
