@@ -14,6 +14,7 @@
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
+#include "output_paths.hpp"
 #include "progress.hpp"
 #include "protocols/consolidation_programme.hpp"
 #include "resume_command.hpp"
@@ -211,10 +212,10 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                            : scene.has("output.file") ? scene.text("output.file")
                                                       : name + "-stages.h5";
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  check_output_path(path, opt.scene, !opt.output.empty()           ? "--out"
+  check_output_path(path, opt.scene, scene, !opt.output.empty()           ? "--out"
                                      : scene.has("output.file") ? "output.file"
                                                                 : "scene.name (the default output file <scene.name>-stages.h5)");
-  check_output_path(table, opt.scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
+  check_output_path(table, opt.scene, scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
   if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
     throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
 

@@ -172,8 +172,7 @@ InitialState<D> make_initial_state(const Scene& s) {
     if (N == 0) s.fail("particles.positions", "layout \"list\" needs at least one position");
   } else if (layout == "file") {
     auto& path = file_path;
-    path = std::filesystem::path(s.text("particles.file"));
-    if (path.is_relative()) path = s.directory() / path;
+    path = *particle_file(s);
     std::ifstream in(path);
     if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
     std::string line;
@@ -379,6 +378,12 @@ InitialState<D> make_initial_state(const Scene& s) {
     }
   }
   return st;
+}
+
+std::optional<std::filesystem::path> particle_file(const Scene& s) {
+  if (s.text("particles.layout") != "file") return std::nullopt;
+  auto path = std::filesystem::path(s.text("particles.file"));
+  return path.is_relative() ? s.directory() / path : path;
 }
 
 template InitialState<2> make_initial_state<2>(const Scene&);

@@ -1,5 +1,8 @@
 // Initial particles and box from a scene: layout, sizes, masses, velocities.
 #pragma once
+#include <filesystem>
+#include <optional>
+
 #include "core/box.hpp"
 #include "core/particles.hpp"
 #include "io/scene.hpp"
@@ -14,5 +17,8 @@ struct InitialState {
 
 template <int D>
 InitialState<D> make_initial_state(const Scene& scene);
+
+// The file the particles are read from (particles.layout = "file"; a relative path lies in the scene's folder).
+std::optional<std::filesystem::path> particle_file(const Scene& scene);
 
 }  // namespace grains

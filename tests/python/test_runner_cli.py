@@ -279,3 +279,47 @@ def test_run_stops_at_the_aggregation_when_asked(grains_bin, root, tmp_path):
     bad = run(grains_bin, "run", root / "models" / "gas.toml", "--out", tmp_path / "gas.h5", "--quiet",
               "--set", "analysis.stop_at_aggregation=true")
     assert bad.returncode != 0 and "analysis.stop_at_aggregation" in bad.stderr and "gravity.enabled" in bad.stderr
+
+
+def _scene_reading_a_particle_file(root, folder):
+    """collision-2d with its two disks read from a particle file beside the scene."""
+    rows = folder / "disks.txt"
+    rows.write_text("-0.6 0 1 1 0.5 0\n0.6 0 1 1 -0.5 0\n")
+    scene = folder / "scene.toml"
+    text = (root / "models" / "collision-2d.toml").read_text()
+    text = text.replace('layout = "list"', 'layout = "file"\nfile = "disks.txt"')
+    text = text.replace("positions = [[-0.6, 0.0], [0.6, 0.0]]\n", "").replace('velocity = "list"\n', "")
+    text = text.replace("velocities = [[0.5, 0.0], [-0.5, 0.0]]\n", "").replace("diameter = 1.0\nmass = 1.0\n", "")
+    scene.write_text(text)
+    return scene, rows
+
+
+def test_output_onto_the_particle_file_is_refused(grains_bin, root, tmp_path):
+    """`--out` naming the scene's particle file (or a link to it) overwrote the input with HDF5."""
+    scene, rows = _scene_reading_a_particle_file(root, tmp_path)
+    text = rows.read_text()
+    (tmp_path / "soft.txt").symlink_to(rows)
+    (tmp_path / "hard.txt").hardlink_to(rows)
+    for out in (rows, tmp_path / "soft.txt", tmp_path / "hard.txt", "disks.txt"):
+        for command, option in (("run", ["--out", out, "--quiet"]), ("check", ["--set", f"output.file=\"{out}\""])):
+            r = run(grains_bin, command, scene, *option, cwd=tmp_path)
+            assert r.returncode == 1, (out, command, r.stderr)
+            assert "is the scene's particle file (particles.file) itself" in r.stderr, (out, command, r.stderr)
+    assert rows.read_text() == text
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "ok.h5", "--quiet")
+    assert r.returncode == 0, r.stderr
+
+
+def test_consolidate_output_onto_the_particle_file_is_refused(grains_bin, root, tmp_path):
+    rows = tmp_path / "disks.txt"
+    rows.write_text("".join(f"{x} {y} 1 1\n" for x in range(0, 10, 2) for y in range(0, 10, 2)))
+    text = rows.read_text()
+    common = ["--set", "particles.layout=\"file\"", "--set", f"particles.file=\"{rows}\"", "--set",
+              "box.lengths=[10.0, 10.0]", "--set", "programme.stage_budget=300", "--quiet"]
+    scene = root / "models" / "cohesionless.toml"
+    for option in (["--out", rows, "--table", tmp_path / "t.csv"], ["--table", rows, "--out", tmp_path / "o.h5"]):
+        r = run(grains_bin, "consolidate", scene, *option, *common)
+        assert r.returncode == 1 and "is the scene's particle file (particles.file) itself" in r.stderr, r.stderr
+        assert option[0] in r.stderr
+    assert rows.read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["disks.txt"]
