@@ -212,12 +212,15 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                            : scene.has("output.file") ? scene.text("output.file")
                                                       : name + "-stages.h5";
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  check_output_path(path, opt.scene, scene, !opt.output.empty()           ? "--out"
+  check_hdf5_output_path(path, opt.scene, scene, !opt.output.empty()           ? "--out"
                                      : scene.has("output.file") ? "output.file"
                                                                 : "scene.name (the default output file <scene.name>-stages.h5)");
   check_output_path(table, opt.scene, scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
-  if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
+  if (same_file(path, table))
     throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
+  if (const auto xdmf = xdmf_beside(path, scene); xdmf && same_file(*xdmf, table))
+    throw SceneError(fmt::format("{}: stage table '{}' is the XDMF file written beside the HDF5 output '{}': name another "
+                                 "file (or set output.xdmf = false)", opt.table.empty() ? "scene.name" : "--table", table, path));
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));

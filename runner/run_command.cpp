@@ -83,7 +83,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   const PreparedRun r = prepare_run(scene);
   if (r.steps) {   // what `run` (without --out) would write to
     const auto [output, source] = run_output_path(scene, "");
-    check_output_path(output, path, scene, source);
+    check_hdf5_output_path(output, path, scene, source);
   }
   for (const auto& w : r.sim->warnings()) fmt::print(stderr, "warning: {}\n", w);
   fmt::print("{}", scene.resolved_toml());
@@ -199,7 +199,7 @@ int run_scene(const RunOptions& opt) {
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
 
   const auto [path, source] = run_output_path(scene, opt.output);
-  check_output_path(path, opt.scene, scene, source);
+  check_hdf5_output_path(path, opt.scene, scene, source);
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));

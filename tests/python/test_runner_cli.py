@@ -323,3 +323,44 @@ def test_consolidate_output_onto_the_particle_file_is_refused(grains_bin, root, 
         assert option[0] in r.stderr
     assert rows.read_text() == text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["disks.txt"]
+
+
+def test_xdmf_beside_the_output_may_not_overwrite_it_or_an_input(grains_bin, root, tmp_path):
+    """The .xdmf written beside the HDF5 file (same name) overwrote `--out x.xdmf` itself, the scene, or the
+    particle file; `--table co.xdmf` of a programme writing co.h5 likewise."""
+    scene, rows = _scene_reading_a_particle_file(root, tmp_path)
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "x.xdmf", "--quiet")
+    assert r.returncode == 1 and "--out: output file" in r.stderr and "ends in .xdmf" in r.stderr, r.stderr
+    rows_xdmf = rows.rename(tmp_path / "disks.xdmf")
+    scene.write_text(scene.read_text().replace("disks.txt", "disks.xdmf"))
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "disks.h5", "--quiet")
+    assert r.returncode == 1 and "--out: the XDMF file written beside output file" in r.stderr, r.stderr
+    assert "the scene's particle file (particles.file) itself" in r.stderr
+    scene_xdmf = scene.rename(tmp_path / "scene.xdmf")
+    r = run(grains_bin, "run", scene_xdmf, "--set", f"output.file=\"{tmp_path / 'scene.h5'}\"", "--quiet")
+    assert r.returncode == 1 and "output.file: the XDMF file written beside" in r.stderr, r.stderr
+    assert "the scene file itself" in r.stderr
+    r = run(grains_bin, "run", scene_xdmf, "--out", tmp_path / "scene.h5", "--set", "output.xdmf=false", "--quiet")
+    assert r.returncode == 0, r.stderr   # no XDMF file: nothing overwritten
+    r = run(grains_bin, "consolidate", root / "models" / "cohesionless.toml", "--out", tmp_path / "co.h5", "--table",
+            tmp_path / "co.xdmf", "--set", "particles.count=60", "--quiet")
+    assert r.returncode == 1 and "--table: stage table" in r.stderr and "XDMF file written beside" in r.stderr, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["disks.xdmf", "scene.h5", "scene.xdmf"]
+    assert rows_xdmf.read_text().startswith("-0.6 0 1 1")
+
+
+@pytest.mark.parametrize("command, model, option", [
+    ("run", "collision-2d", "--out"), ("consolidate", "cohesionless", "--out"), ("consolidate", "cohesionless", "--table")])
+def test_an_empty_or_unusable_output_name_is_refused_naming_the_option(grains_bin, root, tmp_path, command, model, option):
+    """`--out ''` wrote SCENE.h5 in the working folder silently; a name too long for the system gave a raw
+    "filesystem error" (or an HDF5 error naming no option, after a programme had written its HDF5 file)."""
+    args = [command, root / "models" / f"{model}.toml", "--quiet",
+            *(["--set", "particles.count=60"] if command == "consolidate" else [])]
+    r = run(grains_bin, *args, option, "", cwd=tmp_path)
+    assert r.returncode != 0 and f"{option}: the file name is empty" in r.stderr, r.stderr
+    too_long = "a" * 300
+    for name in (f"{too_long}.h5", f"{too_long}/x.h5"):
+        r = run(grains_bin, *args, option, tmp_path / name, cwd=tmp_path)
+        assert r.returncode == 1 and f"error: {option}: cannot use the output" in r.stderr, r.stderr
+        assert "File name too long" in r.stderr
+    assert list(tmp_path.iterdir()) == []
