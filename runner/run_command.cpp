@@ -1,5 +1,6 @@
 #include "run_command.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -115,6 +116,10 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     return next;
   };
 
+  // Ctrl-C and SIGTERM are read between chunks: a chunk ends at the next step an output is due at, or sooner,
+  // after about two million particle-steps (a few tenths of a second), so that a run with rare outputs still
+  // stops. Chunks of steps run exactly as the whole (Simulation::step_n), so the outputs do not depend on them.
+  const long stop_check_steps = std::clamp(2'000'000 / long(sim.particle_count()), 1L, 4096L);
   catch_stop_signals();
   const long first = sim.step_count();
   Progress progress(steps, sim.particle_count(), first);
@@ -122,10 +127,11 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   bool aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
   bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
   while (done < steps && !stopping && !aggregated) {
-    const long n = next_stop(done) - done;
+    const long due = next_stop(done);
+    const long n = std::min(due, done + stop_check_steps) - done;
     sim.step_n(n);
     done += n;
-    aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
+    if (done == due) aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
     stopping = stop_requested() && done < steps && !aggregated;   // a run that reached its end is complete
     const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, sim);

@@ -364,3 +364,30 @@ def test_an_empty_or_unusable_output_name_is_refused_naming_the_option(grains_bi
         assert r.returncode == 1 and f"error: {option}: cannot use the output" in r.stderr, r.stderr
         assert "File name too long" in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_interrupt_is_acted_on_between_rare_outputs(grains_bin, root, tmp_path):
+    """With an output due only every 1e8 steps, Ctrl-C (SIGINT) was read only at the next one: never, in practice."""
+    out = tmp_path / "gas.h5"
+    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet",
+                          "--set", "time.steps=1000000000", "--set", "particles.count=512", "--set", "run.threads=1",
+                          "--set", "output.observables_every=100000000", "--set", "output.snapshots_every=0"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    try:
+        stdout, stderr = p.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.communicate()
+        pytest.fail("the run did not stop within 10 s of SIGINT")
+    assert p.returncode == 130, stderr
+    with h5py.File(out) as f:
+        status = f["grains"].attrs["status"]
+        status = status.decode() if isinstance(status, bytes) else status
+        step = int(status.split()[-1])
+        assert status.startswith("interrupted at step ") and 0 < step < 100000000
+        assert f["observables/kinetic_energy/step"][-1] == step
