@@ -165,7 +165,9 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                             r.steps, budget, sim.get("solid_fraction"), waiting, quench, rate));
     return false;
   };
-  const auto records = run_programme(sim, settings, on_stage, on_check, from);
+  // Between checks too: a programme.check_every of millions of steps held a Ctrl-C for minutes.
+  const auto records = run_programme(sim, settings, on_stage, on_check, from,
+                                     StopPoll{stop_requested, stop_check_steps(sim.particle_count())});
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cvode = sim.get("cvode_seconds");
   const double rate = seconds > 0 ? double(sim.step_count() - first_step) * double(sim.particle_count()) / seconds : 0.0;

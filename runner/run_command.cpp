@@ -116,10 +116,8 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     return next;
   };
 
-  // Ctrl-C and SIGTERM are read between chunks: a chunk ends at the next step an output is due at, or sooner,
-  // after about two million particle-steps (a few tenths of a second), so that a run with rare outputs still
-  // stops. Chunks of steps run exactly as the whole (Simulation::step_n), so the outputs do not depend on them.
-  const long stop_check_steps = std::clamp(2'000'000 / long(sim.particle_count()), 1L, 4096L);
+  // Ctrl-C and SIGTERM are read between chunks: a chunk ends at the next step an output is due at, or sooner.
+  const long steps_between_stop_checks = stop_check_steps(sim.particle_count());
   catch_stop_signals();
   const long first = sim.step_count();
   Progress progress(steps, sim.particle_count(), first);
@@ -128,7 +126,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
   while (done < steps && !stopping && !aggregated) {
     const long due = next_stop(done);
-    const long n = std::min(due, done + stop_check_steps) - done;
+    const long n = std::min(due, done + steps_between_stop_checks) - done;
     sim.step_n(n);
     done += n;
     if (done == due) aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
