@@ -391,3 +391,18 @@ def test_interrupt_is_acted_on_between_rare_outputs(grains_bin, root, tmp_path):
         step = int(status.split()[-1])
         assert status.startswith("interrupted at step ") and 0 < step < 100000000
         assert f["observables/kinetic_energy/step"][-1] == step
+
+
+@pytest.mark.parametrize("command, model, extra", [
+    ("run", "collision-2d", ["--out", "x.h5", "--quiet"]),
+    ("check", "collision-2d", []),
+    ("consolidate", "cohesionless", ["--out", "x.h5", "--table", "x.csv", "--quiet", "--set", "programme.stage_budget=200"]),
+])
+def test_set_takes_one_value_so_the_scene_may_follow_it(grains_bin, root, tmp_path, command, model, extra):
+    """`--set K=V SCENE` gave "scene is required": --set took the scene as a second override."""
+    r = run(grains_bin, command, "--set", "particles.seed=7", root / "models" / f"{model}.toml", *extra,
+            *(["--set", "particles.count=60"] if command == "consolidate" else []), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = run(grains_bin, command, root / "models" / f"{model}.toml", "--set", "particles.seed=7", "particles.seed=8",
+            cwd=tmp_path)
+    assert r.returncode != 0 and "particles.seed=8" in r.stderr, r.stderr
