@@ -1,5 +1,6 @@
 #include "protocols/initial_state.hpp"
 #include "core/morton.hpp"
+#include "protocols/initial_overlaps.hpp"
 
 #include <algorithm>
 #include <array>
@@ -312,6 +313,27 @@ InitialState<D> make_initial_state(const Scene& s) {
   } else {
     for (std::size_t i = 0; i < N; ++i)
       for (int a = 0; a < D; ++a) P.position[i][a] = rows[i][a];
+  }
+  // Given positions (the other layouts place particles apart): a coincident pair has no contact direction (its
+  // force is NaN), one overlapping beyond the contact's limit flies apart with its clamped spring's energy.
+  if ((layout == "list" || layout == "file") && s.boolean("contact.enabled")) {
+    const double limit = s.real("contact.overlap_limit");
+    const InitialOverlaps o = find_initial_overlaps<D>(P, box, limit);
+    const char* key = layout == "list" ? "particles.positions" : "particles.file";
+    auto particle = [&](std::size_t i) {
+      return layout == "list" ? fmt::format("particle {} (row {})", i, i)
+                              : fmt::format("particle {} ({}:{})", i, file_path.string(), row_lines[i]);
+    };
+    if (o.coincident)
+      s.fail(key, fmt::format("{} and {} are at the same position ({}): a contact between them has no direction; "
+                              "move one of them", particle(o.same_i), particle(o.same_j),
+                              fmt::join(P.position[o.same_i], ", ")));
+    if (o.deep > 0)
+      st.warnings.push_back(fmt::format(
+          "{}: {} pair(s) of particles overlap at the start beyond the contact's limit contact.overlap_limit * "
+          "min(R_i, R_j) = {} min(R_i, R_j); the deepest, {} and {}, by {:.6g} ({:.4g} min(R_i, R_j)): such pairs fly "
+          "apart with the energy of the clamped spring", key, o.deep, limit, particle(o.i), particle(o.j), o.overlap,
+          o.ratio));
   }
 
   // --- velocities ---

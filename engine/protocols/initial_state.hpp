@@ -2,6 +2,8 @@
 #pragma once
 #include <filesystem>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "core/box.hpp"
 #include "core/particles.hpp"
@@ -13,6 +15,7 @@ template <int D>
 struct InitialState {
   Particles<D> particles;
   Box<D> box;
+  std::vector<std::string> warnings;   // for the simulation's warnings (e.g. deeply overlapping given particles)
 };
 
 template <int D>

@@ -303,3 +303,38 @@ TEST_CASE("scene errors: given velocities whose kinetic energy overflows name th
                       Contains("particles.file") && Contains("grains-fast-rows.txt:3") && Contains("overflow a double"));
   std::filesystem::remove(path);
 }
+
+TEST_CASE("scene errors: given particles at the same position are named; deep overlaps are warned about", "[scene][errors]") {
+  // Both ran with no word: coincident particles failed with a non-finite force naming no key, deeply overlapping
+  // ones flew apart.
+  const std::vector<std::string> list = {"particles.layout=\"list\"", "box.periodic=false"};
+  auto plus = [&](std::string extra) { auto v = list; v.push_back(std::move(extra)); return v; };
+  REQUIRE_THROWS_WITH(build(good, plus("particles.positions=[[0,0,0],[3,0,0],[3,0,0]]")),
+                      Contains("particles.positions: particle 1 (row 1) and particle 2 (row 2) are at the same position"));
+  const auto deep = Simulation::create(Scene::from_string(good, "bad.toml", plus("particles.positions=[[0,0,0],[0.1,0,0],[5,0,0],[5.5,0,0]]")));
+  REQUIRE(deep->warnings().size() == 1);
+  CHECK_THAT(deep->warnings()[0], Contains("particles.positions: 2 pair(s) of particles overlap") &&
+                                      Contains("contact.overlap_limit") && Contains("particle 0 (row 0) and particle 1 (row 1)") &&
+                                      Contains("by 0.9 (1.8 min(R_i, R_j))"));
+  // Within the limit (0.1 R): no warning.
+  CHECK(Simulation::create(Scene::from_string(good, "ok.toml", plus("particles.positions=[[0,0,0],[0.96,0,0]]")))->warnings().empty());
+  // Across a periodic boundary too, and from a file, naming its lines.
+  const auto path = std::filesystem::temp_directory_path() / "grains-overlapping-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass\n0.1 1 1 1 1\n\n3.9 1 1 1 1\n2 2 2 1 1\n";
+  }
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.lengths=[4.0, 4.0, 4.0]", "box.periodic=true"};
+  const auto wrapped = Simulation::create(Scene::from_string(good, "bad.toml", file));
+  REQUIRE(wrapped->warnings().size() == 1);
+  CHECK_THAT(wrapped->warnings()[0], Contains("particles.file: 1 pair(s)") && Contains("grains-overlapping-rows.txt:2)") &&
+                                         Contains("grains-overlapping-rows.txt:4)") && Contains("by 0.8 (1.6"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1\n2 2 2 1 1\n0 0 0 1 1\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file: particle 0") && Contains("grains-overlapping-rows.txt:1)") &&
+                                             Contains("grains-overlapping-rows.txt:3)") && Contains("same position (0, 0, 0)"));
+  std::filesystem::remove(path);
+}
