@@ -14,6 +14,7 @@
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
+#include "output_paths.hpp"
 #include "progress.hpp"
 #include "protocols/consolidation_programme.hpp"
 #include "resume_command.hpp"
@@ -164,7 +165,9 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                             r.steps, budget, sim.get("solid_fraction"), waiting, quench, rate));
     return false;
   };
-  const auto records = run_programme(sim, settings, on_stage, on_check, from);
+  // Between checks too: a programme.check_every of millions of steps held a Ctrl-C for minutes.
+  const auto records = run_programme(sim, settings, on_stage, on_check, from,
+                                     StopPoll{stop_requested, stop_check_steps(sim.particle_count())});
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cvode = sim.get("cvode_seconds");
   const double rate = seconds > 0 ? double(sim.step_count() - first_step) * double(sim.particle_count()) / seconds : 0.0;
@@ -211,12 +214,15 @@ int consolidate_scene(const ConsolidateOptions& opt) {
                            : scene.has("output.file") ? scene.text("output.file")
                                                       : name + "-stages.h5";
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  check_output_path(path, opt.scene, !opt.output.empty()           ? "--out"
+  check_hdf5_output_path(path, opt.scene, scene, !opt.output.empty()           ? "--out"
                                      : scene.has("output.file") ? "output.file"
                                                                 : "scene.name (the default output file <scene.name>-stages.h5)");
-  check_output_path(table, opt.scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
-  if (std::filesystem::absolute(path).lexically_normal() == std::filesystem::absolute(table).lexically_normal())
+  check_output_path(table, opt.scene, scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
+  if (same_file(path, table))
     throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
+  if (const auto xdmf = xdmf_beside(path, scene); xdmf && same_file(*xdmf, table))
+    throw SceneError(fmt::format("{}: stage table '{}' is the XDMF file written beside the HDF5 output '{}': name another "
+                                 "file (or set output.xdmf = false)", opt.table.empty() ? "scene.name" : "--table", table, path));
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));

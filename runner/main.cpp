@@ -15,11 +15,17 @@ int main(int argc, char** argv) {
                "Example: grains run models/gas.toml --set contact.restitution=0.5 --out gas.h5"};
   app.require_subcommand(1);
 
+  // An empty file name given on purpose (--out '') fell back to the default name silently.
+  const CLI::Validator file_name(
+      [](std::string& name) { return name.empty() ? std::string("the file name is empty: name a file") : std::string(); },
+      "FILE");
+  // --set takes one value per occurrence: a vector option would swallow the scene after it (`run --set k=v SCENE`).
   grains::RunOptions run;
   auto* cmd_run = app.add_subcommand("run", "Run a scene and write its HDF5 (H5MD) output, an XDMF file and a summary");
   cmd_run->add_option("scene", run.scene, "Scene file (.toml)")->required()->check(CLI::ExistingFile);
-  cmd_run->add_option("--set", run.overrides, "Override a scene key: --set section.key=value (repeatable)");
-  cmd_run->add_option("--out", run.output, "Output HDF5 file (default: output.file or <scene.name>.h5)");
+  cmd_run->add_option("--set", run.overrides, "Override a scene key: --set section.key=value (repeatable)")
+      ->allow_extra_args(false);
+  cmd_run->add_option("--out", run.output, "Output HDF5 file (default: output.file or <scene.name>.h5)")->check(file_name);
   cmd_run->add_flag("--quiet", run.quiet, "No progress line");
 
   grains::ConsolidateOptions cons;
@@ -27,9 +33,10 @@ int main(int argc, char** argv) {
                                                      "preparation, stepwise loading and unloading, each stage to equilibrium; "
                                                      "one table row, H5MD observable record and snapshot per stage");
   cmd_cons->add_option("scene", cons.scene, "Scene file (.toml) with cell.enabled = true")->required()->check(CLI::ExistingFile);
-  cmd_cons->add_option("--set", cons.overrides, "Override a scene key: --set section.key=value (repeatable)");
-  cmd_cons->add_option("--out", cons.output, "Output HDF5 file (default output.file or <scene.name>-stages.h5)");
-  cmd_cons->add_option("--table", cons.table, "Stage table, CSV (default <scene.name>-stages.csv)");
+  cmd_cons->add_option("--set", cons.overrides, "Override a scene key: --set section.key=value (repeatable)")
+      ->allow_extra_args(false);
+  cmd_cons->add_option("--out", cons.output, "Output HDF5 file (default output.file or <scene.name>-stages.h5)")->check(file_name);
+  cmd_cons->add_option("--table", cons.table, "Stage table, CSV (default <scene.name>-stages.csv)")->check(file_name);
   cmd_cons->add_flag("--quiet", cons.quiet, "No line per stage");
 
   std::string resume_file;
@@ -43,7 +50,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> check_overrides;
   auto* cmd_check = app.add_subcommand("check", "Validate a scene without running it; prints the resolved scene");
   cmd_check->add_option("scene", check_scene, "Scene file (.toml)")->required()->check(CLI::ExistingFile);
-  cmd_check->add_option("--set", check_overrides, "Override a scene key (repeatable)");
+  cmd_check->add_option("--set", check_overrides, "Override a scene key (repeatable)")->allow_extra_args(false);
 
   auto* cmd_ref = app.add_subcommand("scene-reference", "Print the scene reference (every key, default and range) as Markdown");
 

@@ -1,5 +1,6 @@
 #include "run_command.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -15,23 +16,13 @@
 #include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
+#include "output_paths.hpp"
 #include "resume_command.hpp"
 #include "progress.hpp"
 #include "protocols/run_length.hpp"
 #include "stop_signal.hpp"
 
 namespace grains {
-
-void check_output_path(const std::string& output, const std::string& scene_file, const std::string& source) {
-  namespace fs = std::filesystem;
-  if (auto dir = fs::path(output).parent_path(); !dir.empty() && !fs::is_directory(dir))
-    throw SceneError(fmt::format("{}: output directory '{}' {} (output file '{}')", source, dir.string(),
-                                 fs::exists(dir) ? "is a file, not a folder" : "does not exist", output));
-  std::error_code ec;
-  if (fs::equivalent(output, scene_file, ec))
-    throw SceneError(fmt::format("{}: output file '{}' is the scene file itself: name another file (--out, --table)", source,
-                                 output));
-}
 
 namespace {
 // The output file of `grains run` and where its name comes from: --out, else output.file, else scene.name.
@@ -93,7 +84,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   const PreparedRun r = prepare_run(scene);
   if (r.steps) {   // what `run` (without --out) would write to
     const auto [output, source] = run_output_path(scene, "");
-    check_output_path(output, path, source);
+    check_hdf5_output_path(output, path, scene, source);
   }
   for (const auto& w : r.sim->warnings()) fmt::print(stderr, "warning: {}\n", w);
   fmt::print("{}", scene.resolved_toml());
@@ -125,6 +116,8 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     return next;
   };
 
+  // Ctrl-C and SIGTERM are read between chunks: a chunk ends at the next step an output is due at, or sooner.
+  const long steps_between_stop_checks = stop_check_steps(sim.particle_count());
   catch_stop_signals();
   const long first = sim.step_count();
   Progress progress(steps, sim.particle_count(), first);
@@ -132,10 +125,11 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   bool aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
   bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
   while (done < steps && !stopping && !aggregated) {
-    const long n = next_stop(done) - done;
+    const long due = next_stop(done);
+    const long n = std::min(due, done + steps_between_stop_checks) - done;
     sim.step_n(n);
     done += n;
-    aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
+    if (done == due) aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
     stopping = stop_requested() && done < steps && !aggregated;   // a run that reached its end is complete
     const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, sim);
@@ -209,7 +203,7 @@ int run_scene(const RunOptions& opt) {
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
 
   const auto [path, source] = run_output_path(scene, opt.output);
-  check_output_path(path, opt.scene, source);
+  check_hdf5_output_path(path, opt.scene, scene, source);
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));

@@ -6,10 +6,6 @@ namespace grains {
 
 class H5mdWriter;
 class Simulation;
-// An output file the run may write: its folder exists and it is not the scene file (writing would destroy it).
-// `source` names where the path came from (--out, output.file, ...) and leads the message.
-void check_output_path(const std::string& output, const std::string& scene_file, const std::string& source);
-
 // One particle snapshot / every output variable, at the simulation's current step.
 void write_frame(H5mdWriter& out, const Simulation& sim);
 void write_observables(H5mdWriter& out, const Simulation& sim);

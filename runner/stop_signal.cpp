@@ -1,5 +1,6 @@
 #include "stop_signal.hpp"
 
+#include <algorithm>
 #include <csignal>
 
 namespace grains {
@@ -14,5 +15,9 @@ void catch_stop_signals() {
 }
 
 bool stop_requested() { return requested != 0; }
+
+long stop_check_steps(std::size_t particles) {
+  return std::clamp(2'000'000 / long(std::max<std::size_t>(particles, 1)), 1L, 4096L);
+}
 
 }  // namespace grains

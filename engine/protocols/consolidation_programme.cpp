@@ -142,8 +142,9 @@ bool has(const Simulation& s, const std::string& name) {
 class Runner {
  public:
   Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage,
-         const StageCheck& on_check, const StageProgress& from)
-      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), network_(has(s, "network.mark")), from_(from) {
+         const StageCheck& on_check, const StageProgress& from, const StopPoll& poll)
+      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), poll_(poll), network_(has(s, "network.mark")),
+        from_(from) {
     for (const char* name : recorded)
       if (has(s, name)) names_.emplace_back(name);
     for (const auto& v : s.variables())
@@ -179,11 +180,14 @@ class Runner {
     budget += ramp_steps;
     while (r.steps < budget) {
       const bool ramping = r.steps < ramp_steps;
-      if (ramping) s_.set("cell.pressure", target * double(r.steps) / double(ramp_steps));
-      else if (ramp_steps > 0 && r.steps == ramp_steps) s_.set("cell.pressure", target);
-      const long n = ramping ? p_.check_every : std::min(p_.check_every, budget - r.steps);
-      s_.step_n(n);
-      r.steps += n;
+      // A stage continued from between two checks (StopPoll) goes on to the next one, its target already set.
+      const long to_check = p_.check_every - r.steps % p_.check_every;
+      if (to_check == p_.check_every) {
+        if (ramping) s_.set("cell.pressure", target * double(r.steps) / double(ramp_steps));
+        else if (ramp_steps > 0 && r.steps == ramp_steps) s_.set("cell.pressure", target);
+      }
+      const long n = ramping ? to_check : std::min(to_check, budget - r.steps);
+      if (step_or_stop(r, n, budget, quench)) return;
       if (!ramping && done(r)) {
         r.reached = true;
         break;
@@ -200,6 +204,22 @@ class Runner {
     if (on_stage_) on_stage_(r);
     records_.push_back(std::move(r));
   }
+  // Takes n steps, asking poll_ between pieces of them; true: stopped there, on_check_ having said so.
+  template <class Quench>
+  bool step_or_stop(StageRecord& r, long n, long budget, Quench& quench) {
+    while (n > 0) {
+      const long piece = poll_.every > 0 ? std::min(n, poll_.every) : n;
+      s_.step_n(piece);
+      r.steps += piece, n -= piece;
+      if (n > 0 && poll_.requested && poll_.requested() && on_check_ &&
+          on_check_(r, budget, StageProgress{r.index, r.steps, quench()})) {
+        stopped_ = true;
+        return true;
+      }
+    }
+    return false;
+  }
+
   template <class Done>
   void stage(const std::string& phase, double target, long budget, Done done) {
     stage(phase, target, budget, done, [] { return std::vector<double>{}; });
@@ -219,7 +239,8 @@ class Runner {
     if (target == 0) q.background = 0;   // the relaxation after the aggregation runs on the paper's law
     StageQuench quench(s_, q);
     if (records_.empty() && from_.steps > 0) quench.resume(from_.quench);
-    if (at < ramp) s_.set("cell.pressure", target * double(at) / double(ramp));
+    // Continued between two checks of the ramp: its target is the one set at the last check.
+    if (at < ramp) s_.set("cell.pressure", target * double(at - at % p_.check_every) / double(ramp));
     stage(phase, target, p_.stage_budget, [&](StageRecord& r) {
       const bool reached = quench.in_equilibrium(r.steps);
       r.quench_start = quench.start();
@@ -233,6 +254,7 @@ class Runner {
   const ProgrammeSettings& p_;
   const std::function<void(const StageRecord&)>& on_stage_;
   const StageCheck& on_check_;
+  const StopPoll& poll_;
   bool network_;
   StageProgress from_;
   bool stopped_ = false;
@@ -268,8 +290,9 @@ StageProgress StageProgress::from_values(const std::vector<double>& v, const Pro
 
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
                                        const std::function<void(const StageRecord&)>& on_stage,
-                                       const StageCheck& on_check, const StageProgress& from) {
-  return Runner(s, p, on_stage, on_check, from).run();
+                                       const StageCheck& on_check, const StageProgress& from,
+                                       const StopPoll& poll) {
+  return Runner(s, p, on_stage, on_check, from, poll).run();
 }
 
 }  // namespace grains

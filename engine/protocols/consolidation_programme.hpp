@@ -75,8 +75,16 @@ struct StageProgress {
 // from.stage - 1, or, with from.steps > 0, to that step of stage from.stage); the records returned are those
 // of the stages finished now.
 using StageCheck = std::function<bool(const StageRecord&, long budget, const StageProgress&)>;
+// Between two checks, `requested` is asked every `every` steps (a check_every of millions of steps would hold a
+// Ctrl-C for minutes); when it answers true, on_check is called there, between checks, as at one. A programme
+// continued from such a point goes on to the check the unbroken one makes next.
+struct StopPoll {
+  std::function<bool()> requested;
+  long every = 0;   // steps; 0: asked at the checks only (on_check)
+};
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,
                                        const std::function<void(const StageRecord&)>& on_stage = {},
-                                       const StageCheck& on_check = {}, const StageProgress& from = {});
+                                       const StageCheck& on_check = {}, const StageProgress& from = {},
+                                       const StopPoll& poll = {});
 
 }  // namespace grains

@@ -1,5 +1,6 @@
 #include "protocols/initial_state.hpp"
 #include "core/morton.hpp"
+#include "protocols/initial_overlaps.hpp"
 
 #include <algorithm>
 #include <array>
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace grains {
 namespace {
@@ -163,16 +165,19 @@ InitialState<D> make_initial_state(const Scene& s) {
 
   // --- count and explicit rows ---
   std::vector<std::vector<double>> rows;   // layout = file
+  std::vector<int> row_lines;              // each row's line in the file, for messages
+  std::filesystem::path file_path;
   std::size_t N = 0;
   if (layout == "list") {
     N = s.matrix("particles.positions").size();
     if (N == 0) s.fail("particles.positions", "layout \"list\" needs at least one position");
   } else if (layout == "file") {
-    auto path = std::filesystem::path(s.text("particles.file"));
-    if (path.is_relative()) path = s.directory() / path;
+    auto& path = file_path;
+    path = *particle_file(s);
     std::ifstream in(path);
     if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
     std::string line;
+    int first_row_line = 0;
     for (int lineno = 1; std::getline(in, line); ++lineno) {
       if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
       std::istringstream ls(line);
@@ -183,13 +188,25 @@ InitialState<D> make_initial_state(const Scene& s) {
         if (end == word.c_str() || *end != '\0')
           s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is not a number", path.string(), lineno,
                                                r.size() + 1, word));
+        // strtod reads "nan", "inf" and overflowing literals such as 1e999 too
+        if (!std::isfinite(v))
+          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is {}, expected a finite number", path.string(),
+                                               lineno, r.size() + 1, word, v));
         r.push_back(v);
       }
       if (r.empty()) continue;
       if (r.size() != std::size_t(D + 2) && r.size() != std::size_t(2 * D + 2))
         s.fail("particles.file", fmt::format("{}:{}: {} columns; expected {} (x.. diameter mass) or {} (with velocity)",
                                              path.string(), lineno, r.size(), D + 2, 2 * D + 2));
+      // The first row decides whether the file gives velocities: every row must follow it.
+      if (!rows.empty() && r.size() != rows[0].size())
+        s.fail("particles.file", fmt::format("{}:{}: {} columns, but the first particle row (line {}) has {}: every row "
+                                             "needs the same columns ({} without velocity, {} with)",
+                                             path.string(), lineno, r.size(), first_row_line, rows[0].size(), D + 2,
+                                             2 * D + 2));
+      if (rows.empty()) first_row_line = lineno;
       rows.push_back(r);
+      row_lines.push_back(lineno);
     }
     N = rows.size();
     if (N == 0) s.fail("particles.file", fmt::format("'{}' holds no particle rows", path.string()));
@@ -297,6 +314,27 @@ InitialState<D> make_initial_state(const Scene& s) {
     for (std::size_t i = 0; i < N; ++i)
       for (int a = 0; a < D; ++a) P.position[i][a] = rows[i][a];
   }
+  // Given positions (the other layouts place particles apart): a coincident pair has no contact direction (its
+  // force is NaN), one overlapping beyond the contact's limit flies apart with its clamped spring's energy.
+  if ((layout == "list" || layout == "file") && s.boolean("contact.enabled")) {
+    const double limit = s.real("contact.overlap_limit");
+    const InitialOverlaps o = find_initial_overlaps<D>(P, box, limit);
+    const char* key = layout == "list" ? "particles.positions" : "particles.file";
+    auto particle = [&](std::size_t i) {
+      return layout == "list" ? fmt::format("particle {} (row {})", i, i)
+                              : fmt::format("particle {} ({}:{})", i, file_path.string(), row_lines[i]);
+    };
+    if (o.coincident)
+      s.fail(key, fmt::format("{} and {} are at the same position ({}): a contact between them has no direction; "
+                              "move one of them", particle(o.same_i), particle(o.same_j),
+                              fmt::join(P.position[o.same_i], ", ")));
+    if (o.deep > 0)
+      st.warnings.push_back(fmt::format(
+          "{}: {} pair(s) of particles overlap at the start beyond the contact's limit contact.overlap_limit * "
+          "min(R_i, R_j) = {} min(R_i, R_j); the deepest, {} and {}, by {:.6g} ({:.4g} min(R_i, R_j)): such pairs fly "
+          "apart with the energy of the clamped spring", key, o.deep, limit, particle(o.i), particle(o.j), o.overlap,
+          o.ratio));
+  }
 
   // --- velocities ---
   const std::string vel = s.text("particles.velocity");
@@ -331,6 +369,18 @@ InitialState<D> make_initial_state(const Scene& s) {
     for (std::size_t i = 0; i < N; ++i)
       for (int a = 0; a < D; ++a) P.velocity[i][a] = rows[i][D + 2 + a];
   }
+  // Given speeds must keep the kinetic energy finite, as the Gaussian's above (the energies and the time-step
+  // checks square them): name the row at which the sum overflows.
+  double kinetic = 0;
+  for (std::size_t i = 0; i < N; ++i) {
+    kinetic += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
+    if (std::isfinite(kinetic)) continue;
+    const std::string what = fmt::format("the velocity ({}) of particle {} (mass {:.3g}) makes the kinetic energy summed "
+                                         "up to it overflow a double: allowed speeds whose total energy is finite",
+                                         fmt::join(P.velocity[i], ", "), i, P.mass[i]);
+    if (vel == "list") s.fail("particles.velocities", fmt::format("row {}: {}", i, what));
+    s.fail("particles.file", fmt::format("{}:{}: {}", file_path.string(), row_lines[i], what));
+  }
   if (s.has("particles.angular_velocities")) {
     auto w = s.matrix("particles.angular_velocities");
     constexpr std::size_t comps = D == 3 ? 3 : 1;
@@ -340,8 +390,22 @@ InitialState<D> make_initial_state(const Scene& s) {
         s.fail("particles.angular_velocities", fmt::format("row {} has {} components; need {}", i, w[i].size(), comps));
       for (std::size_t a = 0; a < comps; ++a) P.angular_velocity[i][a] = w[i][a];
     }
+    double rotational = 0;
+    for (std::size_t i = 0; i < N; ++i) {
+      rotational += 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
+      if (!std::isfinite(rotational))
+        s.fail("particles.angular_velocities", fmt::format("row {}: the spin of particle {} makes the rotational energy "
+                                                           "summed up to it overflow a double: allowed spins whose total "
+                                                           "energy is finite", i, i));
+    }
   }
   return st;
+}
+
+std::optional<std::filesystem::path> particle_file(const Scene& s) {
+  if (s.text("particles.layout") != "file") return std::nullopt;
+  auto path = std::filesystem::path(s.text("particles.file"));
+  return path.is_relative() ? s.directory() / path : path;
 }
 
 template InitialState<2> make_initial_state<2>(const Scene&);

@@ -25,7 +25,15 @@ std::optional<long> run_steps(const Scene& scene, const Simulation& sim) {
       scene.fail("time.free_fall_times", fmt::format("value {} needs the free-fall time of a self-gravitating cloud: set "
                                                      "gravity.enabled = true, or give time.duration",
                                                      scene.real("time.free_fall_times")));
-    steps = scene.real("time.free_fall_times") * sim.get("free_fall_time") / sim.dt();
+    // One particle (or all at the centre of mass) has R0 = 0: no free-fall time to count in (0 steps, NaN outputs).
+    const double free_fall_time = sim.get("free_fall_time");
+    if (!(free_fall_time > 0))
+      scene.fail("time.free_fall_times", fmt::format("value {} counts in free-fall times t_ff = sqrt(R0^3 / (G M)), but "
+                                                     "this cloud of {} particle(s) has none (t_ff = {:.6g}: R0, its largest "
+                                                     "distance from the centre of mass, is 0); give time.steps or "
+                                                     "time.duration instead", scene.real("time.free_fall_times"),
+                                                     sim.particle_count(), free_fall_time));
+    steps = scene.real("time.free_fall_times") * free_fall_time / sim.dt();
   }
   // a step count must fit the step counter (and a run of more steps would not end anyway)
   if (!(steps <= Simulation::max_steps))

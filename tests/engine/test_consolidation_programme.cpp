@@ -274,3 +274,45 @@ TEST_CASE("programme: a background drag in a ramped first compression above P* =
     CHECK(b->save_state() == a->save_state());
   }
 }
+
+TEST_CASE("programme: stopped between two checks (StopPoll) and continued, it ends as the unbroken one",
+          "[programme][ramp][checkpoint]") {
+  // A Ctrl-C was read only at the checks (programme.check_every): the poll between them stops the programme there,
+  // inside the ramp (its target set at the last check) and after it; the continued stage goes on to the next check.
+  auto scene = type1_packing(12, 3, 1.0, 0.0, 3000);
+  scene.set_value("programme.first_compression_time", "0.5");
+  const auto settings = ProgrammeSettings::from_scene(scene);   // checks every 100 steps, a ramp of 6300
+  for (const long stop_at : {3050L, 6770L}) {
+    INFO("stopped at step " << stop_at);
+    std::vector<std::byte> saved;
+    StageProgress at;
+    auto a = Simulation::create(scene);
+    // The unbroken programme saves where the other stops (a save restarts CVODE: both do it there).
+    const StopPoll saving{[&] {
+                            if (a->step_count() == stop_at) saved = a->save_state();
+                            return false;
+                          }, 10};
+    const auto whole = run_programme(*a, settings, {}, {}, {}, saving);
+    REQUIRE(!saved.empty());
+    auto c = Simulation::create(scene);
+    long polls = 0, checked_at = -1;
+    const StopPoll stopping{[&] { return ++polls, c->step_count() == stop_at; }, 10};
+    const auto part = run_programme(*c, settings, {}, [&](const StageRecord& r, long, const StageProgress& p) {
+      if (r.steps % 100 == 0) return false;
+      checked_at = r.steps, at = p;
+      return true;
+    }, {}, stopping);
+    CHECK(part.empty());
+    CHECK(checked_at == stop_at);
+    CHECK(at.steps == stop_at);
+    CHECK(c->save_state() == saved);
+    auto b = Simulation::create(scene);
+    b->restore_state(saved);
+    const auto rest = run_programme(*b, settings, {}, {}, at, StopPoll{[] { return false; }, 10});
+    REQUIRE(whole.size() == 1);
+    REQUIRE(rest.size() == 1);
+    CHECK(rest[0].steps == whole[0].steps);
+    CHECK(rest[0].reached == whole[0].reached);
+    CHECK(b->save_state() == a->save_state());
+  }
+}

@@ -56,3 +56,13 @@ TEST_CASE("run length: free-fall times need self-gravity", "[scene][run_length][
   CHECK_THROWS_WITH(steps_of(cloud_scene(no_gravity) + "[time]\nfree_fall_times = 3.0\n"),
                     Contains("time.free_fall_times") && Contains("gravity.enabled = true"));
 }
+
+TEST_CASE("run length: free-fall times of a cloud without a free-fall time are refused", "[scene][run_length][errors]") {
+  // One particle: R0 = 0, t_ff = 0; the run took 0 steps, its outputs NaN, and exited 0.
+  CloudScene one = small_cloud;
+  one.count = 1, one.edge = 10;
+  CHECK_THROWS_WITH(steps_of(cloud_scene(one) + "[time]\nfree_fall_times = 3.0\n"),
+                    Contains("time.free_fall_times: value 3") && Contains("1 particle(s) has none") &&
+                        Contains("give time.steps or time.duration instead"));
+  CHECK(steps_of(cloud_scene(one) + "[time]\nsteps = 10\n") == 10);
+}

@@ -186,11 +186,41 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
                                          "box.periodic=false"};
   REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
                                              Contains("column 5") && Contains("'np.float64(1.0)' is not a number"));
+  // Words strtod reads as non-finite numbers failed only later, naming neither the file nor the line.
+  for (const auto& [word, value] : {std::pair{"nan", "nan"}, std::pair{"-inf", "-inf"}, std::pair{"1e999", "inf"}}) {
+    {
+      std::ofstream f(path);
+      f << "0 0 0 1 1\n2 " << word << " 0 1 1\n";
+    }
+    REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:2: column 2") &&
+                                               Contains(fmt::format("'{}' is {}, expected a finite number", word, value)));
+  }
   {
     std::ofstream f(path);
     f << "0 0 0 1 1\n2 0 0 1 1\n";
   }
   REQUIRE_NOTHROW(build(good, file));
+  std::filesystem::remove(path);
+}
+
+TEST_CASE("scene errors: particle file rows with different column counts are refused, naming the line", "[scene][errors]") {
+  // Velocities were read from every row by the first row's width: past the end of a shorter row (a heap
+  // read out of bounds), or silently dropped when the first row had none.
+  const auto path = std::filesystem::temp_directory_path() / "grains-ragged-rows.txt";
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.periodic=false"};
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass vx vy vz\n0 0 0 1 1 1 0 0\n2 0 0 1 1\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
+                                             Contains("5 columns") && Contains("first particle row (line 2) has 8"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1\n\n2 0 0 1 1 -1 0 0\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
+                                             Contains("8 columns") && Contains("first particle row (line 1) has 5"));
   std::filesystem::remove(path);
 }
 
@@ -250,4 +280,61 @@ TEST_CASE("scene errors: a kinetic energy whose total overflows names particles.
   REQUIRE_THROWS_WITH(build(hot, {"particles.kinetic_energy=1e308"}),
                       Contains("particles.kinetic_energy") && Contains("value 1e+308") && Contains("27 particles"));
   build(hot, {"particles.kinetic_energy=1e300"});   // large but finite: accepted
+}
+
+TEST_CASE("scene errors: given velocities whose kinetic energy overflows name the key, or the file and line", "[scene][errors]") {
+  // The run once "completed" with kinetic_energy inf.
+  const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
+                                        "box.periodic=false", "particles.velocity=\"list\""};
+  auto plus = [&](std::string extra) { auto v = two; v.push_back(std::move(extra)); return v; };
+  REQUIRE_THROWS_WITH(build(good, plus("particles.velocities=[[0,0,0],[1e160,0,0]]")),
+                      Contains("particles.velocities: row 1") && Contains("1e+160") && Contains("overflow a double"));
+  REQUIRE_NOTHROW(build(good, plus("particles.velocities=[[0,0,0],[1e150,0,0]]")));   // large, finite energy
+  auto spun = plus("particles.velocities=[[0,0,0],[0,0,0]]");
+  spun.push_back("particles.angular_velocities=[[0,0,0],[0,1e200,0]]");
+  REQUIRE_THROWS_WITH(build(good, spun), Contains("particles.angular_velocities: row 1") && Contains("overflow a double"));
+  const auto path = std::filesystem::temp_directory_path() / "grains-fast-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass vx vy vz\n0 0 0 1 1 0 0 0\n2 0 0 1 1 0 -1e160 0\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                   "box.periodic=false"}),
+                      Contains("particles.file") && Contains("grains-fast-rows.txt:3") && Contains("overflow a double"));
+  std::filesystem::remove(path);
+}
+
+TEST_CASE("scene errors: given particles at the same position are named; deep overlaps are warned about", "[scene][errors]") {
+  // Both ran with no word: coincident particles failed with a non-finite force naming no key, deeply overlapping
+  // ones flew apart.
+  const std::vector<std::string> list = {"particles.layout=\"list\"", "box.periodic=false"};
+  auto plus = [&](std::string extra) { auto v = list; v.push_back(std::move(extra)); return v; };
+  REQUIRE_THROWS_WITH(build(good, plus("particles.positions=[[0,0,0],[3,0,0],[3,0,0]]")),
+                      Contains("particles.positions: particle 1 (row 1) and particle 2 (row 2) are at the same position"));
+  const auto deep = Simulation::create(Scene::from_string(good, "bad.toml", plus("particles.positions=[[0,0,0],[0.1,0,0],[5,0,0],[5.5,0,0]]")));
+  REQUIRE(deep->warnings().size() == 1);
+  CHECK_THAT(deep->warnings()[0], Contains("particles.positions: 2 pair(s) of particles overlap") &&
+                                      Contains("contact.overlap_limit") && Contains("particle 0 (row 0) and particle 1 (row 1)") &&
+                                      Contains("by 0.9 (1.8 min(R_i, R_j))"));
+  // Within the limit (0.1 R): no warning.
+  CHECK(Simulation::create(Scene::from_string(good, "ok.toml", plus("particles.positions=[[0,0,0],[0.96,0,0]]")))->warnings().empty());
+  // Across a periodic boundary too, and from a file, naming its lines.
+  const auto path = std::filesystem::temp_directory_path() / "grains-overlapping-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass\n0.1 1 1 1 1\n\n3.9 1 1 1 1\n2 2 2 1 1\n";
+  }
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.lengths=[4.0, 4.0, 4.0]", "box.periodic=true"};
+  const auto wrapped = Simulation::create(Scene::from_string(good, "bad.toml", file));
+  REQUIRE(wrapped->warnings().size() == 1);
+  CHECK_THAT(wrapped->warnings()[0], Contains("particles.file: 1 pair(s)") && Contains("grains-overlapping-rows.txt:2)") &&
+                                         Contains("grains-overlapping-rows.txt:4)") && Contains("by 0.8 (1.6"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1\n2 2 2 1 1\n0 0 0 1 1\n";
+  }
+  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file: particle 0") && Contains("grains-overlapping-rows.txt:1)") &&
+                                             Contains("grains-overlapping-rows.txt:3)") && Contains("same position (0, 0, 0)"));
+  std::filesystem::remove(path);
 }

@@ -279,3 +279,130 @@ def test_run_stops_at_the_aggregation_when_asked(grains_bin, root, tmp_path):
     bad = run(grains_bin, "run", root / "models" / "gas.toml", "--out", tmp_path / "gas.h5", "--quiet",
               "--set", "analysis.stop_at_aggregation=true")
     assert bad.returncode != 0 and "analysis.stop_at_aggregation" in bad.stderr and "gravity.enabled" in bad.stderr
+
+
+def _scene_reading_a_particle_file(root, folder):
+    """collision-2d with its two disks read from a particle file beside the scene."""
+    rows = folder / "disks.txt"
+    rows.write_text("-0.6 0 1 1 0.5 0\n0.6 0 1 1 -0.5 0\n")
+    scene = folder / "scene.toml"
+    text = (root / "models" / "collision-2d.toml").read_text()
+    text = text.replace('layout = "list"', 'layout = "file"\nfile = "disks.txt"')
+    text = text.replace("positions = [[-0.6, 0.0], [0.6, 0.0]]\n", "").replace('velocity = "list"\n', "")
+    text = text.replace("velocities = [[0.5, 0.0], [-0.5, 0.0]]\n", "").replace("diameter = 1.0\nmass = 1.0\n", "")
+    scene.write_text(text)
+    return scene, rows
+
+
+def test_output_onto_the_particle_file_is_refused(grains_bin, root, tmp_path):
+    """`--out` naming the scene's particle file (or a link to it) overwrote the input with HDF5."""
+    scene, rows = _scene_reading_a_particle_file(root, tmp_path)
+    text = rows.read_text()
+    (tmp_path / "soft.txt").symlink_to(rows)
+    (tmp_path / "hard.txt").hardlink_to(rows)
+    for out in (rows, tmp_path / "soft.txt", tmp_path / "hard.txt", "disks.txt"):
+        for command, option in (("run", ["--out", out, "--quiet"]), ("check", ["--set", f"output.file=\"{out}\""])):
+            r = run(grains_bin, command, scene, *option, cwd=tmp_path)
+            assert r.returncode == 1, (out, command, r.stderr)
+            assert "is the scene's particle file (particles.file) itself" in r.stderr, (out, command, r.stderr)
+    assert rows.read_text() == text
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "ok.h5", "--quiet")
+    assert r.returncode == 0, r.stderr
+
+
+def test_consolidate_output_onto_the_particle_file_is_refused(grains_bin, root, tmp_path):
+    rows = tmp_path / "disks.txt"
+    rows.write_text("".join(f"{x} {y} 1 1\n" for x in range(0, 10, 2) for y in range(0, 10, 2)))
+    text = rows.read_text()
+    common = ["--set", "particles.layout=\"file\"", "--set", f"particles.file=\"{rows}\"", "--set",
+              "box.lengths=[10.0, 10.0]", "--set", "programme.stage_budget=300", "--quiet"]
+    scene = root / "models" / "cohesionless.toml"
+    for option in (["--out", rows, "--table", tmp_path / "t.csv"], ["--table", rows, "--out", tmp_path / "o.h5"]):
+        r = run(grains_bin, "consolidate", scene, *option, *common)
+        assert r.returncode == 1 and "is the scene's particle file (particles.file) itself" in r.stderr, r.stderr
+        assert option[0] in r.stderr
+    assert rows.read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["disks.txt"]
+
+
+def test_xdmf_beside_the_output_may_not_overwrite_it_or_an_input(grains_bin, root, tmp_path):
+    """The .xdmf written beside the HDF5 file (same name) overwrote `--out x.xdmf` itself, the scene, or the
+    particle file; `--table co.xdmf` of a programme writing co.h5 likewise."""
+    scene, rows = _scene_reading_a_particle_file(root, tmp_path)
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "x.xdmf", "--quiet")
+    assert r.returncode == 1 and "--out: output file" in r.stderr and "ends in .xdmf" in r.stderr, r.stderr
+    rows_xdmf = rows.rename(tmp_path / "disks.xdmf")
+    scene.write_text(scene.read_text().replace("disks.txt", "disks.xdmf"))
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "disks.h5", "--quiet")
+    assert r.returncode == 1 and "--out: the XDMF file written beside output file" in r.stderr, r.stderr
+    assert "the scene's particle file (particles.file) itself" in r.stderr
+    scene_xdmf = scene.rename(tmp_path / "scene.xdmf")
+    r = run(grains_bin, "run", scene_xdmf, "--set", f"output.file=\"{tmp_path / 'scene.h5'}\"", "--quiet")
+    assert r.returncode == 1 and "output.file: the XDMF file written beside" in r.stderr, r.stderr
+    assert "the scene file itself" in r.stderr
+    r = run(grains_bin, "run", scene_xdmf, "--out", tmp_path / "scene.h5", "--set", "output.xdmf=false", "--quiet")
+    assert r.returncode == 0, r.stderr   # no XDMF file: nothing overwritten
+    r = run(grains_bin, "consolidate", root / "models" / "cohesionless.toml", "--out", tmp_path / "co.h5", "--table",
+            tmp_path / "co.xdmf", "--set", "particles.count=60", "--quiet")
+    assert r.returncode == 1 and "--table: stage table" in r.stderr and "XDMF file written beside" in r.stderr, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["disks.xdmf", "scene.h5", "scene.xdmf"]
+    assert rows_xdmf.read_text().startswith("-0.6 0 1 1")
+
+
+@pytest.mark.parametrize("command, model, option", [
+    ("run", "collision-2d", "--out"), ("consolidate", "cohesionless", "--out"), ("consolidate", "cohesionless", "--table")])
+def test_an_empty_or_unusable_output_name_is_refused_naming_the_option(grains_bin, root, tmp_path, command, model, option):
+    """`--out ''` wrote SCENE.h5 in the working folder silently; a name too long for the system gave a raw
+    "filesystem error" (or an HDF5 error naming no option, after a programme had written its HDF5 file)."""
+    args = [command, root / "models" / f"{model}.toml", "--quiet",
+            *(["--set", "particles.count=60"] if command == "consolidate" else [])]
+    r = run(grains_bin, *args, option, "", cwd=tmp_path)
+    assert r.returncode != 0 and f"{option}: the file name is empty" in r.stderr, r.stderr
+    too_long = "a" * 300
+    for name in (f"{too_long}.h5", f"{too_long}/x.h5"):
+        r = run(grains_bin, *args, option, tmp_path / name, cwd=tmp_path)
+        assert r.returncode == 1 and f"error: {option}: cannot use the output" in r.stderr, r.stderr
+        assert "File name too long" in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_interrupt_is_acted_on_between_rare_outputs(grains_bin, root, tmp_path):
+    """With an output due only every 1e8 steps, Ctrl-C (SIGINT) was read only at the next one: never, in practice."""
+    out = tmp_path / "gas.h5"
+    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet",
+                          "--set", "time.steps=1000000000", "--set", "particles.count=512", "--set", "run.threads=1",
+                          "--set", "output.observables_every=100000000", "--set", "output.snapshots_every=0"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    try:
+        stdout, stderr = p.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.communicate()
+        pytest.fail("the run did not stop within 10 s of SIGINT")
+    assert p.returncode == 130, stderr
+    with h5py.File(out) as f:
+        status = f["grains"].attrs["status"]
+        status = status.decode() if isinstance(status, bytes) else status
+        step = int(status.split()[-1])
+        assert status.startswith("interrupted at step ") and 0 < step < 100000000
+        assert f["observables/kinetic_energy/step"][-1] == step
+
+
+@pytest.mark.parametrize("command, model, extra", [
+    ("run", "collision-2d", ["--out", "x.h5", "--quiet"]),
+    ("check", "collision-2d", []),
+    ("consolidate", "cohesionless", ["--out", "x.h5", "--table", "x.csv", "--quiet", "--set", "programme.stage_budget=200"]),
+])
+def test_set_takes_one_value_so_the_scene_may_follow_it(grains_bin, root, tmp_path, command, model, extra):
+    """`--set K=V SCENE` gave "scene is required": --set took the scene as a second override."""
+    r = run(grains_bin, command, "--set", "particles.seed=7", root / "models" / f"{model}.toml", *extra,
+            *(["--set", "particles.count=60"] if command == "consolidate" else []), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = run(grains_bin, command, root / "models" / f"{model}.toml", "--set", "particles.seed=7", "particles.seed=8",
+            cwd=tmp_path)
+    assert r.returncode != 0 and "particles.seed=8" in r.stderr, r.stderr

@@ -1,0 +1,80 @@
+#include "output_paths.hpp"
+
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "io/scene.hpp"
+#include "protocols/initial_state.hpp"
+
+namespace grains {
+namespace {
+
+// The files the run reads, with what they are, for the messages.
+std::vector<std::pair<std::filesystem::path, std::string>> run_inputs(const std::string& scene_file, const Scene& scene) {
+  std::vector<std::pair<std::filesystem::path, std::string>> inputs{{scene_file, "the scene file"}};
+  if (auto particles = particle_file(scene)) inputs.emplace_back(*particles, "the scene's particle file (particles.file)");
+  return inputs;
+}
+
+void check_name_and_folder(const std::string& output, const std::string& source) {
+  namespace fs = std::filesystem;
+  if (output.empty()) throw SceneError(fmt::format("{}: the output file name is empty: name a file", source));
+  // A name the system refuses (too long, a loop of links): said now, naming the option, not as a raw filesystem
+  // error or once other outputs are written.
+  std::error_code ec;
+  const auto dir = fs::path(output).parent_path();
+  if (!dir.empty() && !fs::is_directory(dir, ec)) {
+    if (ec && ec != std::errc::no_such_file_or_directory)
+      throw SceneError(fmt::format("{}: cannot use the output directory '{}': {} (output file '{}')", source, dir.string(),
+                                   ec.message(), output));
+    throw SceneError(fmt::format("{}: output directory '{}' {} (output file '{}')", source, dir.string(),
+                                 fs::exists(dir, ec) ? "is a file, not a folder" : "does not exist", output));
+  }
+  [[maybe_unused]] const auto status = fs::status(output, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory)
+    throw SceneError(fmt::format("{}: cannot use the output file '{}': {}", source, output, ec.message()));
+}
+
+}  // namespace
+
+bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::equivalent(a, b, ec)) return true;
+  const auto absolute_a = fs::absolute(a, ec).lexically_normal();
+  return !ec && absolute_a == fs::absolute(b, ec).lexically_normal() && !ec;
+}
+
+std::optional<std::string> xdmf_beside(const std::string& hdf5, const Scene& scene) {
+  if (!scene.boolean("output.xdmf")) return std::nullopt;
+  return std::filesystem::path(hdf5).replace_extension(".xdmf").string();
+}
+
+void check_output_path(const std::string& output, const std::string& scene_file, const Scene& scene,
+                       const std::string& source) {
+  check_name_and_folder(output, source);
+  for (const auto& [input, what] : run_inputs(scene_file, scene))
+    if (same_file(output, input))
+      throw SceneError(fmt::format("{}: output file '{}' is {} itself: name another file (--out, --table)", source, output,
+                                   what));
+}
+
+void check_hdf5_output_path(const std::string& hdf5, const std::string& scene_file, const Scene& scene,
+                            const std::string& source) {
+  check_output_path(hdf5, scene_file, scene, source);
+  const auto xdmf = xdmf_beside(hdf5, scene);
+  if (!xdmf) return;
+  if (same_file(*xdmf, hdf5))
+    throw SceneError(fmt::format("{}: output file '{}' ends in .xdmf: the XDMF file written beside it (the same name with "
+                                 ".xdmf) would overwrite it; name the HDF5 file FILE.h5 (or set output.xdmf = false)",
+                                 source, hdf5));
+  for (const auto& [input, what] : run_inputs(scene_file, scene))
+    if (same_file(*xdmf, input))
+      throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', {} itself: name "
+                                   "another output file (or set output.xdmf = false)", source, hdf5, *xdmf, what));
+}
+
+}  // namespace grains
