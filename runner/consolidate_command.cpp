@@ -61,7 +61,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   // The next output.checkpoint_every checkpoint: at the first check past the next multiple of N after the last
   // checkpoint, whichever wrote it. A stage's end counts: a resume from there cannot know that a multiple fell
   // in the stage's last steps, so the unbroken programme must not write one at the next stage's first check
-  // either (it would restart CVODE where the resumed one does not).
+  // either (the two files would hold different checkpoints).
   const long checkpoint_every = scene.integer("output.checkpoint_every");
   const auto next_multiple = [&] { return checkpoint_every > 0 ? (sim.step_count() / checkpoint_every + 1) * checkpoint_every : -1; };
   long next_checkpoint = next_multiple();
@@ -113,8 +113,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
       out.write_warning(fmt::format("stage {} ({}, P* = {:.6g}) not reached within {} steps", r.index, r.phase, r.target, r.steps));
     }
     // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains
-    // resume`. The next stage's new target pressure restarts CVODE at its first step, which is where the
-    // saved state restarts it too: the programme runs as it would without checkpoints.
+    // resume`. Saving changes nothing (the state carries what rebuilds CVODE's history): the programme runs as
+    // it would without checkpoints.
     if (r.index + 1 < stages) checkpoint(r.index, {});
     // A network that does not resist some strain has B or G = 0; one with negative stiffness directions has no
     // moduli (NaN): say so rather than print numbers without saying what they are.

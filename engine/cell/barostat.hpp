@@ -23,7 +23,8 @@ template <int D>
 class Barostat {
  public:
   Barostat(const CellLengthParameters& p, const Vec<D>& length, double target_pressure, double t)
-      : ode_(p), length_(length), rate_(Vec<D>::Zero()), target_(target_pressure) {
+      : ode_(p), length_(length), rate_(Vec<D>::Zero()), target_(target_pressure), advanced_target_(target_pressure),
+        advanced_cap_(p.rate_cap) {
     restart(t);
   }
 
@@ -32,8 +33,11 @@ class Barostat {
   double target_pressure() const { return target_; }
   // A new target (and the strain-rate cap that goes with it) is a discontinuity of the forcing:
   // CVODE restarts at the next step.
+  // Judged against the forcing CVODE last integrated with, not against earlier calls between two steps: a
+  // programme continued from a saved state that sets its stage's target and then the ramp's, as before the
+  // save, makes no discontinuity (and no restart the unbroken run did not make).
   void set_target_pressure(double p, double rate_cap) {
-    if (p != target_ || rate_cap != ode_.parameters().rate_cap) reset_pending_ = true;
+    target_changed_ = p != advanced_target_ || rate_cap != advanced_cap_;
     follow_target_pressure(p, rate_cap);
   }
   // A target that moves a little every step (a ramp): like the stress, part of the forcing CVODE follows
@@ -67,7 +71,9 @@ class Barostat {
   // Advance the lengths over [t, t_end] under `stress` (frozen); returns L(t_end) / L(t) per axis. The next
   // advance continues CVODE's history if it starts at this one's t_end exactly.
   Vec<D> advance(double t, double t_end, const Tensor<D>& stress) {
-    if (reset_pending_ || restart_every_step_ || ode_.time() != t || since_restart_.size() >= replay_limit) restart(t);
+    if (reset_pending_ || target_changed_ || restart_every_step_ || ode_.time() != t || since_restart_.size() >= replay_limit)
+      restart(t);
+    target_changed_ = false, advanced_target_ = target_, advanced_cap_ = ode_.parameters().rate_cap;
     Vec<D> excess;
     for (int a = 0; a < D; ++a) excess[a] = stress(a, a) - target_;
     ode_.advance(t_end, excess.data());
@@ -80,11 +86,13 @@ class Barostat {
   }
 
   void save(ByteWriter& w) const {
-    w.put(length_), w.put(rate_), w.put(target_), w.put(reset_pending_);
+    w.put(length_), w.put(rate_), w.put(target_), w.put(reset_pending_), w.put(target_changed_), w.put(advanced_target_),
+        w.put(advanced_cap_);
     w.put(restart_), w.put_vector(since_restart_), w.put(ode_.statistics());
   }
   void load(ByteReader& r) {
     length_ = r.get<Vec<D>>(), rate_ = r.get<Vec<D>>(), target_ = r.get<double>(), reset_pending_ = r.get<bool>();
+    target_changed_ = r.get<bool>(), advanced_target_ = r.get<double>(), advanced_cap_ = r.get<double>();
     restart_ = r.get<Restart>(), r.get_vector(since_restart_);
     const auto statistics = r.get<CellLengthStatistics>();
     if (since_restart_.size() > replay_limit) throw std::runtime_error("saved barostat history is longer than this build keeps");
@@ -127,7 +135,9 @@ class Barostat {
   CellLengthOde ode_;
   Vec<D> length_, rate_;   // rate_: CVODE's rate variable, what a restart starts from
   double target_;
-  bool reset_pending_ = false;
+  bool reset_pending_ = false;    // a held cell released (or held): CVODE restarts at the next advance
+  bool target_changed_ = false;   // set_target_pressure moved the forcing from what CVODE last integrated
+  double advanced_target_, advanced_cap_;   // ... which was this
   bool restart_every_step_ = false;
   Restart restart_{};
   std::vector<Advance> since_restart_;

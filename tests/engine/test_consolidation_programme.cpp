@@ -120,9 +120,9 @@ TEST_CASE("programme: stopped inside a stage and continued from its state and pr
           "[programme][checkpoint]") {
   auto scene = Scene::from_string(small_programme(400000), "programme");
   const auto settings = ProgrammeSettings::from_scene(scene);
-  // Saving a state restarts CVODE at the next step, so both programmes save at the same checks of stage 1:
-  // every 2000 steps, and the unbroken one also at its first check with the quench on, which is where the
-  // other continues from. From there on the two must agree to the last bit.
+  // Both programmes save at the same checks of stage 1 (saving changes nothing; the schedule is as it was when a
+  // save restarted CVODE): every 2000 steps, and the unbroken one also at its first check with the quench on,
+  // which is where the other continues from. From there on the two must agree to the last bit.
   std::vector<std::byte> saved;
   StageProgress at;
   auto saving = [&](Simulation& s, bool unbroken) {
@@ -223,7 +223,7 @@ TEST_CASE("programme: a ramped first compression stopped inside and after its ra
     StageProgress at;
     auto a = Simulation::create(scene);
     const auto whole = run_programme(*a, settings, {}, [&](const StageRecord& r, long, const StageProgress& p) {
-      if (r.steps == stop_at) saved = a->save_state(), at = p;   // a save restarts CVODE: both runs save here
+      if (r.steps == stop_at) saved = a->save_state(), at = p;   // both runs save here
       return false;
     });
     REQUIRE(!saved.empty());
@@ -287,7 +287,7 @@ TEST_CASE("programme: stopped between two checks (StopPoll) and continued, it en
     std::vector<std::byte> saved;
     StageProgress at;
     auto a = Simulation::create(scene);
-    // The unbroken programme saves where the other stops (a save restarts CVODE: both do it there).
+    // The unbroken programme saves where the other stops.
     const StopPoll saving{[&] {
                             if (a->step_count() == stop_at) saved = a->save_state();
                             return false;

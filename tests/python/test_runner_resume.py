@@ -336,8 +336,8 @@ def test_a_programme_resumed_from_a_stage_end_past_a_checkpoint_multiple_ends_as
                                                                                                   tmp_path):
     """Stages of 1000 steps and output.checkpoint_every = 1000: every multiple falls on a stage's end, where the
     stage's own checkpoint is written. A resume from that checkpoint cannot know a multiple was pending there, so the
-    unbroken programme must not write another at the next stage's first check (it restarted CVODE where the resumed
-    programme did not, and the two parted at the level of CVODE's tolerance)."""
+    unbroken programme must not write another at the next stage's first check (the two files would hold different
+    checkpoints)."""
     whole, whole_table, killed, killed_table, rows = killed_programme(
         grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000), lambda rows: rows[:3])
     assert len(rows) == 4   # three stages of 1000 steps, none in equilibrium
