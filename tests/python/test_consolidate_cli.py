@@ -6,6 +6,8 @@ import subprocess
 import h5py
 import pytest
 
+from interrupt import interrupted
+
 SCENES = ["consolidation", "consolidation-rr", "consolidation-type1", "cohesionless", "consolidation-3d",
           "consolidation-rr-3d"]
 
@@ -90,25 +92,12 @@ def test_a_first_compression_ramp_that_cannot_run_is_refused_before_anything_is_
 
 def test_consolidate_acts_on_an_interrupt_between_rare_checks(grains_bin, root, tmp_path):
     """Ctrl-C was read only at the equilibrium checks: with programme.check_every = 1e8, never in practice."""
-    import signal
-    import time
     out = tmp_path / "co.h5"
-    p = subprocess.Popen([grains_bin, "consolidate", str(root / "models" / "cohesionless.toml"), "--out", str(out),
-                          "--table", str(tmp_path / "co.csv"), "--quiet", "--set", "particles.count=60", "--set",
-                          "programme.check_every=100000000", "--set", "programme.stage_budget=1000000000"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
-    time.sleep(0.5)
-    p.send_signal(signal.SIGINT)
-    try:
-        stdout, stderr = p.communicate(timeout=10)
-    except subprocess.TimeoutExpired:
-        p.kill()
-        p.communicate()
-        pytest.fail("the programme did not stop within 10 s of SIGINT")
-    assert p.returncode == 130, stderr
+    code, stdout, stderr = interrupted([grains_bin, "consolidate", root / "models" / "cohesionless.toml", "--out", out,
+                                        "--table", tmp_path / "co.csv", "--quiet", "--set", "particles.count=60", "--set",
+                                        "programme.check_every=100000000", "--set", "programme.stage_budget=1000000000"],
+                                       out, 0.5, within=10)
+    assert code == 130, stderr
     assert "INTERRUPTED in stage 0" in stdout
     with h5py.File(out) as f:
         status = f["grains"].attrs["status"]

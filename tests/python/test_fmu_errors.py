@@ -18,6 +18,13 @@ def unit(request):
     u.free()
 
 
+def host_process(script, version):
+    """Runs a host script in its own process (a crash there fails the test, not the suite) with fmu_host importable."""
+    here = pathlib.Path(__file__).parent
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
+    return subprocess.run([sys.executable, "-c", script, str(version)], capture_output=True, text=True, env=env)
+
+
 def fails(unit, call, *words):
     """The call raises (error status) and one logged error message holds every word."""
     before = len(unit.errors())
@@ -176,9 +183,7 @@ print(new.value != c.value, reset(c), reset(new))
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_freed_instance_is_refused_not_dereferenced(version):
-    here = pathlib.Path(__file__).parent
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
-    r = subprocess.run([sys.executable, "-c", FREED_INSTANCE_HOST, str(version)], capture_output=True, text=True, env=env)
+    r = host_process(FREED_INSTANCE_HOST, version)
     assert r.returncode == 0, r.stderr
     # fmi2Error / fmi3Error for the freed handle and for a stranger; then a new handle, which works, while the
     # freed one is still refused
@@ -226,9 +231,7 @@ print(unit.errors()[-1])
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_null_log_category_is_an_error_not_a_crash(version):
-    here = pathlib.Path(__file__).parent
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
-    r = subprocess.run([sys.executable, "-c", NULL_CATEGORY_HOST, str(version)], capture_output=True, text=True, env=env)
+    r = host_process(NULL_CATEGORY_HOST, version)
     assert r.returncode == 0, r.stderr
     status, message = r.stdout.splitlines()[:2]
     assert status == "3" and "null pointer" in message, r.stdout

@@ -8,6 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
+from interrupt import interrupted
+
 from head_on import clamped_restitution, clamped_separation_time
 
 
@@ -369,22 +371,11 @@ def test_an_empty_or_unusable_output_name_is_refused_naming_the_option(grains_bi
 def test_interrupt_is_acted_on_between_rare_outputs(grains_bin, root, tmp_path):
     """With an output due only every 1e8 steps, Ctrl-C (SIGINT) was read only at the next one: never, in practice."""
     out = tmp_path / "gas.h5"
-    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet",
-                          "--set", "time.steps=1000000000", "--set", "particles.count=512", "--set", "run.threads=1",
-                          "--set", "output.observables_every=100000000", "--set", "output.snapshots_every=0"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
-    time.sleep(0.5)
-    p.send_signal(signal.SIGINT)
-    try:
-        stdout, stderr = p.communicate(timeout=10)
-    except subprocess.TimeoutExpired:
-        p.kill()
-        p.communicate()
-        pytest.fail("the run did not stop within 10 s of SIGINT")
-    assert p.returncode == 130, stderr
+    code, _, stderr = interrupted([grains_bin, "run", root / "models" / "gas.toml", "--out", out, "--quiet",
+                                   "--set", "time.steps=1000000000", "--set", "particles.count=512", "--set", "run.threads=1",
+                                   "--set", "output.observables_every=100000000", "--set", "output.snapshots_every=0"],
+                                  out, 0.5, within=10)
+    assert code == 130, stderr
     with h5py.File(out) as f:
         status = f["grains"].attrs["status"]
         status = status.decode() if isinstance(status, bytes) else status

@@ -1,13 +1,13 @@
 """`grains resume`: a run stopped by a signal or killed continues from the checkpoint in its output file
 and ends with the records of the run that was never stopped."""
 import shutil
-import signal
 import subprocess
-import time
 
 import h5py
 import numpy as np
 import pytest
+
+from interrupt import interrupted
 
 
 def run(grains_bin, *args):
@@ -47,18 +47,6 @@ def assert_same_records(whole, other):
     for name in a:
         if not name.startswith("observables/cvode"):
             assert np.array_equal(a[name][0], b[name][0]) and np.array_equal(a[name][1], b[name][1], equal_nan=True), name
-
-
-def interrupted(cmd, out, after):
-    """Starts a run, sends it SIGINT `after` seconds after its output file appears; returns (code, stdout, stderr)."""
-    p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
-    time.sleep(after)
-    p.send_signal(signal.SIGINT)
-    stdout, stderr = p.communicate(timeout=60)
-    return p.returncode, stdout, stderr
 
 
 def killed_programme(grains_bin, tmp_path, programme, keep_rows):
