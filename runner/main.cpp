@@ -1,5 +1,6 @@
 // grains: command-line runner. `grains --help` lists the commands.
 #include <new>
+#include <string>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -54,6 +55,19 @@ int main(int argc, char** argv) {
 
   auto* cmd_ref = app.add_subcommand("scene-reference", "Print the scene reference (every key, default and range) as Markdown");
 
+  // A word that names no command: CLI11 would say only that a subcommand is required.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string names;
+    bool known = false;
+    for (const auto* sub : app.get_subcommands({})) {
+      known |= sub->get_name() == argv[1];
+      names += fmt::format("{}{}", names.empty() ? "" : ", ", sub->get_name());
+    }
+    if (!known) {
+      fmt::print(stderr, "error: unknown command '{}': the commands are {} (grains --help)\n", argv[1], names);
+      return 1;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

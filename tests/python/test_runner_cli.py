@@ -397,3 +397,9 @@ def test_set_takes_one_value_so_the_scene_may_follow_it(grains_bin, root, tmp_pa
     r = run(grains_bin, command, root / "models" / f"{model}.toml", "--set", "particles.seed=7", "particles.seed=8",
             cwd=tmp_path)
     assert r.returncode != 0 and "particles.seed=8" in r.stderr, r.stderr
+
+
+def test_an_unknown_command_is_named_with_the_commands_there_are(grains_bin):
+    done = subprocess.run([grains_bin, "frobnicate", "x.toml"], capture_output=True, text=True)
+    assert done.returncode == 1
+    assert "unknown command 'frobnicate'" in done.stderr and "run, consolidate, resume, check" in done.stderr
