@@ -21,7 +21,10 @@ int resume_run(const std::string& path, bool quiet) {
 }
 
 Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
-  return Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), {}, cp.scene_directory);
+  // The stored scene is the resolved one: every key written out, defaults included.
+  Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), {}, cp.scene_directory);
+  scene.accept_unread_keys();
+  return scene;
 }
 
 void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp) {

@@ -88,6 +88,12 @@ std::string render(const toml::node& n) {
   return s.str();
 }
 
+// A value as a message quotes it: numbers as they read (100, not 100.0).
+std::string value_text(const toml::node& n) {
+  if (n.is_floating_point()) return fmt::format("{}", *n.value<double>());
+  return render(n);
+}
+
 void collect_unknown(const toml::table& t, const std::string& prefix, std::vector<std::string>& problems) {
   for (auto&& [k, v] : t) {
     std::string path = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
@@ -315,6 +321,23 @@ std::vector<std::vector<double>> Scene::matrix(std::string_view path) const {
 
 void Scene::validate() const { report_problems({}); }
 
+// A key given (in the scene or by --set) that the scene does not read, as its other keys set it up: refused
+// rather than ignored, so that no one believes it took effect. Keys not given are never refused.
+void Scene::unread_keys(std::vector<std::string>& problems) const {
+  for (const auto& rule : unread_key_rules()) {
+    const auto n = node(rule.path);
+    if (!n || (!rule.when.empty() && render(*n.node()) != rule.when)) continue;
+    for (const auto& [key, needed] : rule.needs) {
+      const auto m = node(key);
+      const std::string value = m ? render(*m.node()) : std::string(entry(key).fallback);
+      if (value == needed) continue;
+      problems.push_back(fmt::format("{}: value {} is not used with {} = {}: it needs {} = {}", rule.path,
+                                     value_text(*n.node()), key, value, key, needed));
+      break;
+    }
+  }
+}
+
 void Scene::report_problems(std::vector<std::string> problems) const {
   collect_unknown(table_, "", problems);
   for (const auto& e : scene_schema()) {
@@ -334,6 +357,7 @@ void Scene::report_problems(std::vector<std::string> problems) const {
       problems.push_back(what);
     }
   }
+  if (refuse_unread_) unread_keys(problems);
   if (problems.empty()) return;
   std::string msg = fmt::format("{}: {} problem{} in the scene:", origin_, problems.size(), problems.size() > 1 ? "s" : "");
   for (const auto& p : problems) msg += "\n  - " + p;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <toml++/toml.h>
@@ -43,8 +44,12 @@ class Scene {
   static Scene from_string(std::string_view text, std::string origin, const std::vector<std::string>& overrides = {},
                            const std::filesystem::path& directory = {});
 
-  // Check every present key: known, right type, in range. Throws SceneError listing all problems.
+  // Check every present key: known, right type, in range, and read by the scene as its other keys set it
+  // up (unread_keys()). Throws SceneError listing all problems.
   void validate() const;
+  // A scene whose every key was written out with its value (resolved_toml(), as a checkpoint stores it):
+  // keys it does not read are defaults there, not settings a user gave, and are not refused.
+  void accept_unread_keys() { refuse_unread_ = false; }
 
   bool has(std::string_view path) const;
   double real(std::string_view path) const;
@@ -69,11 +74,23 @@ class Scene {
   bool replace_run_length(std::string_view key);   // true: key is a run-length key
   // Throws SceneError listing `problems` (e.g. the --set overrides') and every problem of the scene, if any.
   void report_problems(std::vector<std::string> problems) const;
+  void unread_keys(std::vector<std::string>& problems) const;   // appends the keys given but not read
   toml::node_view<const toml::node> node(std::string_view path) const;
   const SchemaEntry& entry(std::string_view path) const;
   toml::table table_;
   std::string origin_;
   std::filesystem::path directory_;
+  bool refuse_unread_ = true;
 };
+
+// A key that the scene reads only when other keys have given values (a module on, a choice made); given
+// without them it would be silently ignored, so validate() refuses it. `when`: refused only with this value
+// (TOML text, e.g. "true"), empty: with any value.
+struct UnreadKeyRule {
+  std::string path;
+  std::vector<std::pair<std::string, std::string>> needs;   // key, value (TOML text) it is read with
+  std::string when;
+};
+const std::vector<UnreadKeyRule>& unread_key_rules();
 
 }  // namespace grains

@@ -75,12 +75,10 @@ stiffness_ratio = 0.2857142857142857
 damping_ratio = 0.5
 [cell]
 enabled = {}
-force_unit = 0
-pressure = 1e-3
-[run]
+{}[run]
 threads = {}
 {}
-)", mu, cell, threads, extra), "batched-linear");
+)", mu, cell, cell ? "force_unit = 0\npressure = 1e-3\n" : "", threads, extra), "batched-linear");
 }
 
 }  // namespace grains

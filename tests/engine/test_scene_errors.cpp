@@ -338,3 +338,55 @@ TEST_CASE("scene errors: given particles at the same position are named; deep ov
                                              Contains("grains-overlapping-rows.txt:3)") && Contains("same position (0, 0, 0)"));
   std::filesystem::remove(path);
 }
+
+TEST_CASE("scene errors: a key given where the scene does not read it names the value and the setting it needs",
+          "[scene][errors]") {
+  // Each was once ignored silently: the run went on with the defaults the user believed replaced.
+  REQUIRE_THROWS_WITH(build(good, {"particles.diameter_min=0.4"}),
+                      Contains("particles.diameter_min: value 0.4 is not used with particles.size_distribution = "
+                               "\"constant\": it needs particles.size_distribution = \"uniform\""));
+  REQUIRE_THROWS_WITH(build(with("count = 27", "count = 27\ndiameter_max = 0.9")),
+                      Contains("particles.diameter_max: value 0.9 is not used with particles.size_distribution"));
+  REQUIRE_NOTHROW(build(good, {"particles.size_distribution=\"uniform\"", "particles.diameter_min=0.8"}));
+
+  REQUIRE_THROWS_WITH(build(good, {"particles.kinetic_energy=100"}),
+                      Contains("particles.kinetic_energy: value 100 is not used with particles.velocity = \"zero\": it "
+                               "needs particles.velocity = \"gaussian\""));
+  REQUIRE_THROWS_WITH(build(good, {"particles.velocity=\"zero\"", "particles.kinetic_energy=2.5"}),
+                      Contains("particles.kinetic_energy: value 2.5") && Contains("particles.velocity = \"zero\""));
+  REQUIRE_NOTHROW(build(good, {"particles.velocity=\"gaussian\"", "particles.kinetic_energy=100"}));
+
+  // The moduli come from the adhesive network's stiffness, straining the periodic cell: no B without them.
+  REQUIRE_THROWS_WITH(build(good, {"analysis.elastic_moduli=true"}),
+                      Contains("analysis.elastic_moduli: value true is not used with adhesion.enabled = false: it needs "
+                               "adhesion.enabled = true"));
+  REQUIRE_THROWS_WITH(build(good, {"analysis.elastic_moduli=true", "adhesion.enabled=true", "box.periodic=false",
+                                   "box.lengths=[4.2, 4.2, 4.2]"}),
+                      Contains("analysis.elastic_moduli: value true is not used with box.periodic = false: it needs "
+                               "box.periodic = true"));
+  REQUIRE_NOTHROW(build(good, {"analysis.elastic_moduli=false"}));   // asks for nothing
+  REQUIRE_NOTHROW(build(good, {"analysis.elastic_moduli=true", "adhesion.enabled=true"}));
+
+  // The barostat's keys without the barostat, cell.enabled absent or false.
+  REQUIRE_THROWS_WITH(build(good, {"cell.pressure_final=2", "cell.ramp_duration=10"}),
+                      Contains("cell.pressure_final: value 2 is not used with cell.enabled = false: it needs "
+                               "cell.enabled = true") &&
+                          Contains("cell.ramp_duration: value 10 is not used with cell.enabled = false"));
+  REQUIRE_THROWS_WITH(build(good + "[cell]\nenabled = false\npressure = 0.5\n"),
+                      Contains("cell.pressure: value 0.5 is not used with cell.enabled = false"));
+  REQUIRE_THROWS_WITH(build(good, {"cell.restart_cvode_every_step=true"}),
+                      Contains("cell.restart_cvode_every_step: value true is not used with cell.enabled = false"));
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=false"}));
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.pressure=0.5", "cell.pressure_final=2", "cell.ramp_duration=10"}));
+}
+
+TEST_CASE("scene errors: defaults are never refused as unread, and a stored (resolved) scene may list them all",
+          "[scene][errors]") {
+  REQUIRE_NOTHROW(build(good));
+  // resolved_toml() writes every key with its default, as a checkpoint stores the scene (grains resume).
+  const std::string resolved = Scene::from_string(good, "good.toml").resolved_toml();
+  REQUIRE_THROWS_WITH(build(resolved), Contains("particles.kinetic_energy: value 1.5 is not used"));
+  Scene stored = Scene::from_string(resolved, "stored");
+  stored.accept_unread_keys();
+  REQUIRE_NOTHROW(Simulation::create(stored));
+}
