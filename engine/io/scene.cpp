@@ -321,20 +321,25 @@ std::vector<std::vector<double>> Scene::matrix(std::string_view path) const {
 
 void Scene::validate() const { report_problems({}); }
 
+// The first key a rule's key needs that the scene sets otherwise, if any.
+std::optional<Scene::UnmetNeed> Scene::unmet_need(const UnreadKeyRule& rule) const {
+  for (const auto& [key, needed] : rule.needs) {
+    const auto m = node(key);
+    std::string value = m ? render(*m.node()) : std::string(entry(key).fallback);
+    if (value != needed) return UnmetNeed{key, std::move(value), needed};
+  }
+  return std::nullopt;
+}
+
 // A key given (in the scene or by --set) that the scene does not read, as its other keys set it up: refused
 // rather than ignored, so that no one believes it took effect. Keys not given are never refused.
 void Scene::unread_keys(std::vector<std::string>& problems) const {
   for (const auto& rule : unread_key_rules()) {
     const auto n = node(rule.path);
     if (!n || (!rule.when.empty() && render(*n.node()) != rule.when)) continue;
-    for (const auto& [key, needed] : rule.needs) {
-      const auto m = node(key);
-      const std::string value = m ? render(*m.node()) : std::string(entry(key).fallback);
-      if (value == needed) continue;
+    if (const auto unmet = unmet_need(rule))
       problems.push_back(fmt::format("{}: value {} is not used with {} = {}: it needs {} = {}", rule.path,
-                                     value_text(*n.node()), key, value, key, needed));
-      break;
-    }
+                                     value_text(*n.node()), unmet->key, unmet->value, unmet->key, unmet->needed));
   }
 }
 
@@ -364,14 +369,21 @@ void Scene::report_problems(std::vector<std::string> problems) const {
   throw SceneError(msg);
 }
 
+// Whether the scene reads the key (no rule leaves it unread here).
+bool Scene::read_by_scene(std::string_view path) const {
+  for (const auto& rule : unread_key_rules())
+    if (rule.path == path && rule.when.empty() && unmet_need(rule)) return false;
+  return true;
+}
+
 std::string Scene::resolved_toml() const {
   toml::table out;
   for (const auto& e : scene_schema()) {
     toml::node_view<const toml::node> n = node(e.path);
     toml::table parsed;
     if (!n) {
-      if (e.fallback.empty()) continue;
-      parsed = toml::parse(fmt::format("v = {}", e.fallback));
+      if (e.fallback.empty() || !read_by_scene(e.path)) continue;   // a default the scene does not read is left out,
+      parsed = toml::parse(fmt::format("v = {}", e.fallback));         // so the resolved scene runs as it is
       n = toml::node_view<const toml::node>(parsed.get("v"));
     }
     auto dot = e.path.find('.');

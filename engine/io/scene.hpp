@@ -34,6 +34,8 @@ const std::vector<SchemaEntry>& scene_schema();
 const SchemaEntry* find_schema_entry(std::string_view path);
 std::string schema_reference_markdown();   // the scene reference page, generated from the schema
 
+struct UnreadKeyRule;
+
 class Scene {
  public:
   // Parse a file (or text) and apply "key.path=value" overrides. Throws SceneError. `origin` names the
@@ -75,6 +77,11 @@ class Scene {
   // Throws SceneError listing `problems` (e.g. the --set overrides') and every problem of the scene, if any.
   void report_problems(std::vector<std::string> problems) const;
   void unread_keys(std::vector<std::string>& problems) const;   // appends the keys given but not read
+  struct UnmetNeed {
+    std::string key, value, needed;   // the key a rule needs, its value here, the value it needs
+  };
+  std::optional<UnmetNeed> unmet_need(const UnreadKeyRule& rule) const;
+  bool read_by_scene(std::string_view path) const;   // no rule leaves the key unread here
   toml::node_view<const toml::node> node(std::string_view path) const;
   const SchemaEntry& entry(std::string_view path) const;
   toml::table table_;
