@@ -372,7 +372,7 @@ InitialState<D> make_initial_state(const Scene& s) {
   // Given speeds must keep the kinetic energy finite, as the Gaussian's above (the energies and the time-step
   // checks square them): name the row at which the sum overflows.
   double kinetic = 0;
-  for (std::size_t i = 0; i < N; ++i) {
+  for (std::size_t i = 0; i < N && vel != "gaussian"; ++i) {   // the Gaussian's were checked as they were scaled
     kinetic += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
     if (std::isfinite(kinetic)) continue;
     const std::string what = fmt::format("the velocity ({}) of particle {} (mass {:.3g}) makes the kinetic energy summed "
