@@ -1,5 +1,8 @@
 // The scene format: every key, its type, default, allowed range and meaning, in one table.
 // docs/scene-reference.md is generated from this table (`grains scene-reference`).
+#include <string_view>
+#include <utility>
+
 #include <fmt/format.h>
 
 #include "io/file_name.hpp"
@@ -323,11 +326,26 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
         {"particles.kinetic_energy", {{"particles.velocity", "\"gaussian\""}}, ""},
         // The moduli come from the adhesive contact network's stiffness and strain the periodic cell.
         {"analysis.elastic_moduli", {{"adhesion.enabled", "true"}, {"box.periodic", "true"}}, "true"},
+        // The linear law's calibration; the adhesive law has its own stiffness and restitution.
+        {"contact.restitution", {{"contact.enabled", "true"}, {"adhesion.enabled", "false"}}, ""},
+        {"contact.duration", {{"contact.enabled", "true"}, {"adhesion.enabled", "false"}}, ""},
+        {"contact.calibration", {{"contact.enabled", "true"}, {"adhesion.enabled", "false"}}, ""},
+        {"contact.overlap_limit", {{"contact.enabled", "true"}}, ""},
+        {"analysis.zero_force", {{"adhesion.enabled", "true"}}, ""},
+        // The aggregation analysis runs with self-gravity only.
+        {"analysis.cluster_tolerance", {{"gravity.enabled", "true"}}, ""},
+        {"analysis.aggregation_threshold", {{"gravity.enabled", "true"}}, ""},
+        {"analysis.every", {{"gravity.enabled", "true"}}, ""},
     };
-    // The barostat's keys, read only in a pressure-controlled cell.
+    // Each module's keys, read only with the module on. rolling.coefficient keeps the contact module's own
+    // message (core/simulation.cpp), which names the cohesionless alternative.
+    const std::pair<std::string_view, std::string_view> modules[] = {
+        {"adhesion.", "adhesion.enabled"}, {"gravity.", "gravity.enabled"}, {"friction.", "contact.enabled"},
+        {"rolling.", "adhesion.enabled"}, {"cell.", "cell.enabled"}};
     for (const auto& e : scene_schema())
-      if (e.path.substr(0, 5) == "cell." && e.path != "cell.enabled")
-        r.push_back({std::string(e.path), {{"cell.enabled", "true"}}, ""});
+      for (const auto& [prefix, switch_key] : modules)
+        if (e.path.starts_with(prefix) && e.path != switch_key && e.path != "rolling.coefficient")
+          r.push_back({std::string(e.path), {{std::string(switch_key), "true"}}, ""});
     return r;
   }();
   return rules;

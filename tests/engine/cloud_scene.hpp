@@ -31,14 +31,11 @@ periodic = false
 [contact]
 restitution = {}
 duration = {}
-[gravity]
-enabled = {}
-G = 1.0
-softening = 0.1
+{}
 [run]
 threads = {}
 {}
 )", c.count, c.edge > 0 ? "" : "solid_fraction = 0.05", c.seed,
                      c.edge > 0 ? fmt::format("lengths = [{0}, {0}, {0}]", c.edge) : "", c.restitution, c.duration,
-                     c.gravity, c.threads, extra);
+                     c.gravity ? "[gravity]\nenabled = true\nG = 1.0\nsoftening = 0.1" : "", c.threads, extra);
 }

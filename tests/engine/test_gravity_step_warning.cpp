@@ -26,8 +26,7 @@ masses = [1.0, 3.0, 2.0]
 [box]
 periodic = false
 [contact]
-enabled = {}
-duration = 1.0
+{}
 [gravity]
 enabled = true
 G = 2.0
@@ -36,7 +35,7 @@ softening = 0.5
 dt = {:.17g}
 [run]
 threads = 1
-)", contacts, dt);
+)", contacts ? "enabled = true\nduration = 1.0" : "enabled = false", dt);
 }
 
 }  // namespace

@@ -365,7 +365,35 @@ TEST_CASE("scene errors: a key given where the scene does not read it names the 
                       Contains("analysis.elastic_moduli: value true is not used with box.periodic = false: it needs "
                                "box.periodic = true"));
   REQUIRE_NOTHROW(build(good, {"analysis.elastic_moduli=false"}));   // asks for nothing
-  REQUIRE_NOTHROW(build(good, {"analysis.elastic_moduli=true", "adhesion.enabled=true"}));
+  const std::string adhesive = with("restitution = 0.5\nduration = 0.05", "");   // the linear law's calibration
+  REQUIRE_NOTHROW(build(adhesive, {"analysis.elastic_moduli=true", "adhesion.enabled=true"}));
+
+  // A module's keys without the module: adhesion, self-gravity, friction and rolling without contacts or
+  // adhesion, the linear law's calibration under the adhesive law, the aggregation analysis without gravity.
+  REQUIRE_THROWS_WITH(build(good, {"adhesion.force=2"}),
+                      Contains("adhesion.force: value 2 is not used with adhesion.enabled = false: it needs "
+                               "adhesion.enabled = true"));
+  REQUIRE_THROWS_WITH(build(good, {"analysis.zero_force=1e-3"}),
+                      Contains("analysis.zero_force: value 0.001 is not used with adhesion.enabled = false"));
+  REQUIRE_THROWS_WITH(build(good, {"gravity.softening=0.2", "gravity.solver=\"tree\""}),
+                      Contains("gravity.softening: value 0.2 is not used with gravity.enabled = false: it needs "
+                               "gravity.enabled = true") &&
+                          Contains("gravity.solver: value \"tree\" is not used with gravity.enabled = false"));
+  REQUIRE_THROWS_WITH(build(good, {"analysis.every=10"}),
+                      Contains("analysis.every: value 10 is not used with gravity.enabled = false"));
+  REQUIRE_THROWS_WITH(build(good, {"adhesion.enabled=true"}),
+                      Contains("contact.restitution: value 0.5 is not used with adhesion.enabled = true: it needs "
+                               "adhesion.enabled = false") &&
+                          Contains("contact.duration: value 0.05 is not used with adhesion.enabled = true"));
+  REQUIRE_THROWS_WITH(build(adhesive, {"rolling.stiffness_ratio=1e-3"}),
+                      Contains("rolling.stiffness_ratio: value 0.001 is not used with adhesion.enabled = false"));
+  REQUIRE_THROWS_WITH(build(adhesive, {"contact.enabled=false", "friction.coefficient=0.3", "time.dt=0.01"}),
+                      Contains("friction.coefficient: value 0.3 is not used with contact.enabled = false: it needs "
+                               "contact.enabled = true"));
+  REQUIRE_NOTHROW(build(adhesive, {"adhesion.enabled=true", "adhesion.force=2", "rolling.coefficient=0.005",
+                                   "rolling.stiffness_ratio=1e-3", "analysis.zero_force=1e-3"}));
+  REQUIRE_NOTHROW(build(good, {"box.periodic=false", "box.lengths=[4.2, 4.2, 4.2]", "gravity.enabled=true",
+                               "gravity.softening=0.2", "analysis.every=10"}));
 
   // The barostat's keys without the barostat, cell.enabled absent or false.
   REQUIRE_THROWS_WITH(build(good, {"cell.pressure_final=2", "cell.ramp_duration=10"}),
