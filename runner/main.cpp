@@ -15,6 +15,10 @@ int main(int argc, char** argv) {
                "Runs a scene file (TOML, see docs/scene-reference.md) and writes H5MD output.\n"
                "Example: grains run models/gas.toml --set contact.restitution=0.5 --out gas.h5"};
   app.require_subcommand(1);
+  // Command-line mistakes exit with status 2, like the Python tools' (CLI11 has one code per kind of error).
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return fmt::format("error: {}\nRun with --help for more information.\n", e.what());
+  });
 
   // An empty file name given on purpose (--out '') fell back to the default name silently.
   const CLI::Validator file_name(
@@ -65,13 +69,13 @@ int main(int argc, char** argv) {
     }
     if (!known) {
       fmt::print(stderr, "error: unknown command '{}': the commands are {} (grains --help)\n", argv[1], names);
-      return 1;
+      return 2;
     }
   }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : 2;   // --help and --version are not errors
   }
   try {
     if (*cmd_run) return grains::run_scene(run);

@@ -125,10 +125,17 @@ class SimulationImpl final : public Simulation {
                                                  "listed ones, so it must be thinner than the skin (0 turns it off)",
                                                  sys_.shell.thickness(), skin));
     for (int a = 0; a < D; ++a)
-      if (sys_.box.periodic[a] && 2 * rmax + std::max(0.0, range) + skin > 0.5 * sys_.box.length[a])
+      if (sys_.box.periodic[a] && 2 * rmax + std::max(0.0, range) + skin > 0.5 * sys_.box.length[a]) {
+        // A given skin that alone overreaches is the skin's fault, not the box's.
+        if (scene.has("neighbours.skin") && 2 * rmax + std::max(0.0, range) < 0.5 * sys_.box.length[a])
+          scene.fail("neighbours.skin",
+                     fmt::format("value {:.6g} is too thick for periodic axis {} ({:.6g} long): 2 R_max + interaction range "
+                                 "+ skin must stay within half of it, so allowed below {:.6g}", skin, a,
+                                 sys_.box.length[a], 0.5 * sys_.box.length[a] - 2 * rmax - std::max(0.0, range)));
         scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than twice the "
                                               "largest interaction reach (2 R_max + skin = {:.6g})", a, sys_.box.length[a],
                                               2 * rmax + std::max(0.0, range) + skin));
+      }
     uses_list_ = range >= 0;
     if (scene.boolean("cell.enabled")) setup_cell(scene, 2 * rmax + std::max(0.0, range) + skin);
     orient_ = scene.boolean("particles.track_orientation");
@@ -391,6 +398,16 @@ class SimulationImpl final : public Simulation {
                                "\"global\" or \"per-pair\" for smaller e", e, floor, floor));
     }
     SpringDashpot kc = mode == "exact" ? calibrate_exact(e, tc, mstar_min) : calibrate_linear(e, tc, mstar_min);
+    if (!std::isfinite(kc.k) || !(kc.k >= std::numeric_limits<double>::min()) || !std::isfinite(kc.c)) {
+      // k_n = m* C / t_c^2: overflowed to inf (no finite force) or underflowed to 0 (contacts that do not push)
+      const SpringDashpot unit = mode == "exact" ? calibrate_exact(e, 1.0, 1.0) : calibrate_linear(e, 1.0, 1.0);
+      scene.fail("contact.duration",
+                 fmt::format("value {} gives the lightest pair (m* = {:.6g}) the stiffness k_n = {:.6g}: a contact needs "
+                             "a finite, nonzero stiffness, so t_c within about [{:.3g}, {:.3g}] here",
+                             tc, mstar_min, kc.k,
+                             std::sqrt(mstar_min * unit.k) / std::sqrt(std::numeric_limits<double>::max()) * 1.01,
+                             std::sqrt(mstar_min * unit.k) / std::sqrt(std::numeric_limits<double>::min()) / 1.01));
+    }
     kn_ = kc.k, cn_ = kc.c;
     if (mode == "per-pair") pair_law_scaling_ = {1.0, 1.0};   // k and c in proportion to each pair's m*
     const double mu = scene.real("friction.coefficient");

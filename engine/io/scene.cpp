@@ -99,11 +99,23 @@ void collect_unknown(const toml::table& t, const std::string& prefix, std::vecto
     std::string path = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
     if (v.is_table()) {
       if (is_section(path)) collect_unknown(*v.as_table(), path, problems);
-      else problems.push_back(fmt::format("unknown section [{}]{}", path, allowed_sections(path)));
+      else if (!find_schema_entry(path))   // a key written as a table: its type check names it
+        problems.push_back(fmt::format("unknown section [{}]{}", path, allowed_sections(path)));
+    } else if (is_section(path)) {
+      problems.push_back(fmt::format("'{}' is a section, not a key: write its keys under [{}] (got {} = {})", path, path,
+                                     path, render(v)));
     } else if (!find_schema_entry(path)) {
       problems.push_back(fmt::format("unknown key '{}'{}", path, allowed_keys(path)));
     }
   }
+}
+
+// A decimal number that no double holds (1e-400, 1e999): TOML refuses it, though it is a number.
+bool beyond_double(std::string_view text) {
+  const char* first = text.data() + (!text.empty() && text[0] == '+');
+  double value;
+  const auto [end, ec] = std::from_chars(first, text.data() + text.size(), value);
+  return ec == std::errc::result_out_of_range && end == text.data() + text.size();
 }
 
 // An integer literal (sign, digits) that no 64-bit integer holds: TOML refuses it, though it is a number.
@@ -192,6 +204,9 @@ void Scene::set_value(std::string_view path, std::string_view toml_value) {
   } catch (const toml::parse_error&) {   // a bare word is taken as a string: --set output.file=run.h5
     if (const SchemaEntry& e = *find_schema_entry(path); e.kind == ValueKind::integer && beyond_64_bits(toml_value))
       throw SceneError(fmt::format("{}: value {} is out of range: allowed {}", path, toml_value, describe_allowed(e)));
+    else if (e.kind == ValueKind::real && beyond_double(toml_value))
+      throw SceneError(fmt::format("{}: value {} is beyond a double's range (magnitudes 2.2e-308 to 1.8e308, or 0): "
+                                   "allowed {}", path, toml_value, describe_allowed(e)));
     toml::table t;
     t.insert("v", std::string(toml_value));
     parsed = std::move(t);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <random>
@@ -174,6 +175,9 @@ InitialState<D> make_initial_state(const Scene& s) {
   } else if (layout == "file") {
     auto& path = file_path;
     path = *particle_file(s);
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec))   // an ifstream opens a folder and reads nothing from it
+      s.fail("particles.file", fmt::format("'{}' is a folder: name a file of particle rows in it", path.string()));
     std::ifstream in(path);
     if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
     std::string line;

@@ -34,6 +34,15 @@ void build(const std::string& text, const std::vector<std::string>& overrides = 
   Simulation::create(Scene::from_string(text, "bad.toml", overrides));
 }
 
+std::string build_error(const std::string& text) {
+  try {
+    build(text);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 // Replace the first occurrence of `what` in the good scene.
 std::string with(const std::string& what, const std::string& by) {
   std::string s = good;
@@ -263,6 +272,44 @@ TEST_CASE("scene errors: a --set integer beyond 64 bits is out of range, with th
                       Contains("particles.seed: value -99999999999999999999999 is out of range"));
   // Not an integer literal at all: still a wrong type.
   REQUIRE_THROWS_WITH(build(good, {"particles.count=007"}), Contains("particles.count") && Contains("expected an integer"));
+}
+
+TEST_CASE("scene errors: a --set real beyond a double's range is named as such", "[scene][errors]") {
+  // TOML cannot hold 1e-400: it was read as a string ("expected a number, got \"1e-400\"").
+  REQUIRE_THROWS_WITH(build(good, {"time.dt=1e-400"}),
+                      Contains("time.dt: value 1e-400 is beyond a double's range") && Contains("allowed number in (0, inf]"));
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitution=-1e999"}), Contains("contact.restitution: value -1e999 is beyond"));
+  REQUIRE_THROWS_WITH(build(good, {"time.dt=1e-4x"}), Contains("time.dt") && Contains("expected a number"));
+}
+
+TEST_CASE("scene errors: a section written as a key, and a key written as a section, are named", "[scene][errors]") {
+  // `box = 4` was "unknown key 'box'", followed by a list of sections that includes box.
+  REQUIRE_THROWS_WITH(build("box = 4\n" + good),
+                      Contains("'box' is a section, not a key: write its keys under [box] (got box = 4)"));
+  const std::string table_key = build_error(with("count = 27", "[particles.count]\nn = 27"));
+  CHECK_THAT(table_key, Contains("particles.count: expected an integer") && !Contains("unknown section"));
+}
+
+TEST_CASE("scene errors: a folder as particles.file is named as a folder", "[scene][errors]") {
+  const auto folder = std::filesystem::temp_directory_path();
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", folder.string())}),
+                      Contains("particles.file") && Contains("is a folder"));
+}
+
+TEST_CASE("scene errors: a contact duration without a finite, nonzero stiffness names contact.duration", "[scene][errors]") {
+  // k_n = m* C / t_c^2 underflowed to 0 (contacts that do not push) or overflowed to inf, and the run went on.
+  REQUIRE_THROWS_WITH(build(good, {"contact.duration=1e200", "time.dt=0.01"}),
+                      Contains("contact.duration: value 1e+200") && Contains("k_n = 0"));
+  REQUIRE_THROWS_WITH(build(good, {"contact.duration=1e-300"}), Contains("contact.duration: value 1e-300") &&
+                                                                   Contains("k_n = inf") && Contains("t_c within about"));
+  REQUIRE_NOTHROW(build(good, {"contact.duration=1e-100"}));
+}
+
+TEST_CASE("scene errors: a skin too thick for the periodic box names neighbours.skin", "[scene][errors]") {
+  // The box fits the grains: the given skin was blamed on box.lengths.
+  REQUIRE_THROWS_WITH(build(good, {"neighbours.skin=1.5"}),
+                      Contains("neighbours.skin: value 1.5 is too thick for periodic axis 0") && !Contains("box.lengths"));
+  REQUIRE_NOTHROW(build(good, {"neighbours.skin=0.5"}));
 }
 
 TEST_CASE("scene errors: a lattice too dense for its given box names box.lengths", "[scene][errors]") {

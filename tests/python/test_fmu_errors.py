@@ -209,11 +209,24 @@ def test_fmi2_refuses_the_fmi3_arrays_whatever_their_size():
     unit.free()
 
 
-def test_values_that_change_the_variables_are_named_with_what_they_change(unit):
-    unit.set("particles.count", 100)
-    unit.set("contact.duration", 1e200)   # k_n underflows to 0: no normalised stiffness any more
-    fails(unit, lambda: unit.fmu.enterInitializationMode(), "contact.duration = 1e+200", "particles.count = 100",
-          "without normalised_stiffness")
+@pytest.mark.parametrize("version", [2, 3])
+def test_values_that_change_the_variables_are_named_with_what_they_change(version):
+    unit = Unit(fmu_path("consolidation", version))
+    try:
+        unit.set("particles.count", 100)
+        unit.set("analysis.elastic_moduli", False)   # no moduli outputs
+        fails(unit, lambda: unit.fmu.enterInitializationMode(), "analysis.elastic_moduli = 0", "particles.count = 100",
+              "without B, B_Reuss")
+    finally:
+        unit.free()
+
+
+def test_a_contact_duration_without_a_finite_stiffness_is_refused(unit):
+    """contact.duration = 1e200 once gave k_n = 0 (contacts that do not push) and 1e-300 k_n = inf, silently."""
+    for duration, stiffness in ((1e200, "k_n = 0"), (1e-300, "k_n = inf")):
+        unit.set("contact.duration", duration)
+        fails(unit, lambda: unit.fmu.enterInitializationMode(), "contact.duration", stiffness, "finite, nonzero stiffness")
+        unit.fmu.reset()
 
 
 NULL_CATEGORY_HOST = """
