@@ -1,6 +1,7 @@
 #include "run_command.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -20,6 +21,7 @@
 #include "resume_command.hpp"
 #include "progress.hpp"
 #include "protocols/run_length.hpp"
+#include "stop_cadence.hpp"
 #include "stop_signal.hpp"
 
 namespace grains {
@@ -117,7 +119,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   };
 
   // Ctrl-C and SIGTERM are read between chunks: a chunk ends at the next step an output is due at, or sooner.
-  const long steps_between_stop_checks = stop_check_steps(sim.particle_count());
+  StopCadence cadence;
   catch_stop_signals();
   const long first = sim.step_count();
   Progress progress(steps, sim.particle_count(), first);
@@ -126,8 +128,10 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
   while (done < steps && !stopping && !aggregated) {
     const long due = next_stop(done);
-    const long n = std::min(due, done + steps_between_stop_checks) - done;
+    const long n = std::min(due, done + cadence.steps()) - done;
+    const auto chunk_start = std::chrono::steady_clock::now();
     sim.step_n(n);
+    cadence.ran(n, std::chrono::duration<double>(std::chrono::steady_clock::now() - chunk_start).count());
     done += n;
     if (done == due) aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
     stopping = stop_requested() && done < steps && !aggregated;   // a run that reached its end is complete
