@@ -98,7 +98,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
     if (!csv) throw std::runtime_error(fmt::format("cannot write stage {}'s row to the stage table '{}'", r.index, table));
-    write_observables(out, sim);
+    write_observables(out, sim, r.values);   // the row's values: the network's mark has moved on since
     out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
     write_frame(out, sim);
@@ -226,6 +226,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
 
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));
+  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   // For `grains resume`: the table relative to this file's folder (a campaign folder may be moved or copied whole).
   const auto folder = std::filesystem::absolute(path).parent_path();
   out.set_attribute("stage_table", std::filesystem::absolute(table).lexically_relative(folder).string());
@@ -263,6 +264,7 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   csv << std::flush;
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
+  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);

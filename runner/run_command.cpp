@@ -42,15 +42,18 @@ void write_frame(H5mdWriter& out, const Simulation& sim) {
   out.write_frame(f);
 }
 
-void write_observables(H5mdWriter& out, const Simulation& sim) {
+void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector<std::pair<std::string, double>>& recorded) {
   const auto& vars = sim.variables();
-  for (std::size_t i = 0; i < vars.size(); ++i)
-    if (vars[i].causality == Causality::output && vars[i].name != "time" && vars[i].name != "step")
-      out.write_observable(vars[i].name, sim.step_count(), sim.time(), sim.get(i));
+  for (std::size_t i = 0; i < vars.size(); ++i) {
+    if (vars[i].causality != Causality::output || vars[i].name == "time" || vars[i].name == "step") continue;
+    const auto given = std::find_if(recorded.begin(), recorded.end(), [&](const auto& r) { return r.first == vars[i].name; });
+    out.write_observable(vars[i].name, sim.step_count(), sim.time(), given != recorded.end() ? given->second : sim.get(i));
+  }
 }
 
 void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings) {
   out.set_attribute("scene_directory", scene.directory().string());
+  out.set_attribute("status", "running");   // replaced at the end: a file left with it was killed
   for (const auto& w : warnings) {
     out.write_warning(w);
     fmt::print(stderr, "warning: {}\n", w);
@@ -211,6 +214,7 @@ int run_scene(const RunOptions& opt) {
 
   std::vector<bool> periodic = sim->box().periodic;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
+  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   begin_output(out, scene, *sim, sim->warnings());
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
@@ -221,6 +225,7 @@ int resume_plain_run(const std::string& path, RunCheckpoint& cp, bool quiet) {
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
   restore_checkpoint(*prepared.sim, path, cp);
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
+  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);

@@ -1,5 +1,6 @@
 #pragma once
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace grains {
@@ -8,7 +9,9 @@ class H5mdWriter;
 class Simulation;
 // One particle snapshot / every output variable, at the simulation's current step.
 void write_frame(H5mdWriter& out, const Simulation& sim);
-void write_observables(H5mdWriter& out, const Simulation& sim);
+// The simulation's outputs as one record; `recorded`: values taken earlier at this step, written instead
+// (a stage's contacts kept / lost / gained, counted before the programme marks the next reference).
+void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector<std::pair<std::string, double>>& recorded = {});
 
 class Scene;
 // A new output file's start, shared by `run` and `consolidate`: the scene's folder (where `grains resume` finds

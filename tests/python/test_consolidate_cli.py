@@ -57,6 +57,28 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
         assert "did not reach" in f["grains"].attrs["status"] or "not reached" in f["grains"].attrs["status"]
 
 
+def test_each_stage_record_in_the_output_equals_its_table_row(grains_bin, root, tmp_path):
+    """The H5MD stage records hold the table's quantities. contacts_kept / lost / gained were read after the
+    programme had marked the stage's network as the next reference, so the records said (contacts, 0, 0)."""
+    table, out = tmp_path / "stages.csv", tmp_path / "stages.h5"
+    r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--table", table, "--out", out,
+            "--set", "particles.count=100", "--set", "run.threads=1", "--set", "programme.stage_budget=20000",
+            "--set", "programme.aggregation_budget=200000", "--set", "programme.top_pressure=0.05", "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader(table.open()))
+    assert len(rows) >= 4
+    lost = 0
+    with h5py.File(out) as f:
+        for stage, row in enumerate(rows):
+            for key, text in row.items():
+                if key in ("stage", "phase", "branch", "target_pressure", "P_star", "phi", "reached", "steps", "time") or text == "":
+                    continue
+                recorded = float(f[f"observables/{key}/value"][stage + 1])   # record 0: the initial state
+                assert recorded == pytest.approx(float(text), rel=1e-8, abs=1e-300, nan_ok=True), (stage, key)
+            lost += int(row["contacts_lost"]) + int(row["contacts_gained"])
+    assert lost > 0   # the networks changed between stages: the check above compared real counts
+
+
 def test_consolidate_writes_to_output_file_and_says_a_run_length_is_not_used(grains_bin, root, tmp_path):
     """A scene shared with `grains run` may name its output file and a run length: the programme writes to the
     file and says that the run length does not apply (it was silently ignored)."""

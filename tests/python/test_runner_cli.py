@@ -262,6 +262,10 @@ def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path):
         assert records > 1, "no observable record flushed after the first one in 2.5 s"
         assert len(ke["value"]) == records and len(ke["time"]) == records
         assert list(ke["step"][:]) == sorted(ke["step"][:])
+        # A run writes status 'running' at its start and replaces it at its end: a killed run's file says so
+        # (it had no status, like a file written by some other program).
+        status = f["grains"].attrs["status"]
+        assert (status.decode() if isinstance(status, bytes) else status) == "running"
 
 
 def test_run_stops_at_the_aggregation_when_asked(grains_bin, root, tmp_path):
