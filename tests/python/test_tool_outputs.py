@@ -62,3 +62,14 @@ def test_report_of_a_missing_folder_says_so_and_creates_nothing(tmp_path, script
     missing = tmp_path / "no-such-campaign"
     refused(tool(script, "--report", "--out", missing), "--report: no folder", str(missing))
     assert not missing.exists()
+
+
+def test_plot_to_an_unsupported_format(grains_bin, tmp_path):
+    """-o with an extension matplotlib cannot write: the option and the formats named, before any work."""
+    run = tmp_path / "c.h5"
+    r = subprocess.run([grains_bin, "run", str(ROOT / "models" / "collision.toml"), "--out", str(run), "--quiet",
+                        "--set", "time.duration=0.1"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    refused(tool("plot.py", run, "-o", tmp_path / "c.h5x"), "-o/--out", "c.h5x", ".png", ".pdf", ".svg")
+    assert not (tmp_path / "c.h5x").exists()
+
