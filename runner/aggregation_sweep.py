@@ -13,7 +13,7 @@ Three sweeps, each point a `grains run` of the scene to its end (3 t_ff) with it
   - with --map, every (zeta, k*) pair, for the map of the fractal dimension.
 zeta sets the restitution e = exp(-pi zeta / sqrt(1 - zeta^2)) (0 <= zeta < 1) and k* the contact
 duration t_c = sqrt(m* (pi^2 + ln^2 e) / (k* k_g)), m* = m / 2 and k_g = G m^2 / (4 R^3) of the scene's
-grains (one size), so that the calibration (physics.md section 2) gives k_n = k* k_g; every run's own
+grains (one size; with the --set overrides), so that the calibration (physics.md section 2) gives k_n = k* k_g; every run's own
 k* (the `normalised_stiffness` observable) is checked against it. The time step stays t_c / n_c, so
 stiffer contacts cost more steps (about sqrt(k*)). Where n_c is below what the engine's damped-packing
 rule asks for at a point (the strongest dampings: `grains check` warns and names the steps per contact),
@@ -27,7 +27,9 @@ virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.c
 paper's qualitative findings, each with what the sweep shows, and the points whose runs the engine
 warned about at start-up), OUT/damping.png, OUT/stiffness.png and,
 with --map, OUT/map.png and OUT/virial-map.png (Q against time at every point of the map). A run whose output is complete is not run again, so an interrupted sweep
-resumes; --report runs nothing.
+(Ctrl-C: exit status 130) resumes, but only if it ran the scene that would run now (its HDF5 file's
+parameters/scene.toml; the thread count aside): else the sweep refuses, naming the settings that differ;
+--report runs nothing.
 """
 import argparse
 import csv
@@ -37,9 +39,11 @@ import pathlib
 import re
 import subprocess
 import sys
-import tomllib
 
 import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCENE = ROOT / "models" / "aggregation.toml"
@@ -58,7 +62,8 @@ def damping_ratio(e):
 
 
 def grain(scene):
-    """(m*, k_g) of the scene's grains: the sweep converts k* for one grain size only."""
+    """(m*, k_g) of the scene's grains (the scene as resolved with the overrides): the sweep converts k* for one
+    grain size only."""
     p = scene["particles"]
     if p.get("size_distribution", "constant") != "constant":
         raise ValueError("particles: the sweep needs one grain size (particles.diameter), not a size distribution")
@@ -102,7 +107,7 @@ def stable_steps_per_contact(grains, zeta, k_star, m_star, k_g, overrides):
         cmd += ["--set", s]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
-        raise RuntimeError(f"zeta {zeta}, k* {k_star:g}: grains check exited with {done.returncode}: {done.stderr.strip()}")
+        raise reuse.SceneError(f"zeta {zeta:g}, k* {k_star:g}: {done.stderr.strip()}")
     found = re.search(r"time\.steps_per_contact (\d+) or more", done.stderr)
     if not found and "damped contacts" in done.stderr:   # the warning is there but its wording changed
         raise RuntimeError(f"zeta {zeta}: cannot read the steps per contact from grains check's warning: {done.stderr.strip()}")
@@ -118,23 +123,30 @@ def complete(h5):
         return False
 
 
+def run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own=None):
+    """The --set settings of a run. The point's own settings (`own`: steps per contact, cadences) replace the
+    scene's and any override's."""
+    if own:
+        overrides = [s for s in overrides if s.split("=", 1)[0] not in own] + [f"{k}={v}" for k, v in own.items()]
+    return [*point_settings(zeta, k_star, m_star, k_g), f"particles.seed={seed}", f"run.threads={threads}",
+            "output.snapshots_every=0", *overrides]
+
+
 def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, own=None):
-    """One run unless its complete output exists; returns the path of its HDF5 file. The point's own settings
-    (`own`: steps per contact, cadences) replace the scene's and any override's."""
+    """One run unless its complete output exists (main has checked that such a run ran the settings asked for
+    now); returns the path of its HDF5 file."""
     stem = out / run_name(zeta, k_star, seed, own)
     h5 = out / f"{stem.name}.h5"
     if h5.exists() and complete(h5):
         return h5
     h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
-    if own:
-        overrides = [s for s in overrides if s.split("=", 1)[0] not in own] + [f"{k}={v}" for k, v in own.items()]
-    settings = [*point_settings(zeta, k_star, m_star, k_g), f"particles.seed={seed}", f"run.threads={threads}",
-                "output.snapshots_every=0", *overrides]
     cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
-    for s in settings:
+    for s in run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own):
         cmd += ["--set", s]
     with (out / f"{stem.name}.log").open("w") as log:
         done = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if done.returncode == reuse.INTERRUPTED:
+        raise reuse.Interrupted(stem.name)
     if done.returncode != 0:
         raise RuntimeError(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {done.returncode}; see {stem}.log")
     print(f"  finished zeta {zeta:g}, k* {k_star:g}, seed {seed}", flush=True)
@@ -414,21 +426,31 @@ def main(argv=None):
     for name, value in (("--seeds", args.seeds), ("--jobs", args.jobs)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
-    if not (args.report and args.keep_step) and not pathlib.Path(args.grains).is_file():   # the rule needs it too
-        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
-    scene = tomllib.loads(SCENE.read_text())
-    m_star, k_g = grain(scene)
-    fixed_stiffness = args.fixed_stiffness or scene_point(scene, m_star, k_g)[1]
-    threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     out = pathlib.Path(args.out)
     if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
         ap.error(f"--report: no folder {out}")
-    out.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        ap.error(f"--out {out}: not a folder")
+    # grains resolves the scene with the overrides, applies the damped-packing rule and says what the runs ran
+    if not pathlib.Path(args.grains).is_file():
+        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
+    if not os.access(args.grains, os.X_OK):
+        ap.error(f"--grains {args.grains}: not executable")
+    try:
+        scene = reuse.resolve(args.grains, SCENE, args.set)   # the grain's mass, size and G with the overrides
+        m_star, k_g = grain(scene)
+    except (reuse.SceneError, ValueError) as error:
+        ap.exit(2, f"{ap.prog}: {error}\n")
+    fixed_stiffness = args.fixed_stiffness or scene_point(scene, m_star, k_g)[1]
+    threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
     seeds = range(1, args.seeds + 1)
-    def setting(key):   # the scene's value of a [section] key, or the last --set of it
+    def setting(key):   # the scene's value of a [section] key, with the overrides
         section, name = key.split(".")
-        return next((int(float(o.split("=", 1)[1])) for o in reversed(args.set) if o.startswith(key + "=")),
-                    int(scene[section][name]))
+        return int(scene[section][name])
 
     scene_steps = setting("time.steps_per_contact")
     scene_dt = float(scene["contact"]["duration"]) / scene_steps
@@ -455,13 +477,26 @@ def main(argv=None):
     def points(pairs):
         """Runs (or, with --report, finds) every seed of each (zeta, k*) pair; returns the measured points."""
         pairs = list(dict.fromkeys(pairs))
-        own = {(z, k): own_settings(z, k) for z, k in pairs}
+        try:
+            own = {(z, k): own_settings(z, k) for z, k in pairs}
+        except reuse.SceneError as error:
+            ap.exit(2, f"{ap.prog}: {error}\n")
+        files = {(z, k, s): out / f"{run_name(z, k, s, own[(z, k)])}.h5" for z, k in pairs for s in seeds}
         if args.report:
-            files = {(z, k, s): out / f"{run_name(z, k, s, own[(z, k)])}.h5" for z, k in pairs for s in seeds}
             missing = [str(f) for f in files.values() if not complete(f)]
             if missing:
                 ap.error(f"--report: no complete run {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
-        else:
+        stale = []   # complete runs are taken as they are only if they ran what would run now
+        for (z, k, s), h5 in files.items():
+            if complete(h5):
+                now = reuse.resolve(args.grains, SCENE, run_settings(z, k, s, m_star, k_g, threads, args.set, own[(z, k)]))
+                differs = reuse.difference(now, h5)
+                if differs:
+                    stale.append(f"  - {h5}: {differs}")
+        if stale:
+            ap.exit(2, f"{ap.prog}: error: {len(stale)} complete run(s) in --out were run with other settings than "
+                       f"those given now (give another --out, or delete those runs' files to run them again):\n" + "\n".join(stale) + "\n")
+        if not args.report:
             import dask
             tasks = {(z, k, s): dask.delayed(run_point)(args.grains, z, k, s, m_star, k_g, threads, args.set, out,
                                                         own[(z, k)])
@@ -514,4 +549,7 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except (KeyboardInterrupt, reuse.Interrupted):
+        sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "complete runs are kept, interrupted ones run again"))

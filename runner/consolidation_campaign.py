@@ -6,8 +6,10 @@
 For each scene (type 2 without rolling resistance: models/consolidation.toml; with mu_R / a = 0.005:
 models/consolidation-rr.toml) and each sample seed (1..samples unless --first-seed moves them), runs
 `grains consolidate` (preparation, loading to P* = 13.33, unloading), `--jobs` samples at a time (Dask, one thread each unless --threads
-says otherwise). A sample whose stage table already exists in --out is not run again, so an interrupted
-campaign resumes. Then it fits each sample's loading branch (runner/consolidation_fit.py) and prints
+says otherwise). A sample whose stage table already exists in --out is not run again if it ran the scene and
+overrides given now (its HDF5 file says which; the thread count aside), else the campaign refuses, naming the
+settings that differ; an unfinished one continues from its last checkpoint, so an interrupted campaign (Ctrl-C:
+exit status 130) resumes when the same command runs again. Then it fits each sample's loading branch (runner/consolidation_fit.py) and prints
 Phi and z at the first loading stage (P* = 0.01), lambda and Phimax, and the fractal dimension d_F of the
 density correlations at P* = 0 and 0.01 (runner/density_correlations.py, from each sample's HDF5 file), as
 mean +- sample standard deviation, against the paper's values (physics.md section 9 table and the paper's
@@ -18,7 +20,8 @@ samples' scattering intensity I(k) at P* = 0, 0.01, 0.178 and 1, pooled per scen
 OUT/SCENE-intensity.png and .csv.
 
 With --report nothing is run: the summary is made from the tables already in --out, the finished ones and
-the unfinished ones (SCENE-seedN.partial.csv, written stage by stage), which the table marks as partial.
+the unfinished ones (SCENE-seedN.partial.csv, written stage by stage), which the table marks as partial;
+it refuses tables run with other settings than those given, as a campaign does.
 """
 import argparse
 import csv
@@ -34,6 +37,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import fit_crossover, fit_regime_two  # noqa: E402
 import density_correlations  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
+import reuse  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # value, error bar (None: the paper gives only "about" or no bar)
@@ -48,43 +52,39 @@ PAPER = {
 RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02, "d_F_0": 0.05, "d_F_0.01": 0.05}
 
 
-def same_scene(grains, scene_file, overrides, h5):
-    """Whether the run in h5 was started with the scene and overrides given now (`grains check` resolves them
-    as the run stored its own): an interrupted sample resumes only then, else it runs again with them."""
-    import h5py
-    cmd = [str(grains), "check", str(scene_file)] + [a for o in overrides for a in ("--set", o)]
-    now = subprocess.run(cmd, capture_output=True, text=True)
-    try:
-        with h5py.File(h5, "r") as f:
-            stored = f["parameters/scene.toml"][()]
-    except (OSError, KeyError):
-        return False
-    stored = stored.decode() if isinstance(stored, bytes) else str(stored)
-    return now.returncode == 0 and now.stdout.split("\n# derived:")[0] == stored
-
-
 def consolidate(grains, scene_file, overrides, stem, label):
     """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
     written as STEM.partial.csv and renamed when the programme ends, the output goes to STEM.h5 and the
-    console to STEM.log. An interrupted run (its partial table and output left) continues from its last
-    checkpoint (`grains resume`: a stage's end, or where Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again
-    from the start when it was not or cannot. Returns the path of the table."""
+    console to STEM.log. A finished sample (STEM.csv) is taken only if it ran the scene and overrides given
+    now (its STEM.h5 says which; the thread count aside), else reuse.Stale is raised. An interrupted run (its
+    partial table and output left) continues from its last checkpoint (`grains resume`: a stage's end, or where
+    Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again from the start when
+    it was not or cannot. Raises reuse.Interrupted when Ctrl-C stops the run. Returns the path of the table."""
     table = stem.with_suffix(".csv")
-    if table.exists():
-        return table
     partial, h5 = stem.with_suffix(".partial.csv"), stem.with_suffix(".h5")
-    if partial.exists() and h5.exists() and same_scene(grains, scene_file, overrides, h5):
+    now = reuse.resolve(grains, scene_file, overrides)
+    if table.exists():
+        differs = reuse.difference(now, h5)
+        if differs:
+            raise reuse.Stale(f"{table}: {differs}")
+        return table
+    if partial.exists() and h5.exists() and reuse.difference(now, h5) is None:
         with stem.with_suffix(".log").open("a") as log:
-            if subprocess.run([str(grains), "resume", str(h5)], stdout=log, stderr=subprocess.STDOUT).returncode == 0:
-                partial.rename(table)
-                print(f"  finished {label} (resumed)", flush=True)
-                return table
+            code = subprocess.run([str(grains), "resume", str(h5)], stdout=log, stderr=subprocess.STDOUT).returncode
+        if code == reuse.INTERRUPTED:   # its checkpoint is kept for the next try
+            raise reuse.Interrupted(label)
+        if code == 0:
+            partial.rename(table)
+            print(f"  finished {label} (resumed)", flush=True)
+            return table
     h5.unlink(missing_ok=True)   # left by an interrupted run that cannot resume: grains never overwrites
     cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", h5]
     for o in overrides:
         cmd += ["--set", o]
     with stem.with_suffix(".log").open("w") as log:
         done = subprocess.run([str(c) for c in cmd], stdout=log, stderr=subprocess.STDOUT)
+    if done.returncode == reuse.INTERRUPTED:
+        raise reuse.Interrupted(label)
     if done.returncode != 0:
         raise RuntimeError(f"{label}: grains consolidate exited with {done.returncode}; see {stem}.log")
     partial.rename(table)
@@ -92,14 +92,51 @@ def consolidate(grains, scene_file, overrides, stem, label):
     return table
 
 
+def check_samples(ap, grains, samples, report=False):
+    """Before anything runs: exits with status 2 when the engine refuses a sample's scene and overrides (its
+    message), or when a finished sample in --out (with --report, an unfinished one too) ran other settings
+    than those given now. `samples`: (scene file, overrides, stem) of each."""
+    stale = []
+    for scene_file, overrides, stem in samples:
+        try:
+            now = reuse.resolve(grains, scene_file, overrides)
+        except reuse.SceneError as error:
+            ap.exit(2, f"{ap.prog}: {error}\n")
+        tables = [stem.with_suffix(".csv")] + ([stem.with_suffix(".partial.csv")] if report else [])
+        table = next((t for t in tables if t.exists()), None)
+        differs = table and reuse.difference(now, stem.with_suffix(".h5"))
+        if differs:
+            stale.append(f"  - {table}: {differs}")
+    if stale:
+        ap.exit(2, f"{ap.prog}: error: {len(stale)} sample(s) in --out were run with other settings than those given now "
+                   f"(give another --out, or delete those samples' files to run them again):\n" + "\n".join(stale) + "\n")
+
+
 def check_arguments(ap, args):
-    """The checks shared with runner/initial_states.py: counts of at least 1, and a grains binary unless
-    only reporting."""
+    """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (made unless only
+    reporting; with --report it must exist), and an executable grains binary unless only reporting (the report
+    checks it once it has found tables: check_grains)."""
     for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
-    if not args.report and not pathlib.Path(args.grains).is_file():
-        ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
+    out = pathlib.Path(args.out)
+    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
+        ap.error(f"--report: no folder {out}")
+    if out.exists() and not out.is_dir():
+        ap.error(f"--out {out}: not a folder")
+    if not args.report:
+        check_grains(ap, args.grains)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
+
+
+def check_grains(ap, grains):
+    if not pathlib.Path(grains).is_file():
+        ap.error(f"--grains {grains}: no such file (build first: cmake --build build)")
+    if not os.access(grains, os.X_OK):
+        ap.error(f"--grains {grains}: not executable")
 
 
 def provenance(args, names):
@@ -110,11 +147,15 @@ def provenance(args, names):
     return f"{', '.join(names)}: seeds {args.first_seed}–{last}, {args.count} disks; scene overrides: {sets}.\n\n"
 
 
+def sample(scene, seed, count, threads, overrides, out):
+    """(scene file, overrides, stem) of one sample."""
+    own = [f"particles.seed={seed}", f"particles.count={count}", f"run.threads={threads}"]
+    return ROOT / "models" / f"{scene}.toml", own + list(overrides), out / f"{scene}-seed{seed}"
+
+
 def run_sample(grains, scene, seed, count, threads, overrides, out):
     """Runs one sample unless its table exists; returns the path of its stage table."""
-    own = [f"particles.seed={seed}", f"particles.count={count}", f"run.threads={threads}"]
-    return consolidate(grains, ROOT / "models" / f"{scene}.toml", own + list(overrides), out / f"{scene}-seed{seed}",
-                       f"{scene} seed {seed}")
+    return consolidate(grains, *sample(scene, seed, count, threads, overrides, out), f"{scene} seed {seed}")
 
 
 def existing_table(out, scene, seed):
@@ -235,9 +276,7 @@ def main():
     scenes = args.scene or list(PAPER)
     seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)
-    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
-        ap.error(f"--report: no folder {out}")
-    out.mkdir(parents=True, exist_ok=True)
+    samples = [sample(scene, seed, args.count, threads, args.set, out) for scene in scenes for seed in seeds]
 
     if args.report:
         found = {(scene, seed): existing_table(out, scene, seed) for scene in scenes for seed in seeds}
@@ -245,7 +284,10 @@ def main():
         partial = {key for key in found if found[key][1]}
         if not tables:   # as the other campaign tools do: nothing to summarise is an error, not an empty report
             ap.error(f"--report: no stage table of {', '.join(scenes)} for seeds {seeds.start}..{seeds.stop - 1} in {out}")
+        check_grains(ap, args.grains)   # to say whether the tables ran what the summary will say they did
+        check_samples(ap, args.grains, samples, report=True)
     else:
+        check_samples(ap, args.grains, samples)
         import dask
         tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)
                  for scene in scenes for seed in seeds}
@@ -290,4 +332,8 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except (KeyboardInterrupt, reuse.Interrupted):
+        sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished samples are kept, interrupted ones continue "
+                                                          "from their last checkpoint"))

@@ -6,7 +6,7 @@ STAGES is the table of equilibrated stages of a compression programme: the CSV t
 consolidate` writes (columns pressure_reduced, solid_fraction, phase, reached), or any CSV with a
 header naming at least `P_star` and `phi` (an optional `branch` column with `loading` / `unloading`
 keeps the fit on the loading branch), or the HDF5 file of `grains consolidate`, whose stage table
-(the CSV of the same name beside it) is then read. Stages that did not reach equilibrium are left out.
+(the CSV it names, written with --table; for a file naming none, the CSV of the same name beside it) is then read. Stages that did not reach equilibrium are left out.
 
 Two fits, both on the loading branch:
   regime II (a straight line in ln P*):   1/Phi = 1/Phi0 - lambda ln(P*/P0*)
@@ -121,16 +121,30 @@ def fit_crossover(p, phi, p0=None, guess=None):
 COLUMNS = {"P_star": ("P_star", "pressure_reduced"), "phi": ("phi", "solid_fraction"), "branch": ("branch", "phase")}
 
 
+def recorded_table(h5):
+    """The stage table a `grains consolidate` HDF5 file names (its grains group's stage_table attribute, a path
+    relative to the file's folder), or None when the file is unreadable or names none."""
+    import h5py
+    try:
+        with h5py.File(h5, "r") as f:
+            name = f["grains"].attrs.get("stage_table") if "grains" in f else None
+    except OSError:
+        return None
+    if name is None:
+        return None
+    return h5.parent / (name.decode() if isinstance(name, bytes) else str(name))
+
+
 def read_stages(path):
-    """(P*, Phi, branch) arrays from a CSV stage table (given, or the one beside a `grains consolidate` HDF5
-    file). Rows of `grains consolidate` that did not reach equilibrium (reached = 0), the aggregation stage
+    """(P*, Phi, branch) arrays from a CSV stage table (given, or the one a `grains consolidate` HDF5 file names,
+    else the one beside it). Rows of `grains consolidate` that did not reach equilibrium (reached = 0), the aggregation stage
     and the relaxation at target P* = 0 are left out (and counted on stderr); its `equilibrate` stage at
     the start pressure is the first loading point."""
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
-    if path.suffix in (".h5", ".hdf5"):   # grains consolidate writes its stage table beside its HDF5 file
-        table = path.with_suffix(".csv")
+    if path.suffix in (".h5", ".hdf5"):   # the stage table grains consolidate wrote with it
+        table = recorded_table(path) or path.with_suffix(".csv")
         if not table.exists():
             raise ValueError(f"'{path}' is an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
                              f"writes with it (--table), and there is none at '{table}'")
@@ -191,7 +205,8 @@ def plot(p, phi, branch, regime2, crossover, out):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Fit the consolidation curve Phi(P*) (physics.md section 9).")
-    ap.add_argument("table", help="stage table: CSV with P_star, phi (and optionally branch), or HDF5 with stages/")
+    ap.add_argument("table", help="stage table: CSV with P_star, phi (and optionally branch), or the HDF5 file of grains consolidate "
+                                      "(the stage table it names is read)")
     ap.add_argument("-o", "--out", help="plot file (PNG); default: beside the table")
     ap.add_argument("--p0", type=float, help="P0*, start of regime II (default: the line meets the initial plateau)")
     ap.add_argument("--regime2-max", type=float, default=0.1, help="largest P* of the regime II line fit (default 0.1)")

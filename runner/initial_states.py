@@ -8,7 +8,8 @@ programme.unload = false) of
   - the cohesionless packing (models/cohesionless.toml: F0 = 0, compressed at P / K_N = 1e-5), and
   - the type-1 packing (models/consolidation-type1.toml: the cohesive gas at rest, compressed at P* = 0.01),
 each without rolling resistance and with mu_R / a = 0.005 (rolling.coefficient), `--jobs` at a time (Dask,
-one thread each). A run whose table already exists in --out is not run again. Prints Phi and z of the
+one thread each). A run whose table already exists in --out is not run again if it ran the settings given now
+(else refused, as by runner/consolidation_campaign.py). Prints Phi and z of the
 equilibrated state, mean +- sample standard deviation, against the paper's Phi (physics.md section 9 table:
 cohesionless 0.811 +- 0.001 and 0.805 +- 0.002; type 1 0.723 +- 0.001 and 0.688 +- 0.001, N = 1400, 4
 samples each); a value passes when the mean lies within twice the paper's error bar. The table goes to
@@ -24,7 +25,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_campaign import ROOT, check_arguments, consolidate, provenance  # noqa: E402
+from consolidation_campaign import ROOT, check_arguments, check_grains, check_samples, consolidate, provenance  # noqa: E402
+import reuse  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
     "cohesionless": ("cohesionless", [], (0.811, 0.001)),
@@ -34,13 +36,17 @@ STATES = {
 }
 
 
-def run(grains, state, seed, count, overrides, out):
-    """One preparation unless its table exists; returns the path of its stage table."""
+def preparation(state, seed, count, overrides, out):
+    """(scene file, overrides, stem) of one preparation."""
     scene, own, _ = STATES[state]
     fixed = [f"particles.seed={seed}", f"particles.count={count}", "run.threads=1", "programme.load=false",
              "programme.unload=false"]
-    return consolidate(grains, ROOT / "models" / f"{scene}.toml", fixed + own + list(overrides), out / f"{state}-seed{seed}",
-                       f"{state} seed {seed}")
+    return ROOT / "models" / f"{scene}.toml", fixed + own + list(overrides), out / f"{state}-seed{seed}"
+
+
+def run(grains, state, seed, count, overrides, out):
+    """One preparation unless its table exists; returns the path of its stage table."""
+    return consolidate(grains, *preparation(state, seed, count, overrides, out), f"{state} seed {seed}")
 
 
 def main():
@@ -59,16 +65,16 @@ def main():
     states = args.state or list(STATES)
     seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)
-    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
-        ap.error(f"--report: no folder {out}")
-    out.mkdir(parents=True, exist_ok=True)
+    runs = [preparation(s, seed, args.count, args.set, out) for s in states for seed in seeds]
 
     if args.report:
         tables = {(s, seed): out / f"{s}-seed{seed}.csv" for s in states for seed in seeds}
         missing = [str(t) for t in tables.values() if not t.exists()]
         if missing:
             ap.error(f"--report: no table {', '.join(missing)}")
-    else:
+        check_grains(ap, args.grains)   # to say whether the tables ran what the summary will say they did
+    check_samples(ap, args.grains, runs)
+    if not args.report:
         import dask
         tasks = {(s, seed): dask.delayed(run)(args.grains, s, seed, args.count, args.set, out) for s in states for seed in seeds}
         print(f"initial states: {len(tasks)} runs of {args.count} disks, {args.jobs} at a time, logs in {out}/", flush=True)
@@ -118,4 +124,8 @@ def plot(final, path):
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except (KeyboardInterrupt, reuse.Interrupted):
+        sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished runs are kept, interrupted ones continue from "
+                                                          "their last checkpoint"))

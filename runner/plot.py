@@ -6,8 +6,9 @@ Reads observables/<name>/{time,value} from an H5MD file and draws each observabl
 subplot over a shared time axis (by default the scene's main ones, at most 6), or over another
 observable recorded at the same times (`--x time_over_free_fall`: against t / t_ff). The figure is
 titled with the scene's name and description; a quantity spanning more than three decades is drawn
-on a log axis, and the aggregation time, when the run reached it, is marked. Prints the PNG path.
-Exits with code 2 and a message naming the file when it is missing or holds no observables.
+on a log axis, and the aggregation time, when the run reached it, is marked. Prints the image's path
+(-o: PNG, or another format matplotlib writes, e.g. .pdf or .svg). Exits with code 2 and a message naming the
+file when it is missing or holds no observables, or naming the option when -o has no supported extension.
 """
 import argparse
 import sys
@@ -77,6 +78,12 @@ def read_context(path):
     return title, t_agg
 
 
+def image_formats():
+    """The file name extensions matplotlib can write (png, pdf, svg, ...)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    return FigureCanvasBase.get_supported_filetypes()
+
+
 def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan")):
     """`mark`: the aggregation time on the plot's horizontal axis (NaN: none)."""
     import matplotlib
@@ -107,7 +114,7 @@ def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan")):
 def main(argv=None):
     parser = argparse.ArgumentParser(description="Plot observables from a grains H5MD run file.")
     parser.add_argument("run", help="the run's .h5 file")
-    parser.add_argument("-o", "--out", help="PNG to write (default: RUN with .png)")
+    parser.add_argument("-o", "--out", help="image to write: .png, .pdf, .svg, ... (default: RUN with .png)")
     parser.add_argument("--observables", help="comma-separated names (default: the scene's main ones, up to 6)")
     parser.add_argument("--x", help="observable for the horizontal axis (default: time)")
     args = parser.parse_args(argv)
@@ -117,6 +124,9 @@ def main(argv=None):
         fail(f"run file '{path}' does not exist")
     if args.out and not Path(args.out).resolve().parent.is_dir():
         fail(f"--out: the folder '{Path(args.out).parent}' of '{args.out}' does not exist")
+    if args.out and Path(args.out).suffix[1:].lower() not in image_formats():
+        fail(f"-o/--out '{args.out}': the file name must end with a supported image format: "
+             f".{', .'.join(sorted(image_formats()))}")
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
     series = read_observables(path, wanted)
     x_name = args.x if args.x != "time" else None

@@ -1,4 +1,5 @@
 """Sending a run Ctrl-C once it has started writing: shared by the tests of stopping and resuming."""
+import os
 import signal
 import subprocess
 import time
@@ -6,15 +7,21 @@ import time
 import pytest
 
 
-def interrupted(cmd, out, after, within=60):
+def interrupted(cmd, out, after, within=60, group=False):
     """Starts cmd, sends it SIGINT `after` seconds after its output file appears, and fails the test unless it
-    ends within `within` seconds of the signal; returns (code, stdout, stderr)."""
-    p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ends within `within` seconds of the signal; returns (code, stdout, stderr). With `group`, cmd runs in a
+    process group of its own and the signal goes to the whole group, as Ctrl-C in a terminal does (to a tool
+    and the runs it started)."""
+    p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         start_new_session=group)
     deadline = time.monotonic() + 60
     while not out.exists() and time.monotonic() < deadline and p.poll() is None:
         time.sleep(0.05)
     time.sleep(after)
-    p.send_signal(signal.SIGINT)
+    if group:
+        os.killpg(p.pid, signal.SIGINT)
+    else:
+        p.send_signal(signal.SIGINT)
     try:
         stdout, stderr = p.communicate(timeout=within)
     except subprocess.TimeoutExpired:

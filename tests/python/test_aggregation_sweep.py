@@ -129,3 +129,28 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
         bad = subprocess.run([sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin,
                               "--out", str(tmp_path / "bad"), *args], capture_output=True, text=True)
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
+
+
+def test_runs_are_reused_only_with_the_settings_asked_for_now(grains_bin, tmp_path):
+    """k* is converted with the grain's mass, size and G as the overrides set them (particles.mass = 2 halves
+    the scene's k*, and every run's own k* is checked against the request). A complete run is taken as it is
+    only if it ran the scene that would run now (its HDF5 file's parameters/scene.toml; the thread count
+    aside): with another --set the sweep, and its --report, refuse in one message naming the setting."""
+    small = ["--set", "particles.count=40", "--set", "time.duration=1.5", "--set", "analysis.every=20",
+             "--set", "output.observables_every=50", "--set", "particles.mass=2"]
+    cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(tmp_path),
+           "--damping", "0.1", "--stiffness", "1000", "--fixed-damping", "0.1", "--jobs", "1", "--threads", "1", *small]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    table = (tmp_path / "sweep.csv").read_text()
+    rows = list(csv.DictReader(table.splitlines()))
+    # m = 2, R = 1/2, G = 1: m* = m / 2 = 1 and k_g = G m^2 / (4 R^3) = 8; the scene's e = 0.5, t_c = 0.02
+    scene_k = sweep.scene_point({"contact": {"restitution": 0.5, "duration": 0.02}}, 1.0, 8.0)[1]
+    assert float(rows[0]["k_star"]) == pytest.approx(scene_k, rel=1e-12) and scene_k == pytest.approx(3234.39, rel=1e-6)
+    again = subprocess.run(cmd + ["--jobs", "2", "--threads", "2"], capture_output=True, text=True)
+    assert again.returncode == 0 and "finished" not in again.stdout, again.stderr
+    for other in ([], ["--report"]):
+        bad = subprocess.run(cmd + ["--set", "particles.count=30", *other], capture_output=True, text=True)
+        assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
+        assert "particles.count = 40 there, 30 now" in bad.stderr and "give another --out" in bad.stderr
+    assert (tmp_path / "sweep.csv").read_text() == table

@@ -5,11 +5,14 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from conftest import ROOT
+from interrupt import interrupted
 
 sys.path.insert(0, str(ROOT / "runner"))
 import consolidation_campaign as campaign  # noqa: E402
+import reuse  # noqa: E402
 
 
 def write_table(path, rows):
@@ -142,6 +145,10 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     other = small[:-1] + ["programme.stage_budget=10000"]
     table = campaign.consolidate(grains_bin, scene, other, stem, "sample")
     assert "resuming" not in stem.with_suffix(".log").read_text() and table.read_text() != whole.read_text()
+    # A finished sample is not taken as one run with other settings, nor run again over: refused, naming them.
+    with pytest.raises(reuse.Stale, match="programme.stage_budget = 20000 there, 10000 now"):
+        campaign.consolidate(grains_bin, scene, other, tmp_path / "whole", "whole")
+    assert campaign.consolidate(grains_bin, scene, small + ["run.threads=2"], tmp_path / "whole", "whole") == whole
 
 
 def test_the_summary_says_which_samples_and_overrides_it_measured():
@@ -153,3 +160,42 @@ def test_the_summary_says_which_samples_and_overrides_it_measured():
     assert "`--set programme.first_compression_time=100`" in line
     assert campaign.provenance(argparse.Namespace(first_seed=1, samples=1, count=300, set=[]), ["type1"]).startswith(
         "type1: seeds 1–1, 300 disks; scene overrides: none.")
+
+
+def test_a_campaign_stopped_by_ctrl_c_resumes_and_refuses_samples_of_other_settings(grains_bin, tmp_path):
+    """Ctrl-C (to the campaign and its runs) ends it with status 130 and says that the same command resumes,
+    which it does. A finished sample is taken only with the settings it ran (its HDF5 file's scene): with another
+    --count or --set the campaign, and its --report, refuse in one message naming the setting, rather than
+    summarise the old sample under the new settings; another thread count changes nothing."""
+    script = ROOT / "runner" / "consolidation_campaign.py"
+    cmd = [sys.executable, script, "--samples", "1", "--count", "80", "--scene", "consolidation", "--jobs", "1",
+           "--threads", "1", "--grains", grains_bin, "--out", tmp_path, "--set", "programme.stage_budget=50000",
+           "--set", "programme.aggregation_budget=300000", "--set", "programme.top_pressure=0.1"]
+    code, out, err = interrupted(cmd, tmp_path / "consolidation-seed1.h5", after=0.5, group=True)
+    assert code == 130 and "interrupted; run the same command again to resume" in err and "Traceback" not in err, err
+    assert (tmp_path / "consolidation-seed1.partial.csv").exists() and not (tmp_path / "consolidation-seed1.csv").exists()
+    again = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+    assert again.returncode == 0 and "finished consolidation seed 1 (resumed)" in again.stdout, again.stderr
+    summary = (tmp_path / "summary.md").read_text()
+    assert summary.startswith("consolidation: seeds 1–1, 80 disks;")
+    for other, named in ((["--count", "60"], "particles.count = 80 there, 60 now"),
+                         (["--count", "60", "--report"], "particles.count = 80 there, 60 now"),
+                         (["--set", "programme.check_every=1234", "--report"], ", 1234 now")):
+        r = subprocess.run([str(c) for c in cmd + other], capture_output=True, text=True)
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        assert "consolidation-seed1.csv: " in r.stderr and named in r.stderr and "give another --out" in r.stderr
+    assert (tmp_path / "summary.md").read_text() == summary
+    r = subprocess.run([str(c) for c in cmd + ["--threads", "2", "--jobs", "2", "--report"]], capture_output=True, text=True)
+    assert r.returncode == 0 and (tmp_path / "summary.md").read_text() == summary, r.stderr
+
+
+def test_initial_states_refuse_runs_of_other_settings(grains_bin, tmp_path):
+    """runner/initial_states.py shares the campaign's check of a finished run's scene."""
+    cmd = [sys.executable, str(ROOT / "runner" / "initial_states.py"), "--samples", "1", "--count", "60", "--state",
+           "type1", "--jobs", "1", "--grains", grains_bin, "--out", str(tmp_path), "--set", "programme.stage_budget=20000"]
+    assert subprocess.run(cmd, capture_output=True).returncode == 0
+    summary = (tmp_path / "summary.md").read_text()
+    for other in (["--count", "50"], ["--count", "50", "--report"]):
+        r = subprocess.run(cmd + other, capture_output=True, text=True)
+        assert r.returncode == 2 and "type1-seed1.csv: particles.count = 60 there, 50 now" in r.stderr, r.stderr
+    assert (tmp_path / "summary.md").read_text() == summary

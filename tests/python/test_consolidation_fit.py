@@ -146,3 +146,22 @@ def test_reads_the_table_of_grains_consolidate(tmp_path):
     table.unlink()
     with pytest.raises(ValueError, match="stage table .CSV. that `grains consolidate` writes"):
         cf.read_stages(h5)
+
+
+def test_reads_the_stage_table_the_hdf5_file_names(grains_bin, tmp_path):
+    """`grains consolidate --out run/a.h5 --table tables/b.csv` records the table in the file (the grains group's
+    stage_table, relative to the file's folder): given a.h5, the fit reads b.csv."""
+    import h5py
+    h5, table = tmp_path / "run" / "a.h5", tmp_path / "tables" / "b.csv"
+    h5.parent.mkdir()
+    table.parent.mkdir()
+    r = subprocess.run([grains_bin, "consolidate", str(ROOT / "models" / "consolidation-type1.toml"), "--out", str(h5),
+                        "--table", str(table), "--set", "particles.count=60", "--set", "programme.top_pressure=0.1",
+                        "--set", "programme.stage_budget=20000"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(h5, "r") as f:
+        assert (h5.parent / f["grains"].attrs["stage_table"]).resolve() == table.resolve()
+    assert all((a == b).all() for a, b in zip(cf.read_stages(h5), cf.read_stages(table)))
+    usage = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), "--help"],
+                           capture_output=True, text=True).stdout
+    assert "stages/" not in usage and "the stage table it names" in " ".join(usage.split())

@@ -62,3 +62,26 @@ def test_report_of_a_missing_folder_says_so_and_creates_nothing(tmp_path, script
     missing = tmp_path / "no-such-campaign"
     refused(tool(script, "--report", "--out", missing), "--report: no folder", str(missing))
     assert not missing.exists()
+
+
+def test_plot_to_an_unsupported_format(grains_bin, tmp_path):
+    """-o with an extension matplotlib cannot write: the option and the formats named, before any work."""
+    run = tmp_path / "c.h5"
+    r = subprocess.run([grains_bin, "run", str(ROOT / "models" / "collision.toml"), "--out", str(run), "--quiet",
+                        "--set", "time.duration=0.1"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    refused(tool("plot.py", run, "-o", tmp_path / "c.h5x"), "-o/--out", "c.h5x", ".png", ".pdf", ".svg")
+    assert not (tmp_path / "c.h5x").exists()
+
+
+@pytest.mark.parametrize("script", ["consolidation_campaign.py", "initial_states.py", "aggregation_sweep.py"])
+def test_campaign_tools_name_bad_arguments_in_a_line(grains_bin, tmp_path, script):
+    """An override the engine refuses (its message), --out naming a file, --grains naming a file that is not
+    executable: exit status 2 and a message, no traceback, nothing run."""
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    refused(tool(script, "--grains", grains_bin, "--out", afile), "--out", str(afile), "not a folder")
+    refused(tool(script, "--grains", afile, "--out", tmp_path / "a"), "--grains", str(afile), "not executable")
+    refused(tool(script, "--grains", grains_bin, "--out", tmp_path / "b", "--set", "particles.cont=3"),
+            "unknown key 'particles.cont'")
+    assert not (tmp_path / "b").exists() or not any((tmp_path / "b").iterdir())

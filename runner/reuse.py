@@ -1,0 +1,67 @@
+"""Whether a campaign tool may take a run's output as made with the settings asked for now: the scene the
+run ran (its HDF5 file's parameters/scene.toml) against the scene and overrides as `grains check` resolves
+them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py."""
+import subprocess
+import sys
+import tomllib
+
+# How many threads ran a run is not what it ran: a campaign resumed with other --jobs or --threads reuses it.
+IGNORED = {"run.threads"}
+INTERRUPTED = 130   # the exit status of a run stopped by Ctrl-C, and then of the tool that ran it
+
+
+class SceneError(Exception):
+    """The engine refused the scene or an override; the message is the engine's."""
+
+
+class Stale(Exception):
+    """A finished run that ran other settings than those asked for now."""
+
+
+class Interrupted(Exception):
+    """A run ended by Ctrl-C (exit status 130)."""
+
+
+def interrupted(prog, kept):
+    """After Ctrl-C: says how to go on (`kept`: what a rerun keeps); returns the exit status, 130."""
+    print(f"{prog}: interrupted; run the same command again to resume ({kept})", file=sys.stderr)
+    return INTERRUPTED
+
+
+def resolve(grains, scene_file, overrides):
+    """The scene with the overrides (KEY=VALUE strings) as the engine resolves them, as a dict."""
+    cmd = [str(grains), "check", str(scene_file)] + [a for o in overrides for a in ("--set", o)]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SceneError(done.stderr.strip() or f"grains check {scene_file} exited with {done.returncode}")
+    return tomllib.loads(done.stdout)   # the derived values after the scene are comments
+
+
+def stored(h5):
+    """The scene the run in h5 ran, as a dict; None when the file is missing, unreadable or holds none."""
+    import h5py
+    try:
+        with h5py.File(h5, "r") as f:
+            text = f["parameters/scene.toml"][()]
+        return tomllib.loads(text.decode() if isinstance(text, bytes) else str(text))
+    except (OSError, KeyError, tomllib.TOMLDecodeError):
+        return None
+
+
+def flat(scene):
+    return {f"{section}.{key}": value for section, table in scene.items() for key, value in table.items()}
+
+
+def difference(now, h5):
+    """None when the run in h5 ran the scene `now` (run.threads aside), else what differs, e.g.
+    "particles.count = 80 there, 200 now"."""
+    then = stored(h5)
+    if then is None:
+        return f"{h5} is missing or holds no scene (parameters/scene.toml)"
+    then, now = flat(then), flat(now)
+    shown = lambda scene, key: repr(scene[key]) if key in scene else "unset"
+    differs = [f"{key} = {shown(then, key)} there, {shown(now, key)} now" for key in sorted(then.keys() | now.keys())
+               if key not in IGNORED and repr(then.get(key)) != repr(now.get(key))]   # repr: NaN equals NaN
+    if not differs:
+        return None
+    return "; ".join(differs[:4]) + (f" and {len(differs) - 4} more" if len(differs) > 4 else "")
