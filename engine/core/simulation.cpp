@@ -539,11 +539,17 @@ class SimulationImpl final : public Simulation {
   double force_scale(double reduced_pressure) const {
     return std::max(force_unit_, reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1));
   }
-  // T = sqrt(a m / F1) (= T0 when cohesion dominates) and the strain-rate cap I_a / T.
+  // T = sqrt(a m / F1) (= T0 when cohesion dominates): the time unit of the quench's drag.
   double inertial_time(double reduced_pressure) const {
     return std::sqrt(length_unit_ * grain_mass_ / force_scale(reduced_pressure));
   }
-  double rate_cap(double reduced_pressure) const { return inertia_number_ / inertial_time(reduced_pressure); }
+  // The strain-rate cap I_a / T0, T0 = sqrt(a m / F0) at every pressure (physics.md section 9, the paper's
+  // eqs. 4-5; until 2026-12-04 it was I_a / T, sqrt(P*) times higher above P* = 1). A cohesionless cell
+  // (F0 = 0) has no T0: it takes the pressure's force scale P a^(D-1), as the paper's inertia number does.
+  double rate_cap(double reduced_pressure) const {
+    const double force = force_unit_ > 0 ? force_unit_ : reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1);
+    return inertia_number_ / std::sqrt(length_unit_ * grain_mass_ / force);
+  }
 
   // The ramp's target for the step about to be taken (frozen over it, like the stress).
   void follow_ramp() {

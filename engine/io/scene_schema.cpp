@@ -199,8 +199,9 @@ const std::vector<SchemaEntry>& scene_schema() {
        "adds nothing; a positive factor over-damps tenuous cohesive networks (they buckle rather than strain "
        "affinely)."},
       {"cell.inertia_number", K::real, "0.05", 0, inf, true, false, "",
-       "I_a: the strain rate is capped at |dL/dt| / L <= I_a / T, T = sqrt(a m / F1), m = mass of a grain of diameter "
-       "a, F1 = max(F0, P a^(D-1)) (T = T0 when cohesion dominates)."},
+       "I_a: the strain rate is capped at |dL/dt| / L <= I_a / T0, T0 = sqrt(a m / F0), m = mass of a grain of diameter "
+       "a, F0 = `cell.force_unit` (physics.md section 9); a cohesionless cell (F0 = 0) uses the pressure's force "
+       "P a^(D-1) for F0."},
       {"cell.rtol", K::real, "1e-6", 1e-14, 1e-1, false, false, "", "CVODE relative tolerance on the cell lengths and rates."},
       {"cell.atol", K::real, "1e-9", 0, inf, true, false, "",
        "CVODE absolute tolerance on the lengths in units of a (on the rates: a / T0)."},

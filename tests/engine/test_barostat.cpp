@@ -85,6 +85,46 @@ long run_to_equilibrium(Simulation& s, long budget, long chunk = 200) {
 
 }  // namespace
 
+TEST_CASE("barostat: the strain-rate cap is I_a / T0 at every pressure (T0 = sqrt(a m / F0))", "[barostat]") {
+  // Two grains in a large cell, no contacts: the target pressure meets no stress and the cell shrinks at its
+  // cap, L = L1 exp(-cap t). The cap was I_a / T with T from F1 = max(F0, P a): sqrt(P*) = 3.16 times the
+  // paper's at P* = 10 (physics.md section 9, the paper's eqs. 4-5).
+  for (int D : {2, 3}) {
+    const std::string z = D == 3 ? ", 2.5" : "";
+    const std::string scene = fmt::format(R"(
+[scene]
+dimension = {}
+[particles]
+layout = "list"
+positions = [[2.5, 2.5{}], [7.5, 7.5{}]]
+diameter = 1.0
+mass = 1.0
+[box]
+lengths = [{}]
+[contact]
+restitution = 0.5
+duration = 0.1
+[cell]
+enabled = true
+force_unit = 1.0
+mass = 0.01
+pressure = {}
+inertia_number = 0.05
+[run]
+threads = 1
+)", D, z, z, D == 3 ? "10.0, 10.0, 10.0" : "10.0, 10.0", "{}");
+    for (double pressure : {0.5, 10.0}) {
+      INFO("D = " << D << ", P* = " << pressure);
+      auto s = Simulation::create(Scene::from_string(fmt::format(fmt::runtime(scene), pressure), "cap"));
+      s->step_n(500);   // t = 1: the cell has reached its cap
+      const double t1 = s->time(), l1 = s->get("cell_length_x");
+      s->step_n(2000);
+      const double rate = std::log(l1 / s->get("cell_length_x")) / (s->time() - t1);
+      CHECK(rate == Approx(0.05).epsilon(1e-3));   // I_a / T0, T0 = sqrt(a m / F0) = 1
+    }
+  }
+}
+
 TEST_CASE("barostat: a cohesionless 2D packing reaches its target pressure and equilibrium", "[barostat]") {
   auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
   const double phi0 = s->get("solid_fraction");
