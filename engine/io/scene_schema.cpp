@@ -325,6 +325,11 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
         {"particles.diameter_min", {{"particles.size_distribution", "\"uniform\""}}, ""},
         {"particles.diameter_max", {{"particles.size_distribution", "\"uniform\""}}, ""},
         {"particles.kinetic_energy", {{"particles.velocity", "\"gaussian\""}}, ""},
+        {"particles.positions", {{"particles.layout", "\"list\""}}, ""},
+        {"particles.diameters", {{"particles.layout", "\"list\""}}, ""},
+        {"particles.masses", {{"particles.layout", "\"list\""}}, ""},
+        {"particles.file", {{"particles.layout", "\"file\""}}, ""},
+        {"particles.velocities", {{"particles.velocity", "\"list\""}}, ""},
         // The moduli come from the adhesive contact network's stiffness and strain the periodic cell.
         {"analysis.elastic_moduli", {{"adhesion.enabled", "true"}, {"box.periodic", "true"}}, "true"},
         // The linear law's calibration; the adhesive law has its own stiffness and restitution.

@@ -152,18 +152,6 @@ InitialState<D> make_initial_state(const Scene& s) {
   const std::string layout = s.text("particles.layout");
   std::mt19937_64 rng(std::uint64_t(s.integer("particles.seed")));
 
-  // Keys that only the other choices read: given here, they would be silently ignored.
-  const auto only_with = [&](const char* key, const char* choice_key, const std::string& choice, const char* needed) {
-    if (s.has(key) && choice != needed)
-      s.fail(key, fmt::format("is given, but {} = \"{}\" does not read it; it is used with {} = \"{}\"", choice_key,
-                              choice, choice_key, needed));
-  };
-  only_with("particles.positions", "particles.layout", layout, "list");
-  only_with("particles.diameters", "particles.layout", layout, "list");
-  only_with("particles.masses", "particles.layout", layout, "list");
-  only_with("particles.file", "particles.layout", layout, "file");
-  only_with("particles.velocities", "particles.velocity", s.text("particles.velocity"), "list");
-
   // --- count and explicit rows ---
   std::vector<std::vector<double>> rows;   // layout = file
   std::vector<int> row_lines;              // each row's line in the file, for messages
