@@ -139,8 +139,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   // Within a stage, at an equilibrium check: a checkpoint every output.checkpoint_every steps, and one where
   // Ctrl-C or SIGTERM stops the programme; then what the stage waits for (one bonded cluster, or the four
   // equilibrium ratios falling below 1).
-  bool stopped = false;
-  catch_stop_signals();
+  bool stopped = false;   // the signals are caught since the output file's creation
   auto on_check = [&](const StageRecord& r, long budget, const StageProgress& at) {
     stopped = stop_requested();
     if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) checkpoint(at.stage - 1, at.values());

@@ -121,9 +121,9 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     return next;
   };
 
-  // Ctrl-C and SIGTERM are read between chunks: a chunk ends at the next step an output is due at, or sooner.
+  // Ctrl-C and SIGTERM (caught since the output file's creation) are read between chunks: a chunk ends at the
+  // next step an output is due at, or sooner.
   StopCadence cadence;
-  catch_stop_signals();
   const long first = sim.step_count();
   Progress progress(steps, sim.particle_count(), first);
   long done = first;
