@@ -230,9 +230,10 @@ class SimulationImpl final : public Simulation {
   // unused spin prediction read; 4: the drag.rate control; 5: no angular accelerations, which the torques
   // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact; a scene with
   // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
-  // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count).
+  // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count; 9: the
+  // adhesive contacts' parting charges of the last evaluation).
   // States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e08;
+  static constexpr std::uint32_t state_format = 0x47524e09;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;

@@ -37,6 +37,13 @@ struct AdhesiveContactLaw {
     return elastic + k * on.extra_overlap - attraction - cn * p.vn * on.dashpot_weight;
   }
 
+  // The part of force() that is the parting charge (contact_step.hpp, parting): taken back at the next
+  // evaluation where the pair still overlaps (contact_forces.hpp).
+  double parting_charge(const ContactStep& p, double cn) const {
+    const Onset start = onset(p), on = parting(p, start);
+    return k * (on.extra_overlap - start.extra_overlap) - cn * p.vn * (on.dashpot_weight - start.dashpot_weight);
+  }
+
   // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).
   double tail(double gap) const { return -attraction * (1 - gap / range); }
 

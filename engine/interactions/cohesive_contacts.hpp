@@ -1,8 +1,9 @@
 // The steady contacts of cohesive disks, eight at a time (AVX-512) or four (AVX2): the consolidation scene's law in 2D
 // (adhesion, friction, optionally rolling resistance; physics.md sections 4-6) for the contacts that
-// already touched at the last force evaluation. Those take no onset corrections, so each is the same
-// straight-line arithmetic; the pair loop (contact_forces.hpp) evaluates a contact's first step and
-// the attraction across gaps itself, and adds every result in list order. Each lane does the portable
+// already touched at the last force evaluation and do not part within the step. Those take no onset or
+// parting corrections, so each is the same straight-line arithmetic; the pair loop (contact_forces.hpp)
+// evaluates a contact's first step, a parting contact (its stamp left as it was for it) and the attraction
+// across gaps itself, and adds every result in list order. Each lane does the portable
 // code's operations in the same order, with correctly rounded roots and divisions and no multiply-add
 // contraction (engine/CMakeLists.txt), so the forces, torques and springs are bit-identical to it.
 #pragma once

@@ -22,7 +22,7 @@ template <bool Dense>
   const Lanes4 &i = c.il, &j = c.jl, &k = c.kl;
   const std::uint32_t k0 = c.k0;
   const V live = c.live, rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
-  const V m = widen(c.steady);
+  V m = widen(c.steady);
   const unsigned steady = bits(c.steady);
   Results8& b = out.results[q / 8];
   const unsigned half = q & 7;   // 0 or 4: the block's first or second half (the first one writes the bits)
@@ -48,23 +48,23 @@ template <bool Dense>
     vn = add(vn, add(mul(flow_x, nx), mul(flow_y, ny)));
   }
 
-  // Normal law (AdhesiveContactLaw::force with onset {1, 0} and the parting charge).
+  // A contact parting within the step (its overlap less than the step's travel) goes to the portable code,
+  // which keeps its parting charge (contact_step.hpp, parting): no steady contact here, its stamp as it was.
   const V overlap = sub(Rsum, d);
+  const V travel = mul(vn, all(in.dt));
+  const V parting = both(m, greater(travel, overlap));
+  if (const unsigned parts = bits(parting)) {
+    for (unsigned l = parts; l; l &= l - 1)
+      in.touched[Dense ? k0 + __builtin_ctz(l) : k.at[__builtin_ctz(l)]] = in.evaluation - 1;
+    m = _mm256_andnot_pd(parting, m);
+    b.steady = std::uint8_t(b.steady & ~(parts << half));
+  }
+
+  // Normal law (AdhesiveContactLaw::force with onset {1, 0}, no parting).
   const V limit = mul(all(in.overlap_limit), _mm256_min_pd(Rj, Ri));   // std::min(Ri, Rj)
   const V clamped = both(m, greater(overlap, limit));
   const V elastic = mul(all(in.k), blend(clamped, overlap, limit));
-  const V travel = mul(vn, all(in.dt));
-  // The divisions of rare lanes (a contact parting within the step, a sliding or rolling spring) run only
-  // when some lane needs them.
-  const V parts = both(m, greater(travel, overlap));
-  V weight = all(1.0), extra = all(0.0);
-  if (bits(parts)) {
-    const V sigma = blend(parts, zero(), div(overlap, travel));
-    const V two_sigma_less_one = sub(mul(all(2.0), sigma), all(1.0));
-    weight = blend(parts, weight, sub(add(all(1.0), sigma), all(0.5)));
-    extra = blend(parts, extra, add(all(0.0), div(mul(mul(travel, two_sigma_less_one), two_sigma_less_one), all(8.0))));
-  }
-  const V fn = sub(sub(add(elastic, mul(all(in.k), extra)), all(in.attraction)), mul(mul(cn, vn), weight));
+  const V fn = sub(sub(elastic, all(in.attraction)), mul(cn, vn));
 
   // Friction (tangential_force, 2D): everything along t = z x n.
   const V half_overlap = mul(all(0.5), sub(Rsum, d));

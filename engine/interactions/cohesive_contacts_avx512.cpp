@@ -23,7 +23,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
   const std::uint32_t k0 = c.k0;
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
-  const __mmask8 m = c.steady;
+  __mmask8 m = c.steady;
   Results8& b = out.results[q / 8];   // q is a multiple of 8
   b.steady = m;
   if (out.interacting) {   // the pair filter's test: d^2 < ((R_i + R_j) + tail)^2
@@ -44,24 +44,24 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
     vn = add(vn, add(mul(flow_x, nx), mul(flow_y, ny)));
   }
 
-  // Normal law (AdhesiveContactLaw::force with onset {1, 0} and the parting charge).
+  // A contact parting within the step (its overlap less than the step's travel) goes to the portable code,
+  // which keeps its parting charge (contact_step.hpp, parting): no steady contact here, its stamp as it was.
   const V overlap = sub(Rsum, d);
+  const V travel = mul(vn, all(in.dt));
+  if (const __mmask8 parts = _mm512_mask_cmp_pd_mask(m, travel, overlap, _CMP_GT_OQ)) {
+    alignas(32) std::uint32_t entry[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(entry), k);
+    for (unsigned l = parts; l; l &= l - 1)
+      in.touched[Dense ? k0 + __builtin_ctz(l) : entry[__builtin_ctz(l)]] = in.evaluation - 1;
+    m = __mmask8(m & ~parts);
+    b.steady = m;
+  }
+
+  // Normal law (AdhesiveContactLaw::force with onset {1, 0}, no parting).
   const V limit = mul(all(in.overlap_limit), _mm512_min_pd(Rj, Ri));   // std::min(Ri, Rj)
   const __mmask8 clamped = _mm512_mask_cmp_pd_mask(m, overlap, limit, _CMP_GT_OQ);
   const V elastic = mul(all(in.k), _mm512_mask_blend_pd(clamped, overlap, limit));
-  const V travel = mul(vn, all(in.dt));
-  // Divisions cost as much as a dozen multiplications here: those of rare lanes (a contact parting
-  // within the step, a sliding or rolling spring) run only when some lane needs them.
-  const __mmask8 parts = _mm512_mask_cmp_pd_mask(m, travel, overlap, _CMP_GT_OQ);
-  V weight = all(1.0), extra = all(0.0);
-  if (parts) {
-    const V sigma = _mm512_mask_div_pd(all(0.0), parts, overlap, travel);
-    const V two_sigma_less_one = sub(mul(all(2.0), sigma), all(1.0));
-    weight = _mm512_mask_blend_pd(parts, weight, sub(add(all(1.0), sigma), all(0.5)));
-    extra = _mm512_mask_blend_pd(parts, extra,
-                                 add(all(0.0), div(mul(mul(travel, two_sigma_less_one), two_sigma_less_one), all(8.0))));
-  }
-  const V fn = sub(sub(add(elastic, mul(all(in.k), extra)), all(in.attraction)), mul(mul(cn, vn), weight));
+  const V fn = sub(sub(elastic, all(in.attraction)), mul(cn, vn));
 
   // Friction (tangential_force, 2D): everything along t = z x n.
   const V half_overlap = mul(all(0.5), sub(Rsum, d));

@@ -3,6 +3,7 @@
 // combination a scene uses, so a frictionless scene runs code with no friction in it.
 // A normal law with an attractive tail (Law::has_tail) also acts on open pairs with gap below reach().
 #pragma once
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -93,6 +94,12 @@ class ContactForces final : public ForceModule<D> {
     if (s.want_virial) clamped_now_ = add_forces_and<true>(s);
     else clamped_now_ = add_forces_and<false>(s);
     clamped_total_ += clamped_now_;
+    if constexpr (Law::has_tail) {   // this evaluation's parting charges, for the next one to check
+      take_back_partings(s);
+      charged_.clear();
+      for (Gathered& g : gathered_) charged_.insert(charged_.end(), g.parted.begin(), g.parted.end()), g.parted.clear();
+      std::sort(charged_.begin(), charged_.end(), pair_order);
+    }
   }
 
   // Adds this loop's pair virial into s.virial (zeroed by whoever evaluates the forces).
@@ -259,6 +266,7 @@ class ContactForces final : public ForceModule<D> {
     w.put(evaluation_), w.put_vector(touched_), w.put_vector(pending_);
     w.put_vector(tangential_);   // 2D: one double per pair (xi along z x n), 3D: three
     if constexpr (Rolling::enabled) w.put_vector(rolling_angle_);
+    w.put_vector(charged_);
   }
   void load(ByteReader& r) override {
     damping_builds_ = -1;   // the restored list is another one, whatever its build count
@@ -268,6 +276,7 @@ class ContactForces final : public ForceModule<D> {
     evaluation_ = r.get<std::uint32_t>(), r.get_vector(touched_), r.get_vector(pending_);
     r.get_vector(tangential_);
     if constexpr (Rolling::enabled) r.get_vector(rolling_angle_);
+    r.get_vector(charged_);
   }
   void check_loaded(const System<D>& s) const override {
     const std::size_t pairs = s.neighbours.pair_count(), N = s.particles.size(), n = touched_.size();
@@ -275,6 +284,8 @@ class ContactForces final : public ForceModule<D> {
     bool ok = (n == pairs || n == 0) && tangential_.size() == (Friction::enabled ? n : 0);
     if constexpr (Rolling::enabled) ok = ok && rolling_angle_.size() == n;
     for (const OnsetLag& o : pending_) ok = ok && o.i < N && o.j < N;
+    for (std::size_t c = 0; c < charged_.size(); ++c)   // sorted pairs of particles
+      ok = ok && charged_[c].i < charged_[c].j && charged_[c].j < N && (c == 0 || pair_order(charged_[c - 1], charged_[c]));
     if (!ok) throw std::runtime_error("saved contact history does not fit the saved neighbour list");
   }
 
@@ -359,12 +370,18 @@ class ContactForces final : public ForceModule<D> {
     double lag;
     Vec<D> n;   // unit vector from i to j at the evaluation
   };
+  // A parting charge made at an evaluation (adhesive law), by the pair's particles (lower index first).
+  struct Parted {
+    std::uint32_t i, j;
+    double charge;   // normal force on the pair (positive = repulsive)
+  };
   // The batched kernel's results, eight pairs to a block (see batched_ and batched_linear_).
   using Results8 = std::conditional_t<batched_, cohesive_contacts::Results8, linear_contacts::Results8>;
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint8_t> image;        // ... and its periodic image
     std::vector<OnsetLag> lags;             // contacts that began this step, in list order
+    std::vector<Parted> parted;             // parting charges made this evaluation
     std::vector<std::uint32_t> far;         // partners beyond the thread's rows it wrote forces for (several threads)
     std::vector<std::uint8_t> far_seen;     // per particle: listed in far
     // The batched kernel's results, eight pairs to a block.
@@ -594,7 +611,7 @@ class ContactForces final : public ForceModule<D> {
         }
         // Through a copy: ti, never address-taken, can then stay in a register on the batched path.
         Spin<D> ti_copy = ti;
-        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque_of(j), ti_copy, clamped, g.lags);   // on j
+        const Vec<D> f = contact_force(s, i, j, k, r, d2, Rsum, torque_of(j), ti_copy, clamped, g.lags, g.parted);   // on j
         ti = ti_copy;
         take(j, f, r);
       }
@@ -621,6 +638,22 @@ class ContactForces final : public ForceModule<D> {
     if constexpr (torques_) torque[i] += ti;
   }
 
+  static bool pair_order(const Parted& a, const Parted& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; }
+
+  // The last evaluation's parting charges whose pairs still overlap: the parting did not come, so the charge
+  // is taken back, now (contact_step.hpp, parting). Pairs that parted keep theirs.
+  void take_back_partings(System<D>& s) const {
+    auto& P = s.particles;
+    for (const Parted& c : charged_) {
+      const Vec<D> r = s.box.minimum_image(P.position[c.j] - P.position[c.i]);
+      const double d = r.norm();
+      if (!(d < P.radius[c.i] + P.radius[c.j])) continue;
+      const Vec<D> f = (-c.charge / d) * r;   // on j
+      P.force[c.j] += f, P.force[c.i] -= f;
+      if (s.want_virial) s.virial += f * r.transpose();
+    }
+  }
+
   // A touching pair: the normal law, friction and rolling resistance; returns the force on j and adds
   // the torques (the one on i into ti, the row's sum). Flattened (the law, friction and rolling
   // inlined): their shared terms, such as the pair's damping coefficient, are then computed once and
@@ -628,7 +661,7 @@ class ContactForces final : public ForceModule<D> {
   // its sums in registers: where the batched kernels run, only a contact's first step comes here.
   [[gnu::flatten, gnu::noinline]] Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
                                          double d2, double Rsum, Spin<D>* torque, Spin<D>& ti, long& clamped,
-                                         std::vector<OnsetLag>& lags) {
+                                         std::vector<OnsetLag>& lags, std::vector<Parted>& parted) {
     const auto& P = s.particles;
     const double dt = s.dt;
     const double Ri = P.radius[i], mi = P.mass[i];
@@ -670,6 +703,9 @@ class ContactForces final : public ForceModule<D> {
     bool was_clamped;
     const double fn = law_.force(step, mi, mj, cn, std::min(Ri, Rj), elastic, was_clamped);
     clamped += was_clamped;
+    if constexpr (Law::has_tail)   // kept, to be taken back if the pair still overlaps at the next evaluation
+      if (const double charge = law_.parting_charge(step, cn); charge != 0)
+        parted.push_back({std::uint32_t(std::min(i, std::size_t(j))), std::uint32_t(std::max(i, std::size_t(j))), charge});
     Vec<D> f = fn * n;   // on j
     if constexpr (Friction::enabled) {
       // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
@@ -849,6 +885,7 @@ class ContactForces final : public ForceModule<D> {
   std::vector<Gathered> gathered_;       // per thread, reused
   std::vector<OnsetLag> pending_;        // onset lags found in the last step, made up in the next
   std::vector<OnsetLag> active_;         // ... being made up in this step
+  std::vector<Parted> charged_;          // parting charges of the last evaluation, sorted by pair
   long clamped_now_ = 0, clamped_total_ = 0;
   std::vector<double> damping_;   // batched_: each list entry's c_n, for the list of build damping_builds_
   long damping_builds_ = -1;
