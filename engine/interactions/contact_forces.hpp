@@ -658,7 +658,8 @@ class ContactForces final : public ForceModule<D> {
   // the torques (the one on i into ti, the row's sum). Flattened (the law, friction and rolling
   // inlined): their shared terms, such as the pair's damping coefficient, are then computed once and
   // kept in registers. Not inlined into the pair loop, whose hot path (the batched contacts) then keeps
-  // its sums in registers: where the batched kernels run, only a contact's first step comes here.
+  // its sums in registers: where the batched kernels run, only a contact's first step and a contact parting
+  // within the step come here.
   [[gnu::flatten, gnu::noinline]] Vec<D> contact_force(const System<D>& s, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& r,
                                          double d2, double Rsum, Spin<D>* torque, Spin<D>& ti, long& clamped,
                                          std::vector<OnsetLag>& lags, std::vector<Parted>& parted) {
