@@ -537,8 +537,10 @@ class SimulationImpl final : public Simulation {
   }
 
   // F1 = max(F0, P a^(D-1)): the force scale of the equilibrium test and of the time unit.
-  double force_scale(double reduced_pressure) const {
-    return std::max(force_unit_, reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1));
+  double force_scale(double reduced_pressure) const { return std::max(force_unit_, pressure_force(reduced_pressure)); }
+  // P a^(D-1): the force of the pressure on a grain's face.
+  double pressure_force(double reduced_pressure) const {
+    return reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1);
   }
   // T = sqrt(a m / F1) (= T0 when cohesion dominates): the time unit of the quench's drag.
   double inertial_time(double reduced_pressure) const {
@@ -548,7 +550,7 @@ class SimulationImpl final : public Simulation {
   // eqs. 4-5; until 2026-12-04 it was I_a / T, sqrt(P*) times higher above P* = 1). A cohesionless cell
   // (F0 = 0) has no T0: it takes the pressure's force scale P a^(D-1), as the paper's inertia number does.
   double rate_cap(double reduced_pressure) const {
-    const double force = force_unit_ > 0 ? force_unit_ : reduced_pressure * pressure_scale_ * std::pow(length_unit_, D - 1);
+    const double force = force_unit_ > 0 ? force_unit_ : pressure_force(reduced_pressure);
     return inertia_number_ / std::sqrt(length_unit_ * grain_mass_ / force);
   }
 
@@ -1107,8 +1109,8 @@ class SimulationImpl final : public Simulation {
     out("equilibrium_torque", "", "largest net torque / (tolerance_torque F1 a): below 1 passes");
     out("equilibrium_stress", "", "largest |sigma_aa - P| / (tolerance_stress F1 / a^(D-1)): below 1 passes");
     out("equilibrium_kinetic", "", "kinetic energy per grain / (tolerance_kinetic F1 a): below 1 passes");
-    out("inertial_time", "s", "T = sqrt(a m / F1), F1 = max(F0, P a^(D-1)) at the target pressure: the time unit of the "
-        "strain-rate cap (I_a / T) and of programme.quench_drag");
+    out("inertial_time", "s", "T = sqrt(a m / F1), F1 = max(F0, P a^(D-1)) at the target pressure: the time unit of "
+        "programme.quench_drag (the strain-rate cap's is T0, from F0 alone)");
     out("cvode_steps", "", "CVODE internal steps of the cell-length equations so far");
     out("cvode_rhs_evaluations", "", "CVODE right-hand-side evaluations so far");
     out("cvode_reinitialisations", "", "CVODE restarts (a new target pressure, a released cell, and one every 500 particle steps: a saved state carries the steps since the last)");

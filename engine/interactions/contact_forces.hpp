@@ -97,8 +97,8 @@ class ContactForces final : public ForceModule<D> {
     if constexpr (Law::has_tail) {   // this evaluation's parting charges, for the next one to check
       take_back_partings(s);
       charged_.clear();
-      for (Gathered& g : gathered_) charged_.insert(charged_.end(), g.parted.begin(), g.parted.end()), g.parted.clear();
-      std::sort(charged_.begin(), charged_.end(), pair_order);
+      for (Gathered& g : gathered_)   // in thread order: deterministic
+        charged_.insert(charged_.end(), g.parted.begin(), g.parted.end()), g.parted.clear();
     }
   }
 
@@ -284,8 +284,7 @@ class ContactForces final : public ForceModule<D> {
     bool ok = (n == pairs || n == 0) && tangential_.size() == (Friction::enabled ? n : 0);
     if constexpr (Rolling::enabled) ok = ok && rolling_angle_.size() == n;
     for (const OnsetLag& o : pending_) ok = ok && o.i < N && o.j < N;
-    for (std::size_t c = 0; c < charged_.size(); ++c)   // sorted pairs of particles
-      ok = ok && charged_[c].i < charged_[c].j && charged_[c].j < N && (c == 0 || pair_order(charged_[c - 1], charged_[c]));
+    for (const Parted& c : charged_) ok = ok && c.i < N && c.j < N && c.i != c.j;
     if (!ok) throw std::runtime_error("saved contact history does not fit the saved neighbour list");
   }
 
@@ -370,7 +369,7 @@ class ContactForces final : public ForceModule<D> {
     double lag;
     Vec<D> n;   // unit vector from i to j at the evaluation
   };
-  // A parting charge made at an evaluation (adhesive law), by the pair's particles (lower index first).
+  // A parting charge made at an evaluation (adhesive law), by the pair's particles.
   struct Parted {
     std::uint32_t i, j;
     double charge;   // normal force on the pair (positive = repulsive)
@@ -638,8 +637,6 @@ class ContactForces final : public ForceModule<D> {
     if constexpr (torques_) torque[i] += ti;
   }
 
-  static bool pair_order(const Parted& a, const Parted& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; }
-
   // The last evaluation's parting charges whose pairs still overlap: the parting did not come, so the charge
   // is taken back, now (contact_step.hpp, parting). Pairs that parted keep theirs.
   void take_back_partings(System<D>& s) const {
@@ -706,7 +703,7 @@ class ContactForces final : public ForceModule<D> {
     clamped += was_clamped;
     if constexpr (Law::has_tail)   // kept, to be taken back if the pair still overlaps at the next evaluation
       if (const double charge = law_.parting_charge(step, cn); charge != 0)
-        parted.push_back({std::uint32_t(std::min(i, std::size_t(j))), std::uint32_t(std::max(i, std::size_t(j))), charge});
+        parted.push_back({std::uint32_t(i), std::uint32_t(j), charge});
     Vec<D> f = fn * n;   // on j
     if constexpr (Friction::enabled) {
       // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
@@ -886,7 +883,7 @@ class ContactForces final : public ForceModule<D> {
   std::vector<Gathered> gathered_;       // per thread, reused
   std::vector<OnsetLag> pending_;        // onset lags found in the last step, made up in the next
   std::vector<OnsetLag> active_;         // ... being made up in this step
-  std::vector<Parted> charged_;          // parting charges of the last evaluation, sorted by pair
+  std::vector<Parted> charged_;          // parting charges of the last evaluation
   long clamped_now_ = 0, clamped_total_ = 0;
   std::vector<double> damping_;   // batched_: each list entry's c_n, for the list of build damping_builds_
   long damping_builds_ = -1;
