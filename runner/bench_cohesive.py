@@ -9,7 +9,7 @@ grains runs the same disks (positions, masses, dt, skin, Gaussian velocities of 
 with the consolidation law at the paper's Table I values in units a = F0 = 1: adhesion (K_N = 1e5,
 D0 = 1e-3, e_N = 0.015), friction mu = 0.5, K_T = K_N, and rolling resistance mu_R = 0.005, K_R = 1e-4
 K_N a^2; then without rolling, and with the peer's own law (the frictional spring-dashpot, no adhesion:
-k_n = 1e5 and gamma_n = 50 as e = 0.839 and t_c = 0.00704, k_t = 2/7 k_n, c_t = c_n / 2), to show what
+k_n = 1e5 and gamma_n = 50 as e = 0.839 and t_c = 0.00704, k_t = 2/7 k_n, no tangential dashpot), to show what
 each module costs. LAMMPS has neither adhesion nor rolling in gran/hooke/history, so its pair
 work per contact is smaller. Both codes on one core, then two. Machines here are shared and noisy:
 compare ratios within one run.
@@ -50,8 +50,9 @@ def peer_disk_law():
     return math.exp(-math.pi * zeta / root), math.pi / (math.sqrt(kn / mstar) * root)
 
 
-# The peer's tangential law: k_t = 2/7 k_n (kt = NULL), gamma_t = gamma_n / 2 (NULL), mu = 0.5.
-PEER_FRICTION = "[friction]\ncoefficient = 0.5\nstiffness_ratio = 0.2857142857142857\ndamping_ratio = 0.5\n"
+# The peer's tangential law: k_t = 2/7 k_n (kt = NULL), mu = 0.5, and no tangential dashpot: its gamma_t
+# (NULL: gamma_n / 2) is dropped by its dampflag 0.
+PEER_FRICTION = "[friction]\ncoefficient = 0.5\nstiffness_ratio = 0.2857142857142857\ndamping_ratio = 0.0\n"
 
 
 def disk_state(work, cells_x):

@@ -13,16 +13,22 @@
    ratio between the codes predicts the ratio of their gas temperatures.
 
 3. The 2D disks of ../shared/peers/disks2d.lmp (1400 disks on its hexagonal lattice, gran/hooke/history
-   k_n = 1e5, gamma_n = 50, k_t = 2/7 k_n, gamma_t = gamma_n / 2, mu = 0.5, nve/sphere disc, dt = 1e-4)
-   from one state with Gaussian velocities of temperature 0.01: both energies every 1000 steps.
+   k_n = 1e5, gamma_n = 50, k_t = 2/7 k_n, mu = 0.5, nve/sphere disc, dt = 1e-4; its dampflag 0 drops the
+   tangential dashpot, so grains runs c_t = 0) from one state with Gaussian velocities of temperature
+   0.01: both energies every 1000 steps.
+
+LAMMPS' last pair_style word, dampflag, decides whether its tangential dashpot exists: the frictional
+gas (the peer README's gamma_t = gamma_n / 2) needs 1. Until 2026-12-04 this script passed 0, and the
+codes' frictional collisions differed by 14 %, which was wrongly put down to (b) below.
 
 The models differ in two places. (a) physics.md section 2's non-adhesion clamp: grains never lets the
 dashpot pull (F_n = max(0, k delta - c v_n)); LAMMPS' gran/hooke does, at the end of each contact, so
 the clamped contact returns more energy (a head-on e = 0.9 collision realises e = 0.902). (b) A sliding
 contact with a tangential dashpot: LAMMPS sets its spring to k_t xi = -(F_t + c_t v_t), which stores the
 dashpot's share as stretch; grains only ever shortens the spring to the Coulomb bound (the passive
-rule, contact_forces.hpp), so its frictional collisions dissipate more. LAMMPS' half-step dashpot
-velocity also shifts its realised e at dt = t_c / 50; part 2 at dt / 100 shows both codes converged.
+rule, contact_forces.hpp). On part 2's pairs at dt / 100 the two rules dissipate the same to 1e-5
+(measured in a scratch build). LAMMPS' half-step dashpot velocity also shifts its realised e at
+dt = t_c / 50; part 2 at dt / 100 shows both codes converged.
 
 Writes summary.md (the tables) and lammps-comparison.png into --out. Needs LAMMPS (`lmp`, Debian's
 `lammps`): `bash runner/with_lammps.sh compare_lammps.py` installs it, builds grains and runs this.
@@ -57,9 +63,9 @@ def run(cmd, cwd):
 
 
 def lammps_pair_style(friction):
-    if friction:
+    if friction:   # the last word, dampflag, must be 1: 0 drops the tangential dashpot (gamma_t = 0)
         return (f"pair_style gran/hooke/history ${{kn}} $({FRICTION['stiffness_ratio']!r}*v_kn) ${{gn}} "
-                f"$({FRICTION['damping_ratio']!r}*v_gn) {FRICTION['coefficient']!r} 0")
+                f"$({FRICTION['damping_ratio']!r}*v_gn) {FRICTION['coefficient']!r} 1")
     return "pair_style gran/hooke ${kn} 0.0 ${gn} 0.0 0.0 0"
 
 
