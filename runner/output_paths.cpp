@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "io/scene.hpp"
+#include "io/xdmf_writer.hpp"
 #include "protocols/initial_state.hpp"
 
 namespace grains {
@@ -50,7 +51,7 @@ bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
 
 std::optional<std::string> xdmf_beside(const std::string& hdf5, const Scene& scene) {
   if (!scene.boolean("output.xdmf")) return std::nullopt;
-  return std::filesystem::path(hdf5).replace_extension(".xdmf").string();
+  return xdmf_path_beside(hdf5);
 }
 
 void check_output_path(const std::string& output, const std::string& scene_file, const Scene& scene,

@@ -196,7 +196,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   m.warnings = h5::create_extendable(m.grains.get(), "warnings", vstr.get(), {}, {}, 64, path);
 
   if (write_xdmf) {
-    m.xdmf_path = std::filesystem::path(path).replace_extension(".xdmf").string();
+    m.xdmf_path = xdmf_path_beside(path);
     m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, fs_path.filename().string(), dimension);
   }
   m.flush();
@@ -245,7 +245,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     m.max_count = h5::shape(it->second.value.get(), path, "/particles/all/position/value").at(1);
   }
   if (write_xdmf) {
-    m.xdmf_path = std::filesystem::path(path).replace_extension(".xdmf").string();
+    m.xdmf_path = xdmf_path_beside(path);
     m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), m.dim);
     if (m.frames > 0) {
       m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);

@@ -13,6 +13,10 @@
 
 namespace grains {
 
+std::string xdmf_path_beside(const std::string& hdf5_path) {
+  return std::filesystem::path(hdf5_path).replace_extension(".xdmf").string();
+}
+
 XdmfWriter::XdmfWriter(std::string xdmf_path, std::string h5_name, int dimension)
     : path_(std::move(xdmf_path)), h5_name_(std::move(h5_name)), dimension_(dimension) {}
 

@@ -7,6 +7,9 @@
 
 namespace grains {
 
+// The XDMF companion's path: the HDF5 file's with the extension .xdmf.
+std::string xdmf_path_beside(const std::string& hdf5_path);
+
 class XdmfWriter {
  public:
   // `h5_name` is written as given (a bare file name keeps the pair relocatable).
