@@ -20,6 +20,8 @@ import tempfile
 
 import h5py
 
+from compare_lammps import lammps_pair_style
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
@@ -41,9 +43,7 @@ def lammps_rate(peers, steps, threads, friction, workdir):
         subprocess.run([sys.executable, str(peers / "gas_data.py"), "26", "0.3", str(data)], check=True)
     script = (peers / "gas.lmp").read_text()
     if friction:   # the peer README's frictional variant: k_t = 2/7 k_n, gamma_t = gamma_n / 2, mu = 0.5
-        # (dampflag, the last word, 1: with 0 LAMMPS drops the tangential dashpot that grains' scene has)
-        script = re.sub(r"pair_style gran/hooke .*",
-                        "pair_style gran/hooke/history ${kn} $(2/7*v_kn) ${gn} $(0.5*v_gn) 0.5 1", script)
+        script = re.sub(r"pair_style gran/hooke .*", lammps_pair_style(True), script)
     inp = workdir / ("gas-friction.lmp" if friction else "gas.lmp")
     inp.write_text(script)
     cmd = ["lmp", "-in", str(inp), "-var", "data", str(data), "-var", "steps", str(steps), "-log", "none"]

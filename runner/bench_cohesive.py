@@ -40,19 +40,40 @@ def hex_lattice(cells_x, cells_y):
     return np.array(x), (cells_x * a, cells_y * a * math.sqrt(3))
 
 
-def peer_disk_law():
-    """(e, t_c) of disks2d.lmp's gran/hooke/history (k_n = 1e5, gamma_n = 50) for m* = 1/2: LAMMPS' dashpot is
-    m* gamma_n v_n, so zeta = m* gamma_n / (2 sqrt(m* k_n)), e = exp(-pi zeta / sqrt(1 - zeta^2)) and
-    t_c = pi / (sqrt(k_n / m*) sqrt(1 - zeta^2)); grains' calibration from (e, t_c) gives back k_n and c_n."""
-    kn, gamma_n, mstar = 1e5, 50.0, 0.5
+# disks2d.lmp's pair style; `peer_pair_style` reads the peer file's own line when it is there.
+PEER_PAIR_STYLE = "pair_style gran/hooke/history 100000.0 NULL 50.0 NULL 0.5 0"
+
+
+def peer_pair_style(peers):
+    """The `pair_style` line of the peer's disks2d.lmp (this file's copy if the peer inputs are absent)."""
+    path = peers / "disks2d.lmp"
+    if not path.exists():
+        return PEER_PAIR_STYLE
+    lines = [line.strip() for line in path.read_text().splitlines() if line.strip().startswith("pair_style")]
+    if len(lines) != 1:
+        raise ValueError(f"{path}: expected one pair_style line, found {len(lines)}")
+    return lines[0]
+
+
+def hooke_history_law(pair_style, mstar=0.5, contact_extra=""):
+    """grains' [contact] and [friction] tables for LAMMPS' `pair_style gran/hooke/history Kn Kt gamma_n gamma_t
+    xmu dampflag`, for pairs of reduced mass m*. LAMMPS: Kt NULL is 2/7 Kn, gamma_t NULL is gamma_n / 2, its
+    dashpots are m* gamma v, and dampflag 0 drops the tangential one (gamma_t = 0). With zeta = m* gamma_n /
+    (2 sqrt(m* k_n)): e = exp(-pi zeta / sqrt(1 - zeta^2)), t_c = pi / (sqrt(k_n / m*) sqrt(1 - zeta^2)), from
+    which grains' calibration gives back k_n and c_n. contact_extra: further [contact] lines."""
+    words = pair_style.split()
+    if words[:2] != ["pair_style", "gran/hooke/history"] or len(words) != 8:
+        raise ValueError(f"not a gran/hooke/history pair style with six values: {pair_style!r}")
+    kn, gamma_n, mu = float(words[2]), float(words[4]), float(words[6])
+    kt = 2 / 7 * kn if words[3] == "NULL" else float(words[3])
+    gamma_t = gamma_n / 2 if words[5] == "NULL" else float(words[5])
+    if int(words[7]) == 0:
+        gamma_t = 0.0
     zeta = mstar * gamma_n / (2 * math.sqrt(mstar * kn))
     root = math.sqrt(1 - zeta * zeta)
-    return math.exp(-math.pi * zeta / root), math.pi / (math.sqrt(kn / mstar) * root)
-
-
-# The peer's tangential law: k_t = 2/7 k_n (kt = NULL), mu = 0.5, and no tangential dashpot: its gamma_t
-# (NULL: gamma_n / 2) is dropped by its dampflag 0.
-PEER_FRICTION = "[friction]\ncoefficient = 0.5\nstiffness_ratio = 0.2857142857142857\ndamping_ratio = 0.0\n"
+    e, tc = math.exp(-math.pi * zeta / root), math.pi / (math.sqrt(kn / mstar) * root)
+    return (f"[contact]\nrestitution = {e!r}\nduration = {tc!r}\n{contact_extra}"
+            f"[friction]\ncoefficient = {mu!r}\nstiffness_ratio = {kt / kn!r}\ndamping_ratio = {gamma_t / gamma_n!r}\n")
 
 
 def disk_state(work, cells_x):
@@ -69,12 +90,12 @@ def disk_state(work, cells_x):
     return table, centres, v, lengths
 
 
-def grains_scene(work, cells_x, variant):
+def grains_scene(work, cells_x, variant, pair_style):
     table, centres, _, lengths = disk_state(work, cells_x)
     law = {
         "adhesion+friction+rolling": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n[rolling]\ncoefficient = 0.005\n",
         "adhesion+friction": "[adhesion]\nenabled = true\n[friction]\ncoefficient = 0.5\n",
-        "spring-dashpot+friction": "[contact]\nrestitution = {!r}\nduration = {!r}\n".format(*peer_disk_law()) + PEER_FRICTION,
+        "spring-dashpot+friction": hooke_history_law(pair_style),
     }[variant]
     scene = work / f"{variant}-{cells_x}.toml"
     scene.write_text(f"""[scene]
@@ -145,7 +166,7 @@ def main():
                     # LAMMPS right before each grains run: on this noisy host a rate measured a minute
                     # earlier can be half or twice the one of the moment.
                     lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
-                    scene, n = grains_scene(work, args.cells, variant)
+                    scene, n = grains_scene(work, args.cells, variant, peer_pair_style(args.peers))
                     g, contacts, build = grains_rate(args.binary, scene, args.steps, threads, work)
                     runs.setdefault((variant, threads), []).append((g, lmp, contacts))
                     print(f"{variant:26s} {threads} core(s), round {r + 1}: grains {g:.3g} (contacts at the end "

@@ -45,7 +45,7 @@ import tempfile
 import h5py
 import numpy as np
 
-from bench_cohesive import PEER_FRICTION, disk_state, peer_disk_law
+from bench_cohesive import disk_state, hooke_history_law, peer_pair_style
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DIAMETER, MASS = 1.0, 1.0
@@ -63,10 +63,15 @@ def run(cmd, cwd):
 
 
 def lammps_pair_style(friction):
-    if friction:   # the last word, dampflag, must be 1: 0 drops the tangential dashpot (gamma_t = 0)
-        return (f"pair_style gran/hooke/history ${{kn}} $({FRICTION['stiffness_ratio']!r}*v_kn) ${{gn}} "
-                f"$({FRICTION['damping_ratio']!r}*v_gn) {FRICTION['coefficient']!r} 1")
-    return "pair_style gran/hooke ${kn} 0.0 ${gn} 0.0 0.0 0"
+    """gas.lmp's pair style (k_n, gamma_n from e and t_c for m* = 1/2), or the peer README's frictional
+    variant with FRICTION's values. The last word, dampflag, must be 1 for a tangential dashpot: 0 drops it."""
+    kn = 0.5 * (math.pi ** 2 + math.log(E) ** 2) / TC ** 2
+    gn = -2 * math.log(E) / TC
+    if friction:
+        damped = 1 if FRICTION["damping_ratio"] > 0 else 0
+        return (f"pair_style gran/hooke/history {kn!r} {FRICTION['stiffness_ratio'] * kn!r} {gn!r} "
+                f"{FRICTION['damping_ratio'] * gn!r} {FRICTION['coefficient']!r} {damped}")
+    return f"pair_style gran/hooke {kn!r} 0.0 {gn!r} 0.0 0.0 0"
 
 
 def lammps_script(data, friction, boundary, steps, every, dt):
@@ -77,10 +82,6 @@ dimension 3
 boundary {boundary}
 comm_modify vel yes
 read_data {data}
-variable tc equal {TC!r}
-variable e equal {E!r}
-variable kn equal 0.5*(PI^2+ln(${{e}})^2)/${{tc}}^2
-variable gn equal -2*ln(${{e}})/${{tc}}
 {lammps_pair_style(friction)}
 pair_coeff * *
 neighbor 0.2 bin
@@ -195,7 +196,7 @@ def pair_ensemble():
 DISK_CELLS, DISK_STEPS, DISK_DT, DISK_EVERY = 35, 20000, 1e-4, 1000
 
 
-def disks(binary, work):
+def disks(binary, work, pair_style):
     """Part 3: disks2d.lmp's law and lattice, one initial state, (step, translational, rotational) per code."""
     table, centres, v, lengths = disk_state(work, DISK_CELLS)
     # In 2D too read_data gives a sphere's mass (density 4/3 pi r^3): lammps_data's density makes it 1.
@@ -207,7 +208,7 @@ atom_style sphere
 boundary p p p
 comm_modify vel yes
 read_data disks.data
-pair_style gran/hooke/history 100000.0 NULL 50.0 NULL 0.5 0
+{pair_style}
 pair_coeff * *
 neighbor 0.1 bin
 neigh_modify every 1 delay 0
@@ -223,8 +224,7 @@ thermo_modify norm no format float %.15g
 thermo {DISK_EVERY}
 run {DISK_STEPS}
 """)
-    e, tc = peer_disk_law()
-    law = f"[contact]\nrestitution = {e!r}\nduration = {tc!r}\noverlap_limit = 1.0\n" + PEER_FRICTION
+    law = hooke_history_law(pair_style, contact_extra="overlap_limit = 1.0\n")
     scene = grains_scene(work, "disks", table, lengths, True, law, DISK_STEPS, DISK_EVERY, DISK_DT, 0.1)
     g = grains_energies(binary, work, scene)
     if len(lmp) != len(g) or not np.array_equal(lmp[:, 0], g[:, 0]):
@@ -303,7 +303,7 @@ def main():
             report.append(f"| {'frictional' if friction else 'frictionless'} | {dt:g} | {g:.5f} | {lmp:.5f} | {g / lmp:.4f} |")
 
         # 3. The 2D disks.
-        dg, dl, nd = disks(args.binary, work)
+        dg, dl, nd = disks(args.binary, work, peer_pair_style(args.peers))
         report += ["", f"## The 2D disks of disks2d.lmp, {nd} disks, one initial state, kinetic energy per disk", "",
                    "| t | grains: translational | rotational | LAMMPS: translational | rotational | grains / LAMMPS: "
                    "translational | rotational |", "|---|---|---|---|---|---|---|"]
