@@ -108,9 +108,12 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
       // A ramped first compression's budget counts from the ramp's end.
       const long budget = r.phase == "aggregation" ? settings.aggregation_budget : settings.stage_budget;
       const std::string ramp = r.steps > budget ? fmt::format(" after its {}-step ramp", r.steps - budget) : "";
-      fmt::print(stderr, "warning: stage {} ({} at P* = {:.4g}) did not reach {} within its budget of {} steps{}\n",
-                 r.index, r.phase, r.target, r.phase == "aggregation" ? "one cluster" : "equilibrium", budget, ramp);
-      out.write_warning(fmt::format("stage {} ({}, P* = {:.6g}) not reached within {} steps", r.index, r.phase, r.target, r.steps));
+      // The aggregation runs in a fixed cell: no target pressure (NaN in the table) to print.
+      const std::string where = std::isnan(r.target) ? "in its fixed cell" : fmt::format("at P* = {:.4g}", r.target);
+      fmt::print(stderr, "warning: stage {} ({} {}) did not reach {} within its budget of {} steps{}\n",
+                 r.index, r.phase, where, r.phase == "aggregation" ? "one cluster" : "equilibrium", budget, ramp);
+      out.write_warning(fmt::format("stage {} ({}, {}) not reached within {} steps", r.index, r.phase,
+                                    std::isnan(r.target) ? "fixed cell" : fmt::format("P* = {:.6g}", r.target), r.steps));
     }
     // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains
     // resume`. Saving changes nothing (the state carries what rebuilds CVODE's history): the programme runs as
@@ -131,8 +134,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     const std::string quench_note =
         quenched ? fmt::format("  quenched from step {} (drag gamma T {:.3g})", r.quench_start, r.quench_drag) : "";
     if (!quiet)
-      fmt::print("  stage {:>2} {:<11} P* {:<9.4g} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}{}\n", r.index, r.phase,
-                 r.target, r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
+      fmt::print("  stage {:>2} {:<11} P* {:<9} {:<11} {:>9} steps  Phi {:.4f}  z {:.3f}{}{}\n", r.index, r.phase,
+                 std::isnan(r.target) ? std::string("-") : fmt::format("{:.4g}", r.target), r.reached ? (r.phase == "aggregation" ? "one cluster" : "equilibrium") : "NOT REACHED", r.steps, value("solid_fraction"),
                  value("coordination"), quench_note, moduli);
     std::fflush(stdout);
   };

@@ -57,6 +57,20 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
         assert "did not reach" in f["grains"].attrs["status"] or "not reached" in f["grains"].attrs["status"]
 
 
+def test_an_unfinished_aggregation_is_reported_without_a_pressure(grains_bin, root, tmp_path):
+    """The type-2 aggregation runs in a fixed cell: its report names that, not "P* = nan"."""
+    out = tmp_path / "agg.h5"
+    r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--out", out,
+            "--set", "particles.count=60", "--set", "run.threads=1", "--set", "programme.aggregation_budget=500",
+            "--set", "programme.stage_budget=100", "--set", "programme.load=false")
+    assert r.returncode == 0, r.stderr
+    assert "stage 0 (aggregation in its fixed cell) did not reach one cluster within its budget of 500 steps" in r.stderr
+    assert "nan" not in r.stderr.lower() and "nan" not in r.stdout.lower()
+    assert "stage  0 aggregation P* -" in r.stdout
+    with h5py.File(out) as f:
+        assert any(w.decode().startswith("stage 0 (aggregation, fixed cell) not reached") for w in f["grains/warnings"][:])
+
+
 def test_each_stage_record_in_the_output_equals_its_table_row(grains_bin, root, tmp_path):
     """The H5MD stage records hold the table's quantities. contacts_kept / lost / gained were read after the
     programme had marked the stage's network as the next reference, so the records said (contacts, 0, 0)."""
