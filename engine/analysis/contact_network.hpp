@@ -25,7 +25,7 @@ struct ContactNetworkOptions {
 
 struct ContactNetwork {
   long contacts = 0;         // pairs with h < 0
-  long distant_bonds = 0;    // pairs with 0 <= h < D0 (counted in z and, being tensile, in z-)
+  long distant_bonds = 0;    // pairs attracting across a gap 0 <= h < D0, none with F0 = 0 (counted in z and, being tensile, in z-)
   double z = 0;              // 2 (contacts + distant bonds) / N
   double z_plus = 0, z_minus = 0, z_zero = 0;   // the part of z carried by compressive / tensile / zero forces
   double rattler_fraction = 0;                  // x0: grains none of whose interactions carries a force

@@ -288,14 +288,17 @@ class ContactForces final : public ForceModule<D> {
     if (!ok) throw std::runtime_error("saved contact history does not fit the saved neighbour list");
   }
 
-  // Interacting pairs (contacts and, with an attractive tail, distant bonds) with their static normal
-  // force, for the contact-network analysis.
+  // Interacting pairs (contacts and distant bonds: pairs that attract across a gap) with their static normal
+  // force, for the contact-network analysis. A pair within D0 of contact is no bond where nothing attracts
+  // (F0 = 0, the cohesionless reference): counting it put 0.4 on z there.
   void list_interactions(const System<D>& s, std::vector<NetworkInteraction>& out) const override {
     if constexpr (Law::has_tail) {
       const auto& P = s.particles;
       each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t, const Vec<D>& r) {
         const double gap = r.norm() - P.radius[i] - P.radius[j];
-        if (gap < law_.reach()) out.push_back({std::uint32_t(i), j, gap, law_.static_force(gap)});
+        if (gap >= law_.reach()) return;
+        const double force = law_.static_force(gap);
+        if (gap < 0 || force != 0) out.push_back({std::uint32_t(i), j, gap, force});
       });
     }
   }

@@ -84,3 +84,21 @@ TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[n
   CHECK(t->get("contacts_kept") == 2);
   CHECK(t->get("network.mark") == 1);
 }
+
+TEST_CASE("without an adhesion force a pair within D0 of contact is no distant bond", "[network][adhesion]") {
+  // The same chain with F0 = 0 (the cohesionless reference): 0-1 in contact, 1-2 at a gap of D0 / 2, which
+  // attracts nothing. Until 2026-12-04 that pair counted in z and z0 as a distant bond.
+  const double delta = 1e-5, D0 = 1e-3;
+  ListedParticles p;
+  p.positions = {{0, 0}, {1 - delta, 0}, {2 - delta + 0.5 * D0, 0}, {10, 0}};
+  p.velocities = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
+  p.diameters = {1, 1, 1, 1};
+  p.masses = {1, 1, 1, 1};
+  auto s = Simulation::create(Scene::from_string(adhesive_scene(2, p, "force = 0.0\n"), "cohesionless network"));
+  CHECK(s->get("distant_bonds") == 0);
+  CHECK(s->get("coordination") == Approx(0.5));   // one contact among four grains
+  CHECK(s->get("coordination_compressive") == Approx(0.5));
+  CHECK(s->get("coordination_zero") == 0);
+  CHECK(s->get("rattler_fraction") == Approx(0.5));
+  CHECK(s->get("backbone_coordination") == Approx(1.0));
+}
