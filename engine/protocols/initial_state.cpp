@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <numeric>
 #include <random>
 #include <sstream>
 #include <unordered_map>
@@ -50,11 +51,12 @@ Vec<D> to_vec(const Scene& s, std::string_view key, const std::vector<double>& v
   return out;
 }
 
-// Non-overlapping random insertion. Candidates are checked against a hashed cell grid whose cells are
-// at least one largest diameter wide and tile each periodic axis exactly (so neighbours across the
-// boundary are found by wrapping cell indices).
+// Non-overlapping random insertion in the given order; returns the first particle it could not place (or
+// P.size()). Candidates are checked against a hashed cell grid whose cells are at least one largest diameter
+// wide and tile each periodic axis exactly (so neighbours across the boundary are found by wrapping cell indices).
 template <int D>
-void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt19937_64& rng) {
+std::size_t insert_in_order(Particles<D>& P, const Box<D>& box, const std::vector<std::size_t>& order,
+                            long attempts_per_particle, std::mt19937_64& rng) {
   const double dmax = 2 * *std::max_element(P.radius.begin(), P.radius.end());
   std::array<long long, D> n;
   Vec<D> cell;
@@ -77,8 +79,7 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
     return c;
   };
   std::uniform_real_distribution<double> u(0, 1);
-  const long attempts_per_particle = 20000;
-  for (std::size_t i = 0; i < P.size(); ++i) {
+  for (const std::size_t i : order) {
     bool placed = false;
     for (long t = 0; t < attempts_per_particle && !placed; ++t) {
       Vec<D> x;
@@ -105,13 +106,29 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
         placed = true;
       }
     }
-    if (!placed) {
-      s.fail(s.has("box.lengths") ? "box.lengths" : "particles.solid_fraction",
-             fmt::format("random insertion could not place particle {} of {} after {} attempts at solid fraction {:.4g}; "
-                         "lower the solid fraction (random insertion jams near {}) or use layout = \"lattice\"",
-                         i, P.size(), attempts_per_particle, solid_volume(P) / box.volume(), D == 3 ? "0.38" : "0.55"));
-    }
+    if (!placed) return i;
   }
+  return P.size();
+}
+
+// Random insertion in the particles' order. Where that jams (polydisperse spheres near 0.3: a large grain
+// finds no hole late in the filling), it starts again placing the largest first, which fills further; layouts
+// that the first pass completes are kept as they were.
+template <int D>
+void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt19937_64& rng) {
+  const long attempts_per_particle = 20000;
+  std::vector<std::size_t> order(P.size());
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  if (insert_in_order(P, box, order, attempts_per_particle, rng) == P.size()) return;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return P.radius[a] > P.radius[b]; });
+  const std::size_t failed = insert_in_order(P, box, order, attempts_per_particle, rng);
+  if (failed == P.size()) return;
+  const std::size_t rank = std::find(order.begin(), order.end(), failed) - order.begin();
+  s.fail(s.has("box.lengths") ? "box.lengths" : "particles.solid_fraction",
+         fmt::format("random insertion could not place the particles at solid fraction {:.4g}, neither in their order "
+                     "nor largest first ({} placed, then {} attempts at the next); lower the solid fraction (random "
+                     "insertion of equal sizes jams near {}) or use layout = \"lattice\"",
+                     solid_volume(P) / box.volume(), rank, attempts_per_particle, D == 3 ? "0.38" : "0.55"));
 }
 
 // Renumbers randomly placed particles along a Z-order (Morton) curve of the box, so that particles

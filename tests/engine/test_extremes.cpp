@@ -130,7 +130,7 @@ TEST_CASE("extremes: stiffness over six decades at fixed masses gives the same f
 }
 
 TEST_CASE("extremes: K + elastic energy never grows in a dense periodic system, six stiffness decades", "[extremes]") {
-  // 200 polydisperse spheres at solid fraction 0.3 (random insertion reaches neither 0.5 nor 0.35)
+  // 200 polydisperse spheres at solid fraction 0.3 (random insertion in the particles' order jams above it)
   // with Gaussian velocities: many simultaneous contacts, from heavily clamped soft ones (t_c = 1)
   // to stiff ones (t_c = 1e-3). The dashpot only removes energy and the clamped spring stores it
   // exactly (elastic_energy is the clamped potential). What velocity Verlet conserves for a spring

@@ -16,7 +16,7 @@ using namespace grains;
 
 namespace {
 
-Scene polydisperse_gas(int dimension, int count) {
+Scene polydisperse_gas(int dimension, int count, double solid_fraction = 0, int seed = 11) {
   return Scene::from_string(fmt::format(R"(
 [scene]
 dimension = {}
@@ -27,14 +27,14 @@ size_distribution = "uniform"
 diameter_min = 0.5
 diameter_max = 1.0
 solid_fraction = {}
-seed = 11
+seed = {}
 [box]
 periodic = true
 [contact]
 duration = 0.05
 [run]
 threads = 1
-)", dimension, count, dimension == 2 ? 0.36 : 0.2), "layout");
+)", dimension, count, solid_fraction > 0 ? solid_fraction : dimension == 2 ? 0.36 : 0.2, seed), "layout");
 }
 
 // Minimum-image distance between particles i and j.
@@ -79,5 +79,25 @@ TEST_CASE("random layout: particles are numbered along a Z-order curve, sizes mo
       for (std::size_t j = i + 1; j < P.count; ++j)
         worst = std::max(worst, P.radius[i] + P.radius[j] - distance(P, B, i, j));
     CHECK(worst <= 0);
+  }
+}
+
+TEST_CASE("random layout: polydisperse spheres at solid fraction 0.3 start for every seed", "[layout]") {
+  // In the particles' order the insertion jams near 0.3 for most seeds of the 3D consolidation scenes (a
+  // large sphere finds no hole late in the filling; seeds 2-5 of 1000 failed until 2026-12-04); it then
+  // places them largest first.
+  for (int seed = 1; seed <= 5; ++seed) {
+    INFO("seed " << seed);
+    const auto s = Simulation::create(polydisperse_gas(3, 1000, 0.3, seed));
+    const auto P = s->particles();
+    const auto B = s->box();
+    double worst = -1, solid = 0;
+    for (std::size_t i = 0; i < P.count; ++i) {
+      solid += 4.0 / 3.0 * M_PI * std::pow(P.radius[i], 3);
+      for (std::size_t j = i + 1; j < P.count; ++j)
+        worst = std::max(worst, P.radius[i] + P.radius[j] - distance(P, B, i, j));
+    }
+    CHECK(worst <= 0);
+    CHECK(solid / (B.length[0] * B.length[1] * B.length[2]) == Approx(0.3).epsilon(1e-9));
   }
 }
