@@ -159,7 +159,7 @@ class SimulationImpl final : public Simulation {
       add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
                    "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off)", 0.0},
                   [g = gravity_] { return g->G(); }, [g = gravity_](double G) { g->set_G(G); });
-    sys_.dt = 0;
+    sys_.dt = 0, sys_.first_step = dt_;
     P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)
     compute_forces();
     if (barostat_) contact_stress_ = contact_stress<D>(sys_.virial, sys_.box.volume());

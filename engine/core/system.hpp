@@ -15,6 +15,7 @@ struct System {
   NeighbourList<D> neighbours;
   ShellList<D> shell;   // the listed pairs near contact, which the pair loops test (when built)
   double time = 0, dt = 0;   // dt: length of the step being taken (0 for the initial force evaluation)
+  double first_step = 0;     // at the initial evaluation: the step to come, whose first half kick alone charges its forces
   long step = 0;
   int threads = 1;
   // Per-thread force/torque buffers, reused across steps: a pair loop's thread adds its own particles'

@@ -38,10 +38,12 @@ struct AdhesiveContactLaw {
   }
 
   // The part of force() that is the parting charge (contact_step.hpp, parting): taken back at the next
-  // evaluation where the pair still overlaps (contact_forces.hpp).
+  // evaluation where the pair still overlaps (contact_forces.hpp), over that evaluation's whole kick window;
+  // the initial evaluation's was charged over half a window, so half of it is taken back.
   double parting_charge(const ContactStep& p, double cn) const {
     const Onset start = onset(p), on = parting(p, start);
-    return k * (on.extra_overlap - start.extra_overlap) - cn * p.vn * (on.dashpot_weight - start.dashpot_weight);
+    const double charge = k * (on.extra_overlap - start.extra_overlap) - cn * p.vn * (on.dashpot_weight - start.dashpot_weight);
+    return p.dt > 0 ? charge : 0.5 * charge;
   }
 
   // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).
