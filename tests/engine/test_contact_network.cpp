@@ -48,15 +48,24 @@ TEST_CASE("contacts kept, lost and gained between two states", "[network]") {
   CHECK(ch.gained == 2);
 }
 
-TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[network][adhesion]") {
-  // Grains 0-1 bonded at rest at the equilibrium overlap (zero force), 1-2 across half the attraction
-  // range (tension F0 / 2), grain 3 far away.
-  const double delta0 = 1e-5, D0 = 1e-3;
+namespace {
+// Four unit grains on the x axis: 0-1 overlapping by delta = F0 / K_N (the defaults' equilibrium overlap),
+// 1-2 at a gap of half the attraction range D0, grain 3 far away.
+ListedParticles chain_of_four() {
+  const double delta = 1e-5, D0 = 1e-3;
   ListedParticles p;
-  p.positions = {{0, 0}, {1 - delta0, 0}, {2 - delta0 + 0.5 * D0, 0}, {10, 0}};
+  p.positions = {{0, 0}, {1 - delta, 0}, {2 - delta + 0.5 * D0, 0}, {10, 0}};
   p.velocities = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
   p.diameters = {1, 1, 1, 1};
   p.masses = {1, 1, 1, 1};
+  return p;
+}
+}  // namespace
+
+TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[network][adhesion]") {
+  // Grains 0-1 bonded at rest at the equilibrium overlap (zero force), 1-2 across half the attraction
+  // range (tension F0 / 2), grain 3 far away.
+  const ListedParticles p = chain_of_four();
   auto s = Simulation::create(Scene::from_string(adhesive_scene(2, p), "network"));
   CHECK(s->get("coordination") == Approx(1.0));
   CHECK(s->get("coordination_zero") == Approx(0.5));
@@ -88,13 +97,7 @@ TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[n
 TEST_CASE("without an adhesion force a pair within D0 of contact is no distant bond", "[network][adhesion]") {
   // The same chain with F0 = 0 (the cohesionless reference): 0-1 in contact, 1-2 at a gap of D0 / 2, which
   // attracts nothing. Until 2026-12-04 that pair counted in z and z0 as a distant bond.
-  const double delta = 1e-5, D0 = 1e-3;
-  ListedParticles p;
-  p.positions = {{0, 0}, {1 - delta, 0}, {2 - delta + 0.5 * D0, 0}, {10, 0}};
-  p.velocities = {{0, 0}, {0, 0}, {0, 0}, {0, 0}};
-  p.diameters = {1, 1, 1, 1};
-  p.masses = {1, 1, 1, 1};
-  auto s = Simulation::create(Scene::from_string(adhesive_scene(2, p, "force = 0.0\n"), "cohesionless network"));
+  auto s = Simulation::create(Scene::from_string(adhesive_scene(2, chain_of_four(), "force = 0.0\n"), "cohesionless network"));
   CHECK(s->get("distant_bonds") == 0);
   CHECK(s->get("coordination") == Approx(0.5));   // one contact among four grains
   CHECK(s->get("coordination_compressive") == Approx(0.5));
