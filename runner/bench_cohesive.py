@@ -158,6 +158,7 @@ def main():
     if not have_lammps:
         print("note: LAMMPS (`lmp`, Debian package lammps) or the peer input is missing: grains only", file=sys.stderr)
     runs = {}   # (variant, threads) -> [(grains, LAMMPS of the same round, contacts)]
+    pair_style = peer_pair_style(args.peers)
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(tmp)
         for r in range(max(1, args.repeat)):
@@ -166,7 +167,7 @@ def main():
                     # LAMMPS right before each grains run: on this noisy host a rate measured a minute
                     # earlier can be half or twice the one of the moment.
                     lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
-                    scene, n = grains_scene(work, args.cells, variant, peer_pair_style(args.peers))
+                    scene, n = grains_scene(work, args.cells, variant, pair_style)
                     g, contacts, build = grains_rate(args.binary, scene, args.steps, threads, work)
                     runs.setdefault((variant, threads), []).append((g, lmp, contacts))
                     print(f"{variant:26s} {threads} core(s), round {r + 1}: grains {g:.3g} (contacts at the end "

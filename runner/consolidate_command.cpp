@@ -109,11 +109,12 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
       const long budget = r.phase == "aggregation" ? settings.aggregation_budget : settings.stage_budget;
       const std::string ramp = r.steps > budget ? fmt::format(" after its {}-step ramp", r.steps - budget) : "";
       // The aggregation runs in a fixed cell: no target pressure (NaN in the table) to print.
-      const std::string where = std::isnan(r.target) ? "in its fixed cell" : fmt::format("at P* = {:.4g}", r.target);
-      fmt::print(stderr, "warning: stage {} ({} {}) did not reach {} within its budget of {} steps{}\n",
-                 r.index, r.phase, where, r.phase == "aggregation" ? "one cluster" : "equilibrium", budget, ramp);
+      const bool fixed_cell = std::isnan(r.target);
+      fmt::print(stderr, "warning: stage {} ({} {}) did not reach {} within its budget of {} steps{}\n", r.index, r.phase,
+                 fixed_cell ? "in its fixed cell" : fmt::format("at P* = {:.4g}", r.target),
+                 r.phase == "aggregation" ? "one cluster" : "equilibrium", budget, ramp);
       out.write_warning(fmt::format("stage {} ({}, {}) not reached within {} steps", r.index, r.phase,
-                                    std::isnan(r.target) ? "fixed cell" : fmt::format("P* = {:.6g}", r.target), r.steps));
+                                    fixed_cell ? "fixed cell" : fmt::format("P* = {:.6g}", r.target), r.steps));
     }
     // The end of every stage but the last (its row, records and warning written) is a checkpoint for `grains
     // resume`. Saving changes nothing (the state carries what rebuilds CVODE's history): the programme runs as

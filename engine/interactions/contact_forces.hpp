@@ -692,7 +692,7 @@ class ContactForces final : public ForceModule<D> {
       const Vec<D> moved = dt * (P.velocity[j] - P.velocity[i]);
       before = Rsum - (s.affine_flow ? Vec<D>(r.cwiseQuotient(s.cell_scale) - moved) : Vec<D>(r - moved)).norm();
     }
-    ContactStep step{Rsum - d, before, vn, dt, first, dt > 0 ? 0.0 : s.first_step};
+    ContactStep step{Rsum - d, before, vn, dt, first, s.first_step};
     if (first) {   // evaluated where the exact solution is; the pair gets there in the next step
       const double lag = onset_lag(step, cn * (mi + mj) / (mi * mj));
       if (lag > 0) {

@@ -15,7 +15,7 @@ struct ContactStep {
   double vn;               // predicted normal relative velocity at the end of the step (negative = approaching)
   double dt;               // length of the step (0 for the initial force evaluation)
   bool first;              // the pair did not overlap at the previous force evaluation
-  double first_step = 0;   // the initial evaluation (dt = 0): the step to come, of which it is charged the first half
+  double first_step = 0;   // read at the initial evaluation (dt = 0) only: the step to come, of whose first half it is charged
 };
 
 // A contact's first step. Touching at share s of the step (linear interpolation of the overlap, exact

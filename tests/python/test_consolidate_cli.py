@@ -60,7 +60,7 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
 def test_an_unfinished_aggregation_is_reported_without_a_pressure(grains_bin, root, tmp_path):
     """The type-2 aggregation runs in a fixed cell: its report names that, not "P* = nan"."""
     out = tmp_path / "agg.h5"
-    r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--out", out,
+    r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--out", out, "--table", tmp_path / "agg.csv",
             "--set", "particles.count=60", "--set", "run.threads=1", "--set", "programme.aggregation_budget=500",
             "--set", "programme.stage_budget=100", "--set", "programme.load=false")
     assert r.returncode == 0, r.stderr
