@@ -32,9 +32,19 @@ struct LinearContactLaw {
     // Released within two steps? Only a separating pair (v_n > 0) can be: k delta = c v_n at release.
     // The fall over a step is -f' h, f' = k delta' - c v_n' with delta' = -v_n and, for the pair alone,
     // v_n' = f / m*; tested times mi mj, without a division.
-    if (!p.first && !clamped && f > 0 && p.vn > 0) {
-      const double mm = mi * mj, fall = p.dt * (kn * p.vn * mm + cn * f * (mi + mj));
-      if (f * mm < 2 * fall) f += release_force(f, fall / mm);
+    if (!clamped && f > 0 && p.vn > 0) {
+      const bool initial = p.dt <= 0;
+      const double mm = mi * mj, slope = kn * p.vn * mm + cn * f * (mi + mj);
+      if (initial) {
+        // The initial evaluation is charged over [0, h/2] only: released sigma < 1 of the first step ahead,
+        // the force's exact impulse f sigma h / 2 is that window's times sigma (released later: the next
+        // evaluation's correction spreads it). Until 2026-12-04 none: 5.2e-4 too fast at sigma = 0.5, n_c = 50.
+        const double fall = p.first_step * slope;
+        if (f * mm < fall) f *= f * mm / fall;
+      } else if (!p.first) {
+        const double fall = p.dt * slope;
+        if (f * mm < 2 * fall) f += release_force(f, fall / mm);
+      }
     }
     return std::max(0.0, f);
   }
