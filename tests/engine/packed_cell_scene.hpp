@@ -5,19 +5,11 @@
 
 #include <fmt/format.h>
 
+#include "polydisperse_particles.hpp"
+
 // `extra`: further [cell] keys or TOML tables (e.g. [programme]).
 inline std::string packed_cell_scene(int dimension, int count, double pressure, const std::string& extra = "") {
-  return fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "random"
-count = {}
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-solid_fraction = {}
-seed = 3
+  return polydisperse_particles(dimension, count, dimension == 2 ? 0.4 : 0.25, 3) + fmt::format(R"(
 [contact]
 restitution = 0.1
 duration = 0.05
@@ -30,5 +22,5 @@ pressure = {}
 {}
 [run]
 threads = 1
-)", dimension, count, dimension == 2 ? 0.4 : 0.25, pressure, extra);
+)", pressure, extra);
 }

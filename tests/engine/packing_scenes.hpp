@@ -10,24 +10,14 @@
 #include <fmt/format.h>
 
 #include "io/scene.hpp"
+#include "polydisperse_particles.hpp"
 
 namespace grains {
 
 inline Scene compressed_packing(int threads, double rolling, bool affine, const std::string& extra = "") {
-  return Scene::from_string(fmt::format(R"(
-[scene]
-dimension = 2
-[particles]
-layout = "random"
-count = 300
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-density = 1.273239544735163
-solid_fraction = 0.36
-velocity = "gaussian"
-kinetic_energy = 0.02
-seed = 5
+  const std::string particles =
+      polydisperse_particles(2, 300, 0.36, 5, "density = 1.273239544735163\nvelocity = \"gaussian\"\nkinetic_energy = 0.02\n");
+  return Scene::from_string(particles + fmt::format(R"(
 [box]
 periodic = true
 [contact]

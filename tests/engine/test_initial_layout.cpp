@@ -11,30 +11,22 @@
 
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "polydisperse_particles.hpp"
 
 using namespace grains;
 
 namespace {
 
 Scene polydisperse_gas(int dimension, int count, double solid_fraction = 0, int seed = 11) {
-  return Scene::from_string(fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "random"
-count = {}
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-solid_fraction = {}
-seed = {}
+  const double phi = solid_fraction > 0 ? solid_fraction : dimension == 2 ? 0.36 : 0.2;
+  return Scene::from_string(polydisperse_particles(dimension, count, phi, seed) + R"(
 [box]
 periodic = true
 [contact]
 duration = 0.05
 [run]
 threads = 1
-)", dimension, count, solid_fraction > 0 ? solid_fraction : dimension == 2 ? 0.36 : 0.2, seed), "layout");
+)", "layout");
 }
 
 // Minimum-image distance between particles i and j.

@@ -10,6 +10,7 @@
 #include "adhesive_scene.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "polydisperse_particles.hpp"
 
 using namespace grains;
 
@@ -95,17 +96,8 @@ TEST_CASE("rolling resistance ignores twisting about the normal (3D)", "[rolling
 namespace {
 // A dense cluster of cohesive grains in open space with friction and rolling resistance.
 std::string cohesive_cluster(int dim, int threads) {
-  return fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "random"
-count = {}
-solid_fraction = {}
-size_distribution = "uniform"
-velocity = "gaussian"
-kinetic_energy = 0.5
-seed = 3
+  return polydisperse_particles(dim, 64, dim == 2 ? 0.5 : 0.35, 3, "velocity = \"gaussian\"\nkinetic_energy = 0.5\n") +
+         fmt::format(R"(
 [box]
 periodic = false
 [adhesion]
@@ -116,7 +108,7 @@ coefficient = 0.5
 coefficient = 0.005
 [run]
 threads = {}
-)", dim, dim == 2 ? 64 : 64, dim == 2 ? 0.5 : 0.35, threads);
+)", threads);
 }
 }  // namespace
 

@@ -4,22 +4,11 @@
 #include <fmt/format.h>
 
 #include "io/scene.hpp"
+#include "polydisperse_particles.hpp"
 
 // The paper's type-1 law (Table I, mu = 0.5, no rolling resistance) on a few grains, the first stage only.
 inline grains::Scene type1_packing(int count, int seed, double drag, double damping, long budget) {
-  return grains::Scene::from_string(fmt::format(R"(
-[scene]
-dimension = 2
-[particles]
-layout = "random"
-count = {}
-size_distribution = "uniform"
-diameter_min = 0.5
-diameter_max = 1.0
-density = 1.273239544735163
-solid_fraction = 0.36
-velocity = "zero"
-seed = {}
+  return grains::Scene::from_string(polydisperse_particles(2, count, 0.36, seed, "density = 1.273239544735163\nvelocity = \"zero\"\n") + fmt::format(R"(
 [box]
 periodic = true
 [contact]
@@ -45,5 +34,5 @@ quench_drag = {}
 quench_damping = {}
 [run]
 threads = 1
-)", count, seed, budget, drag, damping), "quench");
+)", budget, drag, damping), "quench");
 }
