@@ -1,10 +1,9 @@
 // Softened self-gravity (physics.md section 7): Kepler orbit, cold collapse, tree vs direct,
-// momentum conservation with contacts, scene checks.
+// momentum conservation with contacts (and friction: angular momentum too), scene checks.
 #include <catch2/catch.hpp>
 
-#include <array>
-
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
