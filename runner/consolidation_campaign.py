@@ -5,8 +5,9 @@
 
 For each scene (type 2 without rolling resistance: models/consolidation.toml; with mu_R / a = 0.005:
 models/consolidation-rr.toml) and each sample seed (1..samples unless --first-seed moves them), runs
-`grains consolidate` (preparation, loading to P* = 13.33, unloading), `--jobs` samples at a time (Dask, one thread each unless --threads
-says otherwise). A sample whose stage table already exists in --out is not run again if it ran the scene and
+`grains consolidate` (preparation, loading to P* = 13.33, unloading), `--jobs` samples at a time (Dask), each on
+the threads the engine's automatic choice gives it (one per 2000 disks at most) within its share of the cores,
+unless --threads says otherwise. A sample whose stage table already exists in --out is not run again if it ran the scene and
 overrides given now (its HDF5 file says which; the thread count aside), else the campaign refuses, naming the
 settings that differ; an unfinished one continues from its last checkpoint, so an interrupted campaign (Ctrl-C:
 exit status 130) resumes when the same command runs again. Then it fits each sample's loading branch (runner/consolidation_fit.py) and prints
@@ -150,6 +151,16 @@ def provenance(args, names):
     return f"{', '.join(names)}: seeds {args.first_seed}–{last}, {args.count} disks; scene overrides: {sets}.\n\n"
 
 
+# The engine's automatic thread count (run.threads = 0) allows one thread per this many particles: below it a
+# second thread costs more than it brings (README, "Two threads on small systems").
+PARTICLES_PER_THREAD = 2000
+
+
+def default_threads(count, jobs, cores):
+    """Threads per sample: the engine's automatic choice, within the cores each of `jobs` samples at once gets."""
+    return max(1, min(cores // jobs, count // PARTICLES_PER_THREAD))
+
+
 def sample(scene, seed, count, threads, overrides, out):
     """(scene file, overrides, stem) of one sample."""
     own = [f"particles.seed={seed}", f"particles.count={count}", f"run.threads={threads}"]
@@ -265,7 +276,9 @@ def main():
     ap.add_argument("--first-seed", type=int, default=1, help="seeds FIRST_SEED .. FIRST_SEED + SAMPLES - 1 (default 1)")
     ap.add_argument("--count", type=int, default=1400, help="disks per sample (default 1400, the paper's)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="samples run at once (default: the cores)")
-    ap.add_argument("--threads", type=int, default=0, help="threads per sample (default: cores / jobs, at least 1)")
+    ap.add_argument("--threads", type=int, default=0,
+                    help="threads per sample (default: one per 2000 disks at most, as the engine's automatic choice, "
+                         "within cores / jobs; at least 1)")
     ap.add_argument("--scene", action="append", choices=list(PAPER), help="scene to run (repeatable; default both)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="scene override passed to every run, e.g. programme.stage_budget=1000000")
@@ -275,7 +288,7 @@ def main():
                     help="run nothing: summarise the tables already in --out, unfinished ones included")
     args = ap.parse_args()
     check_arguments(ap, args)
-    threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
+    threads = args.threads or default_threads(args.count, args.jobs, os.cpu_count() or 1)
     scenes = args.scene or list(PAPER)
     seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)

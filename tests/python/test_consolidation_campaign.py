@@ -151,6 +151,20 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     assert campaign.consolidate(grains_bin, scene, small + ["run.threads=2"], tmp_path / "whole", "whole") == whole
 
 
+def test_threads_per_sample_follow_the_engines_automatic_choice_within_the_cores(grains_bin):
+    # The engine's rule, as its scene reference states it, is the one the campaign copies.
+    reference = subprocess.run([str(grains_bin), "scene-reference"], capture_output=True, text=True, check=True).stdout
+    assert f"at most one thread per {campaign.PARTICLES_PER_THREAD} particles" in reference
+    # 1400 disks: one thread even when one sample has both cores (two threads lose there: README).
+    assert campaign.default_threads(1400, jobs=1, cores=2) == 1
+    assert campaign.default_threads(1400, jobs=2, cores=2) == 1
+    # Larger samples take more threads, never more than their share of the cores, and always one.
+    assert campaign.default_threads(5600, jobs=1, cores=2) == 2
+    assert campaign.default_threads(5600, jobs=2, cores=2) == 1
+    assert campaign.default_threads(40000, jobs=2, cores=8) == 4
+    assert campaign.default_threads(40000, jobs=16, cores=8) == 1
+
+
 def test_the_summary_says_which_samples_and_overrides_it_measured():
     """A summary read later must say what protocol produced it: the seeds, the disks and the --set overrides."""
     import argparse
