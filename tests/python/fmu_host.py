@@ -3,6 +3,7 @@ message the FMU sends. Used by the tests/python/test_fmu_*.py files and runner/b
 import ctypes
 import os
 import pathlib
+import tempfile
 
 import fmpy
 from fmpy import read_model_description
@@ -20,13 +21,16 @@ def fmu_path(model, version):
     return fmu_dir() / f"fmi{version}" / f"{model}.fmu"
 
 
+# Each FMU a process opens is unpacked once, into a folder removed when the process ends (fmpy.extract alone
+# leaves one folder per call in the system's temporary directory: ten per run of the test suite).
+_scratch = tempfile.TemporaryDirectory(prefix="grains-fmus-")
 _extracted = {}
 
 
 def extracted(path):
     path = str(path)
     if path not in _extracted:
-        _extracted[path] = fmpy.extract(path)
+        _extracted[path] = fmpy.extract(path, unzipdir=os.path.join(_scratch.name, str(len(_extracted))))
     return _extracted[path]
 
 
