@@ -277,8 +277,8 @@ def main():
     ap.add_argument("--count", type=int, default=1400, help="disks per sample (default 1400, the paper's)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="samples run at once (default: the cores)")
     ap.add_argument("--threads", type=int, default=0,
-                    help="threads per sample (default: one per 2000 disks at most, as the engine's automatic choice, "
-                         "within cores / jobs; at least 1)")
+                    help=f"threads per sample (default: one per {PARTICLES_PER_THREAD} disks at most, as the engine's "
+                         "automatic choice, within cores / jobs; at least 1)")
     ap.add_argument("--scene", action="append", choices=list(PAPER), help="scene to run (repeatable; default both)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="scene override passed to every run, e.g. programme.stage_budget=1000000")
