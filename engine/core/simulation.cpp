@@ -81,7 +81,7 @@ class SimulationImpl final : public Simulation {
                                                     "rolling.coefficient = 0", scene.real("rolling.coefficient")));
     if (scene.boolean("contact.enabled")) {
       if (scene.boolean("adhesion.enabled")) {
-        tc = add_adhesive_contact_module(scene, rmax);
+        tc = add_adhesive_contact_module(scene);
       } else {
         tc = scene.real("contact.duration");
         add_contact_module(scene, tc);
@@ -427,7 +427,7 @@ class SimulationImpl final : public Simulation {
 
   // The consolidation law (physics.md sections 4-6): adhesive normal law, friction bounded by the elastic
   // part, optional rolling resistance. Returns the contact duration t_c = pi sqrt(m*_min / K_N) that sets dt.
-  double add_adhesive_contact_module(const Scene& scene, double rmax) {
+  double add_adhesive_contact_module(const Scene& scene) {
     const double mstar_min = smallest_reduced_mass();
     AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"), scene.real("adhesion.range"),
                            damping_ratio(scene.real("adhesion.restitution")), scene.real("contact.overlap_limit")};
@@ -443,7 +443,7 @@ class SimulationImpl final : public Simulation {
     const double mu = scene.real("friction.coefficient");
     CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), true};
     const double mu_r = scene.real("rolling.coefficient");
-    const double a = 2 * rmax;
+    const double a = unit_grain(scene, sys_.particles).diameter;
     // No rolling spring without rolling resistance (mu_R = 0); the rolling dashpot may still act.
     RollingResistance rr{mu_r > 0 ? scene.real("rolling.stiffness_ratio") * law.k * a * a : 0.0, mu_r,
                          scene.real("rolling.damping_ratio")};
@@ -492,9 +492,9 @@ class SimulationImpl final : public Simulation {
     if (kn_ <= 0) scene.fail("cell.enabled", "the barostat needs contacts to carry the stress: set contact.enabled = true");
     // Reduced units: a = largest diameter, m = mass of a grain of diameter a, F0. Cohesionless (F0 = 0):
     // P* is P a^(D-2) / k_n.
-    const std::size_t big = std::max_element(P.radius.begin(), P.radius.end()) - P.radius.begin();
-    length_unit_ = 2 * P.radius[big];
-    grain_mass_ = P.mass[big];
+    const UnitGrain unit = unit_grain(scene, P);
+    length_unit_ = unit.diameter;
+    grain_mass_ = unit.mass;
     force_unit_ = cell_force_unit(scene);
     pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
     inertia_number_ = scene.real("cell.inertia_number");

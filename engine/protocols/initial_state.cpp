@@ -417,7 +417,21 @@ std::optional<std::filesystem::path> particle_file(const Scene& s) {
   return path.is_relative() ? s.directory() / path : path;
 }
 
+template <int D>
+UnitGrain unit_grain(const Scene& s, const Particles<D>& P) {
+  const std::size_t big = std::max_element(P.radius.begin(), P.radius.end()) - P.radius.begin();
+  const UnitGrain largest{2 * P.radius[big], P.mass[big]};
+  const std::string layout = s.text("particles.layout");
+  if (layout == "file" || (layout == "list" && s.has("particles.diameters"))) return largest;
+  const double a = s.text("particles.size_distribution") == "uniform" ? s.real("particles.diameter_max")
+                                                                       : s.real("particles.diameter");
+  if ((layout == "list" && s.has("particles.masses")) || s.has("particles.mass")) return {a, largest.mass};
+  return {a, s.real("particles.density") * ball_volume<D>(0.5 * a)};
+}
+
 template InitialState<2> make_initial_state<2>(const Scene&);
 template InitialState<3> make_initial_state<3>(const Scene&);
+template UnitGrain unit_grain<2>(const Scene&, const Particles<2>&);
+template UnitGrain unit_grain<3>(const Scene&, const Particles<3>&);
 
 }  // namespace grains

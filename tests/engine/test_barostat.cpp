@@ -125,6 +125,45 @@ threads = 1
   }
 }
 
+TEST_CASE("barostat: the reduced units take a from the size distribution, not from the largest grain drawn",
+          "[barostat]") {
+  // physics.md section 9: a is the largest diameter of the distribution (uniform in [a/2, a]) and m the mass of
+  // a grain of diameter a. The largest of 40 drawn diameters falls short of a (here by about 1 %), and with it
+  // P = P* F0 / a^(D-1), T0 and K_R used to be off by as much.
+  for (int D : {2, 3}) {
+    const std::string scene = fmt::format(R"(
+[scene]
+dimension = {}
+[particles]
+layout = "random"
+count = 40
+size_distribution = "uniform"
+diameter_min = 0.5
+diameter_max = 2.0
+density = 3.0
+solid_fraction = 0.2
+seed = 7
+[box]
+periodic = true
+[adhesion]
+enabled = true
+force = 4.0
+[cell]
+enabled = true
+pressure = 0.5
+[run]
+threads = 1
+)", D);
+    INFO("D = " << D);
+    auto s = Simulation::create(Scene::from_string(scene, "unit grain"));
+    double largest = 0;
+    for (double r : s->particles().radius) largest = std::max(largest, 2 * r);
+    REQUIRE(largest < 1.999);   // the draw falls short of a = 2
+    const double a = 2.0, m = 3.0 * (D == 2 ? M_PI : 4 * M_PI / 3) * std::pow(a / 2, D), F0 = 4.0;
+    CHECK(s->get("inertial_time") == Approx(std::sqrt(a * m / F0)).epsilon(1e-14));   // P* < 1: F1 = F0
+  }
+}
+
 TEST_CASE("barostat: a cohesionless 2D packing reaches its target pressure and equilibrium", "[barostat]") {
   auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 100, 1e-3), "cell2d"));
   const double phi0 = s->get("solid_fraction");
