@@ -171,7 +171,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Whether the barostat moves the cell from the start; also the input variable `cell.active` (0 holds the cell "
        "fixed at rest, as while a type-2 sample aggregates)."},
       {"cell.pressure", K::real, "0.01", 0, 1e6, false, false, "",
-       "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = largest diameter, F0 = `cell.force_unit`. "
+       "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = the size distribution's largest diameter "
+       "(`particles.diameter_max` or `diameter`; for listed or file particles the largest given), F0 = `cell.force_unit`. "
        "Also the input variable `cell.pressure`, which a host or the runner may change between steps."},
       {"cell.pressure_final", K::real, "", 0, 1e6, false, false, "",
        "P* at the end of a continuous ramp of the target pressure from `cell.pressure`, over `cell.ramp_duration` "
