@@ -64,11 +64,12 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
         coef, *_ = np.linalg.lstsq(a, y, rcond=None)
         return coef, float(np.sum((a @ coef - y) ** 2)), a
 
+    fitted = 2 if p0 is not None else 3   # 1/Phi0 and lambda, and P0* when it is found too
     if p0 is None:
         candidates = np.geomspace(p[keep].min(), p[keep].max(), 400)[:-2]
         p0 = min(candidates, key=lambda c: line_fit(c)[1])
     (inv_phi0, lam), residual, a = line_fit(p0)
-    dof = max(1, len(y) - 3)
+    dof = max(1, len(y) - fitted)
     cov = np.linalg.pinv(a.T @ a) * residual / dof
     return {"P0": float(p0), "phi0": 1.0 / inv_phi0, "lambda": lam, "lambda_err": math.sqrt(max(cov[1, 1], 0.0)),
             "stages": int(keep.sum())}

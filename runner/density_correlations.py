@@ -10,7 +10,7 @@ any H5MD file of 2D disks. For each chosen frame (default: every stage up to P* 
   - I(k) = |chi^(k)|^2 / A, chi^(k) = sum over the grid of chi e^(-i k.r) dA (A: the cell's area), is
     averaged over directions in logarithmic shells of k;
   - the fractal blob form I(k) = I0 [1 + (k xi / 2 pi)^2]^(-d_F / 2) is fitted to log I for
-    2 pi / L <= k <= --k-max (default pi / a): flat below the crossover 2 pi / xi, slope -d_F above it.
+    2 pi / L <= k <= --k-max (default 2 pi / a): flat below the crossover 2 pi / xi, slope -d_F above it.
     The paper fits the form of its "paper I", which its text does not give; this one has the paper's two
     features (plateau below k = 2 pi / xi, power law k^-d_F for a << 2 pi / k << xi), so d_F is
     comparable, while xi carries the form's own constant.

@@ -1,9 +1,10 @@
-// The damping the contacts' dashpots exert on the cell's own motion. Particle velocities are stored
-// relative to the affine flow, so the pair loop's dashpots never see the relative normal velocity
-// the cell strain imposes on a contact, sum_b (dL_b/dt / L_b) r^b n^b. Its force -c_n v_n n, put
-// into the cell equation through the virial, is (keeping the diagonal) a drag -eta_a dL_a/dt with
+// An explicit drag on the cell standing for the contacts' dashpots (cell.contact_damping, default 0): the
+// normal force -c_n v_n n of the relative velocity the cell strain imposes on a contact, sum_b (dL_b/dt / L_b)
+// r^b n^b, put into the cell equation through the virial, is (keeping the diagonal) a drag -eta_a dL_a/dt with
 //   eta_a = sum over contacts of c_n (r^a n^a)^2 / L_a^2 = c_n sum (r^a)^4 / (d^2 L_a^2).
-// Without it a jammed cell breathes undamped; loose samples have few contacts and stay unthrottled.
+// An older approximation: the pair loop's dashpots now see that velocity themselves (the affine flow term in
+// contact_forces.hpp and the batched kernels), so a factor above 0 counts the contacts' damping twice, on
+// top of assuming that every contact strains affinely (tenuous cohesive networks buckle instead).
 #pragma once
 #include "core/system.hpp"
 

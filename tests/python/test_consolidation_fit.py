@@ -101,6 +101,18 @@ def test_regime_two_line_and_its_start():
     assert fit["lambda"] == pytest.approx(LAM, rel=0.01)
 
 
+def test_regime_two_error_at_a_given_p0_is_the_straight_line_fits():
+    """With P0* given only 1/Phi0 and lambda are fitted: lambda's standard error is ordinary least squares'
+    with n - 2 degrees of freedom (it took n - 3, as when P0* is found too)."""
+    rng = np.random.default_rng(3)
+    p = P0 * 1.334 ** np.arange(6)
+    inv_phi = 1 / PHI0 - LAM * np.log(p / P0) + rng.normal(0, 2e-3, p.size)
+    fit = cf.fit_regime_two(p, 1 / inv_phi, p0=P0, p_max=1.0)
+    _, cov = np.polyfit(np.log(p / P0), inv_phi, 1, cov="unscaled")
+    residual = np.sum((np.polyval(np.polyfit(np.log(p / P0), inv_phi, 1), np.log(p / P0)) - inv_phi) ** 2)
+    assert fit["lambda_err"] == pytest.approx(math.sqrt(cov[0, 0] * residual / (p.size - 2)), rel=1e-9)
+
+
 def test_command_fits_a_table_and_writes_the_plot(tmp_path):
     p = programme()
     phi = synthetic_phi(p)
