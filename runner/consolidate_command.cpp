@@ -227,9 +227,11 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     throw SceneError(fmt::format("{}: stage table '{}' is the XDMF file written beside the HDF5 output '{}': name another "
                                  "file (or set output.xdmf = false)", opt.table.empty() ? "scene.name" : "--table", table, path));
 
+  // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
+  catch_stop_signals();
+  if (stop_requested()) return 130;
   H5mdWriter out(path, sim->dimension(), sim->box().periodic, GRAINS_VERSION, scene.resolved_toml(),
                  scene.boolean("output.xdmf"));
-  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   // For `grains resume`: the table relative to this file's folder (a campaign folder may be moved or copied whole).
   const auto folder = std::filesystem::absolute(path).parent_path();
   out.set_attribute("stage_table", std::filesystem::absolute(table).lexically_relative(folder).string());
@@ -262,12 +264,14 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
   if (!std::filesystem::is_regular_file(table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
   const std::vector<std::string> kept = table_up_to(table, cp.stage);
+  // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
+  catch_stop_signals();
+  if (stop_requested()) return 130;
   std::ofstream csv(table, std::ios::trunc);
   for (const auto& line : kept) csv << line << '\n';
   csv << std::flush;
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
-  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);

@@ -213,8 +213,10 @@ int run_scene(const RunOptions& opt) {
   check_hdf5_output_path(path, opt.scene, scene, source);
 
   std::vector<bool> periodic = sim->box().periodic;
+  // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
+  catch_stop_signals();
+  if (stop_requested()) return 130;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
-  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   begin_output(out, scene, *sim, sim->warnings());
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
@@ -224,8 +226,10 @@ int resume_plain_run(const std::string& path, RunCheckpoint& cp, bool quiet) {
   PreparedRun prepared = prepare_run(scene);
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
   restore_checkpoint(*prepared.sim, path, cp);
+  // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
+  catch_stop_signals();
+  if (stop_requested()) return 130;
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
-  catch_stop_signals();   // from the output file's creation on: Ctrl-C then ends the run with a valid file
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);

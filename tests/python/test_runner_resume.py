@@ -1,6 +1,8 @@
 """`grains resume`: a run stopped by a signal or killed continues from the checkpoint in its output file
 and ends with the records of the run that was never stopped."""
+import os
 import shutil
+import signal
 import subprocess
 
 import h5py
@@ -119,6 +121,30 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
     assert f"resumed      at step {step}" in resumed.stdout
     # The records of the step it stopped at, between its scheduled ones, are dropped on resuming.
     assert_same_records(whole, stopped)
+
+
+@pytest.mark.parametrize("command", ["run", "consolidate"])
+def test_ctrl_c_the_moment_the_output_file_is_touched_leaves_a_readable_file(grains_bin, root, tmp_path, command):
+    """The signal handler is in place before the output file is created: a Ctrl-C as the writer lays the file
+    out used to kill the process and leave it truncated and unreadable (10 of 10 tries before the fix)."""
+    scene = root / ("models/gas.toml" if command == "run" else "models/cohesionless.toml")
+    out, earlier = tmp_path / "out.h5", tmp_path / "earlier.h5"
+    sets = ["--set", f"particles.count={216 if command == 'run' else 200}", "--set", "run.threads=1", "--quiet"]
+    assert run(grains_bin, "run", root / "models/gas.toml", "--out", earlier, "--set", "time.steps=10", "--set",
+               "particles.count=216", "--quiet").returncode == 0
+    for _ in range(4):
+        shutil.copy(earlier, out)   # a valid earlier result at the path
+        before = out.stat().st_mtime_ns
+        extra = ["--table", tmp_path / "out.csv"] if command == "consolidate" else []
+        p = subprocess.Popen([str(a) for a in [grains_bin, command, scene, "--out", out, *extra, *sets]],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        while p.poll() is None and out.stat().st_mtime_ns == before:
+            pass   # the moment the writer touches the file
+        p.send_signal(signal.SIGINT)
+        p.communicate(timeout=60)
+        with h5py.File(out) as f:   # the earlier file untouched, or the new one with its stop recorded
+            assert "grains" in f
+        assert os.path.getsize(out) > 0
 
 
 @pytest.mark.parametrize("case", ["complete", "no checkpoint", "not a run", "programme in its first stage",
