@@ -7,11 +7,16 @@
 #include "io/h5md_writer.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <map>
 #include <stdexcept>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -23,6 +28,15 @@
 namespace grains {
 
 namespace {
+
+// Whether another process holds HDF5's lock on the file (HDF5 takes it with flock(): exclusive while writing).
+bool locked_by_another_process(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool locked = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);   // also releases the shared lock if it was taken
+  return locked;
+}
 
 constexpr hsize_t kObservableChunk = 1024;      // rows per chunk of observables and step/time
 constexpr hsize_t kFrameChunkBytes = 64 * 1024;  // small frames are batched to about this size
@@ -163,6 +177,11 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   if (!std::filesystem::is_directory(dir))
     throw std::runtime_error(fmt::format("cannot create output file '{}': directory '{}' does not exist", path,
                                          dir.string()));
+  // H5Fcreate empties the file before it takes HDF5's lock: a file that a run (or an FMU's snapshots) is still
+  // writing would be destroyed under it.
+  if (locked_by_another_process(path))
+    throw std::runtime_error(fmt::format("cannot create output file '{}': another process is writing it (a run still "
+                                         "going?); choose another file, or wait until that process ends", path));
   hid_t fid = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, "creating the file (is the directory writable?)");
   m.file = h5::Handle(fid, H5Fclose);

@@ -41,6 +41,31 @@ def test_bad_scene_fails_without_clobbering_existing_output(grains_bin, root, tm
     assert out.read_bytes() == b"existing results"
 
 
+def test_output_a_running_run_is_writing_is_refused_and_left_intact(grains_bin, root, tmp_path):
+    """HDF5 empties a file it creates before it locks it: a second run onto the file a first is writing used to
+    be refused only after destroying that file (the first then ended with exit 0 and an unreadable file)."""
+    out = tmp_path / "busy.h5"
+    first = subprocess.Popen([str(grains_bin), "run", str(root / "models/gas.toml"), "--out", str(out), "--set",
+                              "particles.count=216", "--set", "time.steps=100000000", "--set", "run.threads=1", "--quiet"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 60
+        while not (out.exists() and out.stat().st_size > 0) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.5)
+        second = run(grains_bin, "run", root / "models/gas.toml", "--out", out, "--set", "particles.count=216",
+                     "--set", "time.steps=10", "--quiet")
+        assert second.returncode != 0
+        assert str(out) in second.stderr and "another process is writing it" in second.stderr
+        assert out.stat().st_size > 0
+    finally:
+        first.send_signal(signal.SIGINT)
+        first.communicate(timeout=60)
+    assert first.returncode == 130
+    with h5py.File(out) as f:
+        assert f["grains"].attrs["status"].startswith("interrupted at step")
+
+
 def test_output_onto_the_scene_file_is_refused(grains_bin, root, tmp_path):
     scene = tmp_path / "scene.toml"
     text = (root / "models" / "collision.toml").read_text()
