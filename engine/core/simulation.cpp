@@ -94,7 +94,13 @@ class SimulationImpl final : public Simulation {
       if (sys_.box.any_periodic())
         scene.fail("gravity.enabled", "self-gravity needs an open box, but box.periodic = true (there are no periodic "
                                       "images of gravity): set box.periodic = false or gravity.enabled = false");
-      auto gravity = std::make_unique<SoftenedGravity<D>>(scene.real("gravity.G"), scene.real("gravity.softening") * rmin,
+      // eps^2 enters every pair's force: it must stay finite (in range like the sizes and masses).
+      const double eps = scene.real("gravity.softening") * rmin;
+      if (!(eps <= 1e100))
+        scene.fail("gravity.softening", fmt::format("value {:.6g} makes the softening length eps = softening * R_min = {:.3g} "
+                                                    "(R_min = {:.3g}); eps must not exceed 1e100, where its square stays "
+                                                    "finite: choose a smaller value", scene.real("gravity.softening"), eps, rmin));
+      auto gravity = std::make_unique<SoftenedGravity<D>>(scene.real("gravity.G"), eps,
                                                           gravity_solver_from_string(scene.text("gravity.solver")),
                                                           scene.real("gravity.opening_angle"));
       gravity_ = gravity.get();

@@ -27,7 +27,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Initial positions: `lattice` (simple cubic/square, centred cells), `random` (non-overlapping random "
        "insertion), `list` (explicit `positions`), `file` (whitespace table, see `particles.file`)."},
       {"particles.count", K::integer, "", 1, 1e9, false, false, "",
-       "Number of particles (lattice/random). For `lattice` it must be n^D."},
+       "Number of particles (lattice/random). For `lattice` it must be n^D. Listed or file particles are counted: a count given with them must agree."},
       {"particles.seed", K::integer, "1", 0, 9.2e18, false, false, "", "Seed of every random choice in the set-up."},
       {"particles.diameter", K::real, "1.0", 0, inf, true, false, "", "Diameter of every particle (size distribution `constant`)."},
       {"particles.size_distribution", K::text, "\"constant\"", 0, 0, false, false, "constant|uniform",

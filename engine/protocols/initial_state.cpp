@@ -219,7 +219,13 @@ InitialState<D> make_initial_state(const Scene& s) {
     }
     N = rows.size();
     if (N == 0) s.fail("particles.file", fmt::format("'{}' holds no particle rows", path.string()));
-  } else {
+  }
+  // Listed and file particles are counted, not drawn: a count given beside them must agree (it was ignored).
+  if ((layout == "list" || layout == "file") && s.has("particles.count") && s.integer("particles.count") != std::int64_t(N))
+    s.fail("particles.count", fmt::format("value {}, but {} {} particles: give {} or leave the count out",
+                                          s.integer("particles.count"),
+                                          layout == "list" ? "particles.positions lists" : "particles.file holds", N, N));
+  if (layout != "list" && layout != "file") {
     N = std::size_t(s.integer("particles.count"));
     // Refuse what cannot fit before allocating (Linux would hand out the memory and kill the run later):
     // a run keeps at least ~250 bytes per particle (the gas scene's state and lists, measured).

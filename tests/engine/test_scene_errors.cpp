@@ -30,6 +30,13 @@ duration = 0.05
 threads = 1
 )";
 
+// The same without its particle count, for scenes that list their particles or read them from a file (where a
+// count must agree with them).
+const std::string good_uncounted = [] {
+  std::string text = good;
+  return text.erase(text.find("count = 27\n"), 11);
+}();
+
 void build(const std::string& text, const std::vector<std::string>& overrides = {}) {
   Simulation::create(Scene::from_string(text, "bad.toml", overrides));
 }
@@ -156,14 +163,14 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
                                         "box.periodic=false"};
   auto plus = [&](std::string extra) { auto v = two; v.push_back(std::move(extra)); return v; };
-  REQUIRE_THROWS_AS(build(good, plus("particles.diameters=[1.0]")), SceneError);
-  REQUIRE_THROWS_WITH(build(good, plus("particles.diameters=[1.0]")), Contains("particles.diameters") && Contains("1 values for 2"));
-  REQUIRE_THROWS_WITH(build(good, plus("particles.masses=[1.0, 2.0, 3.0]")),
+  REQUIRE_THROWS_AS(build(good_uncounted, plus("particles.diameters=[1.0]")), SceneError);
+  REQUIRE_THROWS_WITH(build(good_uncounted, plus("particles.diameters=[1.0]")), Contains("particles.diameters") && Contains("1 values for 2"));
+  REQUIRE_THROWS_WITH(build(good_uncounted, plus("particles.masses=[1.0, 2.0, 3.0]")),
                       Contains("particles.masses") && Contains("3 values for 2"));
   auto vel = plus("particles.velocity=\"list\"");
   vel.push_back("particles.velocities=[[1,0,0]]");
-  REQUIRE_THROWS_WITH(build(good, vel), Contains("particles.velocities") && Contains("1 velocities for 2"));
-  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"list\"", "particles.positions=[[0,0],[2,0]]", "box.periodic=false"}),
+  REQUIRE_THROWS_WITH(build(good_uncounted, vel), Contains("particles.velocities") && Contains("1 velocities for 2"));
+  REQUIRE_THROWS_WITH(build(good_uncounted, {"particles.layout=\"list\"", "particles.positions=[[0,0],[2,0]]", "box.periodic=false"}),
                       Contains("particles.positions") && Contains("2 components") && Contains("3D scene needs 3"));
 }
 
@@ -171,11 +178,11 @@ TEST_CASE("scene errors: a key that the chosen layout or velocity does not read 
   // Velocities without velocity = "list" were once dropped silently: the particles started at rest.
   const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
                                         "box.periodic=false", "particles.velocities=[[1,0,0],[-1,0,0]]"};
-  REQUIRE_THROWS_WITH(build(good, two), Contains("particles.velocities") && Contains("particles.velocity = \"zero\"") &&
+  REQUIRE_THROWS_WITH(build(good_uncounted, two), Contains("particles.velocities") && Contains("particles.velocity = \"zero\"") &&
                                             Contains("particles.velocity = \"list\""));
   auto listed = two;
   listed.push_back("particles.velocity=\"list\"");
-  REQUIRE_NOTHROW(build(good, listed));
+  REQUIRE_NOTHROW(build(good_uncounted, listed));
   REQUIRE_THROWS_WITH(build(good, {"particles.positions=[[0,0,0]]"}),
                       Contains("particles.positions") && Contains("particles.layout = \"lattice\"") &&
                           Contains("particles.layout = \"list\""));
@@ -193,7 +200,7 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
   }
   const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
                                          "box.periodic=false"};
-  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
+  REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
                                              Contains("column 5") && Contains("'np.float64(1.0)' is not a number"));
   // Words strtod reads as non-finite numbers failed only later, naming neither the file nor the line.
   for (const auto& [word, value] : {std::pair{"nan", "nan"}, std::pair{"-inf", "-inf"}, std::pair{"1e999", "inf"}}) {
@@ -201,14 +208,14 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
       std::ofstream f(path);
       f << "0 0 0 1 1\n2 " << word << " 0 1 1\n";
     }
-    REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-bad-rows.txt:2: column 2") &&
+    REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file") && Contains("grains-bad-rows.txt:2: column 2") &&
                                                Contains(fmt::format("'{}' is {}, expected a finite number", word, value)));
   }
   {
     std::ofstream f(path);
     f << "0 0 0 1 1\n2 0 0 1 1\n";
   }
-  REQUIRE_NOTHROW(build(good, file));
+  REQUIRE_NOTHROW(build(good_uncounted, file));
   std::filesystem::remove(path);
 }
 
@@ -222,13 +229,13 @@ TEST_CASE("scene errors: particle file rows with different column counts are ref
     std::ofstream f(path);
     f << "# x y z diameter mass vx vy vz\n0 0 0 1 1 1 0 0\n2 0 0 1 1\n";
   }
-  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
+  REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
                                              Contains("5 columns") && Contains("first particle row (line 2) has 8"));
   {
     std::ofstream f(path);
     f << "0 0 0 1 1\n\n2 0 0 1 1 -1 0 0\n";
   }
-  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
+  REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file") && Contains("grains-ragged-rows.txt:3") &&
                                              Contains("8 columns") && Contains("first particle row (line 1) has 5"));
   std::filesystem::remove(path);
 }
@@ -292,7 +299,7 @@ TEST_CASE("scene errors: a section written as a key, and a key written as a sect
 
 TEST_CASE("scene errors: a folder as particles.file is named as a folder", "[scene][errors]") {
   const auto folder = std::filesystem::temp_directory_path();
-  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", folder.string())}),
+  REQUIRE_THROWS_WITH(build(good_uncounted, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", folder.string())}),
                       Contains("particles.file") && Contains("is a folder"));
 }
 
@@ -334,18 +341,18 @@ TEST_CASE("scene errors: given velocities whose kinetic energy overflows name th
   const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
                                         "box.periodic=false", "particles.velocity=\"list\""};
   auto plus = [&](std::string extra) { auto v = two; v.push_back(std::move(extra)); return v; };
-  REQUIRE_THROWS_WITH(build(good, plus("particles.velocities=[[0,0,0],[1e160,0,0]]")),
+  REQUIRE_THROWS_WITH(build(good_uncounted, plus("particles.velocities=[[0,0,0],[1e160,0,0]]")),
                       Contains("particles.velocities: row 1") && Contains("1e+160") && Contains("overflow a double"));
-  REQUIRE_NOTHROW(build(good, plus("particles.velocities=[[0,0,0],[1e150,0,0]]")));   // large, finite energy
+  REQUIRE_NOTHROW(build(good_uncounted, plus("particles.velocities=[[0,0,0],[1e150,0,0]]")));   // large, finite energy
   auto spun = plus("particles.velocities=[[0,0,0],[0,0,0]]");
   spun.push_back("particles.angular_velocities=[[0,0,0],[0,1e200,0]]");
-  REQUIRE_THROWS_WITH(build(good, spun), Contains("particles.angular_velocities: row 1") && Contains("overflow a double"));
+  REQUIRE_THROWS_WITH(build(good_uncounted, spun), Contains("particles.angular_velocities: row 1") && Contains("overflow a double"));
   const auto path = std::filesystem::temp_directory_path() / "grains-fast-rows.txt";
   {
     std::ofstream f(path);
     f << "# x y z diameter mass vx vy vz\n0 0 0 1 1 0 0 0\n2 0 0 1 1 0 -1e160 0\n";
   }
-  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+  REQUIRE_THROWS_WITH(build(good_uncounted, {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
                                    "box.periodic=false"}),
                       Contains("particles.file") && Contains("grains-fast-rows.txt:3") && Contains("overflow a double"));
   std::filesystem::remove(path);
@@ -356,15 +363,15 @@ TEST_CASE("scene errors: given particles at the same position are named; deep ov
   // ones flew apart.
   const std::vector<std::string> list = {"particles.layout=\"list\"", "box.periodic=false"};
   auto plus = [&](std::string extra) { auto v = list; v.push_back(std::move(extra)); return v; };
-  REQUIRE_THROWS_WITH(build(good, plus("particles.positions=[[0,0,0],[3,0,0],[3,0,0]]")),
+  REQUIRE_THROWS_WITH(build(good_uncounted, plus("particles.positions=[[0,0,0],[3,0,0],[3,0,0]]")),
                       Contains("particles.positions: particle 1 (row 1) and particle 2 (row 2) are at the same position"));
-  const auto deep = Simulation::create(Scene::from_string(good, "bad.toml", plus("particles.positions=[[0,0,0],[0.1,0,0],[5,0,0],[5.5,0,0]]")));
+  const auto deep = Simulation::create(Scene::from_string(good_uncounted, "bad.toml", plus("particles.positions=[[0,0,0],[0.1,0,0],[5,0,0],[5.5,0,0]]")));
   REQUIRE(deep->warnings().size() == 1);
   CHECK_THAT(deep->warnings()[0], Contains("particles.positions: 2 pair(s) of particles overlap") &&
                                       Contains("contact.overlap_limit") && Contains("particle 0 (row 0) and particle 1 (row 1)") &&
                                       Contains("by 0.9 (1.8 min(R_i, R_j))"));
   // Within the limit (0.1 R): no warning.
-  CHECK(Simulation::create(Scene::from_string(good, "ok.toml", plus("particles.positions=[[0,0,0],[0.96,0,0]]")))->warnings().empty());
+  CHECK(Simulation::create(Scene::from_string(good_uncounted, "ok.toml", plus("particles.positions=[[0,0,0],[0.96,0,0]]")))->warnings().empty());
   // Across a periodic boundary too, and from a file, naming its lines.
   const auto path = std::filesystem::temp_directory_path() / "grains-overlapping-rows.txt";
   {
@@ -373,7 +380,7 @@ TEST_CASE("scene errors: given particles at the same position are named; deep ov
   }
   const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
                                          "box.lengths=[4.0, 4.0, 4.0]", "box.periodic=true"};
-  const auto wrapped = Simulation::create(Scene::from_string(good, "bad.toml", file));
+  const auto wrapped = Simulation::create(Scene::from_string(good_uncounted, "bad.toml", file));
   REQUIRE(wrapped->warnings().size() == 1);
   CHECK_THAT(wrapped->warnings()[0], Contains("particles.file: 1 pair(s)") && Contains("grains-overlapping-rows.txt:2)") &&
                                          Contains("grains-overlapping-rows.txt:4)") && Contains("by 0.8 (1.6"));
@@ -381,7 +388,7 @@ TEST_CASE("scene errors: given particles at the same position are named; deep ov
     std::ofstream f(path);
     f << "0 0 0 1 1\n2 2 2 1 1\n0 0 0 1 1\n";
   }
-  REQUIRE_THROWS_WITH(build(good, file), Contains("particles.file: particle 0") && Contains("grains-overlapping-rows.txt:1)") &&
+  REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file: particle 0") && Contains("grains-overlapping-rows.txt:1)") &&
                                              Contains("grains-overlapping-rows.txt:3)") && Contains("same position (0, 0, 0)"));
   std::filesystem::remove(path);
 }
@@ -441,6 +448,16 @@ TEST_CASE("scene errors: a key given where the scene does not read it names the 
                                    "rolling.stiffness_ratio=1e-3", "analysis.zero_force=1e-3"}));
   REQUIRE_NOTHROW(build(good, {"box.periodic=false", "box.lengths=[4.2, 4.2, 4.2]", "gravity.enabled=true",
                                "gravity.softening=0.2", "analysis.every=10"}));
+  // A count where the particles are listed (or read from a file) was ignored without a word.
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]", "box.periodic=false"}),
+                      Contains("particles.count: value 27, but particles.positions lists 2 particles: give 2 or "
+                               "leave the count out"));
+  REQUIRE_NOTHROW(build(good, {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]", "box.periodic=false",
+                               "particles.count=2"}));
+  // A softening length whose square overflows gave non-finite forces, blamed on the initial state.
+  REQUIRE_THROWS_WITH(build(good, {"box.periodic=false", "box.lengths=[4.2, 4.2, 4.2]", "gravity.enabled=true",
+                                   "gravity.softening=1e160"}),
+                      Contains("gravity.softening: value 1e+160 makes the softening length") && Contains("must not exceed 1e100"));
 
   // The barostat's keys without the barostat, cell.enabled absent or false.
   REQUIRE_THROWS_WITH(build(good, {"cell.pressure_final=2", "cell.ramp_duration=10"}),

@@ -346,7 +346,7 @@ def test_consolidate_output_onto_the_particle_file_is_refused(grains_bin, root, 
     rows.write_text("".join(f"{x} {y} 1 1\n" for x in range(0, 10, 2) for y in range(0, 10, 2)))
     text = rows.read_text()
     common = ["--set", "particles.layout=\"file\"", "--set", f"particles.file=\"{rows}\"", "--set",
-              "box.lengths=[10.0, 10.0]", "--set", "programme.stage_budget=300", "--quiet"]
+              "box.lengths=[10.0, 10.0]", "--set", "programme.stage_budget=300", "--set", "particles.count=25", "--quiet"]
     scene = root / "models" / "cohesionless.toml"
     for option in (["--out", rows, "--table", tmp_path / "t.csv"], ["--table", rows, "--out", tmp_path / "o.h5"]):
         r = run(grains_bin, "consolidate", scene, *option, *common)
