@@ -2,6 +2,7 @@
 // Each function checks its instance, forwards to Instance, and turns any exception into fmi2Error:
 // nothing thrown ever crosses into the host.
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -170,24 +171,27 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueRefe
 }
 
 // --- FMU state ---
+// States are handles of live_instances.cpp: one freed already, or another instance's, is refused with a message.
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
   return guarded(c, "fmi2GetFMUstate", [&](Instance& in) {
     if (!FMUstate) return in.error("fmi2GetFMUstate: null FMUstate pointer");
-    auto* state = *FMUstate ? static_cast<grains::fmu::SavedState*>(*FMUstate) : new grains::fmu::SavedState;
-    *FMUstate = state;
-    return in.save(*state);
+    if (*FMUstate) return in.save(grains::fmu::live_state(in, *FMUstate));   // the host reuses a state of its own
+    auto state = std::make_unique<grains::fmu::SavedState>();
+    Status s = in.save(*state);
+    if (s == Status::ok) *FMUstate = grains::fmu::hand_out_state(in, std::move(state));
+    return s;
   });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
   return guarded(c, "fmi2SetFMUstate", [&](Instance& in) {
     if (!FMUstate) return in.error("fmi2SetFMUstate: null FMUstate");
-    return in.restore(*static_cast<grains::fmu::SavedState*>(FMUstate));
+    return in.restore(grains::fmu::live_state(in, FMUstate));
   });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
-  return guarded(c, "fmi2FreeFMUstate", [&](Instance&) {
-    if (FMUstate) {
-      delete static_cast<grains::fmu::SavedState*>(*FMUstate);
+  return guarded(c, "fmi2FreeFMUstate", [&](Instance& in) {
+    if (FMUstate && *FMUstate) {   // a null state: nothing to free (FMI 2.0)
+      grains::fmu::free_state(in, *FMUstate);
       *FMUstate = nullptr;
     }
     return Status::ok;
@@ -196,14 +200,14 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* FM
 GRAINS_FMI2_EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t* size) {
   return guarded(c, "fmi2SerializedFMUstateSize", [&](Instance& in) {
     if (!FMUstate || !size) return in.error("fmi2SerializedFMUstateSize: null argument");
-    *size = static_cast<grains::fmu::SavedState*>(FMUstate)->bytes.size();
+    *size = grains::fmu::live_state(in, FMUstate).bytes.size();
     return Status::ok;
   });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size) {
   return guarded(c, "fmi2SerializeFMUstate", [&](Instance& in) {
     if (!FMUstate || !serializedState) return in.error("fmi2SerializeFMUstate: null argument");
-    const auto bytes = in.serialize(*static_cast<grains::fmu::SavedState*>(FMUstate));
+    const auto bytes = in.serialize(grains::fmu::live_state(in, FMUstate));
     if (size != bytes.size())
       return in.error(fmt::format("fmi2SerializeFMUstate: size {} given, the state has {} bytes", size, bytes.size()));
     std::memcpy(serializedState, bytes.data(), size);
@@ -214,9 +218,12 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi
                                                       fmi2FMUstate* FMUstate) {
   return guarded(c, "fmi2DeSerializeFMUstate", [&](Instance& in) {
     if (!serializedState || !FMUstate) return in.error("fmi2DeSerializeFMUstate: null argument");
-    auto* state = *FMUstate ? static_cast<grains::fmu::SavedState*>(*FMUstate) : new grains::fmu::SavedState;
-    *FMUstate = state;
-    return in.deserialize(std::span(reinterpret_cast<const std::byte*>(serializedState), size), *state);
+    const auto bytes = std::span(reinterpret_cast<const std::byte*>(serializedState), size);
+    if (*FMUstate) return in.deserialize(bytes, grains::fmu::live_state(in, *FMUstate));
+    auto state = std::make_unique<grains::fmu::SavedState>();
+    Status s = in.deserialize(bytes, *state);
+    if (s == Status::ok) *FMUstate = grains::fmu::hand_out_state(in, std::move(state));
+    return s;
   });
 }
 

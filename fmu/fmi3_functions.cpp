@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -246,24 +247,27 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3Va
 }
 
 // --- FMU state ---
+// States are handles of live_instances.cpp: one freed already, or another instance's, is refused with a message.
 GRAINS_FMI3_EXPORT fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState* FMUState) {
   return guarded(c, "fmi3GetFMUState", [&](Instance& in) {
     if (!FMUState) return in.error("fmi3GetFMUState: null FMUState pointer");
-    auto* state = *FMUState ? static_cast<grains::fmu::SavedState*>(*FMUState) : new grains::fmu::SavedState;
-    *FMUState = state;
-    return in.save(*state);
+    if (*FMUState) return in.save(grains::fmu::live_state(in, *FMUState));   // the host reuses a state of its own
+    auto state = std::make_unique<grains::fmu::SavedState>();
+    Status s = in.save(*state);
+    if (s == Status::ok) *FMUState = grains::fmu::hand_out_state(in, std::move(state));
+    return s;
   });
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
   return guarded(c, "fmi3SetFMUState", [&](Instance& in) {
     if (!FMUState) return in.error("fmi3SetFMUState: null FMUState");
-    return in.restore(*static_cast<grains::fmu::SavedState*>(FMUState));
+    return in.restore(grains::fmu::live_state(in, FMUState));
   });
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState* FMUState) {
-  return guarded(c, "fmi3FreeFMUState", [&](Instance&) {
-    if (FMUState) {
-      delete static_cast<grains::fmu::SavedState*>(*FMUState);
+  return guarded(c, "fmi3FreeFMUState", [&](Instance& in) {
+    if (FMUState && *FMUState) {   // a null state: nothing to free (FMI 3.0)
+      grains::fmu::free_state(in, *FMUState);
       *FMUState = nullptr;
     }
     return Status::ok;
@@ -272,14 +276,14 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState* FMU
 GRAINS_FMI3_EXPORT fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState FMUState, size_t* size) {
   return guarded(c, "fmi3SerializedFMUStateSize", [&](Instance& in) {
     if (!FMUState || !size) return in.error("fmi3SerializedFMUStateSize: null argument");
-    *size = static_cast<grains::fmu::SavedState*>(FMUState)->bytes.size();
+    *size = grains::fmu::live_state(in, FMUState).bytes.size();
     return Status::ok;
   });
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size) {
   return guarded(c, "fmi3SerializeFMUState", [&](Instance& in) {
     if (!FMUState || !serializedState) return in.error("fmi3SerializeFMUState: null argument");
-    const auto bytes = in.serialize(*static_cast<grains::fmu::SavedState*>(FMUState));
+    const auto bytes = in.serialize(grains::fmu::live_state(in, FMUState));
     if (size != bytes.size())
       return in.error(fmt::format("fmi3SerializeFMUState: size {} given, the state has {} bytes", size, bytes.size()));
     std::memcpy(serializedState, bytes.data(), size);
@@ -290,9 +294,12 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3
                                                       fmi3FMUState* FMUState) {
   return guarded(c, "fmi3DeserializeFMUState", [&](Instance& in) {
     if (!serializedState || !FMUState) return in.error("fmi3DeserializeFMUState: null argument");
-    auto* state = *FMUState ? static_cast<grains::fmu::SavedState*>(*FMUState) : new grains::fmu::SavedState;
-    *FMUState = state;
-    return in.deserialize(std::span(reinterpret_cast<const std::byte*>(serializedState), size), *state);
+    const auto bytes = std::span(reinterpret_cast<const std::byte*>(serializedState), size);
+    if (*FMUState) return in.deserialize(bytes, grains::fmu::live_state(in, *FMUState));
+    auto state = std::make_unique<grains::fmu::SavedState>();
+    Status s = in.deserialize(bytes, *state);
+    if (s == Status::ok) *FMUState = grains::fmu::hand_out_state(in, std::move(state));
+    return s;
   });
 }
 

@@ -248,3 +248,50 @@ def test_a_null_log_category_is_an_error_not_a_crash(version):
     assert r.returncode == 0, r.stderr
     status, message = r.stdout.splitlines()[:2]
     assert status == "3" and "null pointer" in message, r.stdout
+
+
+# A state freed through one copy of its pointer and used through another (as a C host holding it in two places
+# would), and a state used by another instance, through the raw C functions. In a subprocess: a crash (the
+# freed state was dereferenced) fails the test.
+STALE_STATE_HOST = """
+import ctypes, sys
+from ctypes import byref, c_size_t, c_void_p, POINTER
+from fmu_host import Unit, fmu_path
+version = int(sys.argv[1])
+P, S = ("fmi2", "FMUstate") if version == 2 else ("fmi3", "FMUState")
+a = Unit(fmu_path("collision", version), name="a").initialize()
+def raw(name, argtypes):
+    f = a.fmu.dll[name]
+    f.argtypes, f.restype = argtypes, ctypes.c_int
+    return f
+get, set_ = raw(f"{P}Get{S}", [c_void_p, POINTER(c_void_p)]), raw(f"{P}Set{S}", [c_void_p, c_void_p])
+free, size = raw(f"{P}Free{S}", [c_void_p, POINTER(c_void_p)]), raw(f"{P}Serialized{S}Size", [c_void_p, c_void_p, POINTER(c_size_t)])
+ca = c_void_p(a.fmu.component)
+state = c_void_p()
+get(ca, byref(state))
+copy = c_void_p(state.value)
+free(ca, byref(state))
+n = c_size_t()
+print(state.value, set_(ca, copy), free(ca, byref(c_void_p(copy.value))), size(ca, copy, byref(n)), set_(ca, c_void_p(8)))
+print(a.errors()[0])
+# (fmpy's FMI 2 logger proxy sends every instance's messages to the newest Unit's list: b's, from here on)
+b = Unit(fmu_path("collision", version), name="b").initialize()
+fresh = c_void_p()
+get(ca, byref(fresh))
+print(fresh.value != copy.value, set_(c_void_p(b.fmu.component), fresh), set_(ca, fresh), free(ca, byref(fresh)), fresh.value)
+print((a.errors() + b.errors())[-1])
+"""
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_freed_or_foreign_fmu_state_is_refused_not_dereferenced(version):
+    r = host_process(STALE_STATE_HOST, version)
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = r.stdout.splitlines()
+    # freeing sets the pointer to null; set, free and size through the freed copy, and a pointer never handed
+    # out, are fmi2Error / fmi3Error
+    assert lines[0].split() == ["None", "3", "3", "3", "3"], r.stdout
+    assert f"fmi{version}Set" in lines[1] and "is not a live state: it was freed already, or never handed out" in lines[1], lines[1]
+    # a new state is not the freed one; another instance refuses it, its own instance sets and frees it
+    assert lines[2].split() == ["True", "3", "0", "0", "None"], r.stdout
+    assert "belongs to instance 'a', not to 'b'" in lines[3], lines[3]
