@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -52,7 +53,26 @@ double scene_value(const Scene& scene, const FmuVariable& v) {
                                         : double(scene.boolean(v.scene_key));
 }
 
-constexpr std::uint64_t state_magic = 0x32534d4649524721ull;   // "!GRIFMS2": with the host's time
+// A state: this word, the parameters' fingerprint, the start and host times, the engine's bytes, then a check
+// sum over all of them (the engine's own sum leaves the header out, and a damaged host time would make the
+// next step run the gap).
+constexpr std::uint64_t state_magic = 0x33534d4649524721ull;           // "!GRIFMS3"
+constexpr std::uint64_t state_magic_unsummed = 0x32534d4649524721ull;  // "!GRIFMS2": before the check sum
+constexpr std::size_t state_header = 4 * 8, state_sum = 8;
+
+// Why `bytes` are not an intact state of this build's format, or "" when they are.
+std::string state_defect(std::span<const std::byte> bytes) {
+  std::uint64_t magic = 0;
+  if (bytes.size() >= 8) std::memcpy(&magic, bytes.data(), 8);
+  if (magic == state_magic_unsummed) return "the state was saved by an older build of this FMU, whose format this one does not read";
+  if (bytes.size() >= 8 && magic != state_magic) return "these bytes are not a state of a grains FMU";
+  if (bytes.size() < state_header + state_sum) return "the state is empty or truncated";
+  std::uint64_t sum;
+  std::memcpy(&sum, bytes.data() + bytes.size() - state_sum, state_sum);
+  if (sum != check_sum(bytes.first(bytes.size() - state_sum)))
+    return "the state is corrupted or truncated (its check sum, over the start and current time too, does not match its bytes)";
+  return {};
+}
 
 std::uint64_t fnv1a(std::string_view text, std::uint64_t h = 1469598103934665603ull) {
   for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
@@ -412,10 +432,13 @@ Status Instance::save(SavedState& state) {
   if (Status s = ensure_built(); s != Status::ok) return s;
   ByteWriter w;
   w.put(state_magic), w.put(parameter_fingerprint()), w.put(start_time_), w.put(host_time_);
-  auto header = w.take();
+  auto bytes = w.take();
   auto body = sim_->save_state();
-  header.insert(header.end(), body.begin(), body.end());
-  state.bytes = std::move(header);
+  bytes.insert(bytes.end(), body.begin(), body.end());
+  const std::uint64_t sum = check_sum(bytes);
+  const auto* sum_bytes = reinterpret_cast<const std::byte*>(&sum);
+  bytes.insert(bytes.end(), sum_bytes, sum_bytes + state_sum);
+  state.bytes = std::move(bytes);
   return Status::ok;
 }
 
@@ -424,16 +447,15 @@ Status Instance::save(SavedState& state) {
 Status Instance::restore(const SavedState& state) {
   const bool failed = phase_ == Phase::failed;
   if (Status s = ensure_built(); s != Status::ok) return s;
-  constexpr std::size_t header = 4 * 8;
-  if (state.bytes.size() < header) return error("SetFMUState: the state is empty or truncated");
-  ByteReader r(std::span(state.bytes).first(header));
-  if (r.get<std::uint64_t>() != state_magic) return error("SetFMUState: this is not a state of a grains FMU");
+  if (const std::string defect = state_defect(state.bytes); !defect.empty()) return error("SetFMUState: " + defect);
+  ByteReader r(std::span(state.bytes).first(state_header));
+  r.get<std::uint64_t>();   // the format word, checked above
   if (r.get<std::uint64_t>() != parameter_fingerprint())
     return error("SetFMUState: the state was saved with other parameter values or by another FMU; it cannot be restored here");
   const double start = r.get<double>(), host = r.get<double>();
   if (!std::isfinite(start) || !std::isfinite(host)) return error("SetFMUState: the state's start or current time is not finite");
   try {
-    sim_->restore_state(std::span(state.bytes).subspan(header));
+    sim_->restore_state(std::span(state.bytes).subspan(state_header, state.bytes.size() - state_header - state_sum));
   } catch (const std::exception& e) {
     return error(fmt::format("SetFMUState: {}", e.what()));
   }
@@ -445,10 +467,7 @@ Status Instance::restore(const SavedState& state) {
 std::vector<std::byte> Instance::serialize(const SavedState& state) const { return state.bytes; }
 
 Status Instance::deserialize(std::span<const std::byte> bytes, SavedState& state) {
-  if (bytes.size() < 8) return error("DeserializeFMUState: the byte string is too short to be a state");
-  std::uint64_t magic;
-  std::memcpy(&magic, bytes.data(), 8);
-  if (magic != state_magic) return error("DeserializeFMUState: these bytes are not a serialized grains FMU state");
+  if (const std::string defect = state_defect(bytes); !defect.empty()) return error("DeserializeFMUState: " + defect);
   state.bytes.assign(bytes.begin(), bytes.end());
   return Status::ok;
 }

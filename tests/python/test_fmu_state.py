@@ -1,6 +1,7 @@
 """FMU state, reset, several instances, threads and a parameter sweep, on the real .fmu files
 through fmpy's FMI 2 and FMI 3 classes."""
 import os
+import struct
 
 import numpy as np
 import pytest
@@ -269,3 +270,25 @@ def test_the_fmu_keeps_the_host_clock_over_a_long_run(version):
     assert counting.errors() == adding.errors() == []
     counting.free()
     adding.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_state_whose_start_or_current_time_is_damaged_is_refused(version):
+    """Bytes 16 to 31 of a state hold the start and the current time, which the engine's check sum does not
+    cover: a damaged current time restored with OK, and the next step ran the gap to it."""
+    unit = Unit(fmu_path("aggregation", version)).initialize(SMALL)
+    dt = unit.get("time.dt")
+    unit.step(5 * dt)
+    good = unit.serialize(unit.get_state())
+    assert struct.unpack("<dd", good[16:32]) == (0.0, 5 * dt)
+    for at, value in ((16, 1.0), (24, 1.0), (24, 5 * dt + dt)):
+        bad = bytearray(good)
+        bad[at:at + 8] = struct.pack("<d", value)
+        with pytest.raises(Exception):
+            unit.set_state(unit.deserialize(bytes(bad)))
+        assert "check sum" in unit.errors()[-1] and "time" in unit.errors()[-1], unit.errors()[-1]
+    assert unit.get("time") == 5 * dt and unit.get("step") == 5   # nothing restored
+    unit.set_state(unit.deserialize(good))
+    unit.step(dt)
+    assert unit.get("step") == 6
+    unit.free()
