@@ -443,8 +443,13 @@ Status Instance::save(SavedState& state) {
 }
 
 // Also after a failed step (FMI 2.0, 2.1.3: a host may restart from a state it stored before the error): the
-// state replaces the whole simulation, and stepping may go on.
+// state replaces the whole simulation, and stepping may go on. Not before the end of initialization: the
+// start time given there, and parameters set until then, would replace the restored simulation and its time.
 Status Instance::restore(const SavedState& state) {
+  if (phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization)
+    return error(fmt::format("SetFMUState is not allowed in {}: a state is set from the end of initialization on "
+                             "(after ExitInitializationMode), when the start time and the fixed parameters are final "
+                             "(initialization would replace the restored simulation and its time)", phase_name(phase_)));
   const bool failed = phase_ == Phase::failed;
   if (Status s = ensure_built(); s != Status::ok) return s;
   if (const std::string defect = state_defect(state.bytes); !defect.empty()) return error("SetFMUState: " + defect);

@@ -292,3 +292,38 @@ def test_a_state_whose_start_or_current_time_is_damaged_is_refused(version):
     unit.step(dt)
     assert unit.get("step") == 6
     unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_state_set_before_the_end_of_initialization_is_refused(version):
+    """A state set in the instantiated state was answered OK, then initialization put the clock back to the
+    start time, and every doStep took no step at all. It is refused with a message, before initialization and
+    in initialization mode (whose start time and parameters would replace it); after it, it restores."""
+    path = fmu_path("aggregation", version)
+    a = Unit(path, "a").initialize(SMALL)
+    dt = a.get("time.dt")
+    a.step(5 * dt)
+    saved = a.serialize(a.get_state())
+    b = Unit(path, "b")
+    for name, value in SMALL.items():
+        b.set(name, value)
+    with pytest.raises(Exception):
+        b.set_state(b.deserialize(saved))
+    assert "SetFMUState is not allowed in the instantiated state" in b.errors()[-1], b.errors()[-1]
+    if version == 2:
+        b.fmu.setupExperiment(startTime=0.0)
+    b.fmu.enterInitializationMode() if version == 2 else b.fmu.enterInitializationMode(startTime=0.0)
+    with pytest.raises(Exception):
+        b.set_state(b.deserialize(saved))
+    assert "SetFMUState is not allowed in initialization mode" in b.errors()[-1], b.errors()[-1]
+    b.fmu.exitInitializationMode()
+    b.step(dt)   # the refused states left the instance at its start
+    assert b.get("step") == 1
+    b.set_state(b.deserialize(saved))   # after initialization: restored, and stepping goes on from it
+    b.time = 5 * dt
+    b.step(dt)
+    a.step(dt)
+    assert b.get("step") == 6
+    same([b.outputs()], [a.outputs()])
+    a.free()
+    b.free()
