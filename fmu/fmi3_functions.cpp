@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
-#include <limits>
 #include <memory>
 #include <string>
 #include <type_traits>
@@ -87,15 +86,24 @@ fmi3Status get_values(fmi3Instance c, const char* function, const fmi3ValueRefer
 }
 
 template <class T>
+bool exact_in_double(T integer) {
+  constexpr T limit = T(grains::fmu::exact_integer_limit);
+  if constexpr (std::is_signed_v<T>) return integer >= -limit && integer <= limit;
+  return integer <= limit;
+}
+
+template <class T>
 fmi3Status set_values(fmi3Instance c, const char* function, const fmi3ValueReference vr[], size_t nvr, const T values[],
                       size_t nValues, Fmi3Type type) {
   return guarded(c, function, [&](Instance& in) {
     if ((nvr > 0 && !vr) || (nValues > 0 && !values)) return in.error(fmt::format("{}: null array", function));
     if (Status s = check_types(in, function, vr, nvr, type); s != Status::ok) return s;
     const ValueType vt = type == Fmi3Type::Float64 ? ValueType::real : type == Fmi3Type::Boolean ? ValueType::boolean : ValueType::integer;
-    if constexpr (std::is_same_v<T, fmi3UInt64>)   // beyond int64 (a negative count passed as unsigned): named as passed
+    // Beyond what a double holds exactly (a negative count passed as unsigned among them): refused before the
+    // conversion rounds it, and named as passed.
+    if constexpr (std::is_same_v<T, fmi3Int64> || std::is_same_v<T, fmi3UInt64>)
       for (size_t i = 0; i < std::min(nvr, nValues); ++i)
-        if (values[i] > std::uint64_t(std::numeric_limits<std::int64_t>::max())) {
+        if (!exact_in_double(values[i])) {
           const auto& var = in.table().variables[vr[i]];
           return in.error(fmt::format("{}: {} = {} is out of range: allowed integer in [{}, {}]", function, var.name, values[i],
                                       var.min, var.max));

@@ -371,7 +371,7 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
                              std::isfinite(v.min) || std::isfinite(v.max) ? fmt::format(" in [{}, {}]", v.min, v.max) : ""));
   if (v.type == ValueType::integer && value != std::floor(value))
     return error(fmt::format("{} = {} is not allowed: an integer", v.name, value));
-  if (v.type == ValueType::integer && std::fabs(value) >= 9223372036854775808.0)   // no 64-bit integer holds it
+  if (v.type == ValueType::integer && std::fabs(value) > exact_integer_limit)   // rounded already (FMI 3 checks before)
     return error(fmt::format("{} = {:.0f} is out of range: allowed integer in [{}, {}]", v.name, value, v.min, v.max));
   if ((v.role == Role::scene_parameter || v.role == Role::snapshot_option) && !before_steps)
     return error(fmt::format("'{}' is a fixed parameter: it can only be set before the end of initialization, not in {} "

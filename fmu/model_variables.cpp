@@ -110,6 +110,10 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
     t.variables.push_back(std::move(v));
   }
 
+  for (auto& v : t.variables)   // integers within what a double holds exactly (exact_integer_limit)
+    if (v.type == ValueType::integer)
+      v.min = std::max(v.min, -exact_integer_limit), v.max = std::min(v.max, exact_integer_limit);
+
   // 3. FMI 3 arrays, last, so that the FMI 2 references are the same numbers without them.
   FmuVariable pos;
   pos.name = "particles.position";

@@ -29,6 +29,9 @@ enum class ValueType { real, integer, boolean };
 enum class ParticleField { position, radius };
 
 constexpr std::size_t no_index = std::numeric_limits<std::size_t>::max();
+// Values travel through the FMU as doubles: integer variables are declared and checked within the range a
+// double holds exactly (2^53), so that no FMI 3 Int64 / UInt64 is rounded on its way in or out.
+constexpr double exact_integer_limit = 9007199254740992.0;
 
 struct FmuVariable {
   std::string name, unit, description;

@@ -295,3 +295,23 @@ def test_a_freed_or_foreign_fmu_state_is_refused_not_dereferenced(version):
     # a new state is not the freed one; another instance refuses it, its own instance sets and frees it
     assert lines[2].split() == ["True", "3", "0", "0", "None"], r.stdout
     assert "belongs to instance 'a', not to 'b'" in lines[3], lines[3]
+
+
+def test_int64_values_are_exact_or_refused_as_passed():
+    """Int64 values travel as doubles: 2^53 + 1 was rounded to 2^53 with fmi3OK, and 2^63 - 1 was refused as
+    9223372036854775808. The FMU declares and checks the range doubles hold exactly, quoting the value passed."""
+    unit = Unit(fmu_path("aggregation", 3))
+    try:
+        seed = unit.variables["particles.seed"]
+        assert (seed.min, seed.max) == ("0", "9007199254740992")   # as modelDescription.xml declares it
+        ref = seed.valueReference
+        for x in (2**53, 2**53 - 1, 1234567890123):
+            unit.fmu.setInt64([ref], [x])
+            assert list(unit.fmu.getInt64([ref])) == [x]
+        for x in (2**53 + 1, 2**63 - 1, -2**63):
+            fails(unit, lambda: unit.fmu.setInt64([ref], [x]), f"particles.seed = {x} is out of range",
+                  "[0, 9007199254740992]")
+        assert list(unit.fmu.getInt64([ref])) == [1234567890123]   # the refused values were not kept
+        unit.initialize({"particles.count": 100})
+    finally:
+        unit.free()
