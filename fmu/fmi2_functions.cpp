@@ -1,6 +1,7 @@
 // The FMI 2.0 API (co-simulation; the model-exchange functions exist and refuse with a message).
 // Each function checks its instance, forwards to Instance, and turns any exception into fmi2Error:
 // nothing thrown ever crosses into the host.
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -114,10 +115,13 @@ GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) { grains::fmu::free_in
 
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                                   fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+  // Unused: the FMU steps by the scene's dt until the host stops.
   (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
   return guarded(c, "fmi2SetupExperiment", [&](Instance& in) {
     if (in.phase() != grains::fmu::Phase::instantiated)
       return in.error("fmi2SetupExperiment is only allowed before fmi2EnterInitializationMode");
+    if (!std::isfinite(startTime))   // refused here, where the host gave it, not at the next call
+      return in.error(fmt::format("fmi2SetupExperiment: start time {} is not allowed: a finite number", startTime));
     in.experiment_start = startTime;
     return Status::ok;
   });

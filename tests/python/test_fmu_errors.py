@@ -315,3 +315,21 @@ def test_int64_values_are_exact_or_refused_as_passed():
         unit.initialize({"particles.count": 100})
     finally:
         unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_non_finite_start_time_is_refused_where_the_host_gives_it(version):
+    """fmi2SetupExperiment(startTime = NaN) returned fmi2OK, and only the next call failed."""
+    unit = Unit(fmu_path("collision", version))
+    try:
+        for bad in (float("nan"), float("inf")):
+            if version == 2:
+                fails(unit, lambda: unit.fmu.setupExperiment(startTime=bad), "fmi2SetupExperiment", f"start time {bad}",
+                      "a finite number")
+            else:
+                fails(unit, lambda: unit.fmu.enterInitializationMode(startTime=bad), f"start time {bad}", "a finite number")
+        unit.initialize(start_time=1.0)
+        unit.step(0.5)
+        assert unit.get("time") == 1.5
+    finally:
+        unit.free()
