@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <memory>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,8 @@ fmi2Status guarded(fmi2Component c, const char* function, F&& body) {
   try {
     in->log_call(function);
     return to_fmi2(body(*in));
+  } catch (const std::bad_alloc&) {   // a state's copy, say: named as everywhere else
+    in->error(fmt::format("{}: {}", function, grains::fmu::out_of_memory_message));
   } catch (const std::exception& e) {
     in->error(fmt::format("{}: {}", function, e.what()));
   } catch (...) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <new>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -34,6 +35,8 @@ fmi3Status guarded(fmi3Instance c, const char* function, F&& body) {
   try {
     in->log_call(function);
     return to_fmi3(body(*in));
+  } catch (const std::bad_alloc&) {   // a state's copy, say: named as everywhere else
+    in->error(fmt::format("{}: {}", function, grains::fmu::out_of_memory_message));
   } catch (const std::exception& e) {
     in->error(fmt::format("{}: {}", function, e.what()));
   } catch (...) {

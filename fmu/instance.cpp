@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <new>
 #include <string>
 
 #include <fmt/format.h>
@@ -93,6 +94,9 @@ std::unique_ptr<Instance> Instance::create(std::string name, std::string_view to
     in->scene_ = in->packaged_;
     in->sim_ = Simulation::create(in->scene_);
     in->table_ = describe_model(in->scene_, *in->sim_);
+  } catch (const std::bad_alloc&) {
+    in->error(fmt::format("instantiation failed: {}", out_of_memory_message));
+    return nullptr;
   } catch (const std::exception& e) {
     in->error(fmt::format("instantiation failed: {}", e.what()));
     return nullptr;
@@ -172,6 +176,8 @@ Status Instance::ensure_built() {
       if (enabled(log_warning)) logger_(Status::warning, log_warning, w);
     sim_ = std::move(sim);
     dirty_ = false;
+  } catch (const std::bad_alloc&) {
+    return error(out_of_memory_message);
   } catch (const std::exception& e) {
     return error(fmt::format("cannot build the simulation from the parameters: {}", e.what()));
   }
@@ -253,7 +259,8 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
     sim_->step(duration);
   } catch (const std::exception& e) {
     phase_ = Phase::failed;
-    return error(fmt::format("DoStep from t = {:.9g} by {:.9g} failed: {}", now, step, e.what()));
+    const bool memory = dynamic_cast<const std::bad_alloc*>(&e) != nullptr;
+    return error(fmt::format("DoStep from t = {:.9g} by {:.9g} failed: {}", now, step, memory ? out_of_memory_message : e.what()));
   }
   host_time_ = current_time + step;
   const auto& w = sim_->warnings();

@@ -38,6 +38,10 @@ inline const std::vector<std::pair<const char*, const char*>>& log_categories() 
   return c;
 }
 
+// The runner's words for it (runner/main.cpp), with the FMU's parameter.
+inline constexpr const char* out_of_memory_message =
+    "out of memory: the scene needs more memory than this machine gives the FMU (fewer particles: a smaller particles.count)";
+
 // A saved FMU state: the engine's bytes plus what identifies the scene they belong to.
 struct SavedState {
   std::vector<std::byte> bytes;

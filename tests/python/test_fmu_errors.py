@@ -333,3 +333,30 @@ def test_a_non_finite_start_time_is_refused_where_the_host_gives_it(version):
         assert unit.get("time") == 1.5
     finally:
         unit.free()
+
+
+# Twenty million particles (5 GB by the engine's estimate, which the machine passes) in a process whose address
+# space is capped at 2 GB: an allocation fails at once (nothing is touched), as on a machine without the memory.
+OUT_OF_MEMORY_HOST = """
+import resource, sys
+from fmu_host import Unit, fmu_path
+version = int(sys.argv[1])
+unit = Unit(fmu_path("aggregation", version))
+unit.set("run.threads", 1)
+unit.set("particles.count", 2 * 10**7)
+resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+try:
+    unit.fmu.enterInitializationMode() if version == 2 else unit.fmu.enterInitializationMode(startTime=0.0)
+    print("initialized")
+except Exception:
+    print(unit.errors()[-1])
+"""
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_out_of_memory_is_named_as_the_runner_names_it(version):
+    r = host_process(OUT_OF_MEMORY_HOST, version)
+    assert r.returncode == 0, r.stderr[-2000:]
+    message = r.stdout.strip()
+    assert message.startswith("out of memory: the scene needs more memory than this machine gives") and \
+        "particles.count" in message and "bad_alloc" not in message, message
