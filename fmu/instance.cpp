@@ -110,6 +110,7 @@ std::unique_ptr<Instance> Instance::create(std::string name, std::string_view to
   }
   for (const auto& w : in->sim_->warnings())
     if (in->enabled(log_warning)) in->logger_(Status::warning, log_warning, w);
+  in->warnings_logged_ = in->sim_->warnings().size();
   return in;
 }
 
@@ -175,6 +176,7 @@ Status Instance::ensure_built() {
     for (const auto& w : sim->warnings())
       if (enabled(log_warning)) logger_(Status::warning, log_warning, w);
     sim_ = std::move(sim);
+    warnings_logged_ = sim_->warnings().size();
     dirty_ = false;
   } catch (const std::bad_alloc&) {
     return error(out_of_memory_message);
@@ -254,7 +256,6 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
   // drifts from ours, or steps far below dt, which the simulation leaves for later), it makes that up too.
   const double behind = (current_time - start_time_) - sim_->time();
   const double duration = std::abs(behind) > 0.5 * tolerance ? std::max(0.0, step + behind) : step;
-  const std::size_t warnings_before = sim_->warnings().size();
   try {
     sim_->step(duration);
   } catch (const std::exception& e) {
@@ -264,8 +265,8 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
   }
   host_time_ = current_time + step;
   const auto& w = sim_->warnings();
-  for (std::size_t i = warnings_before; i < w.size(); ++i)
-    if (enabled(log_warning)) logger_(Status::warning, log_warning, w[i]);
+  for (; warnings_logged_ < w.size(); ++warnings_logged_)
+    if (enabled(log_warning)) logger_(Status::warning, log_warning, w[warnings_logged_]);
   if (reached_time) *reached_time = time();
   return write_snapshot_if_due();
 }

@@ -107,6 +107,9 @@ class Instance {
   Scene scene_;               // packaged_ plus the host's overrides
   std::map<std::size_t, double> pending_controls_;   // control values set before the Simulation exists
   std::unique_ptr<Simulation> sim_;
+  // sim_'s warnings passed to the logger so far: those raised since (by a step, or by the energy check while a
+  // host read the outputs) are logged at the end of the next DoStep.
+  std::size_t warnings_logged_ = 0;
   bool dirty_ = true;         // scene_ changed since sim_ was built
   ModelTable table_;          // of the packaged scene: references and types never change
   Phase phase_ = Phase::instantiated;

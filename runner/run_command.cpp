@@ -102,11 +102,24 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
 
 namespace {
 
+// Writes (and prints) the warnings the simulation raised since the first `written` ones: the run's own, e.g.
+// the energy check's, raised while the observables are computed.
+void write_new_warnings(H5mdWriter& out, const Simulation& sim, std::size_t& written) {
+  const auto& w = sim.warnings();
+  for (; written < w.size(); ++written) {
+    out.write_warning(w[written]);
+    fmt::print(stderr, "warning: {}\n", w[written]);
+  }
+}
+
 // The run's loop from the simulation's present step to `steps`, then its end and summary: shared by `run`
 // and `resume` (which comes in at a checkpoint's step with the wall time spent before it).
 int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long steps, bool stop_at_aggregation, bool quiet,
                  double earlier_seconds) {
   const double initial_energy = sim.get("kinetic_energy");
+  // The file holds the start-up warnings (begin_output, or the run being resumed), and a resumed simulation
+  // knows whether its energy check has warned (saved state): only later ones are written.
+  std::size_t warnings_written = sim.warnings().size();
   const long obs_every = scene.integer("output.observables_every");
   const long snap_every = scene.integer("output.snapshots_every");
   const long checkpoint_every = scene.integer("output.checkpoint_every");
@@ -141,6 +154,9 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
     if (done % obs_every == 0 || last) write_observables(out, sim);
     if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, sim);
+    // Before a checkpoint, whose state knows the warning was given: the energy check's (also raised by the
+    // aggregation test's read of the outputs).
+    write_new_warnings(out, sim, warnings_written);
     // A stopped run always leaves one, so that `grains resume` can continue it.
     if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
       out.write_checkpoint({.step = done, .time = sim.time(), .wall_seconds = earlier_seconds + progress.elapsed_seconds(),

@@ -118,6 +118,9 @@ class SimulationImpl final : public Simulation {
                        "fewer than 20 steps and restitution will be inaccurate", dt_, tc / 20, tc));
     if (tc > 0) warn_damped_packing_step(tc);
     if (scene.boolean("gravity.enabled")) warn_gravity_step(scene, rmin, tc > 0);
+    // The energy check (check_energy): gravity scenes, where W is computed, without the adhesive law (whose
+    // attraction's energy and parting charges it does not follow).
+    energy_check_ = scene.boolean("gravity.enabled") && !scene.boolean("adhesion.enabled");
 
     double range = -1;
     for (const auto& m : modules_) range = std::max(range, m->pair_range());
@@ -164,7 +167,12 @@ class SimulationImpl final : public Simulation {
     if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
       add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
                    "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off)", 0.0},
-                  [g = gravity_] { return g->G(); }, [g = gravity_](double G) { g->set_G(G); });
+                  [g = gravity_] { return g->G(); },
+                  [this, g = gravity_](double G) {
+                    // Another G moves W (and E) at once: the energy check starts again from the next value.
+                    if (G != g->G()) energy_watch_.started = 0;
+                    g->set_G(G);
+                  });
     sys_.dt = 0, sys_.first_step = dt_;
     P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)
     compute_forces();
@@ -237,9 +245,10 @@ class SimulationImpl final : public Simulation {
   // give; 6: the previous force instead of both accelerations; 7: the shell of pairs near contact; a scene with
   // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
   // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count; 9: the
-  // adhesive contacts' parting charges of the last evaluation).
+  // adhesive contacts' parting charges of the last evaluation; 10: a gravity scene's energy check follows its
+  // aggregation time).
   // States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e09;
+  static constexpr std::uint32_t state_format = 0x47524e0a;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -251,7 +260,11 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.save(w);
     sys_.shell.save(w);
     for (const auto& m : modules_) m->save(w);
-    if (analysis_) w.put(aggregation_time_);
+    if (analysis_) {
+      w.put(aggregation_time_);
+      const EnergyWatch& e = energy_watch_;   // field by field: no padding bytes in the state
+      w.put(e.first), w.put(e.minimum), w.put(e.minimum_time), w.put(e.started), w.put(e.warned);
+    }
     if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
     if (barostat_) barostat_->save(w), w.put(contact_stress_);
     if (collisions_) collisions_->save(w);
@@ -322,7 +335,12 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.load(r);
     sys_.shell.load(r);
     for (auto& m : modules_) m->load(r);
-    if (analysis_) aggregation_time_ = r.get<double>();
+    if (analysis_) {
+      aggregation_time_ = r.get<double>();
+      EnergyWatch& e = energy_watch_;
+      e.first = r.get<double>(), e.minimum = r.get<double>(), e.minimum_time = r.get<double>();
+      e.started = r.get<std::uint8_t>(), e.warned = r.get<std::uint8_t>();
+    }
     if (network_) r.get_vector(reference_contacts_), network_mark_ = r.get<double>();
     if (barostat_) {
       barostat_->load(r);
@@ -377,7 +395,7 @@ class SimulationImpl final : public Simulation {
   }
 
  private:
-  void warn(std::string w) { warnings_.push_back(std::move(w)); }
+  void warn(std::string w) const { warnings_.push_back(std::move(w)); }
 
   // An input or tunable parameter: a host sets it between steps. Register after describe_variables()
   // has listed the fixed parameters (they occupy the first entries of vars_). Its value is part of the saved
@@ -885,19 +903,87 @@ class SimulationImpl final : public Simulation {
   }
 
   // Gravity time-step rule (physics.md section 3): the fastest orbit the softened potential allows is
-  // the circular one of the two heaviest particles at their closest approach d (contact distance
-  // 2 R_min with contacts, 0 without): T_orb = 2 pi sqrt((d^2 + eps^2)^(3/2) / (G (m_1 + m_2))).
-  // A step above T_orb / 20 resolves that orbit with fewer than 20 steps.
+  // the circular one of the two heaviest particles at their closest approach d:
+  // T_orb = 2 pi sqrt((d^2 + eps^2)^(3/2) / (G (m_1 + m_2))). A step above T_orb / 20 resolves that orbit
+  // with fewer than 20 steps.
+  // The closest approach is the contact distance 2 R_min only where the contacts surely keep grains apart, and
+  // a capped contact force need not: beyond delta_max = contact.overlap_limit R_min it stays k_n delta_max
+  // (physics.md section 2), and a larger pull sinks the grains into each other down to the softened centre (at
+  // k* = 10, two grains passed through each other and gained 18 times their kinetic energy, with no warning
+  // while d was 2 R_min). Bound the pull on one grain by the whole system's mass at contact distance,
+  // G m_max M / (2 R_min)^2: a capped force above it keeps d = 2 R_min, else d = 0 (then T_orb depends on eps
+  // alone). The bound is generous, so d = 0 is the usual case: the default aggregation scene's capped force,
+  // 647, is below its bound, 1000, and its step is 3.7 times below T_orb / 20 at d = 0.
   void warn_gravity_step(const Scene& scene, double rmin, bool contacts) {
     std::vector<double> m = sys_.particles.mass;
     if (m.size() < 2) return;
+    double M = 0;
+    for (double mi : m) M += mi;
     std::partial_sort(m.begin(), m.begin() + 2, m.end(), std::greater<>());
-    const double eps = scene.real("gravity.softening") * rmin, d = contacts ? 2 * rmin : 0.0;
-    const double orbit = 2 * std::acos(-1.0) * std::sqrt(std::pow(d * d + eps * eps, 1.5) / (scene.real("gravity.G") * (m[0] + m[1])));
+    const double G = scene.real("gravity.G"), eps = scene.real("gravity.softening") * rmin;
+    // kn_: the lightest pair's stiffness, the smallest one (per-pair calibration stiffens heavier pairs)
+    const double capped = contacts ? kn_ * scene.real("contact.overlap_limit") * rmin : 0.0;
+    const double pull = G * m[0] * M / (4 * rmin * rmin);
+    const bool held = contacts && capped > pull;
+    const double d = held ? 2 * rmin : 0.0;
+    const double orbit = 2 * std::acos(-1.0) * std::sqrt(std::pow(d * d + eps * eps, 1.5) / (G * (m[0] + m[1])));
+    const std::string why =
+        !contacts ? "no contacts"
+        : held    ? fmt::format("contacts keep grains apart: their capped force k_n delta_max = {:.6g} exceeds "
+                                "G m_max M / (2 R_min)^2 = {:.6g}", capped, pull)
+                  : fmt::format("contacts cannot keep grains apart: their capped force k_n delta_max = {:.6g} is below "
+                                "G m_max M / (2 R_min)^2 = {:.6g}, so grains may pass through each other", capped, pull);
     if (orbit > 0 && dt_ > orbit / 20)   // orbit = 0: unsoftened point masses, no bound to check against
       warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} (T_orb = {:.6g}: the circular orbit of the two heaviest "
-                       "particles at their closest approach d = {:.6g} with softening eps = {:.6g}): close gravitational "
-                       "encounters are resolved by fewer than 20 steps", dt_, orbit / 20, orbit, d, eps));
+                       "particles at their closest approach d = {:.6g} with softening eps = {:.6g}; {}): close gravitational "
+                       "encounters are resolved by fewer than 20 steps", dt_, orbit / 20, orbit, d, eps, why));
+  }
+
+  // Energy check (physics.md section 3: nothing blows up silently). In a gravity scene with the aggregation's
+  // contact law (or none) nothing adds energy: springs store it, dashpots, friction and drag take it. So
+  // E = K + W + elastic (the contacts' stored energy: the clamped normal spring's potential, linear beyond the
+  // cap, and the tangential spring's) may only fall or stay, within the integrator's error; a rise is energy
+  // the integration makes, and a run that gains it ends hot (virial ratios above 1 from a cold dissipative
+  // cloud). Checked where the outputs are computed (the runner's observable times, a host's reads), so it
+  // costs nothing per step; warns once, when E exceeds its lowest value so far by more than energy_rise_limit
+  // of the energy scale max(K, |W|, |E_0|), E_0 the first value checked.
+  // The limit, 1 %, measured (the largest rise over a run, over the scale): the default aggregation scene
+  // (1000 grains, 3 t_ff) 0 at its records, 8e-12 recorded every 10 steps; elastic runs (e = 1, overlaps to
+  // 0.7 R) 1.4e-4; the collapse scene (no contacts) 3.6e-4; two grains passing through each other (k* = 10,
+  // 30 steps per contact) 0.97, and the aggregation scene at k* = 10, zeta = 0.02, 2.7 (first above 1 % at
+  // 0.34 t_ff). At k* = 100 the cloud's E rises 0.9-2.9 %: warned about, mildly, at most dampings.
+  static constexpr double energy_rise_limit = 0.01;
+  void check_energy(double kinetic) const {
+    auto& o = observable_values_;
+    auto& w = energy_watch_;
+    const double W = o.at("gravity_potential_energy");
+    const auto stored = o.find("elastic_energy");
+    const double E = kinetic + W + (stored != o.end() ? stored->second : 0.0);
+    if (w.warned || !std::isfinite(E)) return;
+    if (!w.started) {
+      w = {E, E, sys_.time, 1, 0};
+      return;
+    }
+    if (E < w.minimum) {
+      w.minimum = E, w.minimum_time = sys_.time;
+      return;
+    }
+    const double scale = std::max({kinetic, std::abs(W), std::abs(w.first)}), rise = E - w.minimum;
+    if (!(rise > energy_rise_limit * scale)) return;
+    w.warned = 1;
+    const std::string cause =
+        kn_ > 0 ? fmt::format("contacts too soft for the gravitational load (k* = {:.3g}; largest overlap now {:.3g} R_min): "
+                              "the capped contact force k_n delta_max cannot stop grains that gravity pulls together, they "
+                              "pass through each other and the step misses the close encounter at the softening length; "
+                              "raise k* (a shorter contact.duration) or contact.overlap_limit, or time.steps_per_contact",
+                              o.at("normalised_stiffness"), o.count("max_overlap_ratio") ? o.at("max_overlap_ratio") : 0.0)
+                : "a step too coarse for close encounters at the softening length: lower time.dt or raise gravity.softening";
+    warn(fmt::format("energy check: at t = {:.6g} ({:.3g} t_ff, step {}) the total energy E = K + W + elastic = {:.6g} is "
+                     "{:.6g} above its lowest value {:.6g} (at t = {:.6g}), {:.3g} % of the energy scale "
+                     "max(K, |W|, |E_0|) = {:.6g} (the check's limit: {:g} %); nothing in this scene adds energy, so the "
+                     "integration is making it and what follows (virial ratio, clusters) is an artefact. Likely cause: {}",
+                     sys_.time, sys_.time / free_fall_time_, sys_.step, E, rise, w.minimum, w.minimum_time,
+                     100 * rise / scale, scale, 100 * energy_rise_limit, cause));
   }
 
   // --- aggregation analysis (gravity scenes, physics.md section 8) ---
@@ -1249,6 +1335,7 @@ class SimulationImpl final : public Simulation {
       o["aggregation_time"] = aggregation_time_;
       if (kn_ > 0) o["normalised_stiffness"] = kn_ / gravity_stiffness_;
     }
+    if (energy_check_) check_energy(kt + kr);
     if (collisions_) {
       const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
       o["collision_count"] = n;
@@ -1314,7 +1401,16 @@ class SimulationImpl final : public Simulation {
   std::vector<VariableInfo> vars_;
   std::vector<double> parameter_values_;   // fixed parameters: the first entries of vars_
   std::map<std::size_t, Control> controls_;  // inputs and tunable parameters, by index in vars_
-  std::vector<std::string> warnings_;
+  // Start-up warnings, then the run's (the energy check's, raised while outputs are computed: mutable).
+  mutable std::vector<std::string> warnings_;
+  bool energy_check_ = false;   // check_energy runs (gravity scenes without the adhesive law)
+  // The energy check's record: the first E it saw (E_0), the lowest since and when, whether it has begun
+  // and whether it has warned (once per run). Part of the saved state.
+  struct EnergyWatch {
+    double first = 0, minimum = 0, minimum_time = 0;
+    std::uint8_t started = 0, warned = 0;
+  };
+  mutable EnergyWatch energy_watch_;
   // Pressure-controlled cell (absent unless cell.enabled).
   std::unique_ptr<Barostat<D>> barostat_;
   Tensor<D> contact_stress_ = Tensor<D>::Zero();   // from the last force evaluation
