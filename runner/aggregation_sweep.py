@@ -25,7 +25,7 @@ a.. and o.. in its file names).
 Per point (median over seeds): t_agg / t_ff, final N_c / N and f_max, D_f of the largest cluster, the
 virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.csv, OUT/summary.md (the
 paper's qualitative findings, each with what the sweep shows, and the points whose runs the engine
-warned about at start-up), OUT/damping.png, OUT/stiffness.png and,
+warned about, at start-up or while running: the energy check), OUT/damping.png, OUT/stiffness.png and,
 with --map, OUT/map.png and OUT/virial-map.png (Q against time at every point of the map). A run whose output is complete is not run again, so an interrupted sweep
 (Ctrl-C: exit status 130) resumes, but only if it ran the scene that would run now (its HDF5 file's
 parameters/scene.toml; the thread count aside): else the sweep refuses, naming the settings that differ;
@@ -154,17 +154,25 @@ def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, 
 
 
 def virial_peaks(t, q):
-    """The first peak of Q(t / t_ff) (its height and time) and the height of a second one: the point after
-    the first peak that stands highest above the lowest Q between them, counted as a peak when it rises
-    at least 20 % above that low and reaches 1 % of the first peak (else 0: a decay, or noise at the
-    level of a frozen aggregate)."""
+    """The first peak of Q(t / t_ff) (its height and time) and the height of a second one.
+
+    The first peak is the first local maximum that stands out: the highest Q before Q first falls 20 % below
+    it (to 1 / 1.2 of it, the margin that counts a second peak), among maxima that reach 10 % of Q's highest
+    value, so that neither noise on the rise nor an early bump of a few collisions counts; Q's highest value
+    when Q never falls so. (Until 2026-12-04 it was always Q's highest value, which a later, higher peak, or a
+    run that heats up, took for the first.) The second is the point after the first peak that stands highest
+    above the lowest Q between them, counted as a peak when it rises at least 20 % above that low and reaches
+    1 % of the first peak (else 0: a decay, or noise at the level of a frozen aggregate)."""
     t, q = np.asarray(t, float), np.asarray(q, float)
-    first = int(np.argmax(q))
+    fall, floor = 1.2, 0.1
+    highest = np.maximum.accumulate(q)   # Q's highest value so far
+    fallen = np.flatnonzero((q * fall <= highest) & (highest >= floor * np.max(q)) & (highest > 0))
+    first = int(np.argmax(q[:fallen[0] + 1])) if fallen.size else int(np.argmax(q))
     after = q[first:]
     lowest = np.minimum.accumulate(after)
     rise = np.divide(after, lowest, out=np.ones_like(after), where=lowest > 0)
     j = int(np.argmax(rise))
-    second = after[j] if rise[j] >= 1.2 and after[j] >= 0.01 * q[first] else 0.0
+    second = after[j] if rise[j] >= fall and after[j] >= 0.01 * q[first] else 0.0
     return q[first], t[first], float(second)
 
 
@@ -213,13 +221,15 @@ def median_point(runs):
 
 
 def warned_points(points):
-    """Lines naming the points whose runs the engine warned about at start-up (a time step past one of its
-    rules: their figures, late ones above all, are not to be trusted), or none."""
+    """Lines naming the points whose runs the engine warned about (at start-up, a time step past one of its
+    rules; while running, the energy check: E rose, the run heats itself; their figures, late ones above all,
+    are not to be trusted), or none."""
     warned = {(p["zeta"], p["k_star"]): p for p in points if p["warned_runs"]}
     if not warned:
         return []
-    lines = ["", "Runs the engine warned about at start-up (see their logs; e.g. a time step past the damped-packing "
-                 "rule with --keep-step, to be rerun with --set time.steps_per_contact=N as the warning says):"]
+    lines = ["", "Runs the engine warned about (see their logs; e.g. a time step past the damped-packing rule with "
+                 "--keep-step, to be rerun with --set time.steps_per_contact=N as the warning says, or an energy check: "
+                 "contacts too soft for the gravitational load):"]
     for (z, k), p in sorted(warned.items()):
         lines.append(f"- zeta {z:g}, k* {k:.3g}: {p['warned_runs']} of {p['seeds']} run(s); {'; '.join(p['warnings'])}")
     return lines
