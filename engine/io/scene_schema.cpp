@@ -133,9 +133,11 @@ const std::vector<SchemaEntry>& scene_schema() {
        "`direct`: exact O(N^2) summation; `tree`: Barnes-Hut octree/quadtree (monopole + quadrupole cells, one walk per group of "
        "up to 64 particles, rebuilt every step) with `opening_angle`."},
       {"gravity.opening_angle", K::real, "0.5", 0, 1.5, false, false, "",
-       "Barnes-Hut opening angle theta (tree solver): a cell of edge s is used whole for a group of particles when its "
-       "centre of mass is farther than s / theta + (distance from the cell centre to its centre of mass) from the group's "
-       "bounding box; 0 = exact. At 0.5 the median force error is about 2e-4 (uniform ball)."},
+       "Barnes-Hut opening angle theta (tree solver): a cell of two or more particles is used whole for a group of "
+       "particles when its centre of mass is farther from the group's bounding box than max(s / theta, b_max), s the "
+       "longest edge of the box bounding the cell's particle centres and b_max the distance from the centre of mass to "
+       "that box's farthest corner (so the group lies outside the cell's particles); otherwise the cell is opened. A "
+       "lone particle is always summed exactly; 0 = exact. At 0.5 the median force error is about 2e-4 (uniform ball)."},
 
       // --- aggregation analysis ---
       {"analysis.cluster_tolerance", K::real, "1e-3", 0, inf, false, false, "",
