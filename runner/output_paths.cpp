@@ -34,9 +34,11 @@ void check_name_and_folder(const std::string& output, const std::string& source)
     throw SceneError(fmt::format("{}: output directory '{}' {} (output file '{}')", source, dir.string(),
                                  fs::exists(dir, ec) ? "is a file, not a folder" : "does not exist", output));
   }
-  [[maybe_unused]] const auto status = fs::status(output, ec);
+  const auto status = fs::status(output, ec);
   if (ec && ec != std::errc::no_such_file_or_directory)
     throw SceneError(fmt::format("{}: cannot use the output file '{}': {}", source, output, ec.message()));
+  if (fs::is_directory(status))   // found only when writing to it, after other outputs were begun
+    throw SceneError(fmt::format("{}: output file '{}' is a folder: name a file", source, output));
 }
 
 }  // namespace
@@ -76,6 +78,10 @@ void check_hdf5_output_path(const std::string& hdf5, const std::string& scene_fi
     if (same_file(*xdmf, input))
       throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', {} itself: name "
                                    "another output file (or set output.xdmf = false)", source, hdf5, *xdmf, what));
+  std::error_code ec;
+  if (std::filesystem::is_directory(*xdmf, ec))
+    throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', which is a folder: "
+                                 "name another output file (or set output.xdmf = false)", source, hdf5, *xdmf));
 }
 
 }  // namespace grains

@@ -66,6 +66,21 @@ def test_output_a_running_run_is_writing_is_refused_and_left_intact(grains_bin, 
         assert f["grains"].attrs["status"].startswith("interrupted at step")
 
 
+@pytest.mark.parametrize("case", ["--out", "--table", "xdmf"])
+def test_an_output_path_that_is_a_folder_is_refused_before_anything_is_written(grains_bin, root, tmp_path, case):
+    """A folder at an output's path was found only when writing to it: the run failed at its first frame, or the
+    programme after creating its HDF5 file (left 'running'), with no reason given."""
+    (tmp_path / ("x.xdmf" if case == "xdmf" else "taken")).mkdir()
+    out, table = tmp_path / ("taken" if case == "--out" else "x.h5"), tmp_path / ("taken" if case == "--table" else "x.csv")
+    r = run(grains_bin, "consolidate", root / "models/cohesionless.toml", "--out", out, "--table", table, "--quiet")
+    assert r.returncode == 1
+    if case == "xdmf":
+        assert f"would be '{tmp_path / 'x.xdmf'}', which is a folder" in r.stderr, r.stderr
+    else:
+        assert f"{case}: output file '{tmp_path / 'taken'}' is a folder: name a file" in r.stderr, r.stderr
+    assert [p.name for p in tmp_path.iterdir()] == ["x.xdmf" if case == "xdmf" else "taken"]
+
+
 def test_output_onto_the_scene_file_is_refused(grains_bin, root, tmp_path):
     scene = tmp_path / "scene.toml"
     text = (root / "models" / "collision.toml").read_text()
