@@ -129,6 +129,12 @@ struct H5mdWriter::Impl {
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
     const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
                                           : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
+    // A damaged file's shorter time or value would be extended with fill values, out of step with the steps.
+    for (const auto& [d, part] : {std::pair{s.time.get(), "time"}, std::pair{s.value.get(), "value"}})
+      if (const hsize_t held = h5::shape(d, path, name + "/" + part).at(0); held < rows)
+        throw std::runtime_error(fmt::format("H5MD output '{}': {}/{} holds {} rows, but {}/step names {} up to step {}: "
+                                             "the file is damaged and cannot be continued", path, name, part, held, name,
+                                             rows, step));
     for (hid_t d : {s.step.get(), s.time.get(), s.value.get()}) h5::truncate_rows(d, rows, path, name);
     const std::vector<hsize_t> shape = h5::shape(s.value.get(), path, name + "/value");
     s.components = shape.size() == 3 ? int(shape[2]) : 1;

@@ -104,6 +104,19 @@ def test_a_killed_run_resumes_from_its_last_checkpoint_to_the_records_of_an_unbr
         assert x.read().count("<Grid Name=\"frame") == len(a["particles/position"][0]) == 9
 
 
+def test_a_file_whose_series_lost_rows_is_refused_not_resumed_out_of_step(grains_bin, root, tmp_path):
+    """A series whose values are shorter than its steps (a damaged file) used to be extended with fill values and
+    resumed to 'complete', its steps and values no longer matching."""
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        f["observables/kinetic_energy/value"].resize((3,))
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode != 0
+    assert "kinetic_energy/value holds 3 rows" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
+
+
 def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tmp_path):
     """Ctrl-C writes a checkpoint whatever output.checkpoint_every says; the resumed run's records are the
     unbroken run's."""
