@@ -1025,12 +1025,12 @@ class SimulationImpl final : public Simulation {
       const bool bad = !P.position[i].allFinite() || !P.velocity[i].allFinite() || !P.force[i].allFinite() ||
                        !P.angular_velocity[i].allFinite();
       if (!bad) continue;
-      // Blame the step rules only when the start-up checks found them broken.
+      // Blame the step rules (or the energy check's finding) only when a check found them broken.
       const std::string hint =
           warnings_.empty()
               ? fmt::format("dt = {:.6g} passed the time-step checks at start-up, so look at the initial state "
                             "(coincident or deeply overlapping particles) and the scene's parameters", dt_)
-              : fmt::format("the start-up checks warned: {}", fmt::join(warnings_, "; "));
+              : fmt::format("the checks warned: {}", fmt::join(warnings_, "; "));
       throw SimulationError(fmt::format("non-finite value at {}: particle {} (mass {:.6g}) has position ({}), velocity "
                                         "({}), force ({}); {}",
                                         when, i, P.mass[i], fmt::join(P.position[i], ", "), fmt::join(P.velocity[i], ", "),
