@@ -75,7 +75,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
         if code == reuse.INTERRUPTED:   # its checkpoint is kept for the next try
             raise reuse.Interrupted(label)
         if code == 0:
-            partial.rename(table)
+            finish(partial, table, h5)
             print(f"  finished {label} (resumed)", flush=True)
             return table
     h5.unlink(missing_ok=True)   # left by an interrupted run that cannot resume: grains never overwrites
@@ -88,9 +88,18 @@ def consolidate(grains, scene_file, overrides, stem, label):
         raise reuse.Interrupted(label)
     if done.returncode != 0:
         raise RuntimeError(f"{label}: grains consolidate exited with {done.returncode}; see {stem}.log")
-    partial.rename(table)
+    finish(partial, table, h5)
     print(f"  finished {label}", flush=True)
     return table
+
+
+def finish(partial, table, h5):
+    """A programme ended: its table takes its final name, and the HDF5 file names that one (the tools reading the
+    file find the table by it)."""
+    import h5py
+    partial.rename(table)
+    with h5py.File(h5, "r+") as f:
+        f["grains"].attrs["stage_table"] = table.name
 
 
 def check_samples(ap, grains, samples, report=False):

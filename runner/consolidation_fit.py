@@ -136,6 +136,16 @@ def recorded_table(h5):
     return h5.parent / (name.decode() if isinstance(name, bytes) else str(name))
 
 
+def stage_table_of(h5):
+    """The stage table written with a `grains consolidate` HDF5 file: the one the file names if it is there, else
+    STEM.csv beside it, else STEM.partial.csv (a campaign's sample still running, or stopped); None if none is."""
+    h5 = pathlib.Path(h5)
+    for table in (recorded_table(h5), h5.with_suffix(".csv"), h5.with_suffix(".partial.csv")):
+        if table is not None and table.is_file():
+            return table
+    return None
+
+
 def read_stages(path):
     """(P*, Phi, branch) arrays from a CSV stage table (given, or the one a `grains consolidate` HDF5 file names,
     else the one beside it). Rows of `grains consolidate` that did not reach equilibrium (reached = 0), the aggregation stage
@@ -145,10 +155,10 @@ def read_stages(path):
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
     if path.suffix in (".h5", ".hdf5"):   # the stage table grains consolidate wrote with it
-        table = recorded_table(path) or path.with_suffix(".csv")
-        if not table.exists():
+        table = stage_table_of(path)
+        if table is None:
             raise ValueError(f"'{path}' is an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
-                             f"writes with it (--table), and there is none at '{table}'")
+                             f"writes with it (--table), and there is none at '{recorded_table(path) or path.with_suffix('.csv')}'")
         print(f"reading the stage table {table}", file=sys.stderr)
         path = table
     with open(path, newline="") as f:

@@ -27,6 +27,9 @@ import warnings
 import numpy as np
 from scipy.optimize import OptimizeWarning, curve_fit
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from consolidation_fit import stage_table_of  # noqa: E402
+
 
 def density_field(positions, radii, edges, spacing):
     """chi on a periodic grid covering the cell [0, L_x) x [0, L_y): 1 where a grid point's centre
@@ -153,11 +156,12 @@ def read_frames(path):
 
 
 def stage_targets(path, measured):
-    """The programme's target P* per frame, from the stage table beside the file (`grains consolidate`
-    writes STEM.h5 and STEM.csv: frame 0 is the initial state, frame s + 1 the end of stage s), so a
-    stage that ended short of its target is still found by it; the measured P* where there is no table."""
-    table = path.with_suffix(".csv")
-    if not table.is_file():
+    """The programme's target P* per frame, from the stage table written with the file (`grains consolidate`
+    writes STEM.h5 and its table, frame 0 the initial state, frame s + 1 the end of stage s; see
+    consolidation_fit.stage_table_of), so a stage that ended short of its target is still found by it; the
+    measured P* where there is no table."""
+    table = stage_table_of(path)
+    if table is None:
         return measured
     with open(table, newline="") as f:
         rows = list(csv.DictReader(f))

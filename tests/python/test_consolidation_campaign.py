@@ -123,6 +123,11 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     scene = ROOT / "models/consolidation-type1.toml"
     small = ["particles.count=100", "programme.top_pressure=0.1", "programme.stage_budget=20000"]
     whole = campaign.consolidate(grains_bin, scene, small, tmp_path / "whole", "whole")
+    # The finished sample's file names its final table (it named the partial one, renamed at the end), so the
+    # tools reading the file find it.
+    from consolidation_fit import read_stages, recorded_table
+    assert recorded_table(whole.with_suffix(".h5")) == whole
+    assert read_stages(whole.with_suffix(".h5"))[1].tolist() == read_stages(whole)[1].tolist()
     stem = tmp_path / "sample"
     cmd = [grains_bin, "consolidate", str(scene), "--table", str(stem) + ".partial.csv", "--out", str(stem) + ".h5"]
     assert subprocess.run(cmd + [a for o in small for a in ("--set", o)], capture_output=True).returncode == 0
@@ -138,6 +143,7 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
         shutil.copy(stem.with_suffix(suffix), copy / ("sample" + suffix))
     table = campaign.consolidate(grains_bin, scene, small, copy / "sample", "sample")
     assert table == copy / "sample.csv" and not (copy / "sample.partial.csv").exists()
+    assert recorded_table(copy / "sample.h5") == table
     assert table.read_text() == whole.read_text()
     assert "resuming" in (copy / "sample.log").read_text()
     assert stem.with_suffix(".partial.csv").read_text().count("\n") == len(rows) - 1   # the original untouched

@@ -143,3 +143,15 @@ def test_command_writes_its_table_and_plot_and_names_bad_input(tmp_path):
     missing = subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), str(tmp_path / "none.h5")],
                              capture_output=True, text=True)
     assert missing.returncode == 2 and "no file" in missing.stderr
+
+
+def test_stage_targets_come_from_a_running_samples_partial_table(tmp_path):
+    """A campaign sample still running (or stopped) has STEM.partial.csv beside STEM.h5: its targets were not
+    read, so frames were found by measured P* (an unreached stage's can be near 0 or negative)."""
+    rows = [{"stage": 0, "target_pressure": "0", "P_star": "-0.002"}, {"stage": 1, "target_pressure": "0.01", "P_star": "0.004"}]
+    with (tmp_path / "s.partial.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    measured = np.array([0.0, -0.002, 0.004])
+    assert dc.stage_targets(tmp_path / "s.h5", measured).tolist() == [0.0, 0.0, 0.01]
