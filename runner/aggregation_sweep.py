@@ -441,6 +441,11 @@ def main(argv=None):
         ap.error(f"--report: no folder {out}")
     if out.exists() and not out.is_dir():
         ap.error(f"--out {out}: not a folder")
+    if args.threads < 0:
+        ap.error(f"--threads = {args.threads}: must be 0 (automatic) or more")
+    reuse.refuse_controlled(ap, args.set, {"contact.restitution": "--damping, --fixed-damping",
+                                           "contact.duration": "--stiffness, --fixed-stiffness",
+                                           "particles.seed": "--seeds", "run.threads": "--threads"})
     # grains resolves the scene with the overrides, applies the damped-packing rule and says what the runs ran
     if not pathlib.Path(args.grains).is_file():
         ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")

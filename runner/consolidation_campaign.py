@@ -129,6 +129,8 @@ def check_arguments(ap, args):
     """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (made unless only
     reporting; with --report it must exist), and an executable grains binary unless only reporting (the report
     checks it once it has found tables: check_grains)."""
+    reuse.refuse_controlled(ap, args.set, {"particles.seed": "--first-seed and --samples", "particles.count": "--count",
+                                           "run.threads": "--threads" if hasattr(args, "threads") else "one thread each"})
     for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")

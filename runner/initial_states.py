@@ -61,6 +61,9 @@ def main():
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     ap.add_argument("--report", action="store_true", help="run nothing: summarise the tables already in --out")
     args = ap.parse_args()
+    reuse.refuse_controlled(ap, args.set, {"programme.load": "a preparation stops before loading",
+                                           "programme.unload": "a preparation stops before loading",
+                                           "rolling.coefficient": "the state: a name ending in -rr has it"})
     check_arguments(ap, args)
     states = args.state or list(STATES)
     seeds = range(args.first_seed, args.first_seed + args.samples)

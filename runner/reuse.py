@@ -28,6 +28,16 @@ def interrupted(prog, kept):
     return INTERRUPTED
 
 
+def refuse_controlled(ap, overrides, controlled):
+    """Exits with an argparse error when a --set names a key the tool itself sets for each run (`controlled`: key
+    -> the option that sets it): the tool's setting came first and the --set after it silently won (every sample
+    of a campaign ran one seed)."""
+    for o in overrides:
+        key = o.split("=", 1)[0].strip()
+        if key in controlled:
+            ap.error(f"--set {o}: {key} is set by this tool for each run ({controlled[key]}); drop the --set")
+
+
 def resolve(grains, scene_file, overrides):
     """The scene with the overrides (KEY=VALUE strings) as the engine resolves them, as a dict."""
     cmd = [str(grains), "check", str(scene_file)] + [a for o in overrides for a in ("--set", o)]

@@ -219,3 +219,15 @@ def test_initial_states_refuse_runs_of_other_settings(grains_bin, tmp_path):
         r = subprocess.run(cmd + other, capture_output=True, text=True)
         assert r.returncode == 2 and "type1-seed1.csv: particles.count = 60 there, 50 now" in r.stderr, r.stderr
     assert (tmp_path / "summary.md").read_text() == summary
+
+
+@pytest.mark.parametrize("tool, key", [("consolidation_campaign.py", "particles.seed"), ("consolidation_campaign.py", "particles.count"),
+                                       ("initial_states.py", "programme.load"), ("aggregation_sweep.py", "contact.restitution")])
+def test_a_set_of_a_key_the_tool_sets_per_run_is_refused(grains_bin, tmp_path, tool, key):
+    """The tools' own per-run settings came first and a --set of the same key silently won: every sample of a
+    campaign ran the one seed, and its summary gave a spread of 0 as if they were independent."""
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / tool), "--set", f"{key}=7", "--grains", str(grains_bin),
+                        "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert f"--set {key}=7: {key} is set by this tool for each run" in r.stderr
+    assert not (tmp_path / "out").exists()
