@@ -148,7 +148,7 @@ def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, 
     if done.returncode == reuse.INTERRUPTED:
         raise reuse.Interrupted(stem.name)
     if done.returncode != 0:
-        raise RuntimeError(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {done.returncode}; see {stem}.log")
+        raise reuse.RunFailed(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {done.returncode}; see {stem}.log")
     print(f"  finished zeta {zeta:g}, k* {k_star:g}, seed {seed}", flush=True)
     return h5
 
@@ -568,3 +568,5 @@ if __name__ == "__main__":
         sys.exit(main())
     except (KeyboardInterrupt, reuse.Interrupted):
         sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "complete runs are kept, interrupted ones run again"))
+    except reuse.RunFailed as error:
+        sys.exit(reuse.failed(pathlib.Path(__file__).name, error))

@@ -87,7 +87,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
     if done.returncode == reuse.INTERRUPTED:
         raise reuse.Interrupted(label)
     if done.returncode != 0:
-        raise RuntimeError(f"{label}: grains consolidate exited with {done.returncode}; see {stem}.log")
+        raise reuse.RunFailed(f"{label}: grains consolidate exited with {done.returncode}; see {stem}.log")
     finish(partial, table, h5)
     print(f"  finished {label}", flush=True)
     return table
@@ -364,3 +364,5 @@ if __name__ == "__main__":
     except (KeyboardInterrupt, reuse.Interrupted):
         sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished samples are kept, interrupted ones continue "
                                                           "from their last checkpoint"))
+    except reuse.RunFailed as error:
+        sys.exit(reuse.failed(pathlib.Path(__file__).name, error))

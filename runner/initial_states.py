@@ -132,3 +132,5 @@ if __name__ == "__main__":
     except (KeyboardInterrupt, reuse.Interrupted):
         sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished runs are kept, interrupted ones continue from "
                                                           "their last checkpoint"))
+    except reuse.RunFailed as error:
+        sys.exit(reuse.failed(pathlib.Path(__file__).name, error))

@@ -22,6 +22,16 @@ class Interrupted(Exception):
     """A run ended by Ctrl-C (exit status 130)."""
 
 
+class RunFailed(Exception):
+    """A run that grains ended with an error; the message names the run and its log."""
+
+
+def failed(prog, error):
+    """After a failed run: one line naming it and its log instead of a traceback; returns the exit status, 1."""
+    print(f"{prog}: error: {error} (finished runs are kept: run the same command again once it is fixed)", file=sys.stderr)
+    return 1
+
+
 def interrupted(prog, kept):
     """After Ctrl-C: says how to go on (`kept`: what a rerun keeps); returns the exit status, 130."""
     print(f"{prog}: interrupted; run the same command again to resume ({kept})", file=sys.stderr)

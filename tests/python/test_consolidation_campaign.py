@@ -231,3 +231,14 @@ def test_a_set_of_a_key_the_tool_sets_per_run_is_refused(grains_bin, tmp_path, t
     assert r.returncode == 2, r.stderr
     assert f"--set {key}=7: {key} is set by this tool for each run" in r.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_a_sample_that_fails_ends_the_campaign_with_one_line_naming_its_log(grains_bin, tmp_path):
+    """A run that grains ends with an error (8 disks pass the scene checks but cannot be prepared) used to end the
+    campaign with a Python traceback."""
+    r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--samples", "1", "--count", "8",
+                        "--scene", "consolidation", "--set", "programme.stage_budget=5000", "--set",
+                        "programme.aggregation_budget=20000", "--grains", str(grains_bin), "--out", str(tmp_path)],
+                       capture_output=True, text=True)
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert f"consolidation seed 1: grains consolidate exited with 1; see {tmp_path}/consolidation-seed1.log" in r.stderr
