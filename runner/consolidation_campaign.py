@@ -231,7 +231,10 @@ def fractal_dimensions(table):
     for key, target in (("d_F_0", 0.0), ("d_F_0.01", 0.01)):
         i = loading_frame(p_star, target)
         if i is not None:
-            found[key] = analyse([(positions[i], radii[i], edges[i])])["d_F"]
+            try:
+                found[key] = analyse([(positions[i], radii[i], edges[i])])["d_F"]
+            except ValueError:   # too small a cell for the fit's range: no d_F, not the campaign's end
+                pass
     return found
 
 
@@ -300,7 +303,7 @@ def main():
     args = ap.parse_args()
     check_arguments(ap, args)
     threads = args.threads or default_threads(args.count, args.jobs, os.cpu_count() or 1)
-    scenes = args.scene or list(PAPER)
+    scenes = list(dict.fromkeys(args.scene)) if args.scene else list(PAPER)   # each once, in the order given
     seeds = range(args.first_seed, args.first_seed + args.samples)
     out = pathlib.Path(args.out)
     samples = [sample(scene, seed, args.count, threads, args.set, out) for scene in scenes for seed in seeds]

@@ -222,6 +222,9 @@ def main(argv=None):
     ap.add_argument("--p0", type=float, help="P0*, start of regime II (default: the line meets the initial plateau)")
     ap.add_argument("--regime2-max", type=float, default=0.1, help="largest P* of the regime II line fit (default 0.1)")
     args = ap.parse_args(argv)
+    for option, value in (("--p0", args.p0), ("--regime2-max", args.regime2_max)):
+        if value is not None and not value > 0:
+            ap.error(f"{option}: {value}; a reduced pressure P* > 0")
     if args.out and not pathlib.Path(args.out).resolve().parent.is_dir():
         print(f"consolidation_fit: --out: the folder '{pathlib.Path(args.out).parent}' of '{args.out}' does not exist",
               file=sys.stderr)

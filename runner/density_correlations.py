@@ -1,10 +1,10 @@
 """Density correlations of a disk packing (physics.md section 9; consolidation paper, section IV):
 the scattering intensity I(k), its fractal dimension d_F and the blob size xi.
 
-    python runner/density_correlations.py STAGES.h5 [--frames F ...] [-o intensity.png] [--table out.csv]
+    python runner/density_correlations.py STAGES.h5 [STAGES.h5 ...] [--pressures P ...] [-o intensity.png] [--table out.csv]
 
 STAGES is the HDF5 file of `grains consolidate` (one snapshot per stage, observables beside it), or
-any H5MD file of 2D disks. For each chosen frame (default: every stage up to P* = 1):
+any H5MD file of 2D disks. For the loading stage at each of --pressures (default 0 0.01 0.178 1):
   - the density field chi (1 inside a disk, 0 outside) is sampled on a periodic grid of spacing
     a / --points-per-diameter (a: the largest diameter), at the grid points' centres;
   - I(k) = |chi^(k)|^2 / A, chi^(k) = sum over the grid of chi e^(-i k.r) dA (A: the cell's area), is
@@ -250,8 +250,11 @@ def main(argv=None):
             samples.append((path, *read_frames(path)))
         except (OSError, KeyError, ValueError) as err:
             ap.error(f"h5: {path}: not a 2D H5MD stages file ({err})")
-    rows = report(samples, args.pressures, args.points_per_diameter, args.k_max,
-                  pathlib.Path(args.out) if args.out else None, pathlib.Path(args.table) if args.table else None)
+    try:
+        rows = report(samples, args.pressures, args.points_per_diameter, args.k_max,
+                      pathlib.Path(args.out) if args.out else None, pathlib.Path(args.table) if args.table else None)
+    except ValueError as err:   # the fit's range, 2 pi / L to --k-max, holds too few shells
+        ap.error(f"--k-max: {args.k_max}: {err} (the fit runs from 2 pi / L, L the cell's longest edge, to --k-max / a)")
     if not rows:
         ap.error(f"--pressures: none of {args.pressures} is a loading stage of the input")
     return 0

@@ -131,6 +131,10 @@ def test_command_fits_a_table_and_writes_the_plot(tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), str(bad)],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "P_star" in r.stderr
+    for value in ("0", "-1"):   # a math domain error, naming nothing, before
+        r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), str(bad), "--p0", value],
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and f"--p0: {float(value)}; a reduced pressure P* > 0" in r.stderr, r.stderr
 
 
 def test_reads_the_table_of_grains_consolidate(tmp_path):

@@ -136,7 +136,8 @@ def test_command_writes_its_table_and_plot_and_names_bad_input(tmp_path):
     assert (tmp_path / "sample-intensity.png").stat().st_size > 10000
     for args, message in ((["--points-per-diameter", "2"], "--points-per-diameter: 2"),
                           (["--pressures", "-1"], "--pressures"),
-                          (["--pressures", "5"], "none of [5.0]")):
+                          (["--pressures", "5"], "none of [5.0]"),
+                          (["--k-max", "0.3"], "--k-max: 0.3: blob fit")):   # below 2 pi / L: was a traceback
         bad = subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), str(stages), *args],
                              capture_output=True, text=True)
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
