@@ -22,6 +22,9 @@ import h5py
 
 from compare_lammps import lammps_pair_style
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
@@ -65,6 +68,7 @@ def main():
     ap.add_argument("--no-lammps", action="store_true", help="grains only")
     ap.add_argument("--repeat", type=int, default=1, help="runs of every configuration (medians reported)")
     args = ap.parse_args()
+    reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
     have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()
     if not args.no_lammps and not have_lammps:
         print("note: LAMMPS (`lmp`, Debian package lammps) or the peer inputs are missing: grains only", file=sys.stderr)

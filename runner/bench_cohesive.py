@@ -27,6 +27,9 @@ import tempfile
 import h5py
 import numpy as np
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DENSITY = 1.05    # the peer's `lattice hex 1.05`
 TEMPERATURE = 0.01
@@ -154,6 +157,11 @@ def main():
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds (each grains law right after a LAMMPS run, each round); medians and the range of the ratios")
     args = ap.parse_args()
+    reuse.require_counts(ap, steps=args.steps, cells=args.cells, repeat=args.repeat)
+    try:
+        reuse.require_counts(ap, threads=min(int(t) for t in args.threads.split(",")))
+    except ValueError:
+        ap.error(f"--threads {args.threads}: give core counts separated by commas, such as 1,2")
     have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
     if not have_lammps:
         print("note: LAMMPS (`lmp`, Debian package lammps) or the peer input is missing: grains only", file=sys.stderr)

@@ -20,10 +20,14 @@ import pathlib
 import re
 import statistics
 import subprocess
+import sys
 import tempfile
 import time
 
 import h5py
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -122,6 +126,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=2, help="settings: runs at a time (one thread each)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     a = ap.parse_args()
+    reuse.require_counts(ap, steps=a.steps, count=a.count, seeds=a.seeds, jobs=a.jobs)
     if a.count is None:
         a.count = 1400 if a.what == "cycle" else 300
     {"throughput": throughput, "cycle": cycle, "settings": settings}[a.what](a)

@@ -14,6 +14,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
@@ -25,6 +28,11 @@ def main():
     ap.add_argument("--calls", type=int, default=20000, help="empty doStep calls timed")
     ap.add_argument("--threads", type=int, default=None, help="run.threads for both (default: the scene's, 2)")
     args = ap.parse_args()
+    reuse.require_counts(ap, repeat=args.repeat, calls=args.calls)
+    if not pathlib.Path(args.build, "fmus").is_dir():
+        ap.error(f"--build {args.build}: no fmus folder there (build first: cmake --build build)")
+    if args.duration is not None and not args.duration > 0:
+        ap.error(f"--duration = {args.duration}: must be positive")
     build = pathlib.Path(args.build)
     os.environ["GRAINS_FMU_DIR"] = str(build / "fmus")
     sys.path.insert(0, str(ROOT / "tests" / "python"))

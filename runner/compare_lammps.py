@@ -47,6 +47,9 @@ import numpy as np
 
 from bench_cohesive import disk_state, hooke_history_law, peer_pair_style
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DIAMETER, MASS = 1.0, 1.0
 TC, E, DT = 0.05, 0.9, 0.001
@@ -239,6 +242,7 @@ def main():
     ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     args = ap.parse_args()
+    reuse.require_counts(ap, steps=args.steps)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
     if not shutil.which("lmp"):
         sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps.py installs it")

@@ -38,6 +38,13 @@ def interrupted(prog, kept):
     return INTERRUPTED
 
 
+def require_counts(ap, **counts):
+    """Exits with an argparse error naming the first option (keyword: its name with _ for -) below 1."""
+    for name, value in counts.items():
+        if value is not None and value < 1:
+            ap.error(f"--{name.replace('_', '-')} = {value}: must be at least 1")
+
+
 def refuse_controlled(ap, overrides, controlled):
     """Exits with an argparse error when a --set names a key the tool itself sets for each run (`controlled`: key
     -> the option that sets it): the tool's setting came first and the --set after it silently won (every sample

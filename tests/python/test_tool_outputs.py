@@ -85,3 +85,16 @@ def test_campaign_tools_name_bad_arguments_in_a_line(grains_bin, tmp_path, scrip
     refused(tool(script, "--grains", grains_bin, "--out", tmp_path / "b", "--set", "particles.cont=3"),
             "unknown key 'particles.cont'")
     assert not (tmp_path / "b").exists() or not any((tmp_path / "b").iterdir())
+
+
+@pytest.mark.parametrize("name, args, words", [
+    ("bench.py", ["--steps", "0", "--no-lammps"], ["--steps = 0", "at least 1"]),
+    ("bench.py", ["--repeat", "0", "--no-lammps"], ["--repeat = 0"]),   # a table of NaN, exit 0, before
+    ("bench_cohesive.py", ["--cells", "0"], ["--cells = 0"]),
+    ("bench_consolidation.py", ["settings", "--seeds", "0"], ["--seeds = 0"]),
+    ("bench_fmu.py", ["--build", "nosuch"], ["--build nosuch", "no fmus folder"]),
+    ("compare_lammps.py", ["--steps", "0"], ["--steps = 0"]),   # "predicts nan", exit 0, before
+])
+def test_benchmarks_name_bad_counts_and_paths_in_a_line(tmp_path, name, args, words):
+    refused(tool(name, *args, cwd=tmp_path), *words)
+    assert not any(tmp_path.iterdir())
