@@ -156,3 +156,16 @@ def test_stage_targets_come_from_a_running_samples_partial_table(tmp_path):
         w.writerows(rows)
     measured = np.array([0.0, -0.002, 0.004])
     assert dc.stage_targets(tmp_path / "s.h5", measured).tolist() == [0.0, 0.0, 0.01]
+
+
+def test_a_fit_whose_d_f_error_passes_half_of_it_has_no_fractal_range():
+    """Six noisy shells (two wave vectors each): the blob form fits d_F 0.77 +- 0.58 with xi of 90,000, which was
+    reported as a fractal dimension (a 16-disk campaign sample printed d_F 0.26 +- 1.99)."""
+    rng = np.random.default_rng(1)
+    k = np.geomspace(0.4, 6.28, 6)
+    intensity = (1 + (3 * k) ** 2) ** -0.4 * np.exp(rng.normal(0, 0.8, k.size))
+    fit = dc.fit_blob(k, intensity, np.full(k.size, 2), 0.4, 6.28)
+    assert not fit["fractal_range"] and math.isnan(fit["d_F"])
+    # The same form without the noise, over many wave vectors per shell, keeps its range.
+    fit = dc.fit_blob(k, (1 + (3 * k) ** 2) ** -0.8, np.full(k.size, 200), 0.4, 6.28)
+    assert fit["fractal_range"] and fit["d_F"] == pytest.approx(1.6, rel=1e-6)
