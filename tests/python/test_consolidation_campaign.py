@@ -128,6 +128,11 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     from consolidation_fit import read_stages, recorded_table
     assert recorded_table(whole.with_suffix(".h5")) == whole
     assert read_stages(whole.with_suffix(".h5"))[1].tolist() == read_stages(whole)[1].tolist()
+    # A finished sample whose table was not renamed (the tool stopped just then) is not run again.
+    log = whole.with_suffix(".log").read_text()
+    whole.rename(whole.with_suffix(".partial.csv"))
+    assert campaign.consolidate(grains_bin, scene, small, tmp_path / "whole", "whole") == whole
+    assert whole.exists() and whole.with_suffix(".log").read_text() == log
     stem = tmp_path / "sample"
     cmd = [grains_bin, "consolidate", str(scene), "--table", str(stem) + ".partial.csv", "--out", str(stem) + ".h5"]
     assert subprocess.run(cmd + [a for o in small for a in ("--set", o)], capture_output=True).returncode == 0
