@@ -245,12 +245,16 @@ def raised_points(points, scene_steps):
 
 
 def spearman(x, y):
-    """Rank correlation of the finite pairs (NaN with fewer than 3)."""
+    """Spearman's rank correlation of the finite pairs, ties sharing their mean rank (NaN with fewer than 3, or
+    when one side is constant)."""
+    from scipy.stats import rankdata
     x, y = np.asarray(x, float), np.asarray(y, float)
     keep = np.isfinite(x) & np.isfinite(y)
     if keep.sum() < 3:
         return math.nan
-    rx, ry = np.argsort(np.argsort(x[keep])), np.argsort(np.argsort(y[keep]))
+    rx, ry = rankdata(x[keep]), rankdata(y[keep])
+    if rx.std() == 0 or ry.std() == 0:
+        return math.nan
     return float(np.corrcoef(rx, ry)[0, 1])
 
 

@@ -292,7 +292,7 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
                      "d_F_sample_sd": spread, "xi_over_a": r["xi"] / a, "xi_error_over_a": r["xi_error"] / a})
         if r["fractal_range"]:
             print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  d_F {r['d_F']:.3f} +- {r['d_F_error']:.3f}"
-                  + (f" (sd of the samples' own fits {spread:.3f})" if len(single) > 1 else "")
+                  + (f" (sd of the samples' own fits {spread:.3f})" if math.isfinite(spread) else "")
                   + f"  xi/a {r['xi'] / a:.2f} +- {r['xi_error'] / a:.2f}")
         else:
             print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  no fractal range (flat I(k))")

@@ -184,3 +184,11 @@ def test_runs_are_reused_only_with_the_settings_asked_for_now(grains_bin, tmp_pa
         assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
         assert "particles.count = 40 there, 30 now" in bad.stderr and "give another --out" in bad.stderr
     assert (tmp_path / "sweep.csv").read_text() == table
+
+
+def test_rank_correlation_gives_ties_their_mean_rank():
+    """Tied values (a level t_agg at several k*) took arbitrary distinct ranks: scipy's spearmanr is the reference."""
+    from scipy.stats import spearmanr
+    x, y = [1, 2, 3, 4, 5, 6], [0.9, 0.9, 0.9, 1.2, 1.1, 1.5]
+    assert sweep.spearman(x, y) == pytest.approx(spearmanr(x, y)[0], rel=1e-12)
+    assert math.isnan(sweep.spearman(x, [1.0] * 6)) and math.isnan(sweep.spearman([1, 2], [3, 4]))
