@@ -182,11 +182,7 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueRefe
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
   return guarded(c, "fmi2GetFMUstate", [&](Instance& in) {
     if (!FMUstate) return in.error("fmi2GetFMUstate: null FMUstate pointer");
-    if (*FMUstate) return in.save(grains::fmu::live_state(in, *FMUstate));   // the host reuses a state of its own
-    auto state = std::make_unique<grains::fmu::SavedState>();
-    Status s = in.save(*state);
-    if (s == Status::ok) *FMUstate = grains::fmu::hand_out_state(in, std::move(state));
-    return s;
+    return grains::fmu::fill_state(in, *FMUstate, [&](grains::fmu::SavedState& state) { return in.save(state); });
   });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
@@ -226,11 +222,7 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi
   return guarded(c, "fmi2DeSerializeFMUstate", [&](Instance& in) {
     if (!serializedState || !FMUstate) return in.error("fmi2DeSerializeFMUstate: null argument");
     const auto bytes = std::span(reinterpret_cast<const std::byte*>(serializedState), size);
-    if (*FMUstate) return in.deserialize(bytes, grains::fmu::live_state(in, *FMUstate));
-    auto state = std::make_unique<grains::fmu::SavedState>();
-    Status s = in.deserialize(bytes, *state);
-    if (s == Status::ok) *FMUstate = grains::fmu::hand_out_state(in, std::move(state));
-    return s;
+    return grains::fmu::fill_state(in, *FMUstate, [&](grains::fmu::SavedState& state) { return in.deserialize(bytes, state); });
   });
 }
 

@@ -262,11 +262,7 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3Va
 GRAINS_FMI3_EXPORT fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState* FMUState) {
   return guarded(c, "fmi3GetFMUState", [&](Instance& in) {
     if (!FMUState) return in.error("fmi3GetFMUState: null FMUState pointer");
-    if (*FMUState) return in.save(grains::fmu::live_state(in, *FMUState));   // the host reuses a state of its own
-    auto state = std::make_unique<grains::fmu::SavedState>();
-    Status s = in.save(*state);
-    if (s == Status::ok) *FMUState = grains::fmu::hand_out_state(in, std::move(state));
-    return s;
+    return grains::fmu::fill_state(in, *FMUState, [&](grains::fmu::SavedState& state) { return in.save(state); });
   });
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
@@ -306,11 +302,7 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3
   return guarded(c, "fmi3DeserializeFMUState", [&](Instance& in) {
     if (!serializedState || !FMUState) return in.error("fmi3DeserializeFMUState: null argument");
     const auto bytes = std::span(reinterpret_cast<const std::byte*>(serializedState), size);
-    if (*FMUState) return in.deserialize(bytes, grains::fmu::live_state(in, *FMUState));
-    auto state = std::make_unique<grains::fmu::SavedState>();
-    Status s = in.deserialize(bytes, *state);
-    if (s == Status::ok) *FMUState = grains::fmu::hand_out_state(in, std::move(state));
-    return s;
+    return grains::fmu::fill_state(in, *FMUState, [&](grains::fmu::SavedState& state) { return in.deserialize(bytes, state); });
   });
 }
 
