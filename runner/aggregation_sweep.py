@@ -114,15 +114,6 @@ def stable_steps_per_contact(grains, zeta, k_star, m_star, k_g, overrides):
     return int(found.group(1)) if found else None
 
 
-def complete(h5):
-    import h5py
-    try:
-        with h5py.File(h5, "r") as f:
-            return f["grains"].attrs.get("status") in ("complete", b"complete")
-    except (OSError, KeyError):
-        return False
-
-
 def run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own=None):
     """The --set settings of a run. The point's own settings (`own`: steps per contact, cadences) replace the
     scene's and any override's."""
@@ -137,7 +128,7 @@ def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, 
     now); returns the path of its HDF5 file."""
     stem = out / run_name(zeta, k_star, seed, own)
     h5 = out / f"{stem.name}.h5"
-    if h5.exists() and complete(h5):
+    if h5.exists() and reuse.ended(h5):
         return h5
     h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
     cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
@@ -502,12 +493,12 @@ def main(argv=None):
             ap.exit(2, f"{ap.prog}: {error}\n")
         files = {(z, k, s): out / f"{run_name(z, k, s, own[(z, k)])}.h5" for z, k in pairs for s in seeds}
         if args.report:
-            missing = [str(f) for f in files.values() if not complete(f)]
+            missing = [str(f) for f in files.values() if not reuse.ended(f)]
             if missing:
                 ap.error(f"--report: no complete run {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
         stale = []   # complete runs are taken as they are only if they ran what would run now
         for (z, k, s), h5 in files.items():
-            if complete(h5):
+            if reuse.ended(h5):
                 now = reuse.resolve(args.grains, SCENE, run_settings(z, k, s, m_star, k_g, threads, args.set, own[(z, k)]))
                 differs = reuse.difference(now, h5)
                 if differs:

@@ -70,7 +70,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
             raise reuse.Stale(f"{table}: {differs}")
         return table
     if partial.exists() and h5.exists() and reuse.difference(now, h5) is None:
-        if programme_ended(h5):   # it ended, but the table was not renamed (the tool stopped just then)
+        if reuse.ended(h5):   # it ended, but the table was not renamed (the tool stopped just then)
             finish(partial, table, h5)
             return table
         with stem.with_suffix(".log").open("a") as log:
@@ -94,18 +94,6 @@ def consolidate(grains, scene_file, overrides, stem, label):
     finish(partial, table, h5)
     print(f"  finished {label}", flush=True)
     return table
-
-
-def programme_ended(h5):
-    """Whether `grains consolidate` wrote its file to the end (its status 'complete', with or without unreached
-    stages)."""
-    import h5py
-    try:
-        with h5py.File(h5, "r") as f:
-            status = f["grains"].attrs.get("status", b"")
-    except (OSError, KeyError):
-        return False
-    return (status.decode() if isinstance(status, bytes) else str(status)).startswith("complete")
 
 
 def finish(partial, table, h5):

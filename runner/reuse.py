@@ -45,6 +45,18 @@ def require_counts(ap, **counts):
             ap.error(f"--{name.replace('_', '-')} = {value}: must be at least 1")
 
 
+def ended(h5):
+    """Whether grains wrote the file to its end: status 'complete' (a run), or 'complete; ...' (a programme with
+    stages short of equilibrium); False for a file that is missing, unreadable, running or interrupted."""
+    import h5py
+    try:
+        with h5py.File(h5, "r") as f:
+            status = f["grains"].attrs.get("status", b"")
+    except (OSError, KeyError):
+        return False
+    return (status.decode() if isinstance(status, bytes) else str(status)).startswith("complete")
+
+
 def refuse_controlled(ap, overrides, controlled):
     """Exits with an argparse error when a --set names a key the tool itself sets for each run (`controlled`: key
     -> the option that sets it): the tool's setting came first and the --set after it silently won (every sample
