@@ -206,9 +206,28 @@ def median_point(runs):
             point[k] = float(np.nanmedian(values)) if np.any(np.isfinite(values)) else math.nan
     point["seeds"] = len(runs)
     point["warned_runs"] = sum(bool(r["warnings"]) for r in runs)
+    point["heated_runs"] = sum(heated(r["warnings"]) for r in runs)
     point["warnings"] = sorted({w if len(w) <= 160 else w[:159] + "…" for r in runs for w in r["warnings"]})
     point["t"], point["q"] = runs[0]["t"], runs[0]["q"]
     return point
+
+
+def heated(warnings):
+    """Whether the engine's energy check found the run's total energy rising: its integration was not resolved
+    (at soft contacts, grains that gravity pushes through each other), and its figures are not the model's."""
+    return any(w.startswith("energy check") for w in warnings)
+
+
+def marked(p, text):
+    """A point's figure in the findings, marked ‡ when the median includes runs that heated up."""
+    return f"{text}‡" if p.get("heated_runs") else text
+
+
+def verdict(holds, tested):
+    """yes or no, or, when a point the verdict turns on heated up, not decided."""
+    if any(p.get("heated_runs") for p in tested):
+        return "not decided: rests on runs that heated up (‡)"
+    return "yes" if holds else "no"
 
 
 def warned_points(points):
@@ -250,41 +269,45 @@ def spearman(x, y):
 
 
 def findings(damping, stiffness, fixed_stiffness, fixed_damping):
-    """The paper's qualitative findings (physics.md section 8), each with what the sweep shows."""
+    """The paper's qualitative findings (physics.md section 8), each with what the sweep shows. A figure whose
+    runs heated up is marked ‡, and a finding that turns on such a figure is not decided."""
+    def listed(points, key, form, axis):   # "0.70 (zeta 0.1), ..." or "... (k* 1e+03)", each heated figure marked
+        label, axis_form = ("zeta", "g") if axis == "zeta" else ("k*", ".3g")
+        return ", ".join(f"{marked(p, format(p[key], form))} ({label} {p[axis]:{axis_form}})" for p in points)
     lines = ["| paper's finding | this sweep | holds |", "|---|---|---|"]
     z = [p["zeta"] for p in damping]
     t_agg = [p["t_agg_over_t_ff"] for p in damping]
     index = [p["cluster_index"] for p in damping]
     rho = spearman(z, t_agg)   # rank correlation over the points that aggregate
-    defined = [(a, b) for a, b in zip(z, t_agg) if math.isfinite(b)]
+    defined = [p for p in damping if math.isfinite(p["t_agg_over_t_ff"])]
     lines.append(f"| t_agg / t_ff falls as damping grows (k* = {fixed_stiffness:.3g}) | rank correlation with zeta {rho:+.2f} over "
-                 f"{len(defined)} points where the cloud aggregates; {', '.join(f'{b:.2f} (zeta {a:g})' for a, b in defined)} "
-                 f"| {'yes' if rho < -0.5 else 'no'} |")
+                 f"{len(defined)} points where the cloud aggregates; {listed(defined, 't_agg_over_t_ff', '.2f', 'zeta')} "
+                 f"| {verdict(rho < -0.5, defined)} |")
     rises = max((b - a for a, b in zip(index, index[1:])), default=0.0)
     crossing = next((f"{z[i]:g}–{z[i + 1]:g}" for i in range(len(z) - 1) if index[i] > 0.5 >= index[i + 1]), "none")
-    lines.append(f"| N_c / N falls (logistically) from ~1 to ~0 with damping | {', '.join(f'{b:.3f} (zeta {a:g})' for a, b in zip(z, index))}; "
+    lines.append(f"| N_c / N falls (logistically) from ~1 to ~0 with damping | {listed(damping, 'cluster_index', '.3f', 'zeta')}; "
                  f"crosses 0.5 between zeta {crossing}; largest rise between neighbours {rises:+.3f} "
-                 f"| {'yes' if index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05 else 'no'} |")
+                 f"| {verdict(index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05, damping)} |")
     second = [p["q_second_peak"] > 0 for p in damping]
     lines.append(f"| Q: a first peak in every run, a second for all but the strongest damping | first peaks "
                  f"{min(p['q_first_peak'] for p in damping):.3g}–{max(p['q_first_peak'] for p in damping):.3g}; "
-                 f"a second peak at zeta {', '.join(f'{a:g}' for a, s in zip(z, second) if s) or 'none'} "
-                 f"| {'yes' if all(second[:-1]) and not second[-1] else 'no'} |")
+                 f"a second peak at zeta {', '.join(marked(p, format(p['zeta'], 'g')) for p, s in zip(damping, second) if s) or 'none'} "
+                 f"| {verdict(all(second[:-1]) and not second[-1], damping)} |")
     if stiffness:
-        k = [p["k_star"] for p in stiffness]
         ki = [p["cluster_index"] for p in stiffness]
         kt = [p["t_agg_over_t_ff"] for p in stiffness]
         low = int(np.argmin(ki))
+        soft, stiff = stiffness[0], stiffness[-1]
         lines.append(f"| vs k* (zeta = {fixed_damping:g}): N_c / N high when soft, lowest at an intermediate k* "
-                     f"| {', '.join(f'{b:.3f} (k* {a:.3g})' for a, b in zip(k, ki))} "
-                     f"| {'yes' if 0 < low < len(k) - 1 and ki[0] > 0.5 and ki[-1] > ki[low] else 'no'} |")
-        lines.append(f"| ... and rising toward ~0.6 for very stiff contacts | {ki[-1]:.3f} at k* {k[-1]:.3g} "
-                     f"| {'yes' if ki[-1] >= 0.3 else 'no'} |")
-        finite = [i for i, v in enumerate(kt) if math.isfinite(v)]
-        best = min(finite, key=lambda i: kt[i]) if finite else None
+                     f"| {listed(stiffness, 'cluster_index', '.3f', 'k_star')} "
+                     f"| {verdict(0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] > ki[low], [soft, stiffness[low], stiff])} |")
+        lines.append(f"| ... and rising toward ~0.6 for very stiff contacts | {marked(stiff, format(ki[-1], '.3f'))} at k* "
+                     f"{stiff['k_star']:.3g} | {verdict(ki[-1] >= 0.3, [stiff])} |")
+        finite = [p for p in stiffness if math.isfinite(p["t_agg_over_t_ff"])]
+        best = min(range(len(kt)), key=lambda i: kt[i] if math.isfinite(kt[i]) else math.inf)
+        minimum = bool(finite) and 0 < best < len(kt) - 1 and math.isfinite(kt[0]) and math.isfinite(kt[-1])
         lines.append(f"| t_agg / t_ff has a minimum at an intermediate k* | "
-                     f"{', '.join(f'{kt[i]:.2f} (k* {k[i]:.3g})' for i in finite) or 'no aggregation'} "
-                     f"| {'yes' if best is not None and 0 < best < len(k) - 1 and math.isfinite(kt[0]) and math.isfinite(kt[-1]) else 'no'} |")
+                     f"{listed(finite, 't_agg_over_t_ff', '.2f', 'k_star') or 'no aggregation'} | {verdict(minimum, finite)} |")
     return lines
 
 
@@ -311,6 +334,11 @@ def plot_sweep(points, x_key, title, path):
     x = [p[x_key] for p in points]
     for ax, key, label in zip(axes, ("cluster_index", "t_agg_over_t_ff"), ("final N_c / N", "t_agg / t_ff")):
         ax.plot(x, [p[key] for p in points], "o-")
+        hot = [p for p in points if p.get("heated_runs")]   # figures of runs that heated up: ringed, not trusted
+        if hot:
+            ax.plot([p[x_key] for p in hot], [p[key] for p in hot], "o", ms=11, mfc="none", mec="red",
+                    label="runs heated up (energy rose)")
+            ax.legend(fontsize=7)
         ax.set_ylabel(label)
         ax.set_xlabel("damping ratio ζ" if damping else "k* = k_n / k_g")
         if damping:
@@ -337,12 +365,15 @@ def plot_map(points, damping, stiffness, path):
         for p in points:
             grid[damping.index(p["zeta"]), stiffness.index(p["k_star"])] = p[key]
         image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis", vmin=limits[0], vmax=limits[1])
+        for p in points:   # cells whose runs heated up (energy rose): their figures are not the model's
+            if p.get("heated_runs"):
+                ax.text(stiffness.index(p["k_star"]), damping.index(p["zeta"]), "‡", ha="center", va="center", color="red")
         ax.set_xticks(range(len(stiffness)), [f"{k:.0e}" for k in stiffness], rotation=45)
         ax.set_yticks(range(len(damping)), [f"{z:g}" for z in damping])
         ax.set_xlabel("k*")
         ax.set_ylabel("ζ")
         fig.colorbar(image, ax=ax, label=label)
-    fig.suptitle("At 3 t_ff, median of the seeds")
+    fig.suptitle("At 3 t_ff, median of the seeds (‡: runs that heated up)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -350,29 +381,34 @@ def plot_map(points, damping, stiffness, path):
 
 def stiffness_shapes(grid, damping, stiffness):
     """The map's rows (one zeta each) where N_c / N has the paper's shape against k*: above 0.5 at the
-    softest, lowest at an intermediate k*, back above 0.3 at the stiffest; a finding line."""
-    rows = []
+    softest, lowest at an intermediate k*, back above 0.3 at the stiffest; a finding line. A row whose shape
+    turns on runs that heated up is marked and does not count."""
+    rows, counted = [], 0
     for z in dict.fromkeys(damping):
         row = sorted((p for p in grid if p["zeta"] == z), key=lambda p: p["k_star"])
         ki = [p["cluster_index"] for p in row]
         low = int(np.argmin(ki))
         if 0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] >= 0.3:
-            rows.append(f"zeta {z:g} ({', '.join(f'{v:.3f}' for v in ki)})")
+            rows.append(f"zeta {z:g} ({', '.join(marked(p, format(v, '.3f')) for p, v in zip(row, ki))})")
+            counted += not any(p.get("heated_runs") for p in (row[0], row[low], row[-1]))
+    holds = "yes" if counted else "not decided: rests on runs that heated up (‡)" if rows else "no"
     return (f"| the same shape anywhere on the map (k* {', '.join(f'{k:.0e}' for k in dict.fromkeys(stiffness))}) "
-            f"| {'; '.join(rows) or 'no row'} | {'yes' if rows else 'no'} |")
+            f"| {'; '.join(rows) or 'no row'} | {holds} |")
 
 
 def virial_shapes(grid, stiffness):
     """The paper's Q finding column by column of the map: at each k*, the dampings whose Q rises to a second
-    peak, and whether they are all but the strongest (a finding line)."""
+    peak, and whether they are all but the strongest (a finding line; a column with runs that heated up,
+    marked, does not count)."""
     columns, holds = [], []
     for k in dict.fromkeys(stiffness):
         column = sorted((p for p in grid if p["k_star"] == k), key=lambda p: p["zeta"])
-        peaked = [p["zeta"] for p in column if p["q_second_peak"] > 0]
-        columns.append(f"k* {k:.0e}: {', '.join(f'{z:g}' for z in peaked) or 'none'}")
+        peaked = [p for p in column if p["q_second_peak"] > 0]
+        columns.append(f"k* {k:.0e}: {', '.join(marked(p, format(p['zeta'], 'g')) for p in peaked) or 'none'}")
         # the paper's pattern: the weakest dampings (three or more, from the weakest on) have one, the rest none
-        if len(peaked) >= 3 and peaked == [p["zeta"] for p in column][:len(peaked)] and len(peaked) < len(column):
-            holds.append(f"{k:.0e} (ζ up to {peaked[-1]:g}, none above)")
+        if (len(peaked) >= 3 and peaked == column[:len(peaked)] and len(peaked) < len(column)
+                and not any(p.get("heated_runs") for p in column)):
+            holds.append(f"{k:.0e} (ζ up to {peaked[-1]['zeta']:g}, none above)")
     return (f"| Q's second peak on the map (the paper: for all but the strongest damping; here the ζ with one, per k*) "
             f"| {'; '.join(columns)} | {'at k* ' + ', '.join(holds) if holds else 'no'} |")
 
@@ -535,7 +571,7 @@ def main(argv=None):
 
     fields = ["sweep", "zeta", "restitution", "k_star", "steps_per_contact", "analysis_every", "seeds", "t_agg_over_t_ff", "cluster_index",
               "largest_cluster_fraction", "fractal_dimension", "q_first_peak", "q_first_peak_time", "q_second_peak",
-              "warned_runs"]
+              "warned_runs", "heated_runs"]
     with (out / "sweep.csv").open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()

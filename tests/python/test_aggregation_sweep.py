@@ -126,6 +126,27 @@ def test_findings_follow_the_measured_trends():
     assert [line.rsplit("|", 2)[-2].strip() for line in lines[5:7]] == ["no", "no"]
 
 
+def test_findings_that_turn_on_runs_that_heated_up_are_not_decided():
+    energy = "energy check: at t = 6.6 (1.77 t_ff, step 400) the total energy E = K + W + elastic = -38040 is 234762 above ..."
+    base = {"cluster_index": 0.7, "largest_cluster_fraction": 0.3, "fractal_dimension": math.nan, "q_first_peak": 1.4,
+            "q_first_peak_time": 2.9, "q_second_peak": 0.0, "t": [0], "q": [0], "t_agg_over_t_ff": 0.8}
+    step = "time.dt = 0.0167 exceeds T_orb / 20 = 0.00248 ..."
+    soft = sweep.median_point([dict(base, warnings=[step, energy]), dict(base, warnings=[step]), dict(base, warnings=[])])
+    assert (soft["warned_runs"], soft["heated_runs"]) == (2, 1)
+    damping = [point(0.0, 100, 0.9, math.nan, 0.1), point(0.1, 100, 0.4, 2.0, 0.1), point(0.3, 100, 0.05, 1.2, 0.1),
+               point(0.5, 100, 0.01, 1.0)]
+    stiffness = [dict(point(0.1, 10, 0.8, 1.5), heated_runs=1), point(0.1, 100, 0.01, 0.9), point(0.1, 1e4, 0.6, 2.5)]
+    lines = sweep.findings(damping, stiffness, 100, 0.1)
+    assert all(line.endswith("| yes |") for line in lines[2:5]), lines
+    assert "0.800‡ (k* 10)" in lines[5] and lines[5].endswith("| not decided: rests on runs that heated up (‡) |")
+    assert lines[6].endswith("| yes |")   # the stiff end did not heat up
+    assert "1.50‡ (k* 10)" in lines[7] and "not decided" in lines[7]
+    grid = [dict(p, zeta=z) for z in (0.0, 0.1) for p in stiffness]
+    assert "not decided" in sweep.stiffness_shapes(grid, [0.0, 0.1], [10, 100, 1e4])
+    grid = [dict(p, heated_runs=0) for p in grid]
+    assert sweep.stiffness_shapes(grid, [0.0, 0.1], [10, 100, 1e4]).endswith("| yes |")
+
+
 def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path):
     small = ["--set", "particles.count=40", "--set", "time.duration=1.5", "--set", "analysis.every=20",
              "--set", "output.observables_every=50"]
