@@ -14,9 +14,10 @@ exit status 130) resumes when the same command runs again. Then it fits each sam
 Phi and z at the first loading stage (P* = 0.01), lambda and Phimax, and the fractal dimension d_F of the
 density correlations at P* = 0 and 0.01 (runner/density_correlations.py, from each sample's HDF5 file), as
 mean +- sample standard deviation, against the paper's values (physics.md section 9 table and the paper's
-section IV). A value passes when the mean lies within twice the paper's error bar (where the paper gives
+section IV); and lambda and Phimax fitted to the loading curve averaged over the samples, with the fit's
+standard errors, as the paper averages its data over the samples and fits the mean (its Fig. 11, Table III). A value passes when the mean lies within twice the paper's error bar (where the paper gives
 none, within 2 % for Phi and 5 % for z, lambda and d_F). The
-table goes to OUT/summary.md, a plot of every sample's Phi(P*) to OUT/campaign.png, and the finished
+table goes to OUT/summary.md, a plot of every sample's Phi(P*), the mean curve and its fit to OUT/campaign.png, and the finished
 samples' scattering intensity I(k) at P* = 0, 0.01, 0.178 and 1, pooled per scene, to
 OUT/SCENE-intensity.png and .csv.
 
@@ -35,7 +36,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_fit import fit_crossover, fit_regime_two  # noqa: E402
+from consolidation_fit import fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
 import density_correlations  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
 import reuse  # noqa: E402
@@ -212,13 +213,50 @@ def summarise(table):
               "all_p": np.array([target_pressure(r) for r in loading]), "all_phi": np.array([float(r["phi"]) for r in loading]),
               "all_reached": np.array([r["reached"] == "1" for r in loading])}
     try:
-        regime2 = fit_regime_two(p, phi)
-        crossover = fit_crossover(p, phi, guess=(1 / regime2["phi0"], regime2["lambda"], phi.max() * 1.01, 1.0))
+        crossover = fit_loading(p, phi)
         result.update({"lambda": crossover["lambda"], "phi_max": crossover["phi_max"]})
     except (ValueError, RuntimeError) as error:   # too few equilibrated stages, or no convergence
         print(f"  {table.name}: no fit ({error})", flush=True)
     result.update(fractal_dimensions(table))
     return result
+
+
+def fit_loading(p, phi):
+    """The regimes II-III fit of a loading branch, started from the regime II line's values."""
+    regime2 = fit_regime_two(p, phi)
+    return fit_crossover(p, phi, guess=(1 / regime2["phi0"], regime2["lambda"], phi.max() * 1.01, 1.0))
+
+
+def mean_curve(results):
+    """The loading branch averaged over the samples, as the paper averages its data over the samples and fits
+    the mean (its Fig. 11 and Table III): at each target P*, the mean P* and Phi of the samples in equilibrium
+    there, kept where at least half of the samples are. Returns (P*, Phi, samples per stage)."""
+    stages = {}
+    for r in results:
+        targets = r["all_p"][r["all_reached"]]   # in the order of r["p"], r["phi"]: both are the reached stages
+        for target, p, phi in zip(targets, r["p"], r["phi"]):
+            stages.setdefault(round(math.log10(target) * 8), []).append((p, phi))   # stages are 10^(1/8) apart
+    kept = sorted(k for k, v in stages.items() if 2 * len(v) >= len(results))
+    p = np.array([np.mean([a for a, _ in stages[k]]) for k in kept])
+    phi = np.array([np.mean([b for _, b in stages[k]]) for k in kept])
+    return p, phi, [len(stages[k]) for k in kept]
+
+
+def mean_curve_lines(scene, results):
+    """Table rows: lambda and Phimax fitted to the mean loading curve, with the fit's standard errors."""
+    p, phi, counts = mean_curve(results)
+    try:
+        fit = fit_loading(p, phi)
+    except (ValueError, RuntimeError) as error:
+        return [f"| {scene} | lambda, Phimax of the mean curve | no fit ({error}) | | |"]
+    lines = []
+    for key, name in (("lambda", "lambda"), ("phi_max", "phi_max")):
+        value, bar = PAPER[scene][key]
+        allowed = 2 * bar if bar else RELATIVE_WHEN_NO_BAR[key] * value
+        verdict = "yes" if abs(fit[key] - value) <= allowed else "NO"
+        lines.append(f"| {scene} | {key} of the mean curve | {fit[key]:.4f} ± {fit[key + '_err']:.4f} (fit; {len(p)} stages, "
+                     f"{min(counts)}–{max(counts)} samples each) | {value}{f' ± {bar}' if bar else ''} | {verdict} |")
+    return lines
 
 
 def fractal_dimensions(table):
@@ -253,6 +291,8 @@ def table_lines(scene, results):
         spread = f" ± {x.std(ddof=1):.4f}" if x.size > 1 else ""
         verdict = "yes" if abs(x.mean() - value) <= allowed else "NO"
         lines.append(f"| {scene} | {key} | {x.mean():.4f}{spread} ({x.size}) | {value}{f' ± {bar}' if bar else ''} | {verdict} |")
+    if len(results) > 1:
+        lines += mean_curve_lines(scene, results)
     first = sum(r["first_reached"] for r in results)
     lines.append(f"| {scene} | P* = 0.01 stage in equilibrium | {first} of {len(results)} | | |")
     lines.append(f"| {scene} | stages not in equilibrium (all samples) | {sum(r['unreached'] for r in results)} | 0 | |")
@@ -275,6 +315,18 @@ def plot(summaries, path):
             ax.plot(r["p"], r["phi"], "o", color=colours.get(scene), ms=3, label=label)
             missed = ~r["all_reached"]
             ax.plot(r["all_p"][missed], r["all_phi"][missed], "o", mfc="none", color=colours.get(scene), ms=4)
+        if len(results) > 1:   # the mean curve and its fit, as the paper's Fig. 11 draws them
+            p, phi, _ = mean_curve(results)
+            ax.plot(p, phi, "D", color=colours.get(scene), mec="black", ms=5, label=f"{scene}: mean over the samples")
+            try:
+                fit = fit_loading(p, phi)
+                grid = np.geomspace(p.min(), p.max(), 200)
+                inv = plateau_then(grid, fit["P0"], 1 / fit["phi0"], lambda q: inverse_phi_crossover(
+                    q, 1 / fit["phi0"], fit["lambda"], fit["phi_max"], fit["alpha"], fit["P0"]))
+                ax.plot(grid, 1 / inv, "--", color=colours.get(scene), lw=1.5,
+                        label=f"fit to the mean: λ = {fit['lambda']:.3g}, Φmax = {fit['phi_max']:.4g}")
+            except (ValueError, RuntimeError):
+                pass   # the table says why
         value, bar = PAPER[scene]["phi_0.01"]
         ax.errorbar([0.01], [value], yerr=[2 * bar], fmt="s", color=colours.get(scene), capsize=4, mfc="white",
                     label=f"paper {scene}, P* = 0.01 (±2 bars)")

@@ -52,7 +52,8 @@ def test_first_loading_stage_is_reported_even_when_not_in_equilibrium(tmp_path):
 
 def test_verdicts_use_twice_the_paper_bar(tmp_path):
     value, bar = campaign.PAPER["consolidation"]["phi_0.01"]
-    base = {"z_0.01": 3.1, "lambda": math.nan, "phi_max": math.nan, "first_reached": True, "unreached": 0}
+    base = {"z_0.01": 3.1, "lambda": math.nan, "phi_max": math.nan, "first_reached": True, "unreached": 0,
+            "p": np.array([]), "phi": np.array([]), "all_p": np.array([]), "all_reached": np.array([], bool)}
     inside = [dict(base, **{"phi_0.01": value + 1.9 * bar}), dict(base, **{"phi_0.01": value + 1.9 * bar})]
     outside = [dict(base, **{"phi_0.01": value + 2.1 * bar}), dict(base, **{"phi_0.01": value + 2.1 * bar})]
     line = next(l for l in campaign.table_lines("consolidation", inside) if "| phi_0.01 |" in l)
@@ -61,6 +62,30 @@ def test_verdicts_use_twice_the_paper_bar(tmp_path):
     assert line.endswith("| NO |")
     # A quantity no sample could fit is said so, not averaged as NaN.
     assert any("| lambda | no sample |" in l for l in campaign.table_lines("consolidation", inside))
+
+
+def test_the_mean_curve_over_the_samples_is_fitted_as_the_paper_fits_its_averaged_data(tmp_path):
+    """Three samples scattered about one curve (a step up in one, down in another, as collapses make them):
+    the mean at each target P* is the curve, whose fit gives its lambda; a stage in equilibrium in fewer
+    than half of the samples is left out, and so is each sample's stage that missed equilibrium."""
+    p, phi = synthetic_curve(lam=0.3)
+    offsets = (np.where(p > 0.1, 0.02, 0.0), np.where(p > 0.1, -0.02, 0.0), np.zeros_like(p))
+    results = []
+    for k, off in enumerate(offsets):
+        rows = [("loading", "loading", x, y + d, 1, 3.1) for x, y, d in zip(p, phi, off)]
+        if k < 2:   # the last stage is in equilibrium in the third sample only
+            rows[-1] = rows[-1][:4] + (0, 3.1)
+        if k == 0:   # and the first sample missed a stage, far off the curve
+            rows[5] = ("loading", "loading", p[5], 0.70, 0, 3.1)
+        write_table(tmp_path / f"s{k}.csv", rows)
+        results.append(campaign.summarise(tmp_path / f"s{k}.csv"))
+    mean_p, mean_phi, counts = campaign.mean_curve(results)
+    assert len(mean_p) == len(p) - 1 and counts[5] == 2 and max(counts) == 3
+    assert np.allclose(mean_phi, phi[:-1], atol=1e-12) and np.allclose(mean_p, p[:-1])
+    lines = campaign.mean_curve_lines("consolidation-rr", results)
+    fitted = float(lines[0].split("| lambda of the mean curve | ")[1].split(" ±")[0])
+    assert abs(fitted - 0.3) < 0.01 and "24 stages, 2–3 samples each" in lines[0]   # to the fit's P0* scan
+    assert lines[0].endswith("| NO |") and lines[1].endswith("| yes |")   # 0.3 against 0.194 ± 0.004; 0.78
 
 
 def test_report_reads_unfinished_samples_and_skips_those_still_aggregating(tmp_path):
