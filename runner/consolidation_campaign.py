@@ -235,7 +235,7 @@ def mean_curve(results):
     for r in results:
         targets = r["all_p"][r["all_reached"]]   # in the order of r["p"], r["phi"]: both are the reached stages
         for target, p, phi in zip(targets, r["p"], r["phi"]):
-            stages.setdefault(round(math.log10(target) * 8), []).append((p, phi))   # stages are 10^(1/8) apart
+            stages.setdefault(float(f"{target:.9g}"), []).append((p, phi))   # one programme: the same targets
     kept = sorted(k for k, v in stages.items() if 2 * len(v) >= len(results))
     p = np.array([np.mean([a for a, _ in stages[k]]) for k in kept])
     phi = np.array([np.mean([b for _, b in stages[k]]) for k in kept])
@@ -250,7 +250,7 @@ def mean_curve_lines(scene, results):
     except (ValueError, RuntimeError) as error:
         return [f"| {scene} | lambda, Phimax of the mean curve | no fit ({error}) | | |"]
     lines = []
-    for key, name in (("lambda", "lambda"), ("phi_max", "phi_max")):
+    for key in ("lambda", "phi_max"):
         value, bar = PAPER[scene][key]
         allowed = 2 * bar if bar else RELATIVE_WHEN_NO_BAR[key] * value
         verdict = "yes" if abs(fit[key] - value) <= allowed else "NO"
