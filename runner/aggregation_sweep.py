@@ -50,6 +50,7 @@ SCENE = ROOT / "models" / "aggregation.toml"
 DAMPING = [0.0, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 0.9]
 STIFFNESS = [1e1, 1e2, 1e3, 1e4, 1e5, 1e6]
 DENSE = 0.05   # final N_c / N at or below which the cloud counts as one dense aggregate
+UNDECIDED = "not decided: rests on runs that heated up (‡)"   # a finding's verdict when its figures heated up
 
 
 def restitution(zeta):
@@ -226,7 +227,7 @@ def marked(p, text):
 def verdict(holds, tested):
     """yes or no, or, when a point the verdict turns on heated up, not decided."""
     if any(p.get("heated_runs") for p in tested):
-        return "not decided: rests on runs that heated up (‡)"
+        return UNDECIDED
     return "yes" if holds else "no"
 
 
@@ -391,7 +392,7 @@ def stiffness_shapes(grid, damping, stiffness):
         if 0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] >= 0.3:
             rows.append(f"zeta {z:g} ({', '.join(marked(p, format(v, '.3f')) for p, v in zip(row, ki))})")
             counted += not any(p.get("heated_runs") for p in (row[0], row[low], row[-1]))
-    holds = "yes" if counted else "not decided: rests on runs that heated up (‡)" if rows else "no"
+    holds = "yes" if counted else UNDECIDED if rows else "no"
     return (f"| the same shape anywhere on the map (k* {', '.join(f'{k:.0e}' for k in dict.fromkeys(stiffness))}) "
             f"| {'; '.join(rows) or 'no row'} | {holds} |")
 
