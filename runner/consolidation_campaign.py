@@ -167,7 +167,7 @@ def provenance(args, names):
 
 
 # The engine's automatic thread count (run.threads = 0) allows one thread per this many particles: below it a
-# second thread costs more than it brings (README, "Two threads on small systems").
+# second thread costs more than it brings (docs/speed.md, "Two threads on small systems").
 PARTICLES_PER_THREAD = 2000
 
 

@@ -110,7 +110,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "twisting), consolidation law only, with or without rolling resistance. Not in the paper (it damps normal "
        "motion only). Without it rolling mechanisms of a loose network, which no normal or sliding motion "
        "reveals, stay undamped and the equilibrium criteria are not met; with it they are, but it also slows the "
-       "rolling rearrangements of a compaction and lowers Phi (README: equilibrium), so `grains consolidate` "
+       "rolling rearrangements of a compaction and lowers Phi (docs/history/speed-and-reproduction-log.md: the rolling quench), so `grains consolidate` "
        "switches it on only in settled stages (`programme.quench_damping`). At most 1 (explicit dashpot, "
        "stable for c_r dt / I < 2). In a pressure-controlled cell also the tunable parameter `rolling.damping_ratio`, "
        "which a host may change between steps."},
@@ -163,7 +163,7 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"analysis.collision_log", K::boolean, "false", 0, 0, false, false, "",
        "Log every contact event (start, end, impact and rebound normal speeds; physics.md section 8) and report "
        "`collision_count`, `adhesive_collision_count`, `adhesive_collision_fraction`, `open_collision_count`. An event "
-       "is adhesive when the pair, still touching, stops separating (see the README). Needs contacts."},
+       "is adhesive when the pair, still touching, stops separating (docs/numerical-method.md: the collision event log). Needs contacts."},
 
       // --- pressure-controlled periodic cell (barostat) ---
       {"cell.enabled", K::boolean, "false", 0, 0, false, false, "",
@@ -237,7 +237,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Simulated time over which the first stage under pressure (type 1 or type 2, at `cell.pressure`) raises its "
        "target linearly from 0, in steps of `check_every`, before it waits for equilibrium (its budget counts from the "
        "ramp's end). 0: a step to the full pressure, the paper's protocol. A slower first compression leaves a looser "
-       "type-2 sample (README: the first compression). Refused in a cohesionless cell (`cell.force_unit = 0`), "
+       "type-2 sample (docs/reproduction-consolidation.md: the pace of the first compression). Refused in a cohesionless cell (`cell.force_unit = 0`), "
        "which does not allow the ramp's start at P* = 0."},
       {"programme.stage_budget", K::integer, "2000000", 1, 9.2e18, false, false, "",
        "Steps a stage may take to reach equilibrium; a stage that runs out is reported (`reached = 0`), and the programme goes on."},
@@ -256,7 +256,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "pressure -- the compression to the start pressure, loading and unloading; not the aggregation or the "
        "relaxation at P* = 0 -- beneath the quench, which raises it to `quench_drag` and returns to it. Not in the "
        "paper's law, whose tangential and rolling motions are undamped: the inertia of a loose network collapsing "
-       "under its first pressure then compacts it beyond the paper's states (README, Reproduction). 0: none."},
+       "under its first pressure then compacts it beyond the paper's states (docs/reproduction-consolidation.md: a weak drag). 0: none."},
       {"programme.quench_drag_min", K::real, "0.125", 0, inf, false, false, "",
        "gamma T to which the quench's drag may step down: while a stage is quenched, the smallest force ratio "
        "(`equilibrium_force`) of each window of `quench_patience` checks is compared with the previous window's, and "

@@ -1,4 +1,4 @@
-// The quench's drag, stepped down when it holds a stage back (README, consolidation: the drag quench).
+// The quench's drag, stepped down when it holds a stage back (docs/history/speed-and-reproduction-log.md: the drag quench).
 // A drag damps the slow modes a loose network rings with, and their forces fall; but a network that
 // still creeps towards a denser state creeps at the speed the drag allows, its largest net force then
 // steady near the drag's own gamma m v. So while a stage is quenched the smallest force ratio of each

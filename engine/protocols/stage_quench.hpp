@@ -1,4 +1,4 @@
-// The consolidation programme's quench of settled stages (README, consolidation). The paper's law
+// The consolidation programme's quench of settled stages (docs/history/speed-and-reproduction-log.md: the rolling quench, the drag quench). The paper's law
 // damps relative normal motion only, so a loose cohesive network keeps slow collective modes -- its
 // softest elastic modes, grains and branches swinging about single contacts, rolling mechanisms --
 // that ring for thousands of T with net forces far above the equilibrium threshold. Each stage

@@ -1,5 +1,5 @@
 // 1D replica of the engine step for a head-on collision (same law headers, same integrator formulas),
-// for diagnosing the contact onset (README, binary collisions). Build and run:
+// for diagnosing the contact onset (docs/accuracy.md, binary collisions). Build and run:
 //   g++ -O2 -std=c++20 -Iengine tests/diagnostics/onset_replica.cpp -o /tmp/onset_replica && /tmp/onset_replica 1
 // Flags (sum): 1 the onset lag as the engine makes it up (contact_step.hpp onset_lag: the law evaluated at
 // overlap - lag, the pair moved apart by lag at the next drift); 8 the lag from the exact solution

@@ -7,7 +7,7 @@
 // drift; read from a buffer that the owner fills right after its drift (a ghost copy, as a
 // domain-decomposed code sends its boundary), they cost a few contiguous lines. The engine reads them in
 // place; this says what a ghost copy would be worth on the machine at hand (in the engine the crossing
-// pairs are only part of what two threads lose on small systems: README, "Two threads on small systems").
+// pairs are only part of what two threads lose on small systems: docs/speed.md, "Two threads on small systems").
 #include <catch2/catch.hpp>
 
 #include <omp.h>

@@ -66,7 +66,7 @@ std::vector<double> onset_phases() {
 // Issue 2: at n_c = 50 the realised restitution and the duration (touching to parting) are within
 // 1e-3 of the exact clamped values for every e and onset phase. Without the onset lag correction
 // (contact_step.hpp) the duration's error reached 2.7e-3 at e = 0.01. Each e has its own bounds, about
-// 2-3 times the worst errors measured (README table; 2D and 3D the same), never above that 1e-3 goal.
+// 2-3 times the worst errors measured (docs/accuracy.md table; 2D and 3D the same), never above that 1e-3 goal.
 TEST_CASE("binary collision realises the exact clamped restitution at n_c = 50", "[contact][analytic]") {
   struct Case { double e, restitution_bound, duration_bound; };
   const Case cases[] = {{1.0, 1.5e-5, 5e-4}, {0.9, 1e-4, 5e-4},   {0.7, 3e-4, 4e-4},  {0.5, 5e-4, 3e-4},

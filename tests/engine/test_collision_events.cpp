@@ -98,7 +98,7 @@ threads = 1
   sim->step(2.5);
   const auto events = sim->collision_events();
   // Four rebounds (impacts 1.153, 0.452, 0.173, 0.062, rebounds at 0.28-0.39 of each; the same with every
-  // gravity kernel set), then the fifth impact, at 0.017, ends adhesive: as README.md says.
+  // gravity kernel set), then the fifth impact, at 0.017, ends adhesive: as docs/accuracy.md says.
   REQUIRE(events.size() == 5);
   // Softened potential: impact speed^2 = 2 G M (1/sqrt(1 + eps^2) - 1/sqrt(1.5^2 + eps^2)) with
   // eps = 0.05 and M = 2 (relative motion), the speed one step before touching (dt = 2e-4, a = 2).

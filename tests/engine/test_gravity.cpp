@@ -586,7 +586,7 @@ threads = 1
   CHECK(median < 1e-3);
 }
 
-// The benchmark command (`./build/tests/grains_tests "[.gravity-bench]"`): prints the tables the README
+// The benchmark command (`./build/tests/grains_tests "[.gravity-bench]"`): prints the tables docs/speed.md
 // quotes. Uniform balls of N equal masses, eps = 1e-3 (radius 1). All numbers from one run, so the ratios
 // compare like with like on a shared machine.
 namespace {
