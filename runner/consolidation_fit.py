@@ -34,12 +34,16 @@ def inverse_phi_regime_two(p, inv_phi0, lam, p0):
 def inverse_phi_crossover(p, inv_phi0, lam, phi_max, alpha, p0):
     """1/Phi of the regimes II-III form; P1* follows from the other parameters."""
     log_p1_over_p0 = (inv_phi0 - 1.0 / phi_max) / lam
-    # (P1*/P*)^alpha; far below P1* (or at a trial alpha the optimiser tries) it overflows to inf, where
-    # 1 - exp(-x) = 1 is the right limit: no warning for it.
-    with np.errstate(over="ignore"):
-        x = np.exp(alpha * (log_p1_over_p0 + math.log(p0) - np.log(p)))
-    # ln{(P/P0) [1 - exp(-x)]^(1/alpha)}, with -expm1(-x) = 1 - exp(-x) accurate for small x
-    return inv_phi0 - lam * (np.log(p / p0) + np.log(-np.expm1(-x)) / alpha)
+    # x = (P1*/P*)^alpha; far below P1* (or at a trial alpha the optimiser tries) it overflows to inf, where
+    # 1 - exp(-x) = 1 is the right limit; far above P1* it underflows to 0, where ln(1 - exp(-x)) = ln x
+    # (taken from ln x itself: the curve's limit 1/Phimax, where ln 0 gave inf and a warning).
+    log_x = alpha * (log_p1_over_p0 + math.log(p0) - np.log(p))
+    with np.errstate(over="ignore", divide="ignore"):
+        x = np.exp(log_x)
+        # -expm1(-x) = 1 - exp(-x), accurate for small x
+        log_one_minus = np.where(log_x < -700, log_x, np.log(-np.expm1(-x)))
+    # ln{(P/P0) [1 - exp(-x)]^(1/alpha)}
+    return inv_phi0 - lam * (np.log(p / p0) + log_one_minus / alpha)
 
 
 def plateau_then(p, p0, inv_phi0, rest):

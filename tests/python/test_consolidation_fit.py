@@ -79,6 +79,17 @@ def test_crossover_far_below_p1_is_the_regime_two_line_without_a_warning():
     assert inv == pytest.approx(1 / PHI0 - LAM * np.log(p / P0), rel=1e-12)
 
 
+def test_crossover_far_above_p1_is_phimax_without_a_warning():
+    """Far above P1* with a steep crossover (P1*/P*)^alpha underflows to 0; the limit is 1/Phimax (it was
+    inf, with a divide-by-zero warning in the campaign's output, where an optimiser's trial reached it)."""
+    import warnings
+    p = np.array([10.0, 1e3, 1e300])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        inv = cf.inverse_phi_crossover(p, 1 / PHI0, LAM, PHI_MAX, 300.0, P0)
+    assert inv == pytest.approx(1 / PHI_MAX, rel=1e-12)
+
+
 def test_crossover_at_p1_against_its_closed_form():
     """physics.md section 9's form at P* = P1*, worked by hand: there (P1*/P*)^alpha = 1, so
     1/Phi = 1/Phi0 - lambda ln(P1*/P0*) - (lambda/alpha) ln(1 - 1/e) = 1/Phimax - (lambda/alpha) ln(1 - 1/e);
