@@ -167,7 +167,7 @@ std::pair<double, double> energies(const ParticleView& p, double G, double eps) 
 
 }  // namespace
 
-TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; save/restore keeps aggregation_time",
+TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates, save/restore keeps aggregation_time",
           "[aggregation]") {
   const std::string text =
       cloud_scene({.count = 200, .seed = 3, .restitution = 0.1, .duration = 0.01, .threads = 2},
@@ -227,13 +227,18 @@ TEST_CASE("aggregation observables: a cold self-gravitating cloud aggregates; sa
   CHECK(sim->get("aggregation_time") == t_agg);
 }
 
-TEST_CASE("aggregation observables: absent without gravity; scene keys are validated", "[aggregation]") {
+TEST_CASE("aggregation observables: absent without gravity, scene keys are validated", "[aggregation]") {
   const std::string plain = plain_lattice_scene();
   auto sim = Simulation::create(Scene::from_string(plain, "plain"));
   CHECK_THROWS(sim->index_of("cluster_count"));
   CHECK_THROWS(sim->index_of("aggregation_time"));
-  const std::string good = plain + "[analysis]\naggregation_threshold = 1.0\nevery = 1\ncluster_tolerance = 0.0\n";
-  CHECK_NOTHROW(Scene::from_string(good, "good").validate());
+  // The aggregation analysis's keys belong to gravity scenes: refused without gravity, naming what they need.
+  const std::string keys = "[analysis]\naggregation_threshold = 1.0\nevery = 1\ncluster_tolerance = 0.0\n";
+  CHECK_THROWS_WITH(Scene::from_string(plain + keys, "plain").validate(), Catch::Contains("needs gravity.enabled = true"));
+  // With gravity their values are checked against their ranges.
+  const std::string cloud = cloud_scene({.count = 20, .seed = 1, .restitution = 0.5, .duration = 0.1, .threads = 1});
+  CHECK_NOTHROW(Scene::from_string(cloud + keys, "good").validate());
   for (std::string bad : {"aggregation_threshold = 0.0", "aggregation_threshold = 1.5", "every = 0", "cluster_tolerance = -1.0"})
-    CHECK_THROWS(Scene::from_string(plain + "[analysis]\n" + bad + "\n", "bad").validate());
+    CHECK_THROWS_WITH(Scene::from_string(cloud + "[analysis]\n" + bad + "\n", "bad").validate(),
+                      Catch::Contains("analysis." + bad.substr(0, bad.find(' '))));
 }

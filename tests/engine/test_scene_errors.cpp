@@ -358,7 +358,7 @@ TEST_CASE("scene errors: given velocities whose kinetic energy overflows name th
   std::filesystem::remove(path);
 }
 
-TEST_CASE("scene errors: given particles at the same position are named; deep overlaps are warned about", "[scene][errors]") {
+TEST_CASE("scene errors: given particles at the same position are named, deep overlaps are warned about", "[scene][errors]") {
   // Both ran with no word: coincident particles failed with a non-finite force naming no key, deeply overlapping
   // ones flew apart.
   const std::vector<std::string> list = {"particles.layout=\"list\"", "box.periodic=false"};
