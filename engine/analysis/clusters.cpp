@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <unordered_map>
 
@@ -51,29 +52,60 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
     for (int a = 0; a < D; ++a) c[a] = std::int64_t(std::floor(p[a] / h));
     return c;
   };
-  // Cell -> first particle; next[i] chains the particles of one cell.
-  std::unordered_map<Cell, int, CellHash<D>> head;
-  head.reserve(N);
-  std::vector<int> next(N, -1);
+  // Cell -> first particle; next[i] chains the particles of one cell. Where the occupied cells' bounding
+  // box is small (a cloud, an aggregate: up to 64 cells a particle), the heads are a plain array over it;
+  // else (a few grains far out) a hash map. Both give the same chains, so the same unions in the same order.
+  Cell lo, hi;
+  lo.fill(std::numeric_limits<std::int64_t>::max()), hi.fill(std::numeric_limits<std::int64_t>::min());
+  std::vector<Cell> cell(N);
   for (std::size_t i = 0; i < N; ++i) {
-    auto [it, inserted] = head.try_emplace(cell_of(x[i]), int(i));
-    if (!inserted) next[i] = it->second, it->second = int(i);
+    cell[i] = cell_of(x[i]);
+    for (int a = 0; a < D; ++a) lo[a] = std::min(lo[a], cell[i][a]), hi[a] = std::max(hi[a], cell[i][a]);
   }
+  double cells = 1;
+  for (int a = 0; a < D; ++a) cells *= double(hi[a] - lo[a] + 3);   // a margin of one cell each side
+  std::vector<int> next(N, -1);
   UnionFind uf(N);
   constexpr int stencil = D == 3 ? 27 : 9;
-  for (std::size_t i = 0; i < N; ++i) {
-    const Cell c = cell_of(x[i]);
-    for (int s = 0; s < stencil; ++s) {
-      Cell n = c;
-      for (int a = 0, r = s; a < D; ++a, r /= 3) n[a] += r % 3 - 1;
-      auto it = head.find(n);
-      if (it == head.end()) continue;
-      for (int j = it->second; j >= 0; j = next[j]) {
-        if (j <= int(i)) continue;
-        const double reach = radius[i] + radius[j] + tol;
-        if ((x[j] - x[i]).squaredNorm() < reach * reach) uf.unite(int(i), j);
+  // Calls link(i, first) for the first particle of each of i's neighbour cells (-1: empty).
+  const auto scan = [&](auto&& first_in) {
+    for (std::size_t i = 0; i < N; ++i)
+      for (int s = 0; s < stencil; ++s) {
+        Cell n = cell[i];
+        for (int a = 0, r = s; a < D; ++a, r /= 3) n[a] += r % 3 - 1;
+        for (int j = first_in(n); j >= 0; j = next[j]) {
+          if (j <= int(i)) continue;
+          const double reach = radius[i] + radius[j] + tol;
+          if ((x[j] - x[i]).squaredNorm() < reach * reach) uf.unite(int(i), j);
+        }
       }
+  };
+  if (cells <= 64.0 * double(N) + 1e4) {
+    std::array<std::int64_t, D> stride;
+    std::int64_t size = 1;
+    for (int a = 0; a < D; ++a) stride[a] = size, size *= hi[a] - lo[a] + 3;
+    const auto index = [&](const Cell& c) {
+      std::int64_t k = 0;
+      for (int a = 0; a < D; ++a) k += (c[a] - lo[a] + 1) * stride[a];
+      return k;
+    };
+    std::vector<int> head(std::size_t(size), -1);
+    for (std::size_t i = 0; i < N; ++i) {
+      int& h = head[std::size_t(index(cell[i]))];
+      next[i] = h, h = int(i);
     }
+    scan([&](const Cell& c) { return head[std::size_t(index(c))]; });
+  } else {
+    std::unordered_map<Cell, int, CellHash<D>> head;
+    head.reserve(N);
+    for (std::size_t i = 0; i < N; ++i) {
+      auto [it, inserted] = head.try_emplace(cell[i], int(i));
+      if (!inserted) next[i] = it->second, it->second = int(i);
+    }
+    scan([&](const Cell& c) {
+      auto it = head.find(c);
+      return it == head.end() ? -1 : it->second;
+    });
   }
   // Relabel roots 0 .. N_c-1 in order of first appearance; sum masses per cluster.
   st.label.assign(N, -1);

@@ -92,12 +92,21 @@ TEST_CASE("clusters: the cell-grid search agrees with brute force on a random po
   std::vector<Vec<3>> x;
   std::vector<double> r, m;
   for (int i = 0; i < 1500; ++i) x.emplace_back(u(rng), u(rng), u(rng)), r.push_back(ur(rng)), m.push_back(1);
-  x.emplace_back(1e6, -1e6, 3e5), r.push_back(0.5), m.push_back(1);   // a far escaper: the hashed grid copes
+  // The cloud alone has its cells in a plain array; a far escaper makes the grid a hash map. Both must give
+  // brute force's count and the same labels (the escaper alone in the last cluster).
+  std::vector<ClusterStats> dense;
+  for (double tol : {0.0, 0.05, 0.3}) dense.push_back(find_clusters<3>(x, r, m, tol));
+  x.emplace_back(1e6, -1e6, 3e5), r.push_back(0.5), m.push_back(1);
+  int k = 0;
   for (double tol : {0.0, 0.05, 0.3}) {
     const auto cs = find_clusters<3>(x, r, m, tol);
     INFO("tol " << tol);
     CHECK(cs.count == brute_force_count(x, r, tol));
     CHECK(cs.count > 1);
+    const auto& d = dense[k++];
+    CHECK(d.count + 1 == cs.count);
+    CHECK(std::equal(d.label.begin(), d.label.end(), cs.label.begin()));
+    CHECK(cs.label.back() == int(d.count));
   }
 }
 
