@@ -49,7 +49,8 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   using Cell = std::array<std::int64_t, D>;
   auto cell_of = [&](const Vec<D>& p) {
     Cell c;
-    for (int a = 0; a < D; ++a) c[a] = std::int64_t(std::floor(p[a] / h));
+    // Clamped so that the conversion is defined (and a neighbour's index does not overflow) for any finite x.
+    for (int a = 0; a < D; ++a) c[a] = std::int64_t(std::clamp(std::floor(p[a] / h), -4e18, 4e18));
     return c;
   };
   // Cell -> first particle; next[i] chains the particles of one cell. Where the occupied cells' bounding
@@ -63,7 +64,7 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
     for (int a = 0; a < D; ++a) lo[a] = std::min(lo[a], cell[i][a]), hi[a] = std::max(hi[a], cell[i][a]);
   }
   double cells = 1;
-  for (int a = 0; a < D; ++a) cells *= double(hi[a] - lo[a] + 3);   // a margin of one cell each side
+  for (int a = 0; a < D; ++a) cells *= double(hi[a]) - double(lo[a]) + 3;   // a margin of one cell each side
   std::vector<int> next(N, -1);
   UnionFind uf(N);
   constexpr int stencil = D == 3 ? 27 : 9;

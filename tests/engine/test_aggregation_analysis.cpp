@@ -108,6 +108,9 @@ TEST_CASE("clusters: the cell-grid search agrees with brute force on a random po
     CHECK(std::equal(d.label.begin(), d.label.end(), cs.label.begin()));
     CHECK(cs.label.back() == int(d.count));
   }
+  // Grains at the ends of the double range: two far apart, one touching the second.
+  const std::vector<Vec<3>> far{Vec<3>(-1e300, 0, 0), Vec<3>(1e300, 0, 0), Vec<3>(1e300, 0, 0)};
+  CHECK(find_clusters<3>(far, {0.5, 0.5, 0.5}, {1, 1, 1}, 0.0).count == 2);
 }
 
 TEST_CASE("fractal dimension: compact lattice ball ~3, straight chain ~1, tiny sets NaN", "[aggregation]") {
