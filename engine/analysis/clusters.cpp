@@ -68,7 +68,7 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   std::vector<int> next(N, -1);
   UnionFind uf(N);
   constexpr int stencil = D == 3 ? 27 : 9;
-  // Calls link(i, first) for the first particle of each of i's neighbour cells (-1: empty).
+  // Each grain i against the later grains of its neighbour cells; first_in(cell): the cell's first grain (-1: none).
   const auto scan = [&](auto&& first_in) {
     for (std::size_t i = 0; i < N; ++i)
       for (int s = 0; s < stencil; ++s) {
