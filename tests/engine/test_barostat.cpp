@@ -296,3 +296,76 @@ TEST_CASE("barostat: cell.active = 0 holds the cell fixed at rest, 1 lets it mov
   s->step_n(2000);
   CHECK(s->get("cell_length_x") < held);
 }
+
+namespace {
+// A 4 x 4 square lattice of unit adhesive disks (F0 = 1, K_N = 1e5, no dashpot: e_N = 1) in a cell of mass 1 at
+// P = 0, pressed together by 1.5e-5 (the bonds' rest overlap is 1e-5): the cell breathes at w = sqrt(K_N / M_c)
+// = 316 with nothing to damp it. `dimension` 2 or 3 (a 4 x 4 x 4 lattice).
+std::string breathing_lattice_scene(int dimension, double dt, long steps) {
+  const int n = 4;
+  const double spacing = 1 - 1.5e-5;
+  std::string positions;
+  const int count = dimension == 2 ? n * n : n * n * n;
+  for (int k = 0; k < count; ++k) {
+    const int i = k % n, j = (k / n) % n, l = k / (n * n);
+    positions += dimension == 2 ? fmt::format("[{}, {}], ", (i + 0.5) * spacing, (j + 0.5) * spacing)
+                                : fmt::format("[{}, {}, {}], ", (i + 0.5) * spacing, (j + 0.5) * spacing, (l + 0.5) * spacing);
+  }
+  std::string ones, lengths;
+  for (int k = 0; k < count; ++k) ones += "1.0, ";
+  for (int a = 0; a < dimension; ++a) lengths += fmt::format("{}, ", n * spacing);
+  return fmt::format(R"(
+[scene]
+dimension = {}
+[particles]
+layout = "list"
+positions = [{}]
+diameters = [{}]
+masses = [{}]
+velocity = "zero"
+[box]
+lengths = [{}]
+[contact]
+overlap_limit = 0.5
+[adhesion]
+enabled = true
+force = 1.0
+range = 1e-3
+stiffness = 1e5
+restitution = 1.0
+[cell]
+enabled = true
+pressure = 0.0
+mass = 1.0
+rtol = 1e-10
+atol = 1e-14
+[time]
+dt = {}
+steps = {}
+[run]
+threads = 1
+)", dimension, positions, ones, ones, lengths, dt, steps);
+}
+}  // namespace
+
+TEST_CASE("barostat: an undamped cell oscillation keeps its amplitude (the stress extrapolated to mid-step)",
+          "[barostat]") {
+  // Holding the start-of-step stress over the step grew this oscillation as exp(w^2 dt t / 4): the largest
+  // offset of the last window was 2.0 times the first's in 2D (dt = 1.4e-4, w dt = 0.044) and 4.1 times in 3D
+  // (V / L_x = 16: w = 632, w dt = 0.044). Extrapolated, the growth is of order (w dt)^4 per step: 1.0009 and 1.0015.
+  for (const auto& [dimension, dt] : {std::pair{2, 1.4e-4}, std::pair{3, 0.7e-4}}) {
+    const long steps = long(std::lround(0.3 / dt));
+    auto s = Simulation::create(Scene::from_string(breathing_lattice_scene(dimension, dt, steps), "breathing lattice"));
+    const double rest = 4 * (1 - 1e-5);   // four bonds at their rest overlap F0 / K_N
+    double first = 0, last = 0;           // largest |L - rest| in the first and the last 0.1 time units
+    for (long k = 1; k <= steps; ++k) {
+      s->step(dt);
+      const double x = std::abs(s->get("cell_length_x") - rest);
+      if (k * dt <= 0.1) first = std::max(first, x);
+      if (k * dt > 0.2) last = std::max(last, x);
+    }
+    INFO("dimension " << dimension << ": amplitude " << first << " -> " << last);
+    CHECK(first > 1e-6);   // it does breathe (the initial offset is 5e-6 per bond)
+    CHECK(std::abs(last / first - 1) < 0.01);
+  }
+}
