@@ -353,6 +353,11 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
 }
 
 Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::span<const double> values) {
+  // An array among the references is the reason the counts differ: say so, not that they differ.
+  for (const std::uint32_t ref : refs)
+    if (ref < table_.variables.size() && table_.variables[ref].role == Role::particle_array)
+      return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", table_.variables[ref].name, ref,
+                               role_name(Role::particle_array)));
   if (refs.size() != values.size())
     return error(fmt::format("the call passes {} values for {} scalar variables", values.size(), refs.size()));
   for (std::size_t i = 0; i < refs.size(); ++i) {
@@ -372,6 +377,13 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
   const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
   if (v.role != Role::scene_parameter && v.role != Role::control && v.role != Role::snapshot_option)
     return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", v.name, ref, role_name(v.role)));
+  // FMI 3, Configuration Mode: structural parameters only (the others from ExitConfigurationMode on).
+  if (phase_ == Phase::configuration && !v.structural)
+    return error(fmt::format("'{}' is not a structural parameter: Configuration Mode sets only those{}; set it after "
+                             "ExitConfigurationMode (before or in Initialization Mode)", v.name,
+                             table_.count_reference != no_index
+                                 ? fmt::format(" ('{}')", table_.variables[table_.count_reference].name)
+                                 : std::string(" (this FMU has none)")));
   // a real scene key's NaN or inf goes on to the scene's schema, whose message gives the exact allowed range
   const bool schema_judges = !v.scene_key.empty() && v.type == ValueType::real && before_steps;
   if (!std::isfinite(value) && !schema_judges)

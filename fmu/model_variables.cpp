@@ -57,8 +57,11 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
     v.start = e.kind == ValueKind::real ? scene.real(e.path) : e.kind == ValueKind::integer ? double(scene.integer(e.path))
                                                                                            : double(scene.boolean(e.path));
     if (e.kind != ValueKind::boolean) {
-      if (e.min > -1e307) v.min = e.min;
-      if (e.max < 1e307) v.max = e.max;
+      // FMI's min and max are inclusive: an open bound is declared as the nearest value inside it (the
+      // description gives the interval as written).
+      const bool real = v.type == ValueType::real;
+      if (e.min > -1e307) v.min = !e.min_open ? e.min : real ? std::nextafter(e.min, HUGE_VAL) : std::floor(e.min) + 1;
+      if (e.max < 1e307) v.max = !e.max_open ? e.max : real ? std::nextafter(e.max, -HUGE_VAL) : std::ceil(e.max) - 1;
       if (e.min_open || e.max_open) v.description += fmt::format(" Allowed: {}{}, {}{}.", e.min_open ? "(" : "[", e.min,
                                                                  e.max < 1e307 ? fmt::format("{}", e.max) : "inf",
                                                                  e.max_open ? ")" : "]");

@@ -360,3 +360,35 @@ def test_out_of_memory_is_named_as_the_runner_names_it(version):
     message = r.stdout.strip()
     assert message.startswith("out of memory: the scene needs more memory than this machine gives") and \
         "particles.count" in message and "bad_alloc" not in message, message
+
+
+def test_configuration_mode_sets_only_the_structural_parameter():
+    unit = Unit(fmu_path("aggregation", 3))
+    unit.fmu.enterConfigurationMode()
+    fails(unit, lambda: unit.set("contact.restitution", 0.7), "contact.restitution", "not a structural parameter",
+          "particles.count", "ExitConfigurationMode")
+    unit.set("particles.count", 120)   # the structural one is accepted
+    unit.fmu.exitConfigurationMode()
+    unit.set("contact.restitution", 0.7)   # and the other after it
+    unit.initialize({"run.threads": 1})
+    assert unit.get("contact.restitution") == 0.7
+    unit.free()
+
+
+def test_setting_an_output_array_names_it_not_the_value_count():
+    unit = Unit(fmu_path("aggregation", 3))
+    var = unit.variables["particles.position"]
+    fails(unit, lambda: unit.fmu.setFloat64([var.valueReference], [0.0] * 3000), "particles.position",
+          "output array", "cannot be set")
+    unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_an_open_lower_bound_is_declared_as_the_nearest_value_inside_it(version):
+    """FMI's min is inclusive: contact.duration in (0, inf] must not declare min = 0, which the FMU refuses."""
+    unit = Unit(fmu_path("aggregation", version))
+    duration = unit.variables["contact.duration"]
+    assert float(duration.min) > 0 and float(duration.min) < 1e-300
+    assert "(0, inf]" in duration.description
+    fails(unit, lambda: unit.set("contact.duration", 0.0), "contact.duration")
+    unit.free()
