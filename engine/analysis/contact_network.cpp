@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace grains {
 
@@ -30,7 +31,9 @@ ContactNetwork analyse_contact_network(std::size_t particle_count, const std::ve
   net.z_plus = 2.0 * double(plus) / N, net.z_minus = 2.0 * double(minus) / N, net.z_zero = 2.0 * double(zero) / N;
   const long rattlers = long(std::count(carries_force.begin(), carries_force.end(), 0));
   net.rattler_fraction = double(rattlers) / N;
-  net.z_star = rattlers < long(particle_count) ? net.z / (1 - net.rattler_fraction) : 0.0;
+  // Every grain a rattler: no backbone, whose coordination is then undefined (not 0: z may be above 0).
+  net.z_star = rattlers < long(particle_count) ? net.z / (1 - net.rattler_fraction)
+                                               : std::numeric_limits<double>::quiet_NaN();
   if (!interactions.empty())
     for (auto& h : net.histogram) h /= double(interactions.size());
   return net;

@@ -29,7 +29,7 @@ struct ContactNetwork {
   double z = 0;              // 2 (contacts + distant bonds) / N
   double z_plus = 0, z_minus = 0, z_zero = 0;   // the part of z carried by compressive / tensile / zero forces
   double rattler_fraction = 0;                  // x0: grains none of whose interactions carries a force
-  double z_star = 0;                            // z / (1 - x0), the backbone's coordination (0 if all rattle)
+  double z_star = 0;                            // z / (1 - x0), the backbone's coordination (NaN if all rattle)
   // Fraction of interactions per bin of F_N / force_scale: bins below histogram_lower are folded into
   // the first bin, the last entry holds everything at or above the top edge. Sums to 1 (0 if empty).
   std::vector<double> histogram;

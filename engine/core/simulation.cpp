@@ -47,6 +47,24 @@ std::size_t Simulation::index_of(const std::string& name) const {
 
 namespace {
 
+// Units and descriptions of the force modules' observables (the modules name them; the variable lists of the
+// runner's summary and the FMUs' model descriptions show these).
+std::pair<const char*, const char*> module_observable_description(const std::string& name) {
+  static const std::map<std::string, std::pair<const char*, const char*>> known = {
+      {"contacts", {"", "pairs in contact (overlapping)"}},
+      {"elastic_energy", {"J", "energy in the contact springs: sum of k_n delta^2 / 2 + k_t xi^2 / 2 (a clamped overlap: "
+                                "the work of its clamped force)"}},
+      {"adhesion_energy", {"J", "potential of the adhesive attraction: -F0 D0/2 (1 - h/D0)^2 across a gap h < D0, "
+                                "-F0 D0/2 - F0 delta in contact"}},
+      {"max_overlap_ratio", {"", "largest overlap over the smaller radius of its pair"}},
+      {"clamped_contacts", {"", "contacts whose overlap exceeded contact.overlap_limit times the smaller radius in the last step"}},
+      {"clamped_contacts_total", {"", "clamped_contacts summed over the steps so far (contact-steps spent clamped)"}},
+      {"gravity_potential_energy", {"J", "softened gravitational potential W = -sum G m_i m_j / sqrt(d^2 + eps^2)"}},
+  };
+  const auto it = known.find(name);
+  return it != known.end() ? it->second : std::pair<const char*, const char*>{"", "undescribed module observable"};
+}
+
 template <int D>
 class SimulationImpl final : public Simulation {
   // Outputs are computed in groups, each when one of its outputs is read (refresh).
@@ -246,9 +264,9 @@ class SimulationImpl final : public Simulation {
   // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
   // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count; 9: the
   // adhesive contacts' parting charges of the last evaluation; 10: a gravity scene's energy check follows its
-  // aggregation time).
+  // aggregation time; 11: the barostat's last stress, which its next step extrapolates from).
   // States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e0a;
+  static constexpr std::uint32_t state_format = 0x47524e0b;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -1077,9 +1095,9 @@ class SimulationImpl final : public Simulation {
     for (int a = 0; a < D; ++a) out(fmt::format("momentum_{}", "xyz"[a]), "kg m/s", "total linear momentum component");
     if (D == 3) {
       for (int a = 0; a < 3; ++a)
-        out(fmt::format("angular_momentum_{}", "xyz"[a]), "kg m^2/s", "total angular momentum about the origin (orbital + spin)");
+        out(fmt::format("angular_momentum_{}", "xyz"[a]), "kg m^2/s", "total angular momentum about the origin (orbital + spin), positions wrapped into the cell");
     } else {
-      out("angular_momentum_z", "kg m^2/s", "total angular momentum about the origin (orbital + spin)");
+      out("angular_momentum_z", "kg m^2/s", "total angular momentum about the origin (orbital + spin), positions wrapped into the cell");
     }
     out("neighbour_builds", "", "neighbour-list builds so far");
     out("neighbour_pairs", "", "pairs in the neighbour list");
@@ -1088,7 +1106,10 @@ class SimulationImpl final : public Simulation {
     out("shell_thickness", "m", "thickness of the shell now (adaptive unless neighbours.shell is set)");
     std::vector<std::pair<std::string, double>> module_obs;
     for (const auto& m : modules_) m->observe(sys_, module_obs);
-    for (const auto& [name, value] : module_obs) out(name, "", "see the README's observable table");
+    for (const auto& [name, value] : module_obs) {
+      const auto [unit, description] = module_observable_description(name);
+      out(name, unit, description);
+    }
     if (barostat_) {
       describing_ = OutputGroup::cell;
       describe_cell_variables(out);
@@ -1293,13 +1314,16 @@ class SimulationImpl final : public Simulation {
     Vec<D> p = Vec<D>::Zero();
     Eigen::Vector3d L = Eigen::Vector3d::Zero();
     for (std::size_t i = 0; i < P.size(); ++i) {
+      // About the origin from the positions as written (wrapped into the cell), so that the file's
+      // positions reproduce it; the engine's own may sit one cell outside between wraps.
+      const Vec<D> x = sys_.box.wrap(P.position[i]);
       kt += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
       kr += 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
       p += P.mass[i] * P.velocity[i];
       if constexpr (D == 3) {
-        L += P.mass[i] * P.position[i].cross(P.velocity[i]) + P.inertia[i] * P.angular_velocity[i];
+        L += P.mass[i] * x.cross(P.velocity[i]) + P.inertia[i] * P.angular_velocity[i];
       } else {
-        L[2] += P.mass[i] * (P.position[i][0] * P.velocity[i][1] - P.position[i][1] * P.velocity[i][0]) +
+        L[2] += P.mass[i] * (x[0] * P.velocity[i][1] - x[1] * P.velocity[i][0]) +
                 P.inertia[i] * P.angular_velocity[i][0];
       }
     }
