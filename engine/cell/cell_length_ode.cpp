@@ -72,10 +72,18 @@ int CellLengthOde::rhs(double, void* yv, void* ydv, void* self_) {
       if (b != a) area *= y[b];
     const double L = y[a], rate = y[n + a];
     double accel = (area * self->excess_[a] - (p.damping + self->extra_damping_[a]) * rate) / p.mass;
-    // Strain-rate cap: the length moves at most at cap * L, and the rate variable does not wind up
-    // beyond it (a kink, not a jump, in the right-hand side: CVODE needs no restart).
+    // Strain-rate cap: the length moves at most at cap * L. At the cap the rate variable follows the
+    // limit as L moves, d(+-cap L)/dt = cap * (cap L) for either sign, unless the forcing takes it back
+    // inside: rate = +-cap L is then an invariant that CVODE's linear multistep keeps to round-off (the
+    // 1e-12 band keeps round-off from flipping the branch). Until 2026-12-05 the rate was held fixed
+    // there: compressing, L shrank under it and the rate wound up (7 times the limit after 40 time units
+    // at cap 0.05), so the cell went on shrinking for that much longer once the stress turned; expanding,
+    // the limit outgrew it and the branch flipped at every step (CVODE failed at rtol 1e-10).
     const double limit = p.rate_cap * L;
-    if (std::abs(rate) >= limit && accel * rate > 0) accel = 0;
+    if (std::abs(rate) >= limit * (1 - 1e-12)) {
+      const double follow = p.rate_cap * limit;
+      accel = rate > 0 ? std::min(accel, follow) : std::max(accel, follow);
+    }
     yd[a] = std::clamp(rate, -limit, limit);
     yd[n + a] = accel;
   }

@@ -5,8 +5,8 @@
 // changes a little every step and its error control absorbs that. It is re-initialised only after a
 // discontinuity (a new target pressure, a restored state): see reset().
 // The strain-rate cap |dL_a/dt| / L_a <= rate_cap is part of the right-hand side: dL/dt is the rate
-// clamped to the cap, and an acceleration that would push the rate further is removed, so no
-// re-initialisation is needed.
+// clamped to the cap, and at the cap the rate follows the moving limit unless the forcing takes it back
+// inside, so no re-initialisation is needed and the rate does not wind up.
 #pragma once
 #include <array>
 #include <memory>
