@@ -75,6 +75,7 @@ class SimulationImpl final : public Simulation {
     auto init = make_initial_state<D>(scene);
     sys_.particles = std::move(init.particles);
     sys_.box = init.box;
+    for (auto& w : scene.superseded_keys()) warn(std::move(w));
     for (auto& w : init.warnings) warn(std::move(w));
     auto& P = sys_.particles;
     const std::size_t N = P.size();

@@ -348,10 +348,29 @@ std::optional<Scene::UnmetNeed> Scene::unmet_need(const UnreadKeyRule& rule) con
 
 // A key given (in the scene or by --set) that the scene does not read, as its other keys set it up: refused
 // rather than ignored, so that no one believes it took effect. Keys not given are never refused.
+namespace {
+bool supersession(const UnreadKeyRule& rule) { return rule.needs.size() == 1 && rule.needs[0].second.empty(); }
+}  // namespace
+
+bool Scene::superseded(const UnreadKeyRule& rule) const {
+  return supersession(rule) && node(rule.path) && node(rule.needs[0].first);
+}
+
+std::vector<std::string> Scene::superseded_keys() const {
+  std::vector<std::string> notes;
+  for (const auto& rule : unread_key_rules())
+    if (superseded(rule)) {
+      const std::string& other = rule.needs[0].first;
+      notes.push_back(fmt::format("{} = {} is not used: {} = {} is given and takes its place", rule.path,
+                                  value_text(*node(rule.path).node()), other, value_text(*node(other).node())));
+    }
+  return notes;
+}
+
 void Scene::unread_keys(std::vector<std::string>& problems) const {
   for (const auto& rule : unread_key_rules()) {
     const auto n = node(rule.path);
-    if (!n || (!rule.when.empty() && render(*n.node()) != rule.when)) continue;
+    if (!n || supersession(rule) || (!rule.when.empty() && render(*n.node()) != rule.when)) continue;
     if (const auto unmet = unmet_need(rule))
       problems.push_back(fmt::format("{}: value {} is not used with {} = {}: it needs {} = {}", rule.path,
                                      value_text(*n.node()), unmet->key, unmet->value, unmet->key, unmet->needed));
@@ -396,6 +415,9 @@ std::string Scene::resolved_toml() const {
   for (const auto& e : scene_schema()) {
     toml::node_view<const toml::node> n = node(e.path);
     toml::table parsed;
+    bool replaced = false;   // given, and superseded by another given key
+    for (const auto& rule : unread_key_rules()) replaced = replaced || (rule.path == e.path && superseded(rule));
+    if (replaced) continue;
     if (!n) {
       if (e.fallback.empty() || !read_by_scene(e.path)) continue;   // a default the scene does not read is left out,
       parsed = toml::parse(fmt::format("v = {}", e.fallback));         // so the resolved scene runs as it is

@@ -65,8 +65,12 @@ class Scene {
   // Set or replace a value (used by --set and by hosts); the key must be in the schema.
   void set_value(std::string_view path, std::string_view toml_value);
 
-  // Every schema key with its effective value (defaults filled in), as TOML text.
+  // Every schema key with its effective value (defaults filled in), as TOML text; a superseded key is left out.
   std::string resolved_toml() const;
+  // Keys given together with a key that takes their place (box.lengths over particles.solid_fraction, time.dt
+  // over time.steps_per_contact, ...): not refused, since an override cannot remove the scene's own key, but
+  // not read either. One note per such key, for a warning.
+  std::vector<std::string> superseded_keys() const;
   const std::string& origin() const { return origin_; }
   std::filesystem::path directory() const { return directory_; }   // for relative file paths
 
@@ -82,6 +86,7 @@ class Scene {
   };
   std::optional<UnmetNeed> unmet_need(const UnreadKeyRule& rule) const;
   bool read_by_scene(std::string_view path) const;   // no rule leaves the key unread here
+  bool superseded(const UnreadKeyRule& rule) const;   // a supersession rule whose key and replacement are both given
   toml::node_view<const toml::node> node(std::string_view path) const;
   const SchemaEntry& entry(std::string_view path) const;
   toml::table table_;
@@ -92,7 +97,8 @@ class Scene {
 
 // A key that the scene reads only when other keys have given values (a module on, a choice made); given
 // without them it would be silently ignored, so validate() refuses it. `when`: refused only with this value
-// (TOML text, e.g. "true"), empty: with any value.
+// (TOML text, e.g. "true"), empty: with any value. A single need with an empty value is a supersession: the key
+// is read only while that other key is not given, and given with it is warned about (superseded_keys()), not refused.
 struct UnreadKeyRule {
   std::string path;
   std::vector<std::pair<std::string, std::string>> needs;   // key, value (TOML text) it is read with

@@ -314,8 +314,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Steps between checkpoints of the complete state in the output file, from which `grains resume FILE.h5` "
        "continues a run or programme that was killed; 0 = only when stopped by Ctrl-C or SIGTERM (and, in "
        "`grains consolidate`, at the end of every stage but the last). A programme writes them at the first "
-       "equilibrium check past every multiple of N (a stage's end past one counts as its checkpoint). In a pressure-controlled cell each checkpoint restarts "
-       "CVODE, which changes the run at the level of its tolerance."},
+       "equilibrium check past every multiple of N (a stage's end past one counts as its checkpoint). Checkpoints change nothing: a run resumed from one "
+       "continues bit for bit as the uninterrupted run (a pressure-controlled cell's CVODE history is replayed)."},
   };
   return schema;
 }
@@ -325,6 +325,12 @@ const std::vector<SchemaEntry>& scene_schema() {
 const std::vector<UnreadKeyRule>& unread_key_rules() {
   static const std::vector<UnreadKeyRule> rules = [] {
     std::vector<UnreadKeyRule> r = {
+        // Supersessions (a need with an empty value): read only while that key is not given.
+        {"particles.diameter", {{"particles.size_distribution", "\"constant\""}}, ""},
+        {"particles.density", {{"particles.mass", ""}}, ""},
+        {"particles.solid_fraction", {{"box.lengths", ""}}, ""},
+        {"time.steps_per_contact", {{"time.dt", ""}}, ""},
+        {"gravity.opening_angle", {{"gravity.solver", "\"tree\""}}, ""},
         {"particles.diameter_min", {{"particles.size_distribution", "\"uniform\""}}, ""},
         {"particles.diameter_max", {{"particles.size_distribution", "\"uniform\""}}, ""},
         {"particles.kinetic_energy", {{"particles.velocity", "\"gaussian\""}}, ""},
@@ -350,7 +356,7 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
     // message (core/simulation.cpp), which names the cohesionless alternative.
     const std::pair<std::string_view, std::string_view> modules[] = {
         {"adhesion.", "adhesion.enabled"}, {"gravity.", "gravity.enabled"}, {"friction.", "contact.enabled"},
-        {"rolling.", "adhesion.enabled"}, {"cell.", "cell.enabled"}};
+        {"rolling.", "adhesion.enabled"}, {"cell.", "cell.enabled"}, {"programme.", "cell.enabled"}};
     for (const auto& e : scene_schema())
       for (const auto& [prefix, switch_key] : modules)
         if (e.path.starts_with(prefix) && e.path != switch_key && e.path != "rolling.coefficient")
@@ -417,6 +423,10 @@ std::string schema_reference_markdown() {
     std::string doc(e.doc);
     for (const auto& rule : unread_key_rules())
       if (rule.path == e.path) {
+        if (rule.needs.size() == 1 && rule.needs[0].second.empty()) {   // a supersession
+          doc += fmt::format(" Not read when `{}` is given, which takes its place (a warning says so).", rule.needs[0].first);
+          continue;
+        }
         std::vector<std::string> needs;
         for (const auto& [key, value] : rule.needs) needs.push_back(fmt::format("`{} = {}`", key, value));
         doc += fmt::format(" Read only with {}: given{} without, refused.", fmt::join(needs, " and "),

@@ -369,3 +369,38 @@ TEST_CASE("barostat: an undamped cell oscillation keeps its amplitude (the stres
     CHECK(std::abs(last / first - 1) < 0.01);
   }
 }
+
+TEST_CASE("cell ODE: at the strain-rate cap the rate follows the limit, without wind-up, at any tolerance", "[barostat]") {
+  // Compressing at the cap for 40 time units (cap 0.05: L shrinks 7.4 times), then a stress that pushes back.
+  // Until 2026-12-05 the rate was held fixed at the cap while the limit cap L shrank under it: the rate variable
+  // ended at 7.4 times the limit and the cell went on shrinking for 0.37 time units after the stress turned,
+  // against 0.05 for a rate at the limit (0.034 / 0.68). Expanding, the same rule made the branch flip at every
+  // step, which CVODE could not follow at rtol 1e-10 (too much work).
+  for (const double rtol : {1e-8, 1e-12}) {
+    CellLengthParameters p;
+    p.axes = 2, p.mass = 1.0, p.damping = 0.0, p.rate_cap = 0.05, p.rtol = rtol, p.atol_length = rtol * 1e-2;
+    CellLengthOde ode(p);
+    const double L0[2] = {5, 5}, v0[2] = {0, 0}, squeeze[2] = {-100, -100}, push[2] = {1, 1};
+    ode.reset(L0, v0, 0.0);
+    int k = 0;
+    for (; k < 4000; ++k) ode.advance(0.01 * (k + 1), squeeze);
+    const double limit = p.rate_cap * ode.length(0);
+    CHECK(ode.length(0) == Approx(L0[0] * std::exp(-0.05 * 40)).epsilon(1e-3));
+    CHECK(std::abs(ode.state_rate(0) / -limit - 1) < 1e-5);   // at the limit, not beyond
+    int turned = -1;
+    for (int j = 0; j < 1000 && turned < 0; ++j, ++k) {
+      ode.advance(0.01 * (k + 1), push);
+      if (ode.rate(0) >= 0) turned = j + 1;
+    }
+    // The rate comes back from -cap L at about area * push / M = L per time unit: 0.05 time units.
+    CHECK(turned >= 4);
+    CHECK(turned <= 6);
+    // Expanding at the cap (a stress far above the target), at the same tolerance.
+    CellLengthOde grow(p);
+    const double pull[2] = {100, 100};
+    grow.reset(L0, v0, 0.0);
+    for (int j = 1; j <= 2000; ++j) grow.advance(0.01 * j, pull);   // throws on a CVODE failure
+    CHECK(grow.length(0) == Approx(L0[0] * std::exp(0.05 * 20)).epsilon(1e-3));
+    CHECK(std::abs(grow.state_rate(0) / (p.rate_cap * grow.length(0)) - 1) < 1e-5);
+  }
+}

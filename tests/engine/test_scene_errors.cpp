@@ -1,6 +1,8 @@
 // Every class of bad scene is refused with a grains::SceneError whose message names the key, the
 // offending value and what is allowed.
 #include <catch2/catch.hpp>
+
+#include <algorithm>
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -381,8 +383,9 @@ TEST_CASE("scene errors: given particles at the same position are named, deep ov
   const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
                                          "box.lengths=[4.0, 4.0, 4.0]", "box.periodic=true"};
   const auto wrapped = Simulation::create(Scene::from_string(good_uncounted, "bad.toml", file));
-  REQUIRE(wrapped->warnings().size() == 1);
-  CHECK_THAT(wrapped->warnings()[0], Contains("particles.file: 1 pair(s)") && Contains("grains-overlapping-rows.txt:2)") &&
+  REQUIRE(wrapped->warnings().size() == 2);   // the scene's solid fraction, which box.lengths replaces, and the overlap
+  CHECK_THAT(wrapped->warnings()[0], Contains("particles.solid_fraction = 0.2 is not used") && Contains("box.lengths"));
+  CHECK_THAT(wrapped->warnings()[1], Contains("particles.file: 1 pair(s)") && Contains("grains-overlapping-rows.txt:2)") &&
                                          Contains("grains-overlapping-rows.txt:4)") && Contains("by 0.8 (1.6"));
   {
     std::ofstream f(path);
@@ -470,6 +473,44 @@ TEST_CASE("scene errors: a key given where the scene does not read it names the 
                       Contains("cell.restart_cvode_every_step: value true is not used with cell.enabled = false"));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=false"}));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.pressure=0.5", "cell.pressure_final=2", "cell.ramp_duration=10"}));
+
+  // Found by a review (2026-12-05), each accepted without a word: the tree's opening angle with direct
+  // summation, a programme without a cell, one diameter for drawn sizes.
+  const std::vector<std::string> open_gravity = {"box.periodic=false", "box.lengths=[4.2, 4.2, 4.2]", "gravity.enabled=true"};
+  auto plus = [&](std::string extra) { auto v = open_gravity; v.push_back(std::move(extra)); return v; };
+  REQUIRE_THROWS_WITH(build(good, plus("gravity.opening_angle=1.2")),
+                      Contains("gravity.opening_angle: value 1.2 is not used with gravity.solver = \"direct\": it needs "
+                               "gravity.solver = \"tree\""));
+  REQUIRE_NOTHROW(build(good, {"box.periodic=false", "box.lengths=[4.2, 4.2, 4.2]", "gravity.enabled=true",
+                               "gravity.solver=\"tree\"", "gravity.opening_angle=1.2"}));
+  REQUIRE_THROWS_WITH(build(good, {"programme.stage_budget=5"}),
+                      Contains("programme.stage_budget: value 5 is not used with cell.enabled = false: it needs "
+                               "cell.enabled = true"));
+  REQUIRE_THROWS_WITH(build(good, {"particles.size_distribution=\"uniform\"", "particles.diameter_min=0.5",
+                                   "particles.diameter=0.7"}),
+                      Contains("particles.diameter: value 0.7 is not used with particles.size_distribution = \"uniform\""));
+}
+
+TEST_CASE("scene errors: a key another given key replaces is warned about, not refused, and not resolved", "[scene][errors]") {
+  // An override cannot remove the scene's own key, so refusing would forbid --set time.dt on a scene that
+  // gives steps per contact (and the FMUs' hosts the same); instead the warning names both, and grains check's
+  // resolved scene leaves the replaced key out. Until 2026-12-05 nothing said so.
+  const Scene scene = Scene::from_string(good, "s.toml", {"time.steps_per_contact=20", "time.dt=0.001",
+                                                          "particles.density=5", "particles.mass=2", "box.lengths=[6, 6, 6]"});
+  const auto sim = Simulation::create(scene);
+  const auto& w = sim->warnings();
+  auto warned = [&](const std::string& text) {
+    return std::any_of(w.begin(), w.end(), [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
+  CHECK(warned("time.steps_per_contact = 20 is not used: time.dt = 0.001 is given and takes its place"));
+  CHECK(warned("particles.density = 5 is not used: particles.mass = 2 is given"));
+  CHECK(warned("particles.solid_fraction = 0.2 is not used: box.lengths = [ 6, 6, 6 ] is given"));
+  const std::string resolved = scene.resolved_toml();
+  for (const char* replaced : {"steps_per_contact", "density", "solid_fraction"}) CHECK(resolved.find(replaced) == std::string::npos);
+  CHECK(sim->dt() == 0.001);
+  CHECK(sim->particles().mass[0] == 2.0);
+  // The resolved scene builds alike, without the warnings.
+  CHECK(Simulation::create(Scene::from_string(resolved, "resolved.toml"))->warnings().empty());
 }
 
 TEST_CASE("scene errors: defaults are never refused as unread, and the resolved scene lists only the keys it reads",
