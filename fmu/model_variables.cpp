@@ -64,7 +64,7 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
       if (e.max < 1e307) v.max = !e.max_open ? e.max : real ? std::nextafter(e.max, -HUGE_VAL) : std::ceil(e.max) - 1;
       if (e.min_open || e.max_open) v.description += fmt::format(" Allowed: {}{}, {}{}.", e.min_open ? "(" : "[", e.min,
                                                                  e.max < 1e307 ? fmt::format("{}", e.max) : "inf",
-                                                                 e.max_open ? ")" : "]");
+                                                                 e.max_open || e.max >= 1e307 ? ")" : "]");
     }
     if (v.name == "particles.count") {
       v.structural = true;

@@ -224,6 +224,9 @@ def marked(p, text):
     return f"{text}‡" if p.get("heated_runs") else text
 
 
+TOO_FEW = "not decided: a rank correlation needs 3 points or more, with a spread"
+
+
 def verdict(holds, tested):
     """yes or no, or, when a point the verdict turns on heated up, not decided."""
     if any(p.get("heated_runs") for p in tested):
@@ -283,11 +286,11 @@ def findings(damping, stiffness, fixed_stiffness, fixed_damping):
     defined = [p for p in damping if math.isfinite(p["t_agg_over_t_ff"])]
     lines.append(f"| t_agg / t_ff falls as damping grows (k* = {fixed_stiffness:.3g}) | rank correlation with zeta {rho:+.2f} over "
                  f"{len(defined)} points where the cloud aggregates; {listed(defined, 't_agg_over_t_ff', '.2f', 'zeta')} "
-                 f"| {verdict(rho < -0.5, defined)} |")
+                 f"| {verdict(rho < -0.5, defined) if math.isfinite(rho) else TOO_FEW} |")
     rises = max((b - a for a, b in zip(index, index[1:])), default=0.0)
-    crossing = next((f"{z[i]:g}–{z[i + 1]:g}" for i in range(len(z) - 1) if index[i] > 0.5 >= index[i + 1]), "none")
+    crossing = next((f"{z[i]:g}–{z[i + 1]:g}" for i in range(len(z) - 1) if index[i] > 0.5 >= index[i + 1]), "")
     lines.append(f"| N_c / N falls (logistically) from ~1 to ~0 with damping | {listed(damping, 'cluster_index', '.3f', 'zeta')}; "
-                 f"crosses 0.5 between zeta {crossing}; largest rise between neighbours {rises:+.3f} "
+                 f"{'crosses 0.5 between zeta ' + crossing if crossing else 'does not cross 0.5'}; largest rise between neighbours {rises:+.3f} "
                  f"| {verdict(index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05, damping)} |")
     second = [p["q_second_peak"] > 0 for p in damping]
     lines.append(f"| Q: a first peak in every run, a second for all but the strongest damping | first peaks "
@@ -489,6 +492,17 @@ def main(argv=None):
     except (reuse.SceneError, ValueError) as error:
         ap.exit(2, f"{ap.prog}: {error}\n")
     fixed_stiffness = args.fixed_stiffness or scene_point(scene, m_star, k_g)[1]
+    # Run names carry k* to 4 digits: values that name their runs alike are one point, the first one's (the
+    # scene's k* = 6468.79 and a --stiffness 6469 were two points under one name, and the second was refused
+    # as a run with other settings).
+    named = {}
+    def one_per_name(k):
+        kept = named.setdefault(f"{k:.4g}", k)
+        if kept != k:
+            print(f"note: k* = {k:g} names its runs as k* = {kept:g} does: taken as that point", flush=True)
+        return kept
+    fixed_stiffness = one_per_name(fixed_stiffness)
+    args.stiffness = [one_per_name(k) for k in args.stiffness]
     threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -71,7 +71,7 @@ def main():
     reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
     have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()
     if not args.no_lammps and not have_lammps:
-        print("note: LAMMPS (`lmp`, Debian package lammps) or the peer inputs are missing: grains only", file=sys.stderr)
+        print(f"note: {reuse.peer_missing(args.peers, 'gas.lmp')}: grains only, no ratios", file=sys.stderr)
 
     runs = {}   # (scene, threads) -> [(grains, LAMMPS)] in run order
     with tempfile.TemporaryDirectory() as tmp:

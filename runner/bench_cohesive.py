@@ -164,7 +164,7 @@ def main():
         ap.error(f"--threads {args.threads}: give core counts separated by commas, such as 1,2")
     have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
     if not have_lammps:
-        print("note: LAMMPS (`lmp`, Debian package lammps) or the peer input is missing: grains only", file=sys.stderr)
+        print(f"note: {reuse.peer_missing(args.peers, 'disks2d.lmp')}: grains only, no ratios", file=sys.stderr)
     runs = {}   # (variant, threads) -> [(grains, LAMMPS of the same round, contacts)]
     pair_style = peer_pair_style(args.peers)
     with tempfile.TemporaryDirectory() as tmp:

@@ -169,8 +169,17 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     return false;
   };
   // Between checks too: a programme.check_every of millions of steps held a Ctrl-C for minutes.
-  const auto records = run_programme(sim, settings, on_stage, on_check, from,
-                                     StopPoll{stop_requested, stop_check_steps(sim.particle_count())});
+  const auto records = [&] {
+    try {
+      return run_programme(sim, settings, on_stage, on_check, from,
+                           StopPoll{stop_requested, stop_check_steps(sim.particle_count())});
+    } catch (const std::exception& e) {   // the file says why it ends here, not "running" as a killed run's does
+      status.finish();
+      out.set_attribute("status", fmt::format("failed at step {}: {}", sim.step_count(), e.what()));
+      out.flush();
+      throw;
+    }
+  }();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cvode = sim.get("cvode_seconds");
   const double rate = seconds > 0 ? double(sim.step_count() - first_step) * double(sim.particle_count()) / seconds : 0.0;

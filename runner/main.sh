@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, run the default scene, plot it.
-#   bash runner/main.sh [SCENE.toml] [grains run options...]
+#   bash runner/main.sh [SCENE.toml] [grains run options...]   (options alone: the default scene with them)
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 grains_setup
@@ -20,8 +20,9 @@ if [ -z "${OMP_WAIT_POLICY:-}" ] && [ -r /proc/stat ] && awk -v s="$(busy_share)
   export OMP_WAIT_POLICY=passive
   echo "grains: the processor is busy; OpenMP threads will sleep while they wait (OMP_WAIT_POLICY=passive)" >&2
 fi
-scene="${1:-$GRAINS_ROOT/models/aggregation.toml}"
-shift || true
+# The scene is the first argument unless it is an option (then the default scene runs with the options).
+scene="$GRAINS_ROOT/models/aggregation.toml"
+if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then scene="$1"; shift; fi
 name="$(basename "$scene" .toml)"
 # The output: out/NAME.h5, or the run's own --out FILE.h5 (the plot then goes beside it, FILE.png).
 h5="" args=()

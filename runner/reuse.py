@@ -1,6 +1,8 @@
 """Whether a campaign tool may take a run's output as made with the settings asked for now: the scene the
 run ran (its HDF5 file's parameters/scene.toml) against the scene and overrides as `grains check` resolves
-them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py."""
+them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py;
+the benchmarks take from it the words for a missing LAMMPS peer."""
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -104,3 +106,11 @@ def difference(now, h5):
     if not differs:
         return None
     return "; ".join(differs[:4]) + (f" and {len(differs) - 4} more" if len(differs) > 4 else "")
+
+
+def peer_missing(peers, name):
+    """What keeps a benchmark from running LAMMPS beside grains, in words: the program or the peer input (the
+    LAMMPS inputs live beside the repository, in the workspace's shared/peers, not in it)."""
+    if not shutil.which("lmp"):
+        return "LAMMPS is not installed (`lmp`: Debian package lammps, or run through runner/with_lammps.sh)"
+    return f"no peer input {peers / name} (the LAMMPS inputs are not in the repository: give --peers DIR)"

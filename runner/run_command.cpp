@@ -142,6 +142,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   long done = first;
   bool aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
   bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
+  try {
   while (done < steps && !stopping && !aggregated) {
     const long due = next_stop(done);
     const long n = std::min(due, done + cadence.steps()) - done;
@@ -163,6 +164,12 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
                             .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
                             .frame_at_step = snap_every > 0 && done % snap_every == 0});
     if (!quiet) progress.update(done);
+  }
+  } catch (const std::exception& e) {   // the file says why it ends here, not "running" as a killed run's does
+    progress.finish();
+    out.set_attribute("status", fmt::format("failed at step {}: {}", sim.step_count(), e.what()));
+    out.flush();
+    throw;
   }
   progress.finish();
   if (stopping) {

@@ -19,8 +19,13 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     throw std::runtime_error(fmt::format("'{}' is not the output of a grains run (no /grains or /parameters group)", path));
   const h5::Handle g = h5::open_group(fid, "grains", path);
   // A run ends "complete"; a programme "complete" or "complete; N stage(s) did not reach equilibrium".
-  if (const std::string status = h5::read_attr_string(g.get(), "status", "", path); status.rfind("complete", 0) == 0)
+  const std::string status = h5::read_attr_string(g.get(), "status", "", path);
+  if (status.rfind("complete", 0) == 0)
     throw std::runtime_error(fmt::format("'{}' holds a finished run (status '{}'): nothing to resume", path, status));
+  // A run stopped by an error would meet it again from any checkpoint: the same state, the same steps.
+  if (status.rfind("failed", 0) == 0)
+    throw std::runtime_error(fmt::format("'{}' holds a run that ended with an error (status '{}'): resuming would "
+                                         "repeat it; change what the error names and run the scene again", path, status));
   const std::string stage_table = h5::read_attr_string(g.get(), "stage_table", "", path);
   const auto slots = valid_checkpoint_slots(g.get(), path);
   RunCheckpoint cp;

@@ -126,6 +126,14 @@ def test_findings_follow_the_measured_trends():
     assert [line.rsplit("|", 2)[-2].strip() for line in lines[5:7]] == ["no", "no"]
 
 
+def test_a_trend_over_two_points_is_not_decided_and_a_curve_that_stays_high_does_not_cross():
+    """Found by a review (2026-12-05): two damping points gave the rank correlation NaN, read as "no", and the
+    text "crosses 0.5 between zeta none"."""
+    lines = sweep.findings([point(0.1, 100, 0.9, 2.0), point(0.5, 100, 0.8, 1.0)], [], 100, 0.1)
+    assert lines[2].endswith(f"| {sweep.TOO_FEW} |"), lines[2]
+    assert "does not cross 0.5" in lines[3] and "none" not in lines[3]
+
+
 def test_findings_that_turn_on_runs_that_heated_up_are_not_decided():
     energy = "energy check: at t = 6.6 (1.77 t_ff, step 400) the total energy E = K + W + elastic = -38040 is 234762 above ..."
     base = {"cluster_index": 0.7, "largest_cluster_fraction": 0.3, "fractal_dimension": math.nan, "q_first_peak": 1.4,
@@ -180,6 +188,20 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
         bad = subprocess.run([sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin,
                               "--out", str(tmp_path / "bad"), *args], capture_output=True, text=True)
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
+
+
+def test_a_stiffness_that_names_its_runs_as_the_scene_k_star_does_is_that_point(grains_bin, tmp_path):
+    """The scene's k* (6468.79) and --stiffness 6469 both name their runs k6469: until 2026-12-05 the second was
+    refused as a run with other settings, and the sweep stopped."""
+    small = ["--set", "particles.count=30", "--set", "time.duration=0.5", "--set", "analysis.every=20",
+             "--set", "output.observables_every=50"]
+    run = subprocess.run([sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out",
+                          str(tmp_path), "--damping", "0.9", "--stiffness", "6469", "--fixed-damping", "0.9", "--jobs", "1",
+                          "--threads", "1", *small], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "k* = 6469 names its runs as k* = 6468.79" in run.stdout
+    rows = list(csv.DictReader((tmp_path / "sweep.csv").open()))
+    assert len({r["k_star"] for r in rows}) == 1 and len(list(tmp_path.glob("*.h5"))) == 1
 
 
 def test_runs_are_reused_only_with_the_settings_asked_for_now(grains_bin, tmp_path):

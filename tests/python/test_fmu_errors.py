@@ -60,8 +60,8 @@ def test_nan_input(unit):
 def test_out_of_range_parameter_gets_the_scene_schema_message(unit):
     fails(unit, lambda: unit.set("contact.restitution", 1.5), "the FMU's parameters", "contact.restitution", "1.5", "(0, 1]")
     fails(unit, lambda: unit.set("particles.count", 0), "particles.count", "0")
-    # NaN and inf get the same message, with the schema's exact range (once "[0, inf]" for "(0, inf]")
-    fails(unit, lambda: unit.set("particles.diameter", float("nan")), "particles.diameter", "nan", "(0, inf]")
+    # NaN and inf get the same message, with the schema's exact range (once "[0, inf]" for "(0, inf)")
+    fails(unit, lambda: unit.set("particles.diameter", float("nan")), "particles.diameter", "nan", "(0, inf)")
     fails(unit, lambda: unit.set("contact.restitution", float("inf")), "contact.restitution", "inf", "(0, 1]")
     unit.initialize({"particles.count": 100})   # the rejected values were not kept
     assert unit.get("contact.restitution") == 0.5
@@ -86,9 +86,9 @@ def test_a_value_beyond_64_bit_integers_is_named_as_the_host_passed_it():
 def test_a_tunable_scene_key_before_initialization_gets_the_scene_schema_range(unit):
     """gravity.G may be set to 0 while stepping (gravity off), but the scene needs G > 0: before
     initialization a negative G is refused with the scene's range, not the tunable's [0, inf]."""
-    new = fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "(0, inf]")
+    new = fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "(0, inf)")
     assert not any("[0, inf]" in m for m in new), new
-    fails(unit, lambda: unit.set("gravity.G", 0.0), "gravity.G", "(0, inf]")
+    fails(unit, lambda: unit.set("gravity.G", 0.0), "gravity.G", "(0, inf)")
     fails(unit, lambda: unit.set("drag.rate", -1.0), "drag.rate", "-1", "[0, inf]")
     unit.initialize({"particles.count": 100})
     fails(unit, lambda: unit.set("gravity.G", -1.0), "gravity.G", "-1", "[0, inf]")   # while stepping 0 is allowed
@@ -385,10 +385,10 @@ def test_setting_an_output_array_names_it_not_the_value_count():
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_an_open_lower_bound_is_declared_as_the_nearest_value_inside_it(version):
-    """FMI's min is inclusive: contact.duration in (0, inf] must not declare min = 0, which the FMU refuses."""
+    """FMI's min is inclusive: contact.duration in (0, inf) must not declare min = 0, which the FMU refuses."""
     unit = Unit(fmu_path("aggregation", version))
     duration = unit.variables["contact.duration"]
     assert float(duration.min) > 0 and float(duration.min) < 1e-300
-    assert "(0, inf]" in duration.description
+    assert "(0, inf)" in duration.description
     fails(unit, lambda: unit.set("contact.duration", 0.0), "contact.duration")
     unit.free()

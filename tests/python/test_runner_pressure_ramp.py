@@ -27,7 +27,12 @@ def test_a_run_ramps_the_pressure_geometrically_and_the_packing_follows(grains_b
     # CVODE kept its history throughout the ramp: restarted at the start and on its schedule only, every 500
     # advances (what a saved state carries), never for the ramp
     assert np.all(restarts == 1 + np.maximum(steps - 1, 0) // 500)
-    # Jammed from t = 14 on (Phi 0.75 to 0.79) and settled by t = 20: from there the stress follows the ramp
-    # within 1e-3 (measured: up to 4.4e-4).
+    # Jammed by t = 14 (Phi 0.75 to 0.79) and settled by t = 20: from there the stress follows the ramp without
+    # lag, apart from the odd rearrangement. Measured over seeds 1-4 with records 5000 steps apart, with the barostat
+    # of 2026-12-04 and with the stress extrapolated to mid-step (2026-12-05): the relative deviation's median
+    # 1.5e-5 to 4.8e-5, its mean (a lag would show there) within 6.2e-5 of 0, its largest 4.5e-4 to 1.6e-3.
     late = t > 20
-    assert np.max(np.abs(measured[late] / target[late] - 1)) < 1e-3
+    deviation = measured[late] / target[late] - 1
+    assert np.median(np.abs(deviation)) < 1e-4
+    assert abs(np.mean(deviation)) < 3e-4   # a lag of 0.004 time units behind the ramp's rate ln(10) / 30 gives 3e-4
+    assert np.max(np.abs(deviation)) < 3e-3

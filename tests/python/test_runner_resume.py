@@ -381,3 +381,17 @@ def test_a_programme_resumed_from_a_stage_end_past_a_checkpoint_multiple_ends_as
     assert "resumed      at step 2000, 0 steps into stage 2" in resumed.stdout
     assert killed_table.read_text() == whole_table.read_text()
     assert_same_records(whole, killed)
+
+
+def test_a_run_that_fails_says_so_in_its_file_and_is_not_resumed(grains_bin, root, tmp_path):
+    """Found by a review (2026-12-05): a run stopped by an error kept the status "running" of a killed run, and
+    resume then blamed a missing checkpoint. With checkpoints it would have repeated the error."""
+    out = tmp_path / "blown.h5"
+    failed = run(grains_bin, "run", root / "models/gas.toml", "--set", "time.dt=10", "--set", "time.steps=200",
+                 "--set", "run.threads=1", "--set", "output.checkpoint_every=2", "--out", out, "--quiet")
+    assert failed.returncode == 1 and "non-finite value at step 4" in failed.stderr
+    with h5py.File(out) as f:
+        status = f["grains"].attrs["status"]
+    assert status.startswith("failed at step 4: non-finite value at step 4"), status
+    again = run(grains_bin, "resume", out)
+    assert again.returncode == 1 and "ended with an error" in again.stderr and "resuming would repeat it" in again.stderr
