@@ -42,10 +42,13 @@ template <int D> double solid_volume(const Particles<D>& P) {
   return v;
 }
 
+// `row`: the row of a list of vectors; none for a key that is one vector (box.lengths).
+constexpr std::size_t single = std::size_t(-1);
 template <int D>
 Vec<D> to_vec(const Scene& s, std::string_view key, const std::vector<double>& v, std::size_t row) {
   if (v.size() != std::size_t(D))
-    s.fail(key, fmt::format("row {} has {} components; a {}D scene needs {}", row, v.size(), D, D));
+    s.fail(key, row == single ? fmt::format("{} values; a {}D scene needs {}", v.size(), D, D)
+                              : fmt::format("row {} has {} components; a {}D scene needs {}", row, v.size(), D, D));
   Vec<D> out;
   for (int a = 0; a < D; ++a) out[a] = v[a];
   return out;
@@ -287,7 +290,7 @@ InitialState<D> make_initial_state(const Scene& s) {
   for (int a = 0; a < D; ++a) box.periodic[a] = s.boolean("box.periodic");
   if (s.has("box.lengths")) {
     auto L = s.reals("box.lengths");
-    box.length = to_vec<D>(s, "box.lengths", L, 0);
+    box.length = to_vec<D>(s, "box.lengths", L, single);
   } else if (s.has("particles.solid_fraction")) {
     box.length.setConstant(std::pow(solids / s.real("particles.solid_fraction"), 1.0 / D));
   } else if (layout == "lattice" || layout == "random" || box.any_periodic()) {
@@ -295,7 +298,7 @@ InitialState<D> make_initial_state(const Scene& s) {
   } else {
     box.length.setConstant(1.0);   // open system with explicit positions: nominal box only
   }
-  if (s.has("box.lower")) box.lower = to_vec<D>(s, "box.lower", s.reals("box.lower"), 0);
+  if (s.has("box.lower")) box.lower = to_vec<D>(s, "box.lower", s.reals("box.lower"), single);
 
   // --- positions ---
   if (layout == "lattice") {

@@ -149,6 +149,8 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   REQUIRE_THROWS_AS(build(good, {"particles.count=8", "box.lengths=[2.0, 2.0, 2.0]", "particles.diameter=0.9"}), SceneError);
   REQUIRE_THROWS_WITH(build(good, {"particles.count=8", "box.lengths=[2.0, 2.0, 2.0]", "particles.diameter=0.9"}),
                       Contains("box.lengths") && Contains("2 long") && Contains("periodic box must be longer"));
+  // One vector is not a row of a list (the message said "row 0 has 2 components").
+  REQUIRE_THROWS_WITH(build(good, {"box.lengths=[3.0, 3.0]"}), Contains("box.lengths: 2 values; a 3D scene needs 3"));
   // A count no machine here holds is refused before anything is allocated, naming the memory it needs.
   REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"random\"", "particles.count=1000000000"}),
                       Contains("particles.count") && Contains("1000000000") && Contains("250 GB"));
