@@ -141,3 +141,13 @@ def test_consolidate_acts_on_an_interrupt_between_rare_checks(grains_bin, root, 
         assert status.startswith("interrupted in stage 0 at step ")
         assert 0 < int(status.split()[-1]) < 100000000
         assert "checkpoint_0" in f["grains"]
+
+
+def test_a_programme_that_fails_says_so_in_its_file(grains_bin, root, tmp_path):
+    """Until 2026-12-05 a programme stopped by an error left the status "running" of a killed one."""
+    out = tmp_path / "blown.h5"
+    r = run(grains_bin, "consolidate", root / "models/cohesionless.toml", "--set", "particles.count=100", "--set",
+            "time.dt=10", "--set", "run.threads=1", "--out", out, "--table", tmp_path / "blown.csv", "--quiet")
+    assert r.returncode == 1 and "CVODE integration" in r.stderr
+    with h5py.File(out) as f:
+        assert f["grains"].attrs["status"].startswith("failed at step 1: barostat: CVODE integration")
