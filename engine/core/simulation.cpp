@@ -917,7 +917,7 @@ class SimulationImpl final : public Simulation {
       warn(fmt::format("time.dt = {:.6g} exceeds {:.6g}, the largest step at which grains of the lightest mass ({:.6g}) "
                        "pressed by {} damped contacts each (damping ratio {:.3g} on their fastest mode) settle: above it the "
                        "dashpots' velocity prediction makes them oscillate with growing amplitude, and dense packings heat "
-                       "up instead of settling (time.steps_per_contact {:.0f} or more would keep below it)",
+                       "up instead of settling (time.steps_per_contact {:.0f} or more, without time.dt, would keep below it)",
                        dt_, limit, lightest, int(z), worst_zeta, std::ceil(tc / limit)));
   }
 
