@@ -346,8 +346,6 @@ std::optional<Scene::UnmetNeed> Scene::unmet_need(const UnreadKeyRule& rule) con
   return std::nullopt;
 }
 
-// A key given (in the scene or by --set) that the scene does not read, as its other keys set it up: refused
-// rather than ignored, so that no one believes it took effect. Keys not given are never refused.
 namespace {
 bool supersession(const UnreadKeyRule& rule) { return rule.needs.size() == 1 && rule.needs[0].second.empty(); }
 }  // namespace
@@ -367,6 +365,9 @@ std::vector<std::string> Scene::superseded_keys() const {
   return notes;
 }
 
+// A key given (in the scene or by --set) that the scene does not read, as its other keys set it up: refused
+// rather than ignored, so that no one believes it took effect. Keys not given are never refused.
+// A key another given key replaces is warned about instead (superseded_keys()).
 void Scene::unread_keys(std::vector<std::string>& problems) const {
   for (const auto& rule : unread_key_rules()) {
     const auto n = node(rule.path);
