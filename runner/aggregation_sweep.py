@@ -88,11 +88,16 @@ def scene_point(scene, m_star, k_g):
 RUN_TAGS = {"time.steps_per_contact": "n", "analysis.every": "a", "output.observables_every": "o"}
 
 
+def stiffness_tag(k_star):
+    """k* as run names carry it: four digits."""
+    return f"{k_star:.4g}"
+
+
 def run_name(zeta, k_star, seed, own=None):
     """File stem of a run, without dots (zeta 0.05, k* 6468.8, seed 1: z0p05-k6469-s1), tagged with the
     settings of its own (`own`, a dict over RUN_TAGS' keys) when it has any."""
     tags = "".join(f"{tag}{own[key]}" for key, tag in RUN_TAGS.items() if own and key in own)
-    return f"z{zeta:g}-k{k_star:.4g}{'-' + tags if tags else ''}-s{seed}".replace(".", "p")
+    return f"z{zeta:g}-k{stiffness_tag(k_star)}{'-' + tags if tags else ''}-s{seed}".replace(".", "p")
 
 
 def point_settings(zeta, k_star, m_star, k_g):
@@ -497,7 +502,7 @@ def main(argv=None):
     # as a run with other settings).
     named = {}
     def one_per_name(k):
-        kept = named.setdefault(f"{k:.4g}", k)
+        kept = named.setdefault(stiffness_tag(k), k)
         if kept != k:
             print(f"note: k* = {k:g} names its runs as k* = {kept:g} does: taken as that point", flush=True)
         return kept

@@ -173,10 +173,9 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     try {
       return run_programme(sim, settings, on_stage, on_check, from,
                            StopPoll{stop_requested, stop_check_steps(sim.particle_count())});
-    } catch (const std::exception& e) {   // the file says why it ends here, not "running" as a killed run's does
+    } catch (const std::exception& e) {
       status.finish();
-      out.set_attribute("status", fmt::format("failed at step {}: {}", sim.step_count(), e.what()));
-      out.flush();
+      mark_failed(out, sim, e);
       throw;
     }
   }();

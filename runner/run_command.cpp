@@ -62,6 +62,11 @@ void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, co
   write_observables(out, sim);
 }
 
+void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error) {
+  out.set_attribute("status", fmt::format("failed at step {}: {}", sim.step_count(), error.what()));
+  out.flush();
+}
+
 namespace {
 
 // What `run` checks before it opens the output file, shared with `check`: the scene, the simulation
@@ -143,32 +148,31 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   bool aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
   bool stopping = false;   // the signal read once a pass: the pass that sees it records the state and ends the loop
   try {
-  while (done < steps && !stopping && !aggregated) {
-    const long due = next_stop(done);
-    const long n = std::min(due, done + cadence.steps()) - done;
-    const auto chunk_start = std::chrono::steady_clock::now();
-    sim.step_n(n);
-    cadence.ran(n, std::chrono::duration<double>(std::chrono::steady_clock::now() - chunk_start).count());
-    done += n;
-    if (done == due) aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
-    stopping = stop_requested() && done < steps && !aggregated;   // a run that reached its end is complete
-    const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
-    if (done % obs_every == 0 || last) write_observables(out, sim);
-    if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, sim);
-    // Before a checkpoint, whose state knows the warning was given: the energy check's (also raised by the
-    // aggregation test's read of the outputs).
-    write_new_warnings(out, sim, warnings_written);
-    // A stopped run always leaves one, so that `grains resume` can continue it.
-    if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
-      out.write_checkpoint({.step = done, .time = sim.time(), .wall_seconds = earlier_seconds + progress.elapsed_seconds(),
-                            .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
-                            .frame_at_step = snap_every > 0 && done % snap_every == 0});
-    if (!quiet) progress.update(done);
-  }
-  } catch (const std::exception& e) {   // the file says why it ends here, not "running" as a killed run's does
+    while (done < steps && !stopping && !aggregated) {
+      const long due = next_stop(done);
+      const long n = std::min(due, done + cadence.steps()) - done;
+      const auto chunk_start = std::chrono::steady_clock::now();
+      sim.step_n(n);
+      cadence.ran(n, std::chrono::duration<double>(std::chrono::steady_clock::now() - chunk_start).count());
+      done += n;
+      if (done == due) aggregated = stop_at_aggregation && std::isfinite(sim.get("aggregation_time"));
+      stopping = stop_requested() && done < steps && !aggregated;   // a run that reached its end is complete
+      const bool last = done == steps || aggregated || stopping;   // an interrupted run records where it stopped
+      if (done % obs_every == 0 || last) write_observables(out, sim);
+      if ((snap_every > 0 && done % snap_every == 0) || last) write_frame(out, sim);
+      // Before a checkpoint, whose state knows the warning was given: the energy check's (also raised by the
+      // aggregation test's read of the outputs).
+      write_new_warnings(out, sim, warnings_written);
+      // A stopped run always leaves one, so that `grains resume` can continue it.
+      if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
+        out.write_checkpoint({.step = done, .time = sim.time(), .wall_seconds = earlier_seconds + progress.elapsed_seconds(),
+                              .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
+                              .frame_at_step = snap_every > 0 && done % snap_every == 0});
+      if (!quiet) progress.update(done);
+    }
+  } catch (const std::exception& e) {
     progress.finish();
-    out.set_attribute("status", fmt::format("failed at step {}: {}", sim.step_count(), e.what()));
-    out.flush();
+    mark_failed(out, sim, e);
     throw;
   }
   progress.finish();
