@@ -1,8 +1,10 @@
 #include "consolidate_command.hpp"
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -13,6 +15,7 @@
 #include "interactions/pair_filter.hpp"
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_writer.hpp"
+#include "io/output_error.hpp"
 #include "io/scene.hpp"
 #include "output_paths.hpp"
 #include "progress.hpp"
@@ -40,7 +43,7 @@ std::vector<std::string> table_up_to(const std::string& table, int last) {
   }
   if (long(kept.size()) != last + 2)
     throw std::runtime_error(fmt::format("'{}' has {} stage rows, fewer than the {} finished before the checkpoint", table,
-                                         long(kept.size()) - 1, last + 1));
+                                         std::max(0L, long(kept.size()) - 1), last + 1));
   return kept;
 }
 
@@ -69,7 +72,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   auto checkpoint = [&](int last, std::vector<double> progress) {
     out.write_checkpoint({.step = sim.step_count(), .stage = last, .unreached = unreached, .time = sim.time(),
                           .wall_seconds = earlier_seconds + status.elapsed_seconds(),
-                          .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .state = sim.save_state(),
+                          .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .threads = sim.threads(),
+                          .state = sim.save_state(),
                           .stage_progress = std::move(progress)});
     next_checkpoint = next_multiple();
   };
@@ -97,7 +101,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                        value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time, quench);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
-    if (!csv) throw std::runtime_error(fmt::format("cannot write stage {}'s row to the stage table '{}'", r.index, table));
+    if (!csv)
+      throw OutputError(fmt::format("cannot write stage {}'s row to the stage table '{}' ({})", r.index, table, std::strerror(errno)));
     write_observables(out, sim, r.values);   // the row's values: the network's mark has moved on since
     out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <hdf5.h>
 
 #include "consolidate_command.hpp"
 #include "io/scene.hpp"
@@ -11,6 +12,9 @@
 #include "run_command.hpp"
 
 int main(int argc, char** argv) {
+  // Every HDF5 object is closed by its owner before exit. HDF5's own exit handler would close them again and
+  // crashes (SIGSEGV) on a file whose flush failed (a full disk), turning a clear error into a core dump.
+  H5dont_atexit();
   CLI::App app{"grains " GRAINS_VERSION " - discrete element simulations of granular matter.\n"
                "Runs a scene file (TOML, see docs/scene-reference.md) and writes H5MD output.\n"
                "Example: grains run models/gas.toml --set contact.restitution=0.5 --out gas.h5"};

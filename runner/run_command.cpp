@@ -16,6 +16,7 @@
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
+#include "io/output_error.hpp"
 #include "io/scene.hpp"
 #include "output_paths.hpp"
 #include "resume_command.hpp"
@@ -63,8 +64,14 @@ void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, co
 }
 
 void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error) {
-  out.set_attribute("status", fmt::format("failed at step {}: {}", sim.step_count(), error.what()));
-  out.flush();
+  // An output error (a full disk) leaves the run resumable from its last checkpoint once the cause is gone.
+  const char* what = dynamic_cast<const OutputError*>(&error) ? "stopped by an output error" : "failed";
+  try {
+    // "after": the steps completed (an error inside a step names that step itself: "after step 1: step 2: ...").
+    out.set_attribute("status", fmt::format("{} after step {}: {}", what, sim.step_count(), error.what()));
+    out.flush();
+  } catch (const std::exception&) {   // the file may not take it (the same full disk): "running" stays, resumable
+  }
 }
 
 namespace {
@@ -166,7 +173,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
       // A stopped run always leaves one, so that `grains resume` can continue it.
       if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
         out.write_checkpoint({.step = done, .time = sim.time(), .wall_seconds = earlier_seconds + progress.elapsed_seconds(),
-                              .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
+                              .threads = sim.threads(), .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
                               .frame_at_step = snap_every > 0 && done % snap_every == 0});
       if (!quiet) progress.update(done);
     }

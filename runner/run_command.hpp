@@ -18,7 +18,7 @@ class Scene;
 // A new output file's start, shared by `run` and `consolidate`: the scene's folder (where `grains resume` finds
 // its relative files), the warnings (also on stderr), the first frame and records.
 void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings);
-// A run or programme stopped by an error: its file says so ("failed at step N: ..."), not "running" as a killed
+// A run or programme stopped by an error: its file says so ("failed after step N: ..."), not "running" as a killed
 // run's does, and `grains resume` refuses it.
 void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error);
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <csignal>
 
+#include <signal.h>
+
 namespace grains {
 namespace {
 volatile std::sig_atomic_t requested = 0;
@@ -12,6 +14,9 @@ void on_signal(int) { requested = 1; }
 void catch_stop_signals() {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  // A closed terminal stops a run like Ctrl-C, unless it was started to outlive it (nohup: SIGHUP ignored).
+  struct sigaction hangup {};
+  if (sigaction(SIGHUP, nullptr, &hangup) == 0 && hangup.sa_handler != SIG_IGN) std::signal(SIGHUP, on_signal);
 }
 
 bool stop_requested() { return requested != 0; }

@@ -12,6 +12,9 @@ namespace grains {
 
 RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  if (h5::locked_by_another_process(path))
+    throw std::runtime_error(fmt::format("cannot resume '{}': another process is writing it (a run or a resume still "
+                                         "going on); wait for it to end, or stop it first", path));
   hid_t fid = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, "opening it as a grains run's output, to resume it,");
   const h5::Handle file(fid, H5Fclose);
@@ -42,6 +45,7 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.time = h5::read_attr_double(d.get(), "time", 0, path);
     cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
     cp.cvode_seconds = h5::read_attr_double(d.get(), "cvode_seconds", 0, path);
+    cp.threads = int(h5::read_attr_double(d.get(), "threads", 0, path));
     cp.stage_progress = h5::read_attr_doubles(d.get(), "stage_progress", path);
     cp.observables_at_step = h5::read_attr_double(d.get(), "observables_at_step", 1, path) == 1;
     cp.frame_at_step = h5::read_attr_double(d.get(), "frame_at_step", 1, path) == 1;

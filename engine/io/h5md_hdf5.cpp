@@ -1,10 +1,17 @@
 // HDF5 C API helpers for the H5MD writer (see h5md_hdf5.hpp).
 #include "io/h5md_hdf5.hpp"
 
+#include <cerrno>
 #include <limits>
 #include <stdexcept>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
+
+#include "io/output_error.hpp"
 
 namespace grains::h5 {
 
@@ -64,10 +71,18 @@ Handle fixed_string_type(std::size_t size, const std::string& file) {
 
 }  // namespace
 
+bool locked_by_another_process(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool locked = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);   // also releases the shared lock if it was taken
+  return locked;
+}
+
 void fail(const std::string& file, const std::string& what) {
   std::string reason = hdf5_reason();
-  if (reason.empty()) throw std::runtime_error(fmt::format("HDF5 output '{}': {} failed", file, what));
-  throw std::runtime_error(fmt::format("HDF5 output '{}': {} failed ({})", file, what, reason));
+  if (reason.empty()) throw OutputError(fmt::format("HDF5 output '{}': {} failed", file, what));
+  throw OutputError(fmt::format("HDF5 output '{}': {} failed ({})", file, what, reason));
 }
 
 long long check(long long status, const std::string& file, const std::string& what) {

@@ -32,7 +32,9 @@ class Handle {
   Closer close_ = nullptr;
 };
 
-// Throws std::runtime_error "HDF5 output <file>: <what> failed (<HDF5's own reason>)".
+// Whether another process holds HDF5's lock on the file (HDF5 takes it with flock(): exclusive while writing).
+bool locked_by_another_process(const std::string& path);
+// Throws OutputError (io/output_error.hpp) "HDF5 output <file>: <what> failed (<HDF5's own reason>)".
 [[noreturn]] void fail(const std::string& file, const std::string& what);
 // Returns `status` when it is non-negative, otherwise fail().
 long long check(long long status, const std::string& file, const std::string& what);

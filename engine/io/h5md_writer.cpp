@@ -1,42 +1,32 @@
 // H5MD 1.1 writer (see h5md_writer.hpp). Every time-dependent element is a group with extendable
 // step/time/value datasets; each frame appends one row and flushes, so a killed run leaves a
 // readable file holding every frame written so far. Observables are held in memory and written, a
-// block of rows per dataset, with the next flush, at most a second after the first of them: with some
+// block of rows per dataset, with the next flush: the first write of a new record (a new step) flushes
+// when a second has passed since the last, so the file always holds whole records (a flush within one
+// left its first observables a row ahead of the rest in a killed run's file). With some
 // forty observables recorded every 100 steps, writing and flushing each record (three HDF5 writes per
 // observable) took 10-30 % of the wall time of a 1400-disk run.
 #include "io/h5md_writer.hpp"
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <stdexcept>
-
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <fmt/format.h>
 
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
+#include "io/output_error.hpp"
 #include "io/xdmf_writer.hpp"
 
 namespace grains {
 
 namespace {
-
-// Whether another process holds HDF5's lock on the file (HDF5 takes it with flock(): exclusive while writing).
-bool locked_by_another_process(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;
-  const bool locked = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
-  ::close(fd);   // also releases the shared lock if it was taken
-  return locked;
-}
 
 constexpr hsize_t kObservableChunk = 1024;      // rows per chunk of observables and step/time
 constexpr hsize_t kFrameChunkBytes = 64 * 1024;  // small frames are batched to about this size
@@ -63,6 +53,7 @@ struct H5mdWriter::Impl {
   std::size_t frames = 0, max_count = 0, xdmf_frames_on_disk = 0;
   bool has_angular = false, has_orientation = false;
   std::chrono::steady_clock::time_point last_flush = std::chrono::steady_clock::now();
+  long record_step = std::numeric_limits<long>::min();   // the step of the observables' record being written
   std::unique_ptr<XdmfWriter> xdmf;
 
   Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components) {
@@ -163,6 +154,10 @@ struct H5mdWriter::Impl {
     h5::check(H5Fflush(file.get(), H5F_SCOPE_GLOBAL), path, "flushing the file");
     last_flush = std::chrono::steady_clock::now();
   }
+
+  // The new file's groups, parameters and XDMF companion (H5MD 1.1), then the first flush.
+  void create_layout(const std::vector<bool>& boundary_periodic, const std::string& creator_version,
+                     const std::string& resolved_scene_toml, bool write_xdmf);
 };
 
 H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
@@ -183,14 +178,40 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   if (!std::filesystem::is_directory(dir))
     throw std::runtime_error(fmt::format("cannot create output file '{}': directory '{}' does not exist", path,
                                          dir.string()));
-  // H5Fcreate empties the file before it takes HDF5's lock: a file that a run (or an FMU's snapshots) is still
-  // writing would be destroyed under it.
-  if (locked_by_another_process(path))
-    throw std::runtime_error(fmt::format("cannot create output file '{}': another process is writing it (a run still "
-                                         "going?); choose another file, or wait until that process ends", path));
-  hid_t fid = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (fid < 0) h5::fail(path, "creating the file (is the directory writable?)");
+  // The file is made under a temporary name and renamed once its first flush has made it valid HDF5: a run
+  // killed while creating it (SIGKILL) left a file of 0 or 96 bytes that nothing could open. Neither name may
+  // be another process's file: H5Fcreate empties a file before it takes HDF5's lock, and the rename would
+  // take the name from under a run (or an FMU's snapshots) still writing it.
+  const std::string creating = path + ".part";
+  for (const std::string& p : {path, creating})
+    if (h5::locked_by_another_process(p))
+      throw std::runtime_error(fmt::format("cannot create output file '{}': another process is writing it (a run still "
+                                           "going?); choose another file, or wait until that process ends", path));
+  hid_t fid = H5Fcreate(creating.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (fid < 0) h5::fail(creating, "creating the file (is the directory writable?)");
   m.file = h5::Handle(fid, H5Fclose);
+  try {
+    m.create_layout(boundary_periodic, creator_version, resolved_scene_toml, write_xdmf);
+  } catch (...) {
+    impl_.reset();   // closes the file before it goes
+    std::error_code ignored;
+    std::filesystem::remove(creating, ignored);
+    throw;
+  }
+  std::error_code ec;
+  std::filesystem::rename(creating, path, ec);   // the open file (and HDF5's lock on it) moves with its name
+  if (ec) {
+    impl_.reset();
+    std::filesystem::remove(creating, ec);
+    throw OutputError(fmt::format("cannot create output file '{}': renaming '{}' to it failed ({})", path, creating,
+                                  ec.message()));
+  }
+}
+
+void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic, const std::string& creator_version,
+                                     const std::string& resolved_scene_toml, bool write_xdmf) {
+  Impl& m = *this;
+  const int dimension = m.dim;
   const hid_t root = m.file.get();
 
   {
@@ -222,7 +243,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
 
   if (write_xdmf) {
     m.xdmf_path = xdmf_path_beside(path);
-    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, fs_path.filename().string(), dimension);
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), dimension);
   }
   m.flush();
 }
@@ -340,8 +361,11 @@ void H5mdWriter::write_observable(const std::string& name, long step, double tim
     it = m.observable.emplace(name, m.make_series(m.observables.get(), name, {}, 0)).first;
   }
   Series& s = it->second;
+  if (step != m.record_step) {   // a new record: everything pending is whole records
+    if (std::chrono::steady_clock::now() - m.last_flush >= kObservableFlushInterval) m.flush();
+    m.record_step = step;
+  }
   s.pending_step.push_back(step), s.pending_time.push_back(time), s.pending_value.push_back(value);
-  if (std::chrono::steady_clock::now() - m.last_flush >= kObservableFlushInterval) m.flush();
 }
 
 void H5mdWriter::write_warning(const std::string& text) {
@@ -398,6 +422,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   h5::attr_double(d.get(), "time", cp.time, m.path);
   h5::attr_double(d.get(), "wall_seconds", cp.wall_seconds, m.path);
   h5::attr_double(d.get(), "cvode_seconds", cp.cvode_seconds, m.path);
+  h5::attr_double(d.get(), "threads", cp.threads, m.path);
   h5::attr_double(d.get(), "stage", cp.stage, m.path);
   h5::attr_double(d.get(), "unreached", double(cp.unreached), m.path);
   h5::attr_doubles(d.get(), "stage_progress", cp.stage_progress, m.path);

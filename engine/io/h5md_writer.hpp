@@ -40,7 +40,8 @@ class H5mdWriter {
   H5mdWriter& operator=(const H5mdWriter&) = delete;
 
   void write_frame(const H5mdFrame& f);    // appends to particles/all/*, then flushes
-  // Held in memory and written with the next flush, which comes at most a second after the first of them.
+  // Held in memory and written with the next flush: the first write of a later step flushes once a second
+  // has passed since the last, so a killed run's file holds whole records (one step's observables).
   void write_observable(const std::string& name, long step, double time, double value);
   void write_warning(const std::string& text);                        // appends to /grains/warnings
   void set_attribute(const std::string& name, const std::string& value);  // string attribute on /grains

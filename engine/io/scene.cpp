@@ -261,7 +261,8 @@ long Scene::integer(std::string_view path) const {
   const auto& e = entry(path);
   return with_default(*this, node(path), e, [&](const toml::node& n) {
     auto x = n.value<int64_t>();
-    if (!n.is_integer() || !x) fail(path, fmt::format("expected an integer, got {}", render(n)));
+    if (!n.is_integer() || !x)
+      fail(path, fmt::format("expected an integer, got {}: allowed {}", render(n), describe_allowed(e)));
     if (!in_range(e, double(*x))) fail(path, fmt::format("value {} is out of range: allowed {}", *x, describe_allowed(e)));
     return long(*x);
   });

@@ -2,13 +2,16 @@
 // Polyvertex topology without a DataItem, so no index array has to be stored in the HDF5 file.
 #include "io/xdmf_writer.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "io/output_error.hpp"
 #include "io/xml_escape.hpp"
 
 namespace grains {
@@ -76,11 +79,11 @@ void XdmfWriter::write() const {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     out << xml;
     out.flush();
-    if (!out) throw std::runtime_error(fmt::format("XDMF output: cannot write '{}'", temp));
+    if (!out) throw OutputError(fmt::format("XDMF output: cannot write '{}' ({})", temp, std::strerror(errno)));
   }
   std::error_code ec;
   std::filesystem::rename(temp, path_, ec);
-  if (ec) throw std::runtime_error(fmt::format("XDMF output: cannot rename '{}' to '{}': {}", temp, path_, ec.message()));
+  if (ec) throw OutputError(fmt::format("XDMF output: cannot rename '{}' to '{}': {}", temp, path_, ec.message()));
 }
 
 }  // namespace grains

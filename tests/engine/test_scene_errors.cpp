@@ -91,6 +91,9 @@ TEST_CASE("scene errors: a wrong type names key, value and expected type", "[sce
                       Contains("contact.restitution") && Contains("\"0.5\"") && Contains("expected a number"));
   REQUIRE_THROWS_WITH(build(with("count = 27", "count = 27.0")),
                       Contains("particles.count") && Contains("27") && Contains("expected an integer"));
+  // An integer written as a float (1e16 for 10^16) is also told the range allowed.
+  REQUIRE_THROWS_WITH(build(with("count = 27", "count = 1e16")),
+                      Contains("particles.count") && Contains("expected an integer, got 1e+16: allowed integer in [1, 1000000000]"));
   REQUIRE_THROWS_WITH(build(good + "[box]\nperiodic = \"yes\"\n"),
                       Contains("box.periodic") && Contains("\"yes\"") && Contains("true or false"));
   REQUIRE_THROWS_WITH(build(good, {"box.lengths=3.0"}), Contains("box.lengths") && Contains("3") && Contains("array of numbers"));

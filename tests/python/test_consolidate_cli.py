@@ -150,4 +150,4 @@ def test_a_programme_that_fails_says_so_in_its_file(grains_bin, root, tmp_path):
             "time.dt=10", "--set", "run.threads=1", "--out", out, "--table", tmp_path / "blown.csv", "--quiet")
     assert r.returncode == 1 and "CVODE integration" in r.stderr
     with h5py.File(out) as f:
-        assert f["grains"].attrs["status"].startswith("failed at step 1: barostat: CVODE integration")
+        assert f["grains"].attrs["status"].startswith("failed after step 1: barostat: CVODE integration")

@@ -1,4 +1,5 @@
 """The command-line runner as a user meets it: help, errors, output safety, the scene reference."""
+import resource
 import signal
 import subprocess
 import sys
@@ -252,10 +253,11 @@ def test_aggregation_plot_against_free_fall_time(grains_bin, root, tmp_path):
     assert p.returncode == 0, p.stderr
 
 
-def _start_long_run(grains_bin, root, out):
-    """A gas run far longer than the test waits; returns once its output file exists."""
-    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet",
-                          "--set", "time.steps=100000000", "--set", "particles.count=512", "--set", "run.threads=1"],
+def _start_long_run(grains_bin, root, out, scene="gas", sets=("time.steps=100000000", "particles.count=512")):
+    """A run far longer than the test waits (by default a gas); returns once its output file exists."""
+    extra = [x for s in sets for x in ("--set", s)]
+    p = subprocess.Popen([grains_bin, "run", str(root / "models" / f"{scene}.toml"), "--out", str(out), "--quiet",
+                          "--set", "run.threads=1", *extra],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while not out.exists() and time.monotonic() < deadline and p.poll() is None:
@@ -264,11 +266,13 @@ def _start_long_run(grains_bin, root, out):
     return p
 
 
-def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path):
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGHUP])
+def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path, stop):
+    """Ctrl-C, and a closed terminal (SIGHUP: until 2026-12-05 it killed the run like SIGKILL)."""
     out = tmp_path / "gas.h5"
     p = _start_long_run(grains_bin, root, out)
     time.sleep(1.5)
-    p.send_signal(signal.SIGINT)
+    p.send_signal(stop)
     stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 130, stderr
     assert "INTERRUPTED" in stdout
@@ -287,11 +291,29 @@ def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path):
             assert len(series["step"]) == len(series["time"]) == len(series["value"]), name
 
 
-def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path):
-    # SIGKILL cannot be caught: what the file holds is what the last flush wrote (observables flush at
-    # most a second apart, frames at once).
-    out = tmp_path / "gas.h5"
-    p = _start_long_run(grains_bin, root, out)
+@pytest.mark.parametrize("limit", [20_000, 1_000_000])
+def test_a_full_disk_ends_the_run_with_an_error_not_a_crash(grains_bin, root, tmp_path, limit):
+    """A file size limit stands in for a full disk (the write fails with EFBIG instead of ENOSPC). Until
+    2026-12-05 HDF5's exit handler closed the file whose flush had failed a second time and crashed (SIGSEGV)."""
+    def limited():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)   # a failed write, not a killed process
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    r = subprocess.run([grains_bin, "run", root / "models" / "aggregation.toml", "--out", tmp_path / "full.h5", "--quiet",
+                        "--set", "run.threads=1"], capture_output=True, text=True, preexec_fn=limited)
+    assert r.returncode == 1, r.stderr
+    assert "HDF5 output" in r.stderr and "File too large" in r.stderr
+
+
+@pytest.mark.parametrize("scene", ["gas", "aggregation"])
+def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path, scene):
+    # SIGKILL cannot be caught: what the file holds is what the last flush wrote (observables flush about a
+    # second apart, as a new record begins; frames at once). The aggregation scene with a record every step
+    # and no snapshots (a frame flushes between records): a flush within a record (until 2026-12-05) left
+    # its first observable a row ahead of the others in every killed file.
+    out = tmp_path / f"{scene}.h5"
+    sets = (("time.steps=100000000", "particles.count=512") if scene == "gas"
+            else ("output.observables_every=1", "output.snapshots_every=0"))
+    p = _start_long_run(grains_bin, root, out, scene, sets)
     time.sleep(2.5)
     p.kill()
     p.communicate(timeout=60)
@@ -302,6 +324,8 @@ def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path):
         assert records > 1, "no observable record flushed after the first one in 2.5 s"
         assert len(ke["value"]) == records and len(ke["time"]) == records
         assert list(ke["step"][:]) == sorted(ke["step"][:])
+        for name, series in f["observables"].items():   # whole records only
+            assert np.array_equal(series["step"][:], ke["step"][:]), name
         # A run writes status 'running' at its start and replaces it at its end: a killed run's file says so
         # (it had no status, like a file written by some other program).
         status = f["grains"].attrs["status"]
@@ -474,3 +498,19 @@ def test_the_resolved_scene_that_check_prints_runs_as_it_is(grains_bin, root, tm
         resolved.write_text(done.stdout)
         again = subprocess.run([grains_bin, "check", resolved], capture_output=True, text=True, cwd=model.parent)
         assert again.returncode == 0, (model.name, again.stderr)
+
+
+def test_a_run_killed_as_its_output_file_appears_leaves_a_readable_file(grains_bin, root, tmp_path):
+    """The file appears under its name only once it is valid HDF5 (made as FILE.part, renamed after its first
+    flush): killed the moment it appeared, 6 of 10 files had 0 or 96 bytes until 2026-12-05."""
+    for attempt in range(5):
+        out = tmp_path / f"early{attempt}.h5"
+        p = subprocess.Popen([grains_bin, "run", root / "models" / "aggregation.toml", "--out", out, "--quiet"],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 60
+        while not out.exists() and time.monotonic() < deadline and p.poll() is None:
+            time.sleep(0.0005)
+        p.kill()
+        p.wait(timeout=60)
+        with h5py.File(out) as f:
+            assert "parameters" in f and "grains" in f

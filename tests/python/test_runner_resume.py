@@ -4,6 +4,7 @@ import os
 import shutil
 import signal
 import subprocess
+import time
 
 import h5py
 import numpy as np
@@ -392,6 +393,40 @@ def test_a_run_that_fails_says_so_in_its_file_and_is_not_resumed(grains_bin, roo
     assert failed.returncode == 1 and "non-finite value at step 4" in failed.stderr
     with h5py.File(out) as f:
         status = f["grains"].attrs["status"]
-    assert status.startswith("failed at step 4: non-finite value at step 4"), status
+    assert status.startswith("failed after step 4: non-finite value at step 4"), status
     again = run(grains_bin, "resume", out)
     assert again.returncode == 1 and "ended with an error" in again.stderr and "resuming would repeat it" in again.stderr
+
+
+@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs two cores for the automatic thread count to differ")
+def test_a_run_resumed_on_fewer_cores_keeps_its_thread_count_and_its_results(grains_bin, root, tmp_path):
+    """The automatic thread count follows the cores (one per 2000 particles at most): 4096 particles run on two
+    threads. Resumed where only one core is free, the run used one thread until 2026-12-05, and its sums in
+    another order gave other last bits; it now takes its recorded count again."""
+    whole = tmp_path / "whole.h5"
+    gas = ["--set", "particles.count=4096", "--set", "run.threads=0", "--set", "time.steps=600",
+           "--set", "output.checkpoint_every=300", "--set", "output.observables_every=100"]
+    done = run(grains_bin, "run", root / "models/gas.toml", "--out", whole, "--quiet", *gas)
+    assert done.returncode == 0, done.stderr
+    assert "2 thread(s)" in run(grains_bin, "check", root / "models/gas.toml", *gas).stdout + done.stdout
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    one_core = subprocess.run([grains_bin, "resume", killed], capture_output=True, text=True,
+                              preexec_fn=lambda: os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}))
+    assert one_core.returncode == 0, one_core.stderr
+    assert_same_records(whole, killed)
+    assert "2 thread(s)" in one_core.stdout
+
+
+def test_resuming_a_file_another_process_writes_is_refused_with_that_reason(grains_bin, root, tmp_path):
+    out = tmp_path / "live.h5"
+    live = subprocess.Popen([grains_bin, "run", root / "models/gas.toml", "--out", out, "--quiet", "--set",
+                             "time.steps=100000000", "--set", "run.threads=1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 60
+        while not out.exists() and time.monotonic() < deadline and live.poll() is None:
+            time.sleep(0.05)
+        second = run(grains_bin, "resume", out)
+        assert second.returncode != 0 and "another process is writing it" in second.stderr, second.stderr
+    finally:
+        live.kill()
+        live.communicate()
