@@ -13,7 +13,8 @@ Two fits, both on the loading branch:
   regimes II-III (the crossover form):     1/Phi = 1/Phi0 - lambda ln{(P*/P0*) [1 - exp(-(P1*/P*)^alpha)]^(1/alpha)}
       with ln(P1*/P0*) = (1/Phi0 - 1/Phimax) / lambda, so 1/Phi -> 1/Phimax + lambda/(2 alpha) (P1*/P*)^alpha.
 Below P0*, where regime II starts, Phi stays on the plateau Phi0 of regime I. Unless --p0 gives it,
-each fit finds P0* as the kink between plateau and curve (the best of a fine scan). The regime II
+each fit finds P0* as the kink between plateau and curve (the best of a fine scan, refined between its
+neighbours). The regime II
 line is fitted to the stages with P* <= --regime2-max (default: 0.1; the paper's regime II ends near
 P* = 0.1-0.3), the regimes II-III form to every loading stage.
 """
@@ -24,7 +25,7 @@ import pathlib
 import sys
 
 import numpy as np
-from scipy.optimize import curve_fit
+from scipy.optimize import curve_fit, minimize_scalar
 
 
 def inverse_phi_regime_two(p, inv_phi0, lam, p0):
@@ -51,6 +52,20 @@ def plateau_then(p, p0, inv_phi0, rest):
     return np.where(p < p0, inv_phi0, rest(np.maximum(p, p0)))
 
 
+def best_kink(residual, candidates):
+    """P0* minimising residual(P0*): the best of the scanned candidates, refined (Brent's method in ln P0*)
+    between its neighbours, since the optimum lies between grid points (the best point of an 80-point grid
+    put lambda 2.4 % off the best fit on a campaign's mean curve)."""
+    values = [residual(c) for c in candidates]
+    i = int(np.nanargmin(values))
+    lo, hi = candidates[max(i - 1, 0)], candidates[min(i + 1, len(candidates) - 1)]
+    if hi <= lo:
+        return candidates[i]
+    refined = minimize_scalar(lambda u: residual(math.exp(u)), bounds=(math.log(lo), math.log(hi)), method="bounded",
+                              options={"xatol": 1e-6})
+    return math.exp(refined.x) if refined.fun < values[i] else candidates[i]
+
+
 def fit_regime_two(p, phi, p0=None, p_max=0.1):
     """Regime II line through the stages with P* <= p_max. With P0* given, the line is fitted to
     [P0*, p_max]; without, P0* is found too, as the kink between the plateau 1/Phi = 1/Phi0 below it and
@@ -70,8 +85,7 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
 
     fitted = 2 if p0 is not None else 3   # 1/Phi0 and lambda, and P0* when it is found too
     if p0 is None:
-        candidates = np.geomspace(p[keep].min(), p[keep].max(), 400)[:-2]
-        p0 = min(candidates, key=lambda c: line_fit(c)[1])
+        p0 = best_kink(lambda c: line_fit(c)[1], np.geomspace(p[keep].min(), p[keep].max(), 400)[:-2])
     (inv_phi0, lam), residual, a = line_fit(p0)
     dof = max(1, len(y) - fitted)
     cov = np.linalg.pinv(a.T @ a) * residual / dof
@@ -82,38 +96,42 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
 def fit_crossover(p, phi, p0=None, guess=None):
     """The regimes II-III form (with the flat regime I below P0*). P0* is held fixed when given, else
     found by a scan like fit_regime_two. Returns a dict with Phi0, lambda, Phimax, alpha, the derived
-    P1* and their standard errors (at fixed P0*)."""
+    P1* and their standard errors (the fit's, with P0* counted among the fitted parameters when scanned).
+    A fit whose Phi0 is not below its Phimax (so P1* not above P0*) describes no plateau, line and crossover:
+    it raises RuntimeError (degenerate)."""
     p, phi = np.asarray(p, float), np.asarray(phi, float)
     if len(p) < 6:
         raise ValueError(f"regimes II-III fit: {len(p)} stages; need at least 6")
     y = 1.0 / phi
     if guess is None:
         guess = (y.max(), 0.3, float(phi.max()) * 1.01, 1.0)
-    bounds = ([0.0, 1e-6, 1e-3, 0.05], [np.inf, 10.0, 1.0, 10.0])
+    bounds = ([1.0, 1e-6, 1e-3, 0.05], [np.inf, 10.0, 1.0, 10.0])   # 1/Phi0 >= 1: a solid fraction is at most 1
 
     def fit_at(p0_try, start):
         model = lambda pp, a, b, c, d: plateau_then(pp, p0_try, a, lambda q: inverse_phi_crossover(q, a, b, c, d, p0_try))
         params, cov = curve_fit(model, p, y, p0=start, bounds=bounds, maxfev=20000)
         return params, cov, float(np.sum((model(p, *params) - y) ** 2))
 
-    if p0 is None:
-        best = None
-        for c in np.geomspace(p.min(), p.max() / 10, 80):
+    scanned = p0 is None
+    if scanned:
+        def residual(c):
             try:
-                params, cov, res = fit_at(c, guess)
-            except RuntimeError:
-                continue
-            if best is None or res < best[0]:
-                best = (res, c, params, cov)
-        if best is None:
+                return fit_at(c, guess)[2]
+            except RuntimeError:   # no convergence at this P0*
+                return math.inf
+        p0 = best_kink(residual, np.geomspace(p.min(), p.max() / 10, 80))
+        if not math.isfinite(residual(p0)):
             raise RuntimeError("regimes II-III fit did not converge for any P0*")
-        _, p0, params, cov = best
-    else:
-        params, cov, _ = fit_at(p0, guess)
+    params, cov, _ = fit_at(p0, guess)
+    if scanned and len(p) > 5:   # curve_fit's covariance counts 4 fitted parameters; the scan fitted P0* too
+        cov = cov * (len(p) - 4) / (len(p) - 5)
     inv_phi0, lam, phi_max, alpha = params
     finite = np.all(np.isfinite(cov))
     err = np.sqrt(np.clip(np.diag(cov), 0, None)) if finite else np.full(4, np.nan)
     p1 = p0 * math.exp((inv_phi0 - 1.0 / phi_max) / lam)
+    if not 1.0 / inv_phi0 < phi_max:
+        raise RuntimeError(f"regimes II-III fit degenerate (Phi0 {1 / inv_phi0:.4g}, Phimax {phi_max:.4g}, "
+                           f"P0* {p0:.4g}, P1* {p1:.4g}): no plateau, line and crossover in these stages")
     # P1* error by linear propagation through ln P1* = ln P0* + (1/Phi0 - 1/Phimax) / lambda.
     grad = np.array([1.0 / lam, -(inv_phi0 - 1.0 / phi_max) / lam**2, 1.0 / (lam * phi_max**2), 0.0]) * p1
     p1_err = float(math.sqrt(max(grad @ cov @ grad, 0.0))) if finite else float("nan")

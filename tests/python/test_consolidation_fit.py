@@ -40,12 +40,14 @@ def test_crossover_fit_recovers_the_parameters_and_p1():
 
 
 def test_crossover_fit_finds_where_regime_two_starts():
+    """P0* lies between the scan's grid points: the refinement finds it (the grid's best point alone was 3 %
+    off in P0* and 2 % in lambda until 2026-12-05)."""
     p = programme()
     fit = cf.fit_crossover(p, synthetic_phi(p))
-    assert fit["P0"] == pytest.approx(P0, rel=0.03)
-    assert fit["lambda"] == pytest.approx(LAM, rel=0.02)
-    assert fit["phi_max"] == pytest.approx(PHI_MAX, rel=1e-3)
-    assert fit["alpha"] == pytest.approx(ALPHA, rel=0.02)
+    assert fit["P0"] == pytest.approx(P0, rel=1e-5)
+    assert fit["lambda"] == pytest.approx(LAM, rel=1e-5)
+    assert fit["phi_max"] == pytest.approx(PHI_MAX, rel=1e-6)
+    assert fit["alpha"] == pytest.approx(ALPHA, rel=1e-5)
 
 
 def test_crossover_fit_with_noise_stays_within_its_error_bars():
