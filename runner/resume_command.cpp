@@ -33,6 +33,13 @@ Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
 }
 
 void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp) {
+  // The rebuilt simulation starts where the run started, or a file the scene reads (particles.file) has changed:
+  // its positions set the run's length in free-fall times, its t_ff and everything after.
+  if (!cp.position.empty() && sim.particles().position != cp.position)
+    throw std::runtime_error(fmt::format(
+        "'{}': the particles rebuilt from the stored scene start at other positions than the run's first frame (a "
+        "file the scene reads, such as particles.file under {}, has changed since the run started): not resumed", path,
+        cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
   try {
     sim.restore_state(cp.state);
   } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one

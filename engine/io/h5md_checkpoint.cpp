@@ -53,7 +53,8 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
     cp.scene_directory = h5::read_attr_string(g.get(), "scene_directory", "", path);
     cp.stage_table = stage_table;
-    for (auto [name, values] : {std::pair{"radius", &cp.radius}, std::pair{"mass", &cp.mass}}) {
+    for (auto [name, values] :
+         {std::pair{"radius", &cp.radius}, std::pair{"mass", &cp.mass}, std::pair{"position", &cp.position}}) {
       const std::string element = std::string("particles/all/") + name + "/value";
       if (h5::exists(fid, std::string("particles/all/") + name, path)) {
         const h5::Handle v = h5::open_dataset(fid, element, path);

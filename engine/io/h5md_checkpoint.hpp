@@ -30,7 +30,7 @@ struct RunCheckpoint {
   std::string scene_toml;                 // the resolved scene the run was started with
   std::string scene_directory;            // where the scene's relative file paths lie (particles.file)
   std::string stage_table;                // `grains consolidate`: the stage table, relative to the file's folder
-  std::vector<double> radius, mass;       // the run's first frame: what a rebuilt simulation must have
+  std::vector<double> radius, mass, position;   // the run's first frame: what a rebuilt simulation must have
 };
 
 // The newest valid checkpoint of the run output `path` whose bytes read back intact (their checksum), or with

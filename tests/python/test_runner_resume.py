@@ -280,7 +280,8 @@ def test_a_programme_killed_inside_a_stage_resumes_from_its_last_checkpoint_with
 
 def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_that_file(grains_bin, tmp_path):
     """The stored scene's relative particles.file lies beside the scene, wherever `grains resume` runs; a file
-    changed since the run started (other masses) is refused, not silently used."""
+    changed since the run started (other masses, or other positions: until 2026-12-05 those were taken, and the
+    run's length in free-fall times with them) is refused, not silently used."""
     folder = tmp_path / "scene"
     folder.mkdir()
     (folder / "pair.txt").write_text("-0.6 0 0 1 1 0.5 0 0\n0.6 0 0 1 1 -0.5 0 0\n")
@@ -298,6 +299,9 @@ def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_t
     (folder / "pair.txt").write_text("-0.6 0 0 1 2 0.5 0 0\n0.6 0 0 1 2 -0.5 0 0\n")
     changed = run(grains_bin, "resume", killed)
     assert changed.returncode == 1 and "another mass than the run's first frame" in changed.stderr, changed.stderr
+    (folder / "pair.txt").write_text("-0.7 0 0 1 1 0.5 0 0\n0.6 0 0 1 1 -0.5 0 0\n")
+    moved = run(grains_bin, "resume", killed)
+    assert moved.returncode == 1 and "other positions than the run's first frame" in moved.stderr, moved.stderr
 
 
 def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root, tmp_path):
