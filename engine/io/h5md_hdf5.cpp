@@ -23,11 +23,23 @@ herr_t collect_error(unsigned, const H5E_error2_t* e, void* out) {
   return 0;
 }
 
+// HDF5's I/O errors spell out the whole call (time, file descriptor, buffer address, sizes) around the system's
+// reason: "file write failed: time = ..., errno = 28, error message = 'No space left on device', buf = 0x...".
+// Keeps what failed and the reason.
+std::string without_call_details(const std::string& desc) {
+  const std::string key = "error message = '";
+  const auto at = desc.find(key);
+  if (at == std::string::npos) return desc;
+  const auto start = at + key.size(), end = desc.find('\'', start);
+  return desc.substr(0, desc.find(':')) + ": " + desc.substr(start, end == std::string::npos ? end : end - start);
+}
+
 std::string hdf5_reason() {
   std::vector<std::string> descs;
   H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &descs);
   H5Eclear2(H5E_DEFAULT);
   if (descs.empty()) return {};
+  for (auto& d : descs) d = without_call_details(d);
   // The outermost says what failed, the innermost usually says why (e.g. "no such file").
   if (descs.size() == 1 || descs.front() == descs.back()) return descs.front();
   return descs.front() + ": " + descs.back();

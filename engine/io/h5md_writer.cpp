@@ -182,8 +182,20 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   // killed while creating it (SIGKILL) left a file of 0 or 96 bytes that nothing could open. Neither name may
   // be another process's file: H5Fcreate empties a file before it takes HDF5's lock, and the rename would
   // take the name from under a run (or an FMU's snapshots) still writing it.
-  const std::string creating = path + ".part";
-  for (const std::string& p : {path, creating})
+  // The rename replaces what the name holds: a link is followed to its file, and a name that holds anything but a
+  // file (a device such as /dev/full, a pipe) is refused, not replaced.
+  std::error_code ec;
+  std::filesystem::path followed = fs_path;
+  for (int links = 0; links < 40 && std::filesystem::is_symlink(followed, ec); ++links) {
+    const std::filesystem::path to = std::filesystem::read_symlink(followed, ec);
+    followed = to.is_absolute() ? to : followed.parent_path() / to;
+  }
+  const std::string target = followed.string();
+  if (std::filesystem::exists(target, ec) && !std::filesystem::is_regular_file(target, ec))
+    throw std::runtime_error(fmt::format("cannot create output file '{}': the name holds something other than a file "
+                                         "(a folder, a device or a pipe); name a file", path));
+  const std::string creating = target + ".part";
+  for (const std::string& p : {target, creating})
     if (h5::locked_by_another_process(p))
       throw std::runtime_error(fmt::format("cannot create output file '{}': another process is writing it (a run still "
                                            "going?); choose another file, or wait until that process ends", path));
@@ -198,8 +210,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
     std::filesystem::remove(creating, ignored);
     throw;
   }
-  std::error_code ec;
-  std::filesystem::rename(creating, path, ec);   // the open file (and HDF5's lock on it) moves with its name
+  std::filesystem::rename(creating, target, ec);   // the open file (and HDF5's lock on it) moves with its name
   if (ec) {
     impl_.reset();
     std::filesystem::remove(creating, ec);

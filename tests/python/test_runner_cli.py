@@ -1,6 +1,8 @@
 """The command-line runner as a user meets it: help, errors, output safety, the scene reference."""
+import os
 import resource
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -302,6 +304,7 @@ def test_a_full_disk_ends_the_run_with_an_error_not_a_crash(grains_bin, root, tm
                         "--set", "run.threads=1"], capture_output=True, text=True, preexec_fn=limited)
     assert r.returncode == 1, r.stderr
     assert "HDF5 output" in r.stderr and "File too large" in r.stderr
+    assert "buf = 0x" not in r.stderr and len(r.stderr) < 400, r.stderr   # the reason, not HDF5's whole call
 
 
 @pytest.mark.parametrize("scene", ["gas", "aggregation"])
@@ -514,3 +517,20 @@ def test_a_run_killed_as_its_output_file_appears_leaves_a_readable_file(grains_b
         p.wait(timeout=60)
         with h5py.File(out) as f:
             assert "parameters" in f and "grains" in f
+
+
+def test_the_output_name_is_followed_through_a_link_and_never_replaces_what_is_not_a_file(grains_bin, root, tmp_path):
+    """The file is made as NAME.part and renamed to NAME: a link is followed (the link stays, its target is the
+    output), and a name holding a pipe or a device is refused rather than replaced by the rename."""
+    link = tmp_path / "link.h5"
+    link.symlink_to("target.h5")
+    r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", link, "--quiet", "--set", "time.steps=10")
+    assert r.returncode == 0, r.stderr
+    assert link.is_symlink() and (tmp_path / "target.h5").is_file()
+    with h5py.File(link) as f:
+        assert "particles" in f
+    pipe = tmp_path / "pipe.h5"
+    os.mkfifo(pipe)
+    r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", pipe, "--quiet", "--set", "time.steps=10")
+    assert r.returncode == 1 and "holds something other than a file" in r.stderr, r.stderr
+    assert stat.S_ISFIFO(os.lstat(pipe).st_mode) and not (tmp_path / "pipe.h5.part").exists()
