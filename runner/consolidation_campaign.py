@@ -279,8 +279,8 @@ def mean_curve_lines(scene, results, resamples=0):
         verdict = "yes" if abs(fit[key] - value) <= allowed else "NO"
         samples = f" ± {spread[key]:.4f} (samples, {converged} resamples)" if key in spread else ""
         lines.append(f"| {scene} | {key} of the mean curve | {fit[key]:.4f} ± {fit[key + '_err']:.4f} (fit){samples}; "
-                     f"{len(p)} stages, {min(counts)}–{max(counts)} samples each | {value}{f' ± {bar}' if bar else ''} "
-                     f"| {verdict} |")
+                     f"{len(p)} stages ({fit['stages']} from P0* on), {min(counts)}–{max(counts)} samples each | "
+                     f"{value}{f' ± {bar}' if bar else ''} | {verdict} |")
     return lines
 
 

@@ -84,7 +84,7 @@ def test_the_mean_curve_over_the_samples_is_fitted_as_the_paper_fits_its_average
     assert np.allclose(mean_phi, phi[:-1], atol=1e-12) and np.allclose(mean_p, p[:-1])
     lines = campaign.mean_curve_lines("consolidation-rr", results)
     fitted = float(lines[0].split("| lambda of the mean curve | ")[1].split(" ±")[0])
-    assert abs(fitted - 0.3) < 1e-4 and "24 stages, 2–3 samples each" in lines[0]   # printed to 4 decimals
+    assert abs(fitted - 0.3) < 1e-4 and "24 stages (" in lines[0] and "2–3 samples each" in lines[0]   # printed to 4 decimals
     assert lines[0].endswith("| NO |") and lines[1].endswith("| yes |")   # 0.3 against 0.194 ± 0.004; 0.78
 
 
