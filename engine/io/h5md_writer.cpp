@@ -200,7 +200,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
       throw std::runtime_error(fmt::format("cannot create output file '{}': another process is writing it (a run still "
                                            "going?); choose another file, or wait until that process ends", path));
   hid_t fid = H5Fcreate(creating.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (fid < 0) h5::fail(creating, "creating the file (is the directory writable?)");
+  if (fid < 0) h5::fail(path, fmt::format("creating the file (first as '{}'; is the folder writable?)", creating));
   m.file = h5::Handle(fid, H5Fclose);
   try {
     m.create_layout(boundary_periodic, creator_version, resolved_scene_toml, write_xdmf);
