@@ -259,7 +259,7 @@ def resampled_spread(results, resamples, seed=1):
             continue
     if len(fits) < 2:
         return {}, len(fits)
-    return {k: float(np.std([f[k] for f in fits], ddof=1)) for k in ("lambda", "phi_max", "P1")}, len(fits)
+    return {k: float(np.std([f[k] for f in fits], ddof=1)) for k in ("lambda", "phi_max")}, len(fits)
 
 
 def mean_curve_lines(scene, results, resamples=0):
