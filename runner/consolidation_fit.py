@@ -120,10 +120,13 @@ def fit_crossover(p, phi, p0=None, guess=None):
             except RuntimeError:   # no convergence at this P0*
                 return math.inf
         p0 = best_kink(residual, np.geomspace(p.min(), p.max() / 10, 80))
-        if not math.isfinite(residual(p0)):
-            raise RuntimeError("regimes II-III fit did not converge for any P0*")
-    params, cov, _ = fit_at(p0, guess)
-    if scanned and len(p) > 5:   # curve_fit's covariance counts 4 fitted parameters; the scan fitted P0* too
+    try:
+        params, cov, _ = fit_at(p0, guess)
+    except RuntimeError:
+        if scanned:   # the best P0* did not converge: none did
+            raise RuntimeError("regimes II-III fit did not converge for any P0*") from None
+        raise
+    if scanned:   # curve_fit's covariance counts 4 fitted parameters; the scan fitted P0* too (len(p) >= 6)
         cov = cov * (len(p) - 4) / (len(p) - 5)
     inv_phi0, lam, phi_max, alpha = params
     finite = np.all(np.isfinite(cov))
