@@ -33,13 +33,17 @@ Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
 }
 
 void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp) {
-  // The rebuilt simulation starts where the run started, or a file the scene reads (particles.file) has changed:
-  // its positions set the run's length in free-fall times, its t_ff and everything after.
-  if (!cp.position.empty() && sim.particles().position != cp.position)
-    throw std::runtime_error(fmt::format(
-        "'{}': the particles rebuilt from the stored scene start at other positions than the run's first frame (a "
-        "file the scene reads, such as particles.file under {}, has changed since the run started): not resumed", path,
-        cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
+  // The particles come from the stored scene again (particles.file among it): before the state replaces them, they
+  // must be the run's first frame. Radii and masses, and positions, which set the run's length in free-fall
+  // times, its t_ff and everything after.
+  const ParticleView p = sim.particles();
+  for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass},
+                                       std::tuple{"position", &p.position, &cp.position}})
+    if (!stored->empty() && *rebuilt != *stored)
+      throw std::runtime_error(fmt::format(
+          "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
+          "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
+          cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
   try {
     sim.restore_state(cp.state);
   } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one
@@ -55,14 +59,6 @@ void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint&
   if (sim.step_count() != cp.step)
     throw std::runtime_error(fmt::format("'{}': its checkpoint says step {} but holds the state of step {}", path, cp.step,
                                          sim.step_count()));
-  // Radii and masses come from the stored scene again (particles.file among it): they must be the run's.
-  const ParticleView p = sim.particles();
-  for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass}})
-    if (!stored->empty() && *rebuilt != *stored)
-      throw std::runtime_error(fmt::format(
-          "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
-          "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
-          cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
 }
 
 }  // namespace grains

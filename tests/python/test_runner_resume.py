@@ -301,7 +301,7 @@ def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_t
     assert changed.returncode == 1 and "another mass than the run's first frame" in changed.stderr, changed.stderr
     (folder / "pair.txt").write_text("-0.7 0 0 1 1 0.5 0 0\n0.6 0 0 1 1 -0.5 0 0\n")
     moved = run(grains_bin, "resume", killed)
-    assert moved.returncode == 1 and "other positions than the run's first frame" in moved.stderr, moved.stderr
+    assert moved.returncode == 1 and "another position than the run's first frame" in moved.stderr, moved.stderr
 
 
 def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root, tmp_path):
