@@ -102,7 +102,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
     csv << '\n' << std::flush;
     if (!csv)
-      throw OutputError(fmt::format("cannot write stage {}'s row to the stage table '{}' ({})", r.index, table, std::strerror(errno)));
+      throw OutputError(
+          fmt::format("cannot write stage {}'s row to the stage table '{}' ({})", r.index, table, std::strerror(errno)));
     write_observables(out, sim, r.values);   // the row's values: the network's mark has moved on since
     out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
