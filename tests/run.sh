@@ -2,6 +2,8 @@
 # Every test: install what is missing, build, run the C++ suite (CTest) and the Python suite (pytest).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/../runner/setup.sh"
+# The tests also emulate processors without AVX (tests/python/test_any_x86_64.py).
+grains_apt_packages+=(qemu-user)
 grains_setup
 cd "$GRAINS_BUILD"
 # Tests run side by side, and many run two OpenMP threads: a thread waiting for the next parallel region
