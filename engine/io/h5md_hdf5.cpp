@@ -2,6 +2,8 @@
 #include "io/h5md_hdf5.hpp"
 
 #include <cerrno>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -89,6 +91,36 @@ bool locked_by_another_process(const std::string& path) {
   const bool locked = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
   ::close(fd);   // also releases the shared lock if it was taken
   return locked;
+}
+
+namespace {
+// HDF5_USE_FILE_LOCKING as HDF5 reads it: FALSE or 0 turn its locks off (TRUE, 1 and BEST_EFFORT keep them).
+bool hdf5_locks_files() {
+  const char* v = std::getenv("HDF5_USE_FILE_LOCKING");
+  return !v || !(std::strcmp(v, "FALSE") == 0 || std::strcmp(v, "0") == 0);
+}
+}  // namespace
+
+WriterLock::WriterLock(const std::string& path) {
+  if (hdf5_locks_files()) return;
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd_ < 0) return;   // the writer's own open names what is wrong with the file
+  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
+  const bool held = errno == EWOULDBLOCK;
+  release();
+  if (held)
+    throw std::runtime_error(fmt::format("'{}': another process is writing it (a run or a resume still going on); "
+                                         "wait for it to end, or stop it first", path));
+}
+
+WriterLock& WriterLock::operator=(WriterLock&& o) noexcept {
+  if (this != &o) { release(); fd_ = o.fd_; o.fd_ = -1; }
+  return *this;
+}
+
+void WriterLock::release() {
+  if (fd_ >= 0) ::close(fd_);   // closing the only descriptor of its open file releases the lock
+  fd_ = -1;
 }
 
 void fail(const std::string& file, const std::string& what) {

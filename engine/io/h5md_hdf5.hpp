@@ -34,6 +34,26 @@ class Handle {
 
 // Whether another process holds HDF5's lock on the file (HDF5 takes it with flock(): exclusive while writing).
 bool locked_by_another_process(const std::string& path);
+
+// A writer's lock on its file where HDF5 takes none (HDF5_USE_FILE_LOCKING=FALSE, for file systems without
+// locks): the same exclusive flock() HDF5 would hold, so that another run or resume of the file still finds
+// it held (two resumes of one file both ran to "complete", with wrong velocities). Where HDF5 locks, or the file
+// system has no locks, it holds nothing.
+class WriterLock {
+ public:
+  WriterLock() = default;
+  // Throws std::runtime_error naming `path` when another process holds the lock.
+  explicit WriterLock(const std::string& path);
+  WriterLock(WriterLock&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
+  WriterLock& operator=(WriterLock&& o) noexcept;
+  WriterLock(const WriterLock&) = delete;
+  WriterLock& operator=(const WriterLock&) = delete;
+  ~WriterLock() { release(); }
+
+ private:
+  void release();
+  int fd_ = -1;
+};
 // Throws OutputError (io/output_error.hpp) "HDF5 output <file>: <what> failed (<HDF5's own reason>)".
 [[noreturn]] void fail(const std::string& file, const std::string& what);
 // Returns `status` when it is non-negative, otherwise fail().

@@ -47,6 +47,7 @@ struct Series {
 struct H5mdWriter::Impl {
   std::string path, xdmf_path;
   int dim = 3;
+  h5::WriterLock lock;   // released after the file is closed
   h5::Handle file, particles, box, observables, grains, parameters, warnings;  // `file` first: closed last
   std::map<std::string, Series> series;       // particles/all/<name> and box/<name>
   std::map<std::string, Series> observable;   // observables/<name>
@@ -203,6 +204,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   if (fid < 0) h5::fail(path, fmt::format("creating the file (first as '{}'; is the folder writable?)", creating));
   m.file = h5::Handle(fid, H5Fclose);
   try {
+    m.lock = h5::WriterLock(creating);   // moves with the file to its name
     m.create_layout(boundary_periodic, creator_version, resolved_scene_toml, write_xdmf);
   } catch (...) {
     impl_.reset();   // closes the file before it goes
@@ -266,6 +268,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   Impl& m = *impl_;
   m.path = path;
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  m.lock = h5::WriterLock(path);
   hid_t fid = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, "opening the file to resume its run (is it writable?)");
   m.file = h5::Handle(fid, H5Fclose);

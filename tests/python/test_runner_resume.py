@@ -1,5 +1,6 @@
 """`grains resume`: a run stopped by a signal or killed continues from the checkpoint in its output file
 and ends with the records of the run that was never stopped."""
+import fcntl
 import os
 import shutil
 import signal
@@ -421,15 +422,38 @@ def test_a_run_resumed_on_fewer_cores_keeps_its_thread_count_and_its_results(gra
     assert "2 thread(s)" in one_core.stdout
 
 
-def test_resuming_a_file_another_process_writes_is_refused_with_that_reason(grains_bin, root, tmp_path):
+def held_by_another_process(path):
+    """Whether a process holds a writer's lock on the file (flock, as HDF5 takes it)."""
+    with open(path, "rb") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+            return False
+        except BlockingIOError:
+            return True
+
+
+@pytest.mark.parametrize("hdf5_locks", [True, False], ids=["hdf5-locks", "hdf5-locking-off"])
+@pytest.mark.parametrize("writer", ["run", "resume"])
+def test_resuming_a_file_another_process_writes_is_refused_with_that_reason(grains_bin, root, tmp_path, writer, hdf5_locks):
+    """Also where HDF5 takes no locks (HDF5_USE_FILE_LOCKING=FALSE, for file systems without them): there the
+    writer takes HDF5's lock itself, and two resumes of one stopped run both ran to "complete" before."""
+    env = {k: v for k, v in os.environ.items() if k != "HDF5_USE_FILE_LOCKING"}
+    if not hdf5_locks:
+        env["HDF5_USE_FILE_LOCKING"] = "FALSE"
     out = tmp_path / "live.h5"
-    live = subprocess.Popen([grains_bin, "run", root / "models/gas.toml", "--out", out, "--quiet", "--set",
-                             "time.steps=100000000", "--set", "run.threads=1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    long_run = [grains_bin, "run", root / "models/gas.toml", "--out", out, "--quiet", "--set", "time.steps=100000000",
+                "--set", "run.threads=1"]
+    if writer == "resume":   # a run stopped by Ctrl-C, resumed by the live process
+        code, _, err = interrupted(long_run, out, 0.5)
+        assert code == 130 and status(out).startswith("interrupted"), err
+    command = long_run if writer == "run" else [grains_bin, "resume", out, "--quiet"]
+    live = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     try:
         deadline = time.monotonic() + 60
-        while not out.exists() and time.monotonic() < deadline and live.poll() is None:
+        while not (out.exists() and held_by_another_process(out)) and time.monotonic() < deadline and live.poll() is None:
             time.sleep(0.05)
-        second = run(grains_bin, "resume", out)
+        assert live.poll() is None, live.communicate()[1]
+        second = subprocess.run([grains_bin, "resume", out], capture_output=True, text=True, env=env)
         assert second.returncode != 0 and "another process is writing it" in second.stderr, second.stderr
     finally:
         live.kill()
