@@ -108,6 +108,8 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   // Derived values, as TOML comments so the output still reads as a scene
   fmt::print("\n# derived: time.dt = {}, {} particles", r.sim->dt(), r.sim->particle_count());
   if (r.steps) fmt::print(", `grains run` takes {} steps", *r.steps);
+  // A scene may be meant for `consolidate` or an FMU, which need no run length: said, not refused.
+  else fmt::print("; no run length: `grains run` needs time.duration, time.steps or time.free_fall_times");
   fmt::print("\n");
   return 0;
 }

@@ -143,6 +143,18 @@ def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
     assert r.returncode == 0 and "# derived: time.dt = 0.002, 2 particles, `grains run` takes 500 steps" in r.stdout
 
 
+def test_check_says_when_run_would_want_a_run_length(grains_bin, root, tmp_path):
+    """A scene without a run length suits `consolidate` and the FMUs but not `run`: `check` accepts it and says
+    so, and `run` refuses it with the same keys."""
+    scene = tmp_path / "endless.toml"
+    scene.write_text((root / "models" / "collision.toml").read_text().replace("duration = 1.0\n", ""))
+    keys = "time.duration, time.steps or time.free_fall_times"
+    r = run(grains_bin, "check", scene)
+    assert r.returncode == 0 and f"no run length: `grains run` needs {keys}" in r.stdout, r.stdout + r.stderr
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "x.h5")
+    assert r.returncode != 0 and f"give {keys}: how long to run" in r.stderr
+
+
 def test_check_refuses_the_output_file_run_refuses_and_names_where_it_came_from(grains_bin, root, tmp_path):
     """An output.file in a missing folder passed `check` and then failed `run`; both now refuse it, and the
     message says which setting named the file (output.file, --out, the scene's name)."""
