@@ -132,9 +132,9 @@ def check_samples(ap, grains, samples, report=False):
 
 
 def check_arguments(ap, args):
-    """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (made unless only
-    reporting; with --report it must exist), and an executable grains binary unless only reporting (the report
-    checks it once it has found tables: check_grains)."""
+    """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (with --report it
+    must exist; make_out makes it once the samples' scenes passed check_samples), and an executable grains binary
+    unless only reporting (the report checks it once it has found tables: check_grains)."""
     reuse.refuse_controlled(ap, args.set, {"particles.seed": "--first-seed and --samples", "particles.count": "--count",
                                            "run.threads": "--threads" if hasattr(args, "threads") else "one thread each"})
     for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
@@ -147,10 +147,14 @@ def check_arguments(ap, args):
         ap.error(f"--out {out}: not a folder")
     if not args.report:
         check_grains(ap, args.grains)
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
+
+
+def make_out(ap, out):
+    """Makes the --out folder, once nothing is left to refuse (a refused --set left an empty folder behind)."""
+    try:
+        pathlib.Path(out).mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
 
 
 def check_grains(ap, grains):
@@ -402,6 +406,7 @@ def main():
         check_samples(ap, args.grains, samples, report=True)
     else:
         check_samples(ap, args.grains, samples)
+        make_out(ap, out)
         import dask
         tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)
                  for scene in scenes for seed in seeds}

@@ -263,6 +263,15 @@ def test_a_set_of_a_key_the_tool_sets_per_run_is_refused(grains_bin, tmp_path, t
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("tool", ["consolidation_campaign.py", "initial_states.py", "aggregation_sweep.py"])
+def test_a_set_the_engine_refuses_leaves_no_out_folder(grains_bin, tmp_path, tool):
+    """The campaign tools made --out before the engine had checked the scenes with their overrides."""
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / tool), "--set", "bogus.key=1", "--grains", str(grains_bin),
+                        "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert r.returncode == 2 and "unknown key 'bogus.key'" in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_sample_that_fails_ends_the_campaign_with_one_line_naming_its_log(grains_bin, tmp_path):
     """A run that grains ends with an error (8 disks pass the scene checks but cannot be prepared) used to end the
     campaign with a Python traceback."""
