@@ -1,14 +1,20 @@
 // Reading a run's checkpoint back (see h5md_checkpoint.hpp; H5mdWriter::write_checkpoint writes it).
 #include "io/h5md_checkpoint.hpp"
 
+#include <span>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "core/byte_stream.hpp"
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 
 namespace grains {
+
+std::string scene_check_sum(const std::string& scene_toml) {
+  return fmt::format("{:016x}", check_sum(std::as_bytes(std::span(scene_toml.data(), scene_toml.size()))));
+}
 
 RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
@@ -51,6 +57,11 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.frame_at_step = h5::read_attr_double(d.get(), "frame_at_step", 1, path) == 1;
     cp.warnings = long(h5::read_attr_double(d.get(), "warnings", -1, path));
     cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
+    const std::string written_with = h5::read_attr_string(d.get(), "scene_check_sum", "", path);   // "": before 2026-12-05
+    if (!written_with.empty() && written_with != scene_check_sum(cp.scene_toml))
+      throw std::runtime_error(fmt::format(
+          "'{}': its stored scene (parameters/scene.toml) is not the one its checkpoints were written with: it was "
+          "edited since, and a resume would go on with other settings; run the edited scene from the start instead", path));
     cp.scene_directory = h5::read_attr_string(g.get(), "scene_directory", "", path);
     cp.stage_table = stage_table;
     for (auto [name, values] :

@@ -33,6 +33,10 @@ struct RunCheckpoint {
   std::vector<double> radius, mass, position;   // the run's first frame: what a rebuilt simulation must have
 };
 
+// The check sum of a stored scene's text, in hex: each checkpoint records that of the scene it continues, so that
+// a resume refuses a scene edited in the file since (it would go on with other settings).
+std::string scene_check_sum(const std::string& scene_toml);
+
 // The newest valid checkpoint of the run output `path` whose bytes read back intact (their checksum), or with
 // `skip` = 1 the one before it. Throws std::runtime_error naming the file when it is not a grains run output,
 // holds a finished run, or has no such checkpoint.

@@ -46,6 +46,7 @@ struct Series {
 
 struct H5mdWriter::Impl {
   std::string path, xdmf_path;
+  std::string scene_check;   // scene_check_sum of the stored scene, recorded with every checkpoint
   int dim = 3;
   h5::WriterLock lock;   // released after the file is closed
   h5::Handle file, particles, box, observables, grains, parameters, warnings;  // `file` first: closed last
@@ -248,6 +249,7 @@ void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic,
   m.observables = h5::create_group(root, "observables", path);
   m.parameters = h5::create_group(root, "parameters", path);
   h5::dataset_string(m.parameters.get(), "scene.toml", resolved_scene_toml, path);
+  m.scene_check = scene_check_sum(resolved_scene_toml);
   h5::attr_string(m.parameters.get(), "scene.toml", resolved_scene_toml, path);
 
   m.grains = h5::create_group(root, "grains", path);
@@ -278,6 +280,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.dim = int(h5::read_attr_double(m.box.get(), "dimension", 3, path));
   m.observables = h5::open_group(root, "observables", path);
   m.parameters = h5::open_group(root, "parameters", path);
+  m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
@@ -437,6 +440,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   h5::attr_double(d.get(), "wall_seconds", cp.wall_seconds, m.path);
   h5::attr_double(d.get(), "cvode_seconds", cp.cvode_seconds, m.path);
   h5::attr_double(d.get(), "threads", cp.threads, m.path);
+  h5::attr_string(d.get(), "scene_check_sum", m.scene_check, m.path);
   h5::attr_double(d.get(), "stage", cp.stage, m.path);
   h5::attr_double(d.get(), "unreached", double(cp.unreached), m.path);
   h5::attr_doubles(d.get(), "stage_progress", cp.stage_progress, m.path);

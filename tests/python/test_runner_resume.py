@@ -458,3 +458,25 @@ def test_resuming_a_file_another_process_writes_is_refused_with_that_reason(grai
     finally:
         live.kill()
         live.communicate()
+
+
+def test_a_scene_edited_in_the_file_since_its_checkpoint_is_refused(grains_bin, root, tmp_path):
+    """The stored scene is what a resume rebuilds the run from: edited in the file (another restitution), it was
+    taken, and the run went on with other physics. Each checkpoint now records the scene's check sum."""
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", root / "models/collision.toml", "--out", whole, "--quiet", "--set",
+               "output.checkpoint_every=100").returncode == 0
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        scene = f["parameters/scene.toml"][()].decode()
+        edited = scene.replace("restitution = 0.5", "restitution = 0.9")
+        assert edited != scene
+        kind = f["parameters/scene.toml"].dtype
+        del f["parameters/scene.toml"]
+        f["parameters"].create_dataset("scene.toml", data=edited.encode(), dtype=kind)
+        f["parameters"].attrs["scene.toml"] = edited
+    r = run(grains_bin, "resume", killed)
+    assert r.returncode != 0 and "is not the one its checkpoints were written with" in r.stderr, r.stderr
+    untouched = killed_copy(whole, tmp_path / "untouched.h5")
+    assert run(grains_bin, "resume", untouched, "--quiet").returncode == 0
+    assert_same_records(whole, untouched)
