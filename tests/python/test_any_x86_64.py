@@ -82,38 +82,36 @@ SCENES = {
 }
 
 
-def ended(done, command):
-    """The failure message of a finished command: SIGILL named as an instruction the processor lacks."""
-    why = "SIGILL: it executed an instruction the emulated processor lacks" if done.returncode == -4 else f"status {done.returncode}"
-    return f"{' '.join(str(c) for c in command[:5])} ... ended with {why}:\n{done.stderr[-2000:]}"
-
-
 def qemu():
     if QEMU is None:
         pytest.fail("qemu-x86_64 is missing: tests/run.sh installs Debian's qemu-user")
     return QEMU
 
 
-def environment(processor):
+def run_on(processor, emulated, command):
+    """Runs `command` on the emulated processor, or here with the same code (the engine's vector code capped, and
+    glibc's libm held to the processor's variants); fails the test unless it succeeds. Returns its stdout."""
     isa, libm = PROCESSORS[processor]
     env = dict(os.environ, GRAINS_PAIR_ISA=isa, GRAINS_GRAVITY_ISA=isa, OMP_WAIT_POLICY="passive")
     env.pop("GLIBC_TUNABLES", None)
-    return env, libm
-
-
-def run_grains(grains_bin, scene, out, processor, emulated):
-    make, steps, settings = SCENES[scene]
-    env, libm = environment(processor)
-    command = [grains_bin, "run", str(make(out.parent)), "--quiet", "--out", str(out), "--set", f"time.steps={steps}",
-               "--set", "run.threads=2", "--set", "output.xdmf=false"]
-    for setting in settings:
-        command += ["--set", setting]
     if emulated:
         command = [qemu(), "-cpu", processor] + command
     elif libm:
         env["GLIBC_TUNABLES"] = libm
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, ended(done, command)
+    if done.returncode != 0:
+        why = "SIGILL: it executed an instruction the emulated processor lacks" if done.returncode == -4 else f"status {done.returncode}"
+        pytest.fail(f"{' '.join(str(c) for c in command[:5])} ... ended with {why}:\n{done.stderr[-2000:]}")
+    return done.stdout
+
+
+def run_grains(grains_bin, scene, out, processor, emulated):
+    make, steps, settings = SCENES[scene]
+    command = [grains_bin, "run", str(make(out.parent)), "--quiet", "--out", str(out), "--set", f"time.steps={steps}",
+               "--set", "run.threads=2", "--set", "output.xdmf=false"]
+    for setting in settings:
+        command += ["--set", setting]
+    run_on(processor, emulated, command)
     with h5py.File(out, "r") as f:
         state = {k: f[f"particles/all/{k}/value"][-1] for k in ("position", "velocity", "angular_velocity")
                  if f"particles/all/{k}" in f}
@@ -150,15 +148,8 @@ unit.free()
 
 
 def fmu_outputs(path, chunks, processor, emulated):
-    env, libm = environment(processor)
-    command = [sys.executable, "-c", HOST, str(HERE), str(path), str(chunks)]
-    if emulated:
-        command = [qemu(), "-cpu", processor] + command
-    elif libm:
-        env["GLIBC_TUNABLES"] = libm
-    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, ended(done, command)
-    return json.loads(done.stdout.splitlines()[-1])
+    stdout = run_on(processor, emulated, [sys.executable, "-c", HOST, str(HERE), str(path), str(chunks)])
+    return json.loads(stdout.splitlines()[-1])
 
 
 @pytest.mark.parametrize("model,version,chunks", [("aggregation", 2, 1), ("consolidation", 3, 10)])
