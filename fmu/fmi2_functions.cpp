@@ -104,6 +104,10 @@ GRAINS_FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Ty
       logger(Status::error, grains::fmu::log_error, "fmi2Instantiate: this FMU supports co-simulation only (fmuType = fmi2CoSimulation)");
       return nullptr;
     }
+    if (grains::fmu::blank_instance_name(instanceName)) {
+      logger(Status::error, grains::fmu::log_error, fmt::format("fmi2Instantiate: {}", grains::fmu::blank_instance_name_message));
+      return nullptr;
+    }
     std::filesystem::path resources = fmuResourceLocation && *fmuResourceLocation
                                           ? grains::fmu::decode_resource_location(fmuResourceLocation)
                                           : grains::fmu::resources_beside_binary();

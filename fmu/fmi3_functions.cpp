@@ -161,6 +161,10 @@ GRAINS_FMI3_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     if (logMessage) logMessage(instanceEnvironment, static_cast<fmi3Status>(s), category, message.c_str());
   };
   try {
+    if (grains::fmu::blank_instance_name(instanceName)) {
+      logger(Status::error, grains::fmu::log_error, fmt::format("fmi3InstantiateCoSimulation: {}", grains::fmu::blank_instance_name_message));
+      return nullptr;
+    }
     if (eventModeUsed) {
       logger(Status::error, grains::fmu::log_error, "fmi3InstantiateCoSimulation: eventModeUsed = true, but this FMU has no event mode");
       return nullptr;

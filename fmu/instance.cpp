@@ -272,7 +272,8 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
 }
 
 Status Instance::terminate() {
-  if (Status s = check_phase("Terminate", {Phase::stepping, Phase::initialization, Phase::failed}); s != Status::ok) return s;
+  // As FMI 2 and 3 have it: after initialization (from Step Mode, or after a failed step), not in Initialization Mode.
+  if (Status s = check_phase("Terminate", {Phase::stepping, Phase::failed}); s != Status::ok) return s;
   phase_ = Phase::terminated;
   return Status::ok;
 }

@@ -3,6 +3,7 @@
 // fmi2_functions.cpp and fmi3_functions.cpp translate the C calls into these methods. Nothing here
 // is global: every instance owns all its state, so many instances can live in one process.
 #pragma once
+#include <cctype>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -41,6 +42,17 @@ inline const std::vector<std::pair<const char*, const char*>>& log_categories() 
 // The runner's words for it (runner/main.cpp), with the FMU's parameter.
 inline constexpr const char* out_of_memory_message =
     "out of memory: the scene needs more memory than this machine gives the FMU (fewer particles: a smaller particles.count)";
+
+// FMI 2 and 3 want an instance name with at least one character that is not white space; what the
+// instantiate functions say otherwise.
+inline bool blank_instance_name(const char* name) {
+  for (; name && *name; ++name)
+    if (!std::isspace(static_cast<unsigned char>(*name))) return false;
+  return true;
+}
+inline constexpr const char* blank_instance_name_message =
+    "instanceName must be a non-empty string, with at least one character that is not white space (it names the "
+    "instance in the messages)";
 
 // A saved FMU state: the engine's bytes plus what identifies the scene they belong to.
 struct SavedState {

@@ -40,6 +40,26 @@ def test_do_step_before_initialization(unit):
     fails(unit, lambda: unit.fmu.doStep(0.0, 0.1), "DoStep", "not allowed", "instantiated")
 
 
+def test_terminate_in_initialization_mode(unit):
+    """FMI 2 and 3 allow Terminate after initialization only (it was accepted in Initialization Mode)."""
+    if unit.version == 2:
+        unit.fmu.setupExperiment(startTime=0.0)
+    unit.fmu.enterInitializationMode()
+    fails(unit, lambda: unit.fmu.terminate(), "Terminate", "not allowed", "initialization")
+    unit.fmu.exitInitializationMode()
+    unit.fmu.terminate()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("name", ["", " \t"])
+def test_a_blank_instance_name_is_refused(version, name):
+    """FMI 2 and 3 want at least one character that is not white space (it names the instance in messages)."""
+    unit = Unit.__new__(Unit)
+    with pytest.raises(Exception):
+        unit.__init__(fmu_path("aggregation", version), name=name)
+    assert any("instanceName must be a non-empty string" in m for _, _, m in unit.messages), unit.messages
+
+
 def test_fixed_parameter_after_initialization(unit):
     unit.initialize({"particles.count": 100})
     fails(unit, lambda: unit.set("contact.restitution", 0.7), "contact.restitution", "fixed parameter")
