@@ -30,10 +30,10 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 def grains_rate(binary, scene, steps, threads, workdir):
     out = workdir / f"{scene}-{threads}.h5"
-    subprocess.run([str(binary), "run", str(ROOT / "models" / f"{scene}.toml"), "--quiet", "--out", str(out),
-                    "--set", f"time.steps={steps}", "--set", f"run.threads={threads}",
-                    "--set", "output.snapshots_every=0", "--set", f"output.observables_every={steps}",
-                    "--set", "output.xdmf=false"], check=True, stdout=subprocess.DEVNULL)
+    reuse.run_grains("bench.py", [binary, "run", ROOT / "models" / f"{scene}.toml", "--quiet", "--out", out,
+                                  "--set", f"time.steps={steps}", "--set", f"run.threads={threads}",
+                                  "--set", "output.snapshots_every=0", "--set", f"output.observables_every={steps}",
+                                  "--set", "output.xdmf=false"])
     with h5py.File(out, "r") as f:
         build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
         build = build.decode() if isinstance(build, bytes) else str(build)
@@ -68,6 +68,7 @@ def main():
     ap.add_argument("--no-lammps", action="store_true", help="grains only")
     ap.add_argument("--repeat", type=int, default=1, help="runs of every configuration (medians reported)")
     args = ap.parse_args()
+    reuse.require_binary(ap, "--binary", args.binary)
     reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
     have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()
     if not args.no_lammps and not have_lammps:

@@ -119,10 +119,9 @@ skin = 0.1
 
 def grains_rate(binary, scene, steps, threads, work):
     out = work / "run.h5"
-    subprocess.run([str(binary), "run", str(scene), "--quiet", "--out", str(out), "--set", f"time.steps={steps}",
-                    "--set", f"run.threads={threads}", "--set", "output.snapshots_every=0",
-                    "--set", f"output.observables_every={steps}", "--set", "output.xdmf=false"],
-                   check=True, stdout=subprocess.DEVNULL)
+    reuse.run_grains("bench_cohesive.py", [binary, "run", scene, "--quiet", "--out", out, "--set", f"time.steps={steps}",
+                                           "--set", f"run.threads={threads}", "--set", "output.snapshots_every=0",
+                                           "--set", f"output.observables_every={steps}", "--set", "output.xdmf=false"])
     with h5py.File(out, "r") as f:
         contacts = float(f["observables/contacts/value"][-1])
         build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
@@ -157,6 +156,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds (each grains law right after a LAMMPS run, each round); medians and the range of the ratios")
     args = ap.parse_args()
+    reuse.require_binary(ap, "--binary", args.binary)
     reuse.require_counts(ap, steps=args.steps, cells=args.cells, repeat=args.repeat)
     try:
         reuse.require_counts(ap, threads=min(int(t) for t in args.threads.split(",")))

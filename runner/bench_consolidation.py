@@ -33,8 +33,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def grains(args, binary):
+    """Runs grains; a failed run ends the benchmark with grains' own reason."""
     t = time.perf_counter()
-    r = subprocess.run([binary, *map(str, args)], capture_output=True, text=True, check=True)
+    r = subprocess.run([binary, *map(str, args)], capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"bench_consolidation.py: grains {args[0]} ended with status {r.returncode}: {r.stderr.strip()}")
     return r.stdout, time.perf_counter() - t
 
 
@@ -43,9 +46,10 @@ def throughput(a):
     print("|---|---|---|")
     with tempfile.TemporaryDirectory() as d:
         scene = ROOT / "models" / "consolidation-rr.toml"
-        # Without the barostat the scene reads none of its cell keys: grains refuses them, so the section goes.
+        # Without the barostat the scene reads none of its cell keys, nor its programme's: grains refuses them,
+        # so the sections go.
         no_cell = pathlib.Path(d) / "no-cell.toml"
-        no_cell.write_text(re.sub(r"(?ms)^\[cell\]\n.*?(?=^\[)", "", scene.read_text()))
+        no_cell.write_text(re.sub(r"(?ms)^\[(cell|programme)\]\n.*?(?=^\[|\Z)", "", scene.read_text()))
         for name, file, extra in (("barostat on", scene, []), ("barostat off", no_cell, []),
                                   ("CVODE restarted every step", scene, ["cell.restart_cvode_every_step=true"])):
             out = pathlib.Path(d) / "t.h5"
@@ -127,6 +131,7 @@ def main():
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     a = ap.parse_args()
     reuse.require_counts(ap, steps=a.steps, count=a.count, seeds=a.seeds, jobs=a.jobs)
+    reuse.require_binary(ap, "--grains", a.grains)
     if a.count is None:
         a.count = 1400 if a.what == "cycle" else 300
     {"throughput": throughput, "cycle": cycle, "settings": settings}[a.what](a)

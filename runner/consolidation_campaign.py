@@ -158,10 +158,7 @@ def make_out(ap, out):
 
 
 def check_grains(ap, grains):
-    if not pathlib.Path(grains).is_file():
-        ap.error(f"--grains {grains}: no such file (build first: cmake --build build)")
-    if not os.access(grains, os.X_OK):
-        ap.error(f"--grains {grains}: not executable")
+    reuse.require_binary(ap, "--grains", grains)
 
 
 def provenance(args, names):

@@ -47,6 +47,23 @@ def require_counts(ap, **counts):
             ap.error(f"--{name.replace('_', '-')} = {value}: must be at least 1")
 
 
+def require_binary(ap, option, path):
+    """Exits with an argparse error when `path`, given by `option`, is no executable file."""
+    import os
+    if not os.path.isfile(path):
+        ap.error(f"{option} {path}: no such file (build first: cmake --build build)")
+    if not os.access(path, os.X_OK):
+        ap.error(f"{option} {path}: not executable")
+
+
+def run_grains(prog, command):
+    """Runs a grains command whose output goes to a file; a failure ends the tool with grains' own reason (one line,
+    no traceback)."""
+    done = subprocess.run([str(c) for c in command], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if done.returncode != 0:
+        sys.exit(f"{prog}: grains {command[1]} ended with status {done.returncode}: {done.stderr.strip()}")
+
+
 def ended(h5):
     """Whether grains wrote the file to its end: status 'complete' (a run), or 'complete; ...' (a programme with
     stages short of equilibrium); False for a file that is missing, unreadable, running or interrupted."""

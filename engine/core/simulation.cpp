@@ -160,8 +160,11 @@ class SimulationImpl final : public Simulation {
                      fmt::format("value {:.6g} is too thick for periodic axis {} ({:.6g} long): 2 R_max + interaction range "
                                  "+ skin must stay within half of it, so allowed below {:.6g}", skin, a,
                                  sys_.box.length[a], 0.5 * sys_.box.length[a] - 2 * rmax - std::max(0.0, range)));
-        scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than twice the "
-                                              "largest interaction reach (2 R_max + skin = {:.6g})", a, sys_.box.length[a],
+        scene.fail("box.lengths", fmt::format("axis {} is {:.6g} long; a periodic box must be longer than {:.6g}, twice the "
+                                              "largest interaction reach (2 R_max + interaction range + skin = {:.6g}): "
+                                              "give longer lengths (derived ones grow with particles.count and fall with "
+                                              "particles.solid_fraction)", a, sys_.box.length[a],
+                                              2 * (2 * rmax + std::max(0.0, range) + skin),
                                               2 * rmax + std::max(0.0, range) + skin));
       }
     uses_list_ = range >= 0;
