@@ -141,11 +141,11 @@ def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, 
     for s in run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own):
         cmd += ["--set", s]
     with (out / f"{stem.name}.log").open("w") as log:
-        done = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
-    if done.returncode == reuse.INTERRUPTED:
+        code = reuse.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if code == reuse.INTERRUPTED:
         raise reuse.Interrupted(stem.name)
-    if done.returncode != 0:
-        raise reuse.RunFailed(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {done.returncode}; see {stem}.log")
+    if code != 0:
+        raise reuse.RunFailed(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {code}; see {stem}.log")
     print(f"  finished zeta {zeta:g}, k* {k_star:g}, seed {seed}", flush=True)
     return h5
 
@@ -615,6 +615,7 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
+    reuse.stop_children_on_term()
     try:
         sys.exit(main())
     except (KeyboardInterrupt, reuse.Interrupted):

@@ -77,7 +77,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
             finish(partial, table, h5)
             return table
         with stem.with_suffix(".log").open("a") as log:
-            code = subprocess.run([str(grains), "resume", str(h5)], stdout=log, stderr=subprocess.STDOUT).returncode
+            code = reuse.run_child([grains, "resume", h5], stdout=log, stderr=subprocess.STDOUT)
         if code == reuse.INTERRUPTED:   # its checkpoint is kept for the next try
             raise reuse.Interrupted(label)
         if code == 0:
@@ -89,11 +89,11 @@ def consolidate(grains, scene_file, overrides, stem, label):
     for o in overrides:
         cmd += ["--set", o]
     with stem.with_suffix(".log").open("w") as log:
-        done = subprocess.run([str(c) for c in cmd], stdout=log, stderr=subprocess.STDOUT)
-    if done.returncode == reuse.INTERRUPTED:
+        code = reuse.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if code == reuse.INTERRUPTED:
         raise reuse.Interrupted(label)
-    if done.returncode != 0:
-        raise reuse.RunFailed(f"{label}: grains consolidate exited with {done.returncode}; see {stem}.log")
+    if code != 0:
+        raise reuse.RunFailed(f"{label}: grains consolidate exited with {code}; see {stem}.log")
     finish(partial, table, h5)
     print(f"  finished {label}", flush=True)
     return table
@@ -448,6 +448,7 @@ def main():
 
 
 if __name__ == "__main__":
+    reuse.stop_children_on_term()
     try:
         main()
     except (KeyboardInterrupt, reuse.Interrupted):

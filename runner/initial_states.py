@@ -128,6 +128,7 @@ def plot(final, path):
 
 
 if __name__ == "__main__":
+    reuse.stop_children_on_term()
     try:
         main()
     except (KeyboardInterrupt, reuse.Interrupted):

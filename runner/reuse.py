@@ -3,8 +3,10 @@ run ran (its HDF5 file's parameters/scene.toml) against the scene and overrides 
 them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py;
 the benchmarks take from it the words for a missing LAMMPS peer."""
 import shutil
+import signal
 import subprocess
 import sys
+import threading
 import tomllib
 
 # How many threads ran a run is not what it ran: a campaign resumed with other --jobs or --threads reuses it.
@@ -38,6 +40,36 @@ def interrupted(prog, kept):
     """After Ctrl-C: says how to go on (`kept`: what a rerun keeps); returns the exit status, 130."""
     print(f"{prog}: interrupted; run the same command again to resume ({kept})", file=sys.stderr)
     return INTERRUPTED
+
+
+_children = set()   # the grains runs under way (run_child), for stop_children_on_term
+_children_lock = threading.Lock()
+
+
+def run_child(command, **kwargs):
+    """subprocess.run(command, **kwargs).returncode for a tool's grains runs, which a SIGTERM to the tool reaches."""
+    with subprocess.Popen([str(c) for c in command], **kwargs) as child:
+        with _children_lock:
+            _children.add(child)
+        try:
+            return child.wait()
+        finally:
+            with _children_lock:
+                _children.discard(child)
+
+
+def stop_children_on_term():
+    """SIGTERM and SIGHUP (unless ignored) stop the tool as Ctrl-C does: its grains runs get SIGTERM, which they take
+    as Ctrl-C (a checkpoint, exit status 130), and the tool ends saying how to go on. Its runs used to go on alone
+    after the tool had gone, their tables left half-written."""
+    def stop(signum, frame):
+        with _children_lock:
+            for child in _children:
+                child.send_signal(signal.SIGTERM)
+        raise KeyboardInterrupt
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(sig) is not signal.SIG_IGN:
+            signal.signal(sig, stop)
 
 
 def require_counts(ap, **counts):

@@ -1,9 +1,12 @@
 """The campaign's reading of stage tables and its verdicts against the paper (runner/consolidation_campaign.py)."""
 import csv
 import math
+import pathlib
 import subprocess
 import sys
+import time
 
+import h5py
 import numpy as np
 import pytest
 
@@ -237,6 +240,43 @@ def test_a_campaign_stopped_by_ctrl_c_resumes_and_refuses_samples_of_other_setti
     assert (tmp_path / "summary.md").read_text() == summary
     r = subprocess.run([str(c) for c in cmd + ["--threads", "2", "--jobs", "2", "--report"]], capture_output=True, text=True)
     assert r.returncode == 0 and (tmp_path / "summary.md").read_text() == summary, r.stderr
+
+
+def grains_processes_writing_in(folder):
+    """The processes whose command line names a file in `folder` (grains runs a tool started there)."""
+    found = []
+    for entry in pathlib.Path("/proc").iterdir():
+        try:
+            words = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if any(w.startswith(str(folder).encode()) for w in words) and words[0].endswith(b"grains"):
+            found.append(entry.name)
+    return found
+
+
+@pytest.mark.parametrize("tool", ["consolidation_campaign.py", "aggregation_sweep.py"])
+def test_sigterm_to_a_tool_alone_stops_its_runs_as_ctrl_c_does(grains_bin, tmp_path, tool):
+    """`kill PID` of the tool (not of its process group) used to end it silently while its grains runs went on
+    alone; now they get SIGTERM, stop with a checkpoint, and the tool says how to resume."""
+    if tool == "consolidation_campaign.py":
+        args = ["--samples", "1", "--count", "80", "--scene", "consolidation", "--jobs", "1", "--threads", "1",
+                "--set", "programme.stage_budget=50000", "--set", "programme.aggregation_budget=300000"]
+    else:
+        args = ["--damping", "0.02", "--stiffness", "1000", "--set", "particles.count=2000"]
+    tool_run = subprocess.Popen([sys.executable, str(ROOT / "runner" / tool), *args, "--grains", str(grains_bin),
+                                 "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not list(tmp_path.glob("*.h5")) and time.monotonic() < deadline and tool_run.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    assert tool_run.poll() is None and grains_processes_writing_in(tmp_path), tool_run.communicate()
+    tool_run.terminate()
+    _, err = tool_run.communicate(timeout=60)
+    assert tool_run.returncode == 130 and "interrupted; run the same command again" in err and "Traceback" not in err, err
+    assert not grains_processes_writing_in(tmp_path)
+    with h5py.File(next(tmp_path.glob("*.h5"))) as f:
+        assert f["grains"].attrs["status"].startswith("interrupted")
 
 
 def test_initial_states_refuse_runs_of_other_settings(grains_bin, tmp_path):
