@@ -464,8 +464,8 @@ def main(argv=None):
         if not 0 <= z < 1:
             ap.error(f"--damping: {z} is outside [0, 1) (zeta >= 1 has no restitution above 0)")
     for k in args.stiffness + ([args.fixed_stiffness] if args.fixed_stiffness is not None else []):
-        if not k > 0:
-            ap.error(f"--stiffness / --fixed-stiffness: {k}; k* must be positive")
+        if not (k > 0 and math.isfinite(k)):
+            ap.error(f"--stiffness / --fixed-stiffness: {k}; k* must be positive and finite")
     if args.fixed_damping != "auto":
         try:
             fixed = float(args.fixed_damping)

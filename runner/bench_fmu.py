@@ -28,7 +28,7 @@ def main():
     ap.add_argument("--calls", type=int, default=20000, help="empty doStep calls timed")
     ap.add_argument("--threads", type=int, default=None, help="run.threads for both (default: the scene's, 2)")
     args = ap.parse_args()
-    reuse.require_counts(ap, repeat=args.repeat, calls=args.calls)
+    reuse.require_counts(ap, repeat=args.repeat, calls=args.calls, threads=args.threads)
     if not pathlib.Path(args.build, "fmus").is_dir():
         ap.error(f"--build {args.build}: no fmus folder there (build first: cmake --build build)")
     if args.duration is not None and not args.duration > 0:
@@ -46,6 +46,8 @@ def main():
     scene_length = fmpy.read_model_description(str(fmu_path("aggregation", 2))).defaultExperiment.stopTime
     steps = round((args.duration if args.duration else float(scene_length)) / dt)
     steps -= steps % 100
+    if steps == 0:
+        ap.error(f"--duration = {args.duration}: shorter than one communication step of 100 dt = {100 * dt:.6g}; give at least that")
     stop = steps * dt
     print(f"aggregation scene: {steps} steps of dt = {dt:.6g} (t = {stop:.6g}), communication step 100 dt")
 

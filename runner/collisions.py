@@ -8,6 +8,7 @@ the completed and open events, the adhesive count and fraction, and the realised
 when the file or the table is missing.
 """
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -39,6 +40,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     import h5py
 
+    if not os.path.isfile(args.run):
+        fail(f"run file '{args.run}' does not exist")
     try:
         f = h5py.File(args.run, "r")
     except OSError as e:

@@ -250,9 +250,9 @@ def main(argv=None):
     for option, value in (("--p0", args.p0), ("--regime2-max", args.regime2_max)):
         if value is not None and not value > 0:
             ap.error(f"{option}: {value}; a reduced pressure P* > 0")
-    if args.out and not pathlib.Path(args.out).resolve().parent.is_dir():
-        print(f"consolidation_fit: --out: the folder '{pathlib.Path(args.out).parent}' of '{args.out}' does not exist",
-              file=sys.stderr)
+    from plot import image_name_problem
+    if args.out and (problem := image_name_problem("--out", args.out)):
+        print(f"consolidation_fit: {problem}", file=sys.stderr)
         return 2
     try:
         p, phi, branch = read_stages(args.table)

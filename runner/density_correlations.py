@@ -241,9 +241,11 @@ def main(argv=None):
         ap.error(f"--k-max: {args.k_max}; must be positive")
     if any(not (p >= 0) for p in args.pressures):
         ap.error(f"--pressures: {args.pressures}; reduced pressures must be >= 0")
-    for option, value in (("-o/--out", args.out), ("--table", args.table)):
-        if value and not pathlib.Path(value).resolve().parent.is_dir():
-            ap.error(f"{option}: the folder '{pathlib.Path(value).parent}' of '{value}' does not exist")
+    from plot import image_name_problem
+    if args.out and (problem := image_name_problem("-o/--out", args.out)):
+        ap.error(problem)
+    if args.table and not pathlib.Path(args.table).resolve().parent.is_dir():
+        ap.error(f"--table: the folder '{pathlib.Path(args.table).parent}' of '{args.table}' does not exist")
     samples = []
     for name in args.h5:
         path = pathlib.Path(name)

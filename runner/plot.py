@@ -84,6 +84,15 @@ def image_formats():
     return FigureCanvasBase.get_supported_filetypes()
 
 
+def image_name_problem(option, out):
+    """Why `out` cannot name a plot (its folder missing, or no image format matplotlib writes), or None."""
+    if not Path(out).resolve().parent.is_dir():
+        return f"{option}: the folder '{Path(out).parent}' of '{out}' does not exist"
+    if Path(out).suffix[1:].lower() not in image_formats():
+        return f"{option} '{out}': the file name must end with a supported image format: .{', .'.join(sorted(image_formats()))}"
+    return None
+
+
 def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan")):
     """`mark`: the aggregation time on the plot's horizontal axis (NaN: none)."""
     import matplotlib
@@ -122,11 +131,8 @@ def main(argv=None):
     path = Path(args.run)
     if not path.is_file():
         fail(f"run file '{path}' does not exist")
-    if args.out and not Path(args.out).resolve().parent.is_dir():
-        fail(f"--out: the folder '{Path(args.out).parent}' of '{args.out}' does not exist")
-    if args.out and Path(args.out).suffix[1:].lower() not in image_formats():
-        fail(f"-o/--out '{args.out}': the file name must end with a supported image format: "
-             f".{', .'.join(sorted(image_formats()))}")
+    if args.out and (problem := image_name_problem("-o/--out", args.out)):
+        fail(problem)
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
     series = read_observables(path, wanted)
     x_name = args.x if args.x != "time" else None

@@ -98,3 +98,21 @@ def test_campaign_tools_name_bad_arguments_in_a_line(grains_bin, tmp_path, scrip
 def test_benchmarks_name_bad_counts_and_paths_in_a_line(tmp_path, name, args, words):
     refused(tool(name, *args, cwd=tmp_path), *words)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name, args, words", [
+    ("consolidation_fit.py", ["{table}", "-o", "{tmp}/fit.txt"], ["--out", "supported image format"]),
+    ("density_correlations.py", ["{tmp}/none.h5", "-o", "{tmp}/i.txt"], ["-o/--out", "supported image format"]),
+    ("collisions.py", ["{tmp}/none.h5"], ["'{tmp}/none.h5' does not exist"]),
+    ("aggregation_sweep.py", ["--stiffness", "inf", "--out", "{tmp}/s"], ["--stiffness", "inf", "finite"]),
+    ("bench_cohesive.py", ["--binary", "{tmp}/none"], ["--binary", "no such file"]),
+    ("bench.py", ["--binary", "{tmp}/none"], ["--binary", "no such file"]),
+    ("bench_consolidation.py", ["throughput", "--grains", "{tmp}/none"], ["--grains", "no such file"]),
+    ("bench_fmu.py", ["--threads", "-1"], ["--threads = -1", "at least 1"]),
+])
+def test_bad_arguments_end_in_one_line_naming_the_option(tmp_path, stage_table, name, args, words):
+    """A review's findings: tracebacks, or an error that blamed another option (density_correlations.py's -o)."""
+    fill = lambda text: text.format(table=stage_table, tmp=tmp_path)
+    r = tool(name, *map(fill, args))
+    assert r.returncode in (1, 2) and "Traceback" not in r.stderr, r.stderr
+    assert all(fill(w) in r.stderr for w in words), r.stderr
