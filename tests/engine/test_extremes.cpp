@@ -106,6 +106,9 @@ TEST_CASE("extremes: restitution 1e-4 and 1 realise the exact clamped values", "
       INFO("e = " << e << ", n_c = " << nc << ": exact clamped restitution " << exact << ", worst error " << worst
                   << ", bound " << 0.25 * w0dt * w0dt);
       CHECK(worst < 0.25 * w0dt * w0dt);
+      // Without a dashpot the error falls much faster than the bound above allows for (measured 5.3e-6 at
+      // n_c = 50 and 3.3e-7 at 100, fourth order): bounded near it, so that a slip in the undamped law shows.
+      if (e == 1.0) CHECK(worst < 2e-5 * std::pow(50 / nc, 4));
     }
   // e = 1e-4 is far below what the clamped law can realise: the clamp floors it near exp(-2).
   CHECK(clamped_for(1e-4, 1.0, 0.5, 0.5) > std::exp(-2.0));
