@@ -289,19 +289,24 @@ def findings(damping, stiffness, fixed_stiffness, fixed_damping):
     index = [p["cluster_index"] for p in damping]
     rho = spearman(z, t_agg)   # rank correlation over the points that aggregate
     defined = [p for p in damping if math.isfinite(p["t_agg_over_t_ff"])]
-    lines.append(f"| t_agg / t_ff falls as damping grows (k* = {fixed_stiffness:.3g}) | rank correlation with zeta {rho:+.2f} over "
-                 f"{len(defined)} points where the cloud aggregates; {listed(defined, 't_agg_over_t_ff', '.2f', 'zeta')} "
+    correlation = f"rank correlation with zeta {rho:+.2f}" if math.isfinite(rho) else "no rank correlation"
+    lines.append(f"| t_agg / t_ff falls as damping grows (k* = {fixed_stiffness:.3g}) | {correlation} over "
+                 f"{len(defined)} point(s) where the cloud aggregates; {listed(defined, 't_agg_over_t_ff', '.2f', 'zeta')} "
                  f"| {verdict(rho < -0.5, defined) if math.isfinite(rho) else TOO_FEW} |")
     rises = max((b - a for a, b in zip(index, index[1:])), default=0.0)
     crossing = next((f"{z[i]:g}–{z[i + 1]:g}" for i in range(len(z) - 1) if index[i] > 0.5 >= index[i + 1]), "")
     lines.append(f"| N_c / N falls (logistically) from ~1 to ~0 with damping | {listed(damping, 'cluster_index', '.3f', 'zeta')}; "
-                 f"{'crosses 0.5 between zeta ' + crossing if crossing else 'does not cross 0.5'}; largest rise between neighbours {rises:+.3f} "
+                 f"{'crosses 0.5 between zeta ' + crossing if crossing else 'does not cross 0.5'}; "
+                 f"{f'largest rise between neighbours {rises:+.3f}' if rises > 0 else 'no rise between neighbours'} "
                  f"| {verdict(index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05, damping)} |")
     second = [p["q_second_peak"] > 0 for p in damping]
     lines.append(f"| Q: a first peak in every run, a second for all but the strongest damping | first peaks "
                  f"{min(p['q_first_peak'] for p in damping):.3g}–{max(p['q_first_peak'] for p in damping):.3g}; "
                  f"a second peak at zeta {', '.join(marked(p, format(p['zeta'], 'g')) for p, s in zip(damping, second) if s) or 'none'} "
                  f"| {verdict(all(second[:-1]) and not second[-1], damping)} |")
+    def intermediate(holds, tested):   # a minimum at an intermediate k* needs a point on either side of it
+        return verdict(holds, tested) if len(stiffness) >= 3 else "not decided: an intermediate k* needs 3 points or more"
+
     if stiffness:
         ki = [p["cluster_index"] for p in stiffness]
         kt = [p["t_agg_over_t_ff"] for p in stiffness]
@@ -309,14 +314,14 @@ def findings(damping, stiffness, fixed_stiffness, fixed_damping):
         soft, stiff = stiffness[0], stiffness[-1]
         lines.append(f"| vs k* (zeta = {fixed_damping:g}): N_c / N high when soft, lowest at an intermediate k* "
                      f"| {listed(stiffness, 'cluster_index', '.3f', 'k_star')} "
-                     f"| {verdict(0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] > ki[low], [soft, stiffness[low], stiff])} |")
+                     f"| {intermediate(0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] > ki[low], [soft, stiffness[low], stiff])} |")
         lines.append(f"| ... and rising toward ~0.6 for very stiff contacts | {marked(stiff, format(ki[-1], '.3f'))} at k* "
                      f"{stiff['k_star']:.3g} | {verdict(ki[-1] >= 0.3, [stiff])} |")
         finite = [p for p in stiffness if math.isfinite(p["t_agg_over_t_ff"])]
         best = min(range(len(kt)), key=lambda i: kt[i] if math.isfinite(kt[i]) else math.inf)
         minimum = bool(finite) and 0 < best < len(kt) - 1 and math.isfinite(kt[0]) and math.isfinite(kt[-1])
         lines.append(f"| t_agg / t_ff has a minimum at an intermediate k* | "
-                     f"{listed(finite, 't_agg_over_t_ff', '.2f', 'k_star') or 'no aggregation'} | {verdict(minimum, finite)} |")
+                     f"{listed(finite, 't_agg_over_t_ff', '.2f', 'k_star') or 'no aggregation'} | {intermediate(minimum, finite)} |")
     return lines
 
 
@@ -402,7 +407,7 @@ def stiffness_shapes(grid, damping, stiffness):
             counted += not any(p.get("heated_runs") for p in (row[0], row[low], row[-1]))
     holds = "yes" if counted else UNDECIDED if rows else "no"
     return (f"| the same shape anywhere on the map (k* {', '.join(f'{k:.0e}' for k in dict.fromkeys(stiffness))}) "
-            f"| {'; '.join(rows) or 'no row'} | {holds} |")
+            f"| {'; '.join(rows) or 'no row has that shape'} | {holds} |")
 
 
 def virial_shapes(grid, stiffness):
