@@ -235,3 +235,15 @@ def test_rank_correlation_gives_ties_their_mean_rank():
     x, y = [1, 2, 3, 4, 5, 6], [0.9, 0.9, 0.9, 1.2, 1.1, 1.5]
     assert sweep.spearman(x, y) == pytest.approx(spearmanr(x, y)[0], rel=1e-12)
     assert math.isnan(sweep.spearman(x, [1.0] * 6)) and math.isnan(sweep.spearman([1, 2], [3, 4]))
+
+
+def test_an_intermediate_k_star_over_two_points_is_not_decided_and_nothing_reads_nan():
+    """A review's run of two k* and one damping: "no" for an intermediate minimum that two points cannot show,
+    "rank correlation with zeta +nan over 1 points" and "largest rise between neighbours -0.225"."""
+    damping = [point(0.1, 100, 0.9, 2.0), point(0.5, 100, 0.2, 1.0)]
+    lines = sweep.findings(damping[:1], [point(0.1, 10, 0.8, 1.5), point(0.1, 100, 0.01, 0.9)], 100, 0.1)
+    text = "\n".join(lines)
+    assert "nan" not in text and "+nan" not in text, text
+    intermediate = [line.rsplit("|", 2)[-2].strip() for line in lines[2:] if "intermediate" in line.split("|")[1]]
+    assert intermediate == ["not decided: an intermediate k* needs 3 points or more"] * 2, lines
+    assert "no rise between neighbours" in "\n".join(sweep.findings(damping, [], 100, 0.1))
