@@ -124,13 +124,19 @@ def settings(a):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=["throughput", "cycle", "settings"])
-    ap.add_argument("--steps", type=int, default=20000)
+    ap.add_argument("--steps", type=int, help="throughput: steps of each run (default 20000)")
     ap.add_argument("--count", type=int)
-    ap.add_argument("--seeds", type=int, default=3, help="settings: samples per setting (particles.seed 1, 2, ...)")
-    ap.add_argument("--jobs", type=int, default=2, help="settings: runs at a time (one thread each)")
+    ap.add_argument("--seeds", type=int, help="settings: samples per setting (particles.seed 1, 2, ...; default 3)")
+    ap.add_argument("--jobs", type=int, help="settings: runs at a time (one thread each; default 2)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     a = ap.parse_args()
     reuse.require_counts(ap, steps=a.steps, count=a.count, seeds=a.seeds, jobs=a.jobs)
+    # Each benchmark reads only its own options: one given to another is refused, not ignored.
+    reads = {"throughput": {"steps"}, "cycle": {"count"}, "settings": {"count", "seeds", "jobs"}}[a.what]
+    for name in ("steps", "count", "seeds", "jobs"):
+        if getattr(a, name) is not None and name not in reads:
+            ap.error(f"--{name}: not read by {a.what} (it reads {', '.join('--' + r for r in sorted(reads))})")
+    a.steps, a.seeds, a.jobs = a.steps or 20000, a.seeds or 3, a.jobs or 2
     reuse.require_binary(ap, "--grains", a.grains)
     if a.count is None:
         a.count = 1400 if a.what == "cycle" else 300

@@ -57,7 +57,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at once (default: the cores)")
     ap.add_argument("--state", action="append", choices=list(STATES), help="state to run (repeatable; default all)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scene override for every run")
-    ap.add_argument("--out", default="initial-states", help="folder for tables, HDF5 files, logs, summary")
+    ap.add_argument("--out", default="initial-states", help="folder for tables, HDF5 files, logs, summary (default initial-states)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     ap.add_argument("--report", action="store_true", help="run nothing: summarise the tables already in --out")
     args = ap.parse_args()
