@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "fmi3_api.hpp"
@@ -40,6 +42,16 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  // The instantiation token, as a host reads it from the model description.
+  std::ifstream description(dir + "/modelDescription.xml");
+  const std::string xml((std::istreambuf_iterator<char>(description)), std::istreambuf_iterator<char>());
+  const std::string key = "instantiationToken=\"";
+  const std::size_t at = xml.find(key), from = at + key.size(), to = at == std::string::npos ? at : xml.find('"', from);
+  if (to == std::string::npos) {
+    std::fprintf(stderr, "grains_fmu_bench: no instantiationToken in %s/modelDescription.xml\n", dir.c_str());
+    return 2;
+  }
+  const std::string token = xml.substr(from, to - from);
   void* lib = dlopen((dir + "/binaries/x86_64-linux/" + id + ".so").c_str(), RTLD_NOW | RTLD_LOCAL);
   if (!lib) {
     std::fprintf(stderr, "%s\n", dlerror());
@@ -60,7 +72,7 @@ int main(int argc, char** argv) {
   auto free_instance = symbol<void (*)(fmi3Instance)>(lib, "fmi3FreeInstance");
   (void)symbol<GetFloat64>(lib, "fmi3GetFloat64");
 
-  fmi3Instance c = instantiate("bench", "", (dir + "/resources/").c_str(), false, false, false, false, nullptr, 0, nullptr,
+  fmi3Instance c = instantiate("bench", token.c_str(), (dir + "/resources/").c_str(), false, false, false, false, nullptr, 0, nullptr,
                                log_message, nullptr);
   if (!c || enter_init(c, false, 0, 0, false, 0) != fmi3OK || exit_init(c) != fmi3OK) return 1;
   fmi3Boolean event, terminate, early;

@@ -103,7 +103,11 @@ std::unique_ptr<Instance> Instance::create(std::string name, std::string_view to
   }
   in->dirty_ = false;
   const std::string expected = instantiation_token(in->table_);
-  if (!token.empty() && token != expected) {
+  if (token.empty()) {   // FMI 2 and 3: the host passes the model description's guid / instantiationToken
+    in->error(fmt::format("no instantiation token given: pass the modelDescription.xml's ('{}')", expected));
+    return nullptr;
+  }
+  if (token != expected) {
     in->error(fmt::format("instantiation token '{}' does not match this binary and scene ('{}'): the modelDescription.xml "
                           "and the resources come from different builds", token, expected));
     return nullptr;

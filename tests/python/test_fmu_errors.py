@@ -159,6 +159,33 @@ def test_wrong_instantiation_token_is_refused(tmp_path):
 
 
 @pytest.mark.parametrize("version", [2, 3])
+def test_an_empty_instantiation_token_is_refused(version):
+    """The host must pass the model description's token; an empty one was taken as no check at all."""
+    script = """
+import sys
+from fmu_host import Unit, fmu_path
+import fmu_host
+unit = Unit.__new__(Unit)
+real = fmu_host.read_model_description
+def without_token(path):
+    md = real(path)
+    md.guid = ""
+    return md
+fmu_host.read_model_description = without_token
+try:
+    unit.__init__(fmu_path("collision", int(sys.argv[1])))
+except Exception:
+    pass
+else:
+    print("instantiated")
+print([m for _, _, m in unit.messages])
+"""
+    r = host_process(script, version)
+    assert r.returncode == 0 and "instantiated" not in r.stdout, r.stdout + r.stderr
+    assert "no instantiation token given" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("version", [2, 3])
 def test_resources_found_through_a_percent_encoded_location(tmp_path, version):
     """fmpy passes file URIs (FMI 2, spaces become %20) and paths (FMI 3): both must reach resources/."""
     path = fmu_path("collision", version)
