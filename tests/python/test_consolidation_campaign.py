@@ -289,6 +289,10 @@ def test_initial_states_refuse_runs_of_other_settings(grains_bin, tmp_path):
         r = subprocess.run(cmd + other, capture_output=True, text=True)
         assert r.returncode == 2 and "type1-seed1.csv: particles.count = 60 there, 50 now" in r.stderr, r.stderr
     assert (tmp_path / "summary.md").read_text() == summary
+    # --report over two seeds, one of them never run: the one there is summarised, the other named (it was refused).
+    r = subprocess.run([str(c) for c in cmd + ["--samples", "2", "--report"]], capture_output=True, text=True)
+    assert r.returncode == 0 and "type1 seed 2: no table in" in r.stdout, r.stdout + r.stderr
+    assert "| type1 |" in (tmp_path / "summary.md").read_text() and "(1) |" in (tmp_path / "summary.md").read_text()
 
 
 @pytest.mark.parametrize("tool, key", [("consolidation_campaign.py", "particles.seed"), ("consolidation_campaign.py", "particles.count"),
