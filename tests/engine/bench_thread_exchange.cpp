@@ -19,6 +19,8 @@
 
 #include <fmt/format.h>
 
+#include "load_average.hpp"
+
 namespace {
 
 constexpr int particles = 1400, partners = 4;
@@ -117,6 +119,7 @@ std::pair<double, double> run(Model& m, Exchange exchange, int steps) {
 TEST_CASE("threads: what two cores pay to exchange a step's boundary data", "[.threads-bench]") {
   const int steps = 40000, rounds = 3;
   // Short lines: Catch wraps its messages at 80 columns.
+  WARN(fmt::format("1-min load average {}", load_average()));
   WARN("1400 particles, 4 partners each; microseconds per step (wall clock, medians of 3);\n"
        "crossing: share of partners in the other half; exported: particles read by the other thread");
   WARN("crossing | 1 thread | 2, in place | 2, ghost copy | exported");

@@ -20,6 +20,7 @@
 #include "interactions/gravity_direct.hpp"
 #include "interactions/gravity_tree.hpp"
 #include "io/scene.hpp"
+#include "load_average.hpp"
 
 using namespace grains;
 
@@ -604,16 +605,6 @@ template <class F> double seconds_per_call(F&& f, double min_seconds = 0.3, int 
   }
   return fastest;
 }
-// The 1-minute load average (/proc/loadavg), printed beside timings taken on the shared machine.
-std::string load_average() {
-  std::string load = "?";
-  if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
-    char buf[64] = {};
-    if (std::fgets(buf, sizeof buf, f)) load = std::string(buf, std::strcspn(buf, " "));
-    std::fclose(f);
-  }
-  return load;
-}
 // Median and 99th percentile of |a - ref| / |ref|.
 std::pair<double, double> force_errors(const std::vector<Vec<3>>& a, const std::vector<Vec<3>>& ref) {
   std::vector<double> e(a.size());
@@ -855,6 +846,7 @@ threads = 1
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   const double cost_ref = cloud_seconds(1600);
+  WARN(fmt::format("1-min load average {}", load_average()));
   WARN(fmt::format("n_c table (reference n_c = 1600: e = {:.8f}, cloud {:.3g} s): n_c | cloud s | cost / finest | "
                    "|e - e_ref| / e_ref | 1 - K_out / K_in (e = 1)", e_ref, cost_ref));
   for (double nc : {10, 20, 30, 50, 100, 200, 400}) {
