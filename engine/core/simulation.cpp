@@ -188,7 +188,8 @@ class SimulationImpl final : public Simulation {
                 [this] { return drag_; }, [this](double gamma) { drag_ = gamma; });
     if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
       add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
-                   "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off once initialized, while the scene itself needs G > 0)", 0.0},
+                   "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off once "
+                   "initialized, while the scene itself needs G > 0)", 0.0},
                   [g = gravity_] { return g->G(); },
                   [this, g = gravity_](double G) {
                     // Another G moves W (and E) at once: the energy check starts again from the next value.
