@@ -86,9 +86,9 @@ def fit_blob(k, intensity, counts, k_min, k_max):
     scatters like an exponential variable (relative spread 1) and chi^(-k) repeats chi^(k), so a shell's
     mean of n wave vectors has a relative spread sqrt(2 / n): the fit's weights. Returns d_F, xi, I0 and
     the standard errors of d_F and xi from the fit's covariance. When the crossover 2 pi / xi does not
-    lie below k_max / 2 (less than an octave of power law inside the range: a flat, homogeneous signal),
-    d_F's standard error exceeds half of it, or d_F exceeds 2 (the plane) by more than its error, there is no
-    fractal range: d_F and xi are NaN and I0 is the mean level."""
+    lie below k_max / 2 (less than an octave of power law inside the range: a flat, homogeneous signal), or
+    d_F's standard error exceeds half of it, there is no fractal range: d_F and xi are NaN and I0 is the mean
+    level."""
     sel = (k >= k_min * (1 - 1e-12)) & (k <= k_max * (1 + 1e-12)) & (intensity > 0)
     if sel.sum() < 4:
         raise ValueError(f"blob fit: {sel.sum()} shells with {k_min:.3g} <= k <= {k_max:.3g}; need at least 4")
@@ -100,12 +100,8 @@ def fit_blob(k, intensity, counts, k_min, k_max):
     errors = np.sqrt(np.diag(cov))
     xi = math.exp(params[2])
     # A d_F whose standard error passes half of it is the noise of too few wave vectors (16 disks gave
-    # 0.26 +- 1.99 with xi a thousand cells long): no fractal range either. Nor is one above the plane's
-    # dimension by more than its error (a review saw 2.55 +- 0.41 on 200 disks): a mass fractal of disks fills
-    # at most the plane, and a steeper fall is the sharp edges of compact blobs.
-    plane = 2
-    if not (2 * np.pi / xi < k_max / 2 and np.all(np.isfinite(errors)) and 0 < params[1] < plane + errors[1]
-            and errors[1] < 0.5 * params[1]):
+    # 0.26 +- 1.99 with xi a thousand cells long): no fractal range either.
+    if not (2 * np.pi / xi < k_max / 2 and np.all(np.isfinite(errors)) and 0 < params[1] < 3 and errors[1] < 0.5 * params[1]):
         level = math.exp(np.average(y, weights=1 / sigma ** 2))
         return {"fractal_range": False, "d_F": math.nan, "d_F_error": math.nan, "xi": math.nan,
                 "xi_error": math.nan, "I0": level}

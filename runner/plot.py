@@ -60,7 +60,13 @@ def read_observables(path, wanted):
         missing = [n for n in names if n not in available]
         if missing:
             fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
-        return {n: (group[n]["time"][()], group[n]["value"][()]) for n in names}
+        # A run killed inside a flush may leave a series rows ahead of the others: keep the whole records.
+        complete = group.attrs.get("complete_to_step", float("inf"))
+        series = {}
+        for n in names:
+            keep = group[n]["step"][()] <= complete
+            series[n] = (group[n]["time"][()][keep], group[n]["value"][()][keep])
+        return series
 
 
 def read_context(path):

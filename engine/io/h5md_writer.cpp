@@ -144,16 +144,25 @@ struct H5mdWriter::Impl {
   }
 
   // Writes the observables' pending rows, in order of name, then flushes.
+  // The observables' pending rows go to the file, and then /observables@complete_to_step says up to which step
+  // every series is whole. HDF5 writes the series one by one (and evicts metadata when it likes): a run killed
+  // inside a flush left one series a flush ahead of the others. Readers keep the rows up to that step.
   void flush() {
+    std::int64_t newest = -1;
     for (auto& [name, s] : observable) {
       const std::string what = "/observables/" + name;
       const hsize_t rows = s.pending_step.size();
       h5::append_rows(s.step.get(), H5T_NATIVE_INT64, s.pending_step.data(), rows, {}, path, what + "/step");
       h5::append_rows(s.time.get(), H5T_NATIVE_DOUBLE, s.pending_time.data(), rows, {}, path, what + "/time");
       h5::append_rows(s.value.get(), H5T_NATIVE_DOUBLE, s.pending_value.data(), rows, {}, path, what + "/value");
+      if (rows) newest = std::max(newest, s.pending_step.back());
       s.pending_step.clear(), s.pending_time.clear(), s.pending_value.clear();
     }
     h5::check(H5Fflush(file.get(), H5F_SCOPE_GLOBAL), path, "flushing the file");
+    if (newest >= 0 && observables) {
+      h5::attr_double(observables.get(), "complete_to_step", double(newest), path);   // exact below 2^53
+      h5::check(H5Fflush(file.get(), H5F_SCOPE_GLOBAL), path, "flushing the file");
+    }
     last_flush = std::chrono::steady_clock::now();
   }
 

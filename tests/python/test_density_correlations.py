@@ -169,13 +169,3 @@ def test_a_fit_whose_d_f_error_passes_half_of_it_has_no_fractal_range():
     # The same form without the noise, over many wave vectors per shell, keeps its range.
     fit = dc.fit_blob(k, (1 + (3 * k) ** 2) ** -0.8, np.full(k.size, 200), 0.4, 6.28)
     assert fit["fractal_range"] and fit["d_F"] == pytest.approx(1.6, rel=1e-6)
-
-
-def test_a_fall_steeper_than_the_plane_allows_is_no_fractal_range():
-    """A 2D mass fractal has d_F <= 2; a clean k^-2.6 fall fitted d_F = 2.6 and passed as a fractal dimension (a
-    review saw 2.55 +- 0.41 on 200 disks). Within its error of 2 it stays."""
-    k = np.geomspace(0.2, 6.28, 12)
-    steep = dc.fit_blob(k, (1 + (5 * k) ** 2) ** -1.3, np.full(k.size, 200), 0.2, 6.28)
-    assert not steep["fractal_range"] and math.isnan(steep["d_F"])
-    plane = dc.fit_blob(k, (1 + (5 * k) ** 2) ** -0.99, np.full(k.size, 200), 0.2, 6.28)
-    assert plane["fractal_range"] and plane["d_F"] == pytest.approx(1.98, rel=1e-6)
