@@ -19,7 +19,6 @@ import csv
 import pathlib
 import re
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -33,12 +32,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def grains(args, binary):
-    """Runs grains; a failed run ends the benchmark with grains' own reason."""
+    """Runs grains: what it printed and the wall time; a failed run ends the benchmark with grains' own reason."""
     t = time.perf_counter()
-    r = subprocess.run([binary, *map(str, args)], capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"bench_consolidation.py: grains {args[0]} ended with status {r.returncode}: {r.stderr.strip()}")
-    return r.stdout, time.perf_counter() - t
+    stdout = reuse.run_grains("bench_consolidation.py", [binary, *args])
+    return stdout, time.perf_counter() - t
 
 
 def throughput(a):

@@ -89,11 +89,12 @@ def require_binary(ap, option, path):
 
 
 def run_grains(prog, command):
-    """Runs a grains command whose output goes to a file; a failure ends the tool with grains' own reason (one line,
+    """Runs a grains command and returns what it printed; a failure ends the tool with grains' own reason (one line,
     no traceback)."""
-    done = subprocess.run([str(c) for c in command], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    done = subprocess.run([str(c) for c in command], capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{prog}: grains {command[1]} ended with status {done.returncode}: {done.stderr.strip()}")
+    return done.stdout
 
 
 def ended(h5):
