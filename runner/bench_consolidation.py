@@ -134,9 +134,8 @@ def main():
         if getattr(a, name) is not None and name not in reads:
             ap.error(f"--{name}: not read by {a.what} (it reads {', '.join('--' + r for r in sorted(reads))})")
     a.steps, a.seeds, a.jobs = a.steps or 20000, a.seeds or 3, a.jobs or 2
+    a.count = a.count or (1400 if a.what == "cycle" else 300)
     reuse.require_binary(ap, "--grains", a.grains)
-    if a.count is None:
-        a.count = 1400 if a.what == "cycle" else 300
     {"throughput": throughput, "cycle": cycle, "settings": settings}[a.what](a)
 
 

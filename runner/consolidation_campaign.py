@@ -134,7 +134,7 @@ def check_samples(ap, grains, samples, report=False):
 def check_arguments(ap, args):
     """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (with --report it
     must exist; make_out makes it once the samples' scenes passed check_samples), and an executable grains binary
-    unless only reporting (the report checks it once it has found tables: check_grains)."""
+    unless only reporting (the report checks it once it has found tables)."""
     reuse.refuse_controlled(ap, args.set, {"particles.seed": "--first-seed and --samples", "particles.count": "--count",
                                            "run.threads": "--threads" if hasattr(args, "threads") else "one thread each"})
     for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
@@ -146,7 +146,7 @@ def check_arguments(ap, args):
     if out.exists() and not out.is_dir():
         ap.error(f"--out {out}: not a folder")
     if not args.report:
-        check_grains(ap, args.grains)
+        reuse.require_binary(ap, "--grains", args.grains)
 
 
 def make_out(ap, out):
@@ -155,10 +155,6 @@ def make_out(ap, out):
         pathlib.Path(out).mkdir(parents=True, exist_ok=True)
     except OSError as error:
         ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
-
-
-def check_grains(ap, grains):
-    reuse.require_binary(ap, "--grains", grains)
 
 
 def provenance(args, names):
@@ -399,7 +395,7 @@ def main():
         partial = {key for key in found if found[key][1]}
         if not tables:   # as the other campaign tools do: nothing to summarise is an error, not an empty report
             ap.error(f"--report: no stage table of {', '.join(scenes)} for seeds {seeds.start}..{seeds.stop - 1} in {out}")
-        check_grains(ap, args.grains)   # to say whether the tables ran what the summary will say they did
+        reuse.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
         check_samples(ap, args.grains, samples, report=True)
     else:
         check_samples(ap, args.grains, samples)

@@ -25,7 +25,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_campaign import ROOT, check_arguments, check_grains, check_samples, consolidate, make_out, provenance  # noqa: E402
+from consolidation_campaign import ROOT, check_arguments, check_samples, consolidate, make_out, provenance  # noqa: E402
 import reuse  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
@@ -78,7 +78,7 @@ def main():
         tables = {key: table for key, table in tables.items() if table.exists()}
         if not tables:
             ap.error(f"--report: no table of {', '.join(states)} for seeds {seeds.start}..{seeds.stop - 1} in {out}")
-        check_grains(ap, args.grains)   # to say whether the tables ran what the summary will say they did
+        reuse.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
     check_samples(ap, args.grains, runs)
     if not args.report:
         make_out(ap, out)
