@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -45,6 +46,16 @@ Tensor<D> lattice_virial(const std::vector<Vec<D>>& centres, const Vec<D>& lengt
   return s.virial;
 }
 
+// A triangular lattice of nx by ny disks at spacing s (ny even: the rows close periodically), rows along x:
+// the centres and the periodic box.
+std::pair<std::vector<Vec<2>>, Vec<2>> triangular_lattice(int nx, int ny, double s) {
+  const double h = std::sqrt(3.0) / 2 * s;
+  std::vector<Vec<2>> x;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) x.emplace_back((i + 0.5 * (j % 2) + 0.25) * s, (j + 0.5) * h);
+  return {x, Vec<2>(nx * s, ny * h)};
+}
+
 }  // namespace
 
 TEST_CASE("contact stress of a compressed square lattice is k delta / s on both axes", "[stress]") {
@@ -64,12 +75,8 @@ TEST_CASE("contact stress of a compressed square lattice is k delta / s on both 
 }
 
 TEST_CASE("contact stress of a compressed triangular lattice is sqrt(3) k delta / s, isotropic", "[stress]") {
-  const int nx = 6, ny = 6;   // ny even: the rows close periodically
-  const double s = 0.97, diameter = 1.0, k = 2e3, delta = diameter - s, h = std::sqrt(3.0) / 2 * s;
-  std::vector<Vec<2>> x;
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) x.emplace_back((i + 0.5 * (j % 2) + 0.25) * s, (j + 0.5) * h);
-  const Vec<2> L(nx * s, ny * h);
+  const double s = 0.97, diameter = 1.0, k = 2e3, delta = diameter - s;
+  const auto [x, L] = triangular_lattice(6, 6, s);
   const double expected = std::sqrt(3.0) * k * delta / s;
   for (int threads : {1, 2}) {
     const Tensor<2> sigma = contact_stress<2>(lattice_virial<2>(x, L, diameter, k, threads), L.prod());
@@ -156,11 +163,7 @@ threads = {}
   };
   SECTION("a triangular lattice at rest, each contact pressed to F = K_N 3 delta0 - F0 = 2 F0: sqrt(3) F / l") {
     const double kn = 1e5, l = 1 - 3 / kn;   // F0 = 1, delta0 = F0 / K_N
-    std::vector<Vec<2>> x;
-    const int nx = 6, ny = 6;
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) x.emplace_back((i + 0.5 * (j % 2)) * l, j * l * std::sqrt(3.0) / 2);
-    const Vec<2> L(nx * l, ny * l * std::sqrt(3.0) / 2);
+    const auto [x, L] = triangular_lattice(6, 6, l);
     auto s = scene(x, std::vector<Vec<2>>(x.size(), Vec<2>::Zero()), std::vector<double>(x.size(), 1.0), L, 1);
     const double sigma = std::sqrt(3.0) * 2 / l;
     CHECK(s->get("stress_xx") == Approx(sigma).epsilon(1e-9));
