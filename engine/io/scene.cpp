@@ -251,7 +251,7 @@ double Scene::real(std::string_view path) const {
   const auto& e = entry(path);
   return with_default(*this, node(path), e, [&](const toml::node& n) {
     auto x = n.value<double>();
-    if (!x || n.is_boolean()) fail(path, fmt::format("expected a number, got {}", render(n)));
+    if (!x || n.is_boolean()) fail(path, fmt::format("expected a number, got {}: allowed {}", render(n), describe_allowed(e)));
     if (!in_range(e, *x)) fail(path, fmt::format("value {} is out of range: allowed {}", *x, describe_allowed(e)));
     return *x;
   });
@@ -279,7 +279,7 @@ bool Scene::boolean(std::string_view path) const {
 std::string Scene::text(std::string_view path) const {
   const auto& e = entry(path);
   return with_default(*this, node(path), e, [&](const toml::node& n) {
-    if (!n.is_string()) fail(path, fmt::format("expected a string, got {}", render(n)));
+    if (!n.is_string()) fail(path, fmt::format("expected a string, got {}: allowed {}", render(n), describe_allowed(e)));
     std::string v = *n.value<std::string>();
     if (!e.choices.empty()) {
       std::string_view c = e.choices;
@@ -302,11 +302,12 @@ std::vector<double> Scene::reals(std::string_view path) const {
   const auto& e = entry(path);
   return with_default(*this, node(path), e, [&](const toml::node& n) {
     const auto* a = n.as_array();
-    if (!a) fail(path, fmt::format("expected an array of numbers, got {}", render(n)));
+    if (!a) fail(path, fmt::format("expected an array of numbers, got {}: allowed {}", render(n), describe_allowed(e)));
     std::vector<double> out;
     for (std::size_t i = 0; i < a->size(); ++i) {
       auto x = (*a)[i].value<double>();
-      if (!x || (*a)[i].is_boolean()) fail(path, fmt::format("element {} is {}, expected a number", i, render((*a)[i])));
+      if (!x || (*a)[i].is_boolean())
+        fail(path, fmt::format("element {} is {}, expected a number: allowed {}", i, render((*a)[i]), describe_allowed(e)));
       if (!in_range(e, *x)) fail(path, fmt::format("element {} = {} is out of range: allowed {}", i, *x, describe_allowed(e)));
       out.push_back(*x);
     }

@@ -518,6 +518,18 @@ TEST_CASE("scene errors: a key another given key replaces is warned about, not r
   CHECK(Simulation::create(Scene::from_string(resolved, "resolved.toml"))->warnings().empty());
 }
 
+TEST_CASE("scene errors: a wrong type is told the allowed values too", "[scene][errors]") {
+  // An integer key said its range; a number, string or array key said only the type it expected.
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitution=\"high\""}),
+                      Contains("contact.restitution: expected a number, got \"high\": allowed number in (0, 1]"));
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=3"}),
+                      Contains("particles.layout: expected a string, got 3: allowed string, one of lattice, random, list, file"));
+  REQUIRE_THROWS_WITH(build(good, {"box.lengths=4"}),
+                      Contains("box.lengths: expected an array of numbers, got 4: allowed array of numbers in (0, inf)"));
+  REQUIRE_THROWS_WITH(build(good, {"box.lengths=[4, \"4\", 4]"}),
+                      Contains("box.lengths: element 1 is \"4\", expected a number: allowed array of numbers in (0, inf)"));
+}
+
 TEST_CASE("scene errors: defaults are never refused as unread, and the resolved scene lists only the keys it reads",
           "[scene][errors]") {
   REQUIRE_NOTHROW(build(good));
