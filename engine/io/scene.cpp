@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -127,6 +128,53 @@ bool beyond_64_bits(std::string_view text) {
   return std::from_chars(first, text.data() + text.size(), value).ec == std::errc::result_out_of_range;
 }
 
+// What is wrong with a number literal that TOML cannot hold (1e999, 2^63), as the key's allowed values say it;
+// empty where the literal is no such number or the key takes none.
+std::string unholdable_number(const SchemaEntry& e, std::string_view literal) {
+  if (e.kind == ValueKind::integer && beyond_64_bits(literal))
+    return fmt::format("{}: value {} is out of range: allowed {}", e.path, literal, describe_allowed(e));
+  if (e.kind != ValueKind::real && e.kind != ValueKind::real_array) return "";
+  if (beyond_double(literal))
+    return fmt::format("{}: value {} is beyond a double's range (magnitudes 2.2e-308 to 1.8e308, or 0): allowed {}", e.path,
+                       literal, describe_allowed(e));
+  if (beyond_64_bits(literal))   // a whole number too long for TOML's integers, which a double holds
+    return fmt::format("{}: value {} is too long for a TOML integer: write it with an exponent (e.g. {:.6g}): allowed {}",
+                       e.path, literal, std::strtod(std::string(literal).c_str(), nullptr), describe_allowed(e));
+  return "";
+}
+
+// The schema key whose `key = value` is on line `line` (1-based) of a scene's text (its section the last
+// [header] above it), and the text after its '='. A null key where the line holds none (a row of an array
+// written over several lines).
+struct KeyOnLine {
+  const SchemaEntry* entry = nullptr;
+  std::string_view value;
+};
+KeyOnLine key_on_line(std::string_view text, std::size_t line) {
+  auto trim = [](std::string_view v) {
+    const auto first = v.find_first_not_of(" \t"), last = v.find_last_not_of(" \t\r");
+    return first == std::string_view::npos ? std::string_view() : v.substr(first, last - first + 1);
+  };
+  std::string section;
+  std::size_t number = 1;
+  for (std::size_t start = 0; start <= text.size() && number <= line; ++number) {
+    auto end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view content = trim(text.substr(start, end - start));
+    start = end + 1;
+    if (number < line) {
+      if (content.starts_with('[') && !content.starts_with("[[") && content.find(']') != std::string_view::npos)
+        section = std::string(trim(content.substr(1, content.find(']') - 1)));
+      continue;
+    }
+    const auto eq = content.find('=');
+    if (eq == std::string_view::npos) return {};
+    const std::string key(trim(content.substr(0, eq)));
+    return {find_schema_entry(section.empty() ? key : section + "." + key), content.substr(eq + 1)};
+  }
+  return {};
+}
+
 bool in_range(const SchemaEntry& e, double x) {
   if (!std::isfinite(x)) return false;
   if (e.min_open ? x <= e.min : x < e.min) return false;
@@ -144,6 +192,19 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
   try {
     s.table_ = toml::parse(text, s.origin_);
   } catch (const toml::parse_error& err) {
+    // A number too large for TOML (toml++ quotes it in its message) is named by its key and the key's range.
+    const std::string_view what = err.description();
+    const auto open = what.find('\''), close = what.rfind('\'');
+    const KeyOnLine at = key_on_line(text, err.source().begin.line);
+    std::string named;
+    if (at.entry && what.ends_with("not representable in 64 bits") && open < close) {
+      std::string_view literal = what.substr(open + 1, close - open - 1);   // toml++ quotes it without its sign
+      const auto in_line = at.value.find(literal);
+      if (in_line != std::string_view::npos && in_line > 0 && (at.value[in_line - 1] == '-' || at.value[in_line - 1] == '+'))
+        literal = at.value.substr(in_line - 1, literal.size() + 1);
+      named = unholdable_number(*at.entry, literal);
+    }
+    if (!named.empty()) throw SceneError(fmt::format("{}:{}: {}", s.origin_, err.source().begin.line, named));
     throw SceneError(fmt::format("{}:{}:{}: TOML syntax error: {}", s.origin_, err.source().begin.line,
                                  err.source().begin.column, err.description()));
   }
@@ -202,11 +263,8 @@ void Scene::set_value(std::string_view path, std::string_view toml_value) {
   try {
     parsed = toml::parse(fmt::format("v = {}", toml_value));
   } catch (const toml::parse_error&) {   // a bare word is taken as a string: --set output.file=run.h5
-    if (const SchemaEntry& e = *find_schema_entry(path); e.kind == ValueKind::integer && beyond_64_bits(toml_value))
-      throw SceneError(fmt::format("{}: value {} is out of range: allowed {}", path, toml_value, describe_allowed(e)));
-    else if (e.kind == ValueKind::real && beyond_double(toml_value))
-      throw SceneError(fmt::format("{}: value {} is beyond a double's range (magnitudes 2.2e-308 to 1.8e308, or 0): "
-                                   "allowed {}", path, toml_value, describe_allowed(e)));
+    if (std::string named = unholdable_number(*find_schema_entry(path), toml_value); !named.empty())
+      throw SceneError(named);
     toml::table t;
     t.insert("v", std::string(toml_value));
     parsed = std::move(t);

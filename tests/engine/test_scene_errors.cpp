@@ -530,6 +530,24 @@ TEST_CASE("scene errors: a wrong type is told the allowed values too", "[scene][
                       Contains("box.lengths: element 1 is \"4\", expected a number: allowed array of numbers in (0, inf)"));
 }
 
+TEST_CASE("scene errors: a number TOML cannot hold, written in the scene file, names its key and the range", "[scene][errors]") {
+  // The scene file's 2^63 or 1e400 was a bare "TOML syntax error" naming neither the key nor what it allows.
+  CHECK_THAT(build_error(with("count = 27", "count = 99999999999999999999")),
+             Contains("bad.toml:6: particles.count: value 99999999999999999999 is out of range: allowed integer in [1, 1000000000]"));
+  CHECK_THAT(build_error(with("count = 27", "count = -99999999999999999999  # comment")),
+             Contains("particles.count: value -99999999999999999999 is out of range"));
+  CHECK_THAT(build_error(with("duration = 0.05", "duration = 1e-400")),
+             Contains("bad.toml:10: contact.duration: value 1e-400 is beyond a double's range") &&
+                 Contains("allowed number in (0, inf)"));
+  CHECK_THAT(build_error(good + "[box]\nlengths = [4, 1e999, 4]\n"),
+             Contains("box.lengths: value 1e999 is beyond a double's range"));
+  CHECK_THAT(build_error(with("duration = 0.05", "duration = 9223372036854775808")),
+             Contains("contact.duration: value 9223372036854775808 is too long for a TOML integer: write it with an exponent"));
+  // The same through --set, and a syntax error that is not a number stays one.
+  REQUIRE_THROWS_WITH(build(good, {"contact.duration=9223372036854775808"}), Contains("too long for a TOML integer"));
+  CHECK_THAT(build_error(good + "[box]\nunknown = 1e999\n"), Contains("TOML syntax error"));
+}
+
 TEST_CASE("scene errors: defaults are never refused as unread, and the resolved scene lists only the keys it reads",
           "[scene][errors]") {
   REQUIRE_NOTHROW(build(good));
