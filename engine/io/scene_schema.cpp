@@ -330,6 +330,20 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
         {"particles.density", {{"particles.mass", ""}}, ""},
         {"particles.solid_fraction", {{"box.lengths", ""}}, ""},
         {"time.steps_per_contact", {{"time.dt", ""}}, ""},
+        // Listed particles' own diameters or masses, and a particle file's columns, replace the drawn or uniform
+        // ones (a particles.mass beside a file was ignored without a word).
+        {"particles.diameter", {{"particles.diameters", ""}}, ""},
+        {"particles.diameter", {{"particles.file", ""}}, ""},
+        {"particles.size_distribution", {{"particles.diameters", ""}}, ""},
+        {"particles.size_distribution", {{"particles.file", ""}}, ""},
+        {"particles.diameter_min", {{"particles.diameters", ""}}, ""},
+        {"particles.diameter_min", {{"particles.file", ""}}, ""},
+        {"particles.diameter_max", {{"particles.diameters", ""}}, ""},
+        {"particles.diameter_max", {{"particles.file", ""}}, ""},
+        {"particles.mass", {{"particles.masses", ""}}, ""},
+        {"particles.mass", {{"particles.file", ""}}, ""},
+        {"particles.density", {{"particles.masses", ""}}, ""},
+        {"particles.density", {{"particles.file", ""}}, ""},
         {"gravity.opening_angle", {{"gravity.solver", "\"tree\""}}, ""},
         {"particles.diameter_min", {{"particles.size_distribution", "\"uniform\""}}, ""},
         {"particles.diameter_max", {{"particles.size_distribution", "\"uniform\""}}, ""},
@@ -422,12 +436,19 @@ std::string schema_reference_markdown() {
     }
     std::string dflt = e.fallback.empty() ? "—" : fmt::format("`{}`", e.fallback);
     std::string doc(e.doc);
+    std::vector<std::string> replacements;   // the keys that take this one's place, in one sentence
+    for (const auto& rule : unread_key_rules())
+      if (rule.path == e.path && rule.needs.size() == 1 && rule.needs[0].second.empty())
+        replacements.push_back(fmt::format("`{}`", rule.needs[0].first));
+    if (!replacements.empty()) {
+      const std::string last = replacements.back();
+      replacements.pop_back();
+      doc += fmt::format(" Not read when {}{} is given, which takes its place (a warning says so).",
+                         fmt::join(replacements, ", "), replacements.empty() ? last : " or " + last);
+    }
     for (const auto& rule : unread_key_rules())
       if (rule.path == e.path) {
-        if (rule.needs.size() == 1 && rule.needs[0].second.empty()) {   // a supersession
-          doc += fmt::format(" Not read when `{}` is given, which takes its place (a warning says so).", rule.needs[0].first);
-          continue;
-        }
+        if (rule.needs.size() == 1 && rule.needs[0].second.empty()) continue;   // a supersession, above
         std::vector<std::string> needs;
         for (const auto& [key, value] : rule.needs) needs.push_back(fmt::format("`{} = {}`", key, value));
         doc += fmt::format(" Read only with {}: given{} without, refused.", fmt::join(needs, " and "),

@@ -548,6 +548,43 @@ TEST_CASE("scene errors: a number TOML cannot hold, written in the scene file, n
   CHECK_THAT(build_error(good + "[box]\nunknown = 1e999\n"), Contains("TOML syntax error"));
 }
 
+TEST_CASE("scene errors: a particle file's columns and listed sizes or masses replace the size and mass keys, with a warning",
+          "[scene][errors]") {
+  // particles.mass, density, diameter and the size distribution beside a particle file (or beside listed
+  // diameters and masses) were ignored without a word, and grains check's resolved scene listed them as read.
+  const auto path = std::filesystem::temp_directory_path() / "grains-replacing-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 2\n3 0 0 1 2\n";
+  }
+  const Scene from_file = Scene::from_string(
+      good_uncounted, "s.toml", {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                 "box.periodic=false", "particles.mass=5", "particles.density=3",
+                                 "particles.size_distribution=\"uniform\"", "particles.diameter_max=0.7"});
+  const auto sim = Simulation::create(from_file);
+  const auto& w = sim->warnings();
+  auto warned = [&](const std::string& text) {
+    return std::any_of(w.begin(), w.end(), [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
+  for (const char* key : {"particles.mass = 5", "particles.density = 3", "particles.size_distribution = \"uniform\"",
+                          "particles.diameter_max = 0.7"})
+    CHECK(warned(fmt::format("{} is not used: particles.file = \"{}\" is given and takes its place", key, path.string())));
+  CHECK(sim->particles().mass[0] == 2.0);
+  const std::string resolved = from_file.resolved_toml();
+  for (const char* replaced : {"mass =", "density", "diameter", "size_distribution"}) CHECK(resolved.find(replaced) == std::string::npos);
+
+  const Scene listed = Scene::from_string(
+      good_uncounted, "s.toml", {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[3,0,0]]", "box.periodic=false",
+                                 "particles.diameters=[1, 0.8]", "particles.masses=[1, 2]", "particles.diameter=0.5",
+                                 "particles.mass=5"});
+  const auto listed_sim = Simulation::create(listed);
+  CHECK_THAT(fmt::format("{}", fmt::join(listed_sim->warnings(), "\n")),
+             Contains("particles.diameter = 0.5 is not used: particles.diameters = [ 1, 0.8 ] is given") &&
+                 Contains("particles.mass = 5 is not used: particles.masses = [ 1, 2 ] is given"));
+  CHECK(listed_sim->particles().mass[1] == 2.0);
+  std::filesystem::remove(path);
+}
+
 TEST_CASE("scene errors: defaults are never refused as unread, and the resolved scene lists only the keys it reads",
           "[scene][errors]") {
   REQUIRE_NOTHROW(build(good));
