@@ -11,6 +11,9 @@
 namespace grains {
 namespace {
 constexpr double inf = 1e308;
+// Sizes and masses whose products (reduced masses, stiffnesses, G m m) neither overflow nor vanish: the bounds
+// that protocols/initial_state.cpp checks every particle's size and mass against, drawn or derived ones too.
+constexpr double size_min = 1e-100, size_max = 1e100, mass_min = 1e-150, mass_max = 1e150;
 using K = ValueKind;
 }  // namespace
 
@@ -29,16 +32,19 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"particles.count", K::integer, "", 1, 1e9, false, false, "",
        "Number of particles (lattice/random). For `lattice` it must be n^D. Listed or file particles are counted: a count given with them must agree."},
       {"particles.seed", K::integer, "1", 0, 9.2e18, false, false, "", "Seed of every random choice in the set-up."},
-      {"particles.diameter", K::real, "1.0", 0, inf, true, false, "", "Diameter of every particle (size distribution `constant`)."},
+      {"particles.diameter", K::real, "1.0", size_min, size_max, false, false, "", "Diameter of every particle (size distribution `constant`)."},
       {"particles.size_distribution", K::text, "\"constant\"", 0, 0, false, false, "constant|uniform",
        "`uniform`: diameters uniform in [diameter_min, diameter_max]."},
-      {"particles.diameter_min", K::real, "0.5", 0, inf, true, false, "", "Smallest diameter (size distribution `uniform`)."},
-      {"particles.diameter_max", K::real, "1.0", 0, inf, true, false, "", "Largest diameter (size distribution `uniform`)."},
+      {"particles.diameter_min", K::real, "0.5", size_min, size_max, false, false, "", "Smallest diameter (size distribution `uniform`)."},
+      {"particles.diameter_max", K::real, "1.0", size_min, size_max, false, false, "",
+       "Largest diameter (size distribution `uniform`), at least `diameter_min`."},
       {"particles.density", K::real, "1.0", 0, inf, true, false, "",
-       "Mass per volume (3D) or per area (2D); m = density * volume unless `mass` is given."},
-      {"particles.mass", K::real, "", 0, inf, true, false, "", "If set, the mass of every particle, whatever its size."},
+       "Mass per volume (3D) or per area (2D); m = density * volume unless `mass` is given (every mass so made within "
+       "[1e-150, 1e150], as `mass`)."},
+      {"particles.mass", K::real, "", mass_min, mass_max, false, false, "", "If set, the mass of every particle, whatever its size."},
       {"particles.solid_fraction", K::real, "", 0, 1, true, true, "",
-       "Sets the box size for `lattice` and `random` layouts when `box.lengths` is absent."},
+       "Sets the box size (a cube or square of the particles' total volume / value) when `box.lengths` is absent, "
+       "whatever the layout: listed or file particles too."},
       {"particles.track_orientation", K::boolean, "true", 0, 0, false, false, "",
        "Integrate each particle's orientation (3D: a unit quaternion turned by the exact rotation of omega dt; 2D: "
        "an angle) and write it to the output. No force depends on it (the grains are round), so a scene that does not "
@@ -51,11 +57,13 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"particles.positions", K::real_matrix, "", 0, 0, false, false, "", "Layout `list`: one [x, y(, z)] per particle."},
       {"particles.velocities", K::real_matrix, "", 0, 0, false, false, "", "Velocity `list`: one vector per particle."},
       {"particles.angular_velocities", K::real_matrix, "", 0, 0, false, false, "",
-       "Optional, layout `list`: one [wx, wy, wz] (3D) or [w] (2D) per particle."},
-      {"particles.diameters", K::real_array, "", 0, inf, true, false, "", "Layout `list`: one diameter per particle (else `diameter`)."},
-      {"particles.masses", K::real_array, "", 0, inf, true, false, "", "Layout `list`: one mass per particle (else from density)."},
+       "Optional, any layout: one [wx, wy, wz] (3D) or [w] (2D) per particle, in the particles' order (the rows of "
+       "`positions` or of the file; lattice and random layouts number their particles themselves)."},
+      {"particles.diameters", K::real_array, "", size_min, size_max, false, false, "", "Layout `list`: one diameter per particle (else `diameter`)."},
+      {"particles.masses", K::real_array, "", mass_min, mass_max, false, false, "", "Layout `list`: one mass per particle (else from density)."},
       {"particles.file", K::text, "", 0, 0, false, false, "",
-       "Layout `file`: path (relative to the scene) of a table with columns x y [z] diameter mass [vx vy [vz]]; `#` starts a comment."},
+       "Layout `file`: path (relative to the scene) of a table with columns x y [z] diameter mass [vx vy [vz]]; `#` starts a comment. Diameters "
+       "within [1e-100, 1e100] and masses within [1e-150, 1e150], as `diameters` and `masses`."},
 
       // --- box ---
       {"box.lengths", K::real_array, "", 0, inf, true, false, "",
@@ -186,7 +194,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "(required with it)."},
       {"cell.force_unit", K::real, "", 0, inf, false, false, "",
        "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, else 1. 0 = cohesionless: "
-       "`cell.pressure` is then P a^(D-2) / k_n (P / K_N in 2D) and F1 = P a^(D-1)."},
+       "`cell.pressure` (and `pressure_final`) is then P a^(D-2) / k_n (P / K_N in 2D), and must be > 0, and F1 = "
+       "P a^(D-1)."},
       {"cell.mass", K::real, "", 0, inf, true, false, "",
        "M_c: the cell's inertia; default m (L / a)^(D-2), m the mass of a grain of diameter a (in 2D: m). The cell then "
        "breathes about as fast as a contact and is damped by the contacts; a much heavier cell (say the total mass) "
@@ -305,7 +314,8 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = automatic: every core, at most one thread per 2000 particles. Results are deterministic for a given thread count."},
 
       // --- output ---
-      {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path; default `<scene.name>.h5`."},
+      {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path; default `<scene.name>.h5` (`grains consolidate`: `<scene.name>-stages.h5`). The "
+       "command's `--out` takes its place."},
       {"output.observables_every", K::integer, "100", 1, 9.2e18, false, false, "", "Steps between scalar observable records."},
       {"output.snapshots_every", K::integer, "0", 0, 9.2e18, false, false, "",
        "Steps between particle snapshots; 0 = first and last only."},

@@ -292,7 +292,13 @@ InitialState<D> make_initial_state(const Scene& s) {
     auto L = s.reals("box.lengths");
     box.length = to_vec<D>(s, "box.lengths", L, single);
   } else if (s.has("particles.solid_fraction")) {
-    box.length.setConstant(std::pow(solids / s.real("particles.solid_fraction"), 1.0 / D));
+    const double fraction = s.real("particles.solid_fraction");
+    box.length.setConstant(std::pow(solids / fraction, 1.0 / D));
+    // A fraction far below any packing's (1e-309) overflows the volume: the run went non-finite at its first step.
+    if (!std::isfinite(box.length[0]))
+      s.fail("particles.solid_fraction", fmt::format("value {:.6g} makes the box's volume (solid volume {:.6g} / fraction) "
+                                                     "overflow a double: allowed a fraction at least {:.3g} here",
+                                                     fraction, solids, solids / 1e308));
   } else if (layout == "lattice" || layout == "random" || box.any_periodic()) {
     s.fail("box.lengths", "give box.lengths or particles.solid_fraction to size the box");
   } else {

@@ -106,7 +106,7 @@ TEST_CASE("scene errors: out-of-range values name key, value and the allowed int
   REQUIRE_THROWS_WITH(build(with("restitution = 0.5", "restitution = 0.0")),
                       Contains("contact.restitution") && Contains("value 0 ") && Contains("(0, 1]"));
   REQUIRE_THROWS_WITH(build(good, {"particles.diameter=-0.5"}),
-                      Contains("particles.diameter") && Contains("-0.5") && Contains("(0, inf)"));
+                      Contains("particles.diameter") && Contains("-0.5") && Contains("[1e-100, 1e+100]"));
   REQUIRE_THROWS_WITH(build(with("dimension = 3", "dimension = 4")),
                       Contains("scene.dimension") && Contains("value 4") && Contains("[2, 3]"));
   REQUIRE_THROWS_WITH(build(good, {"box.lengths=[4.0, -2.0, 4.0]"}),
@@ -583,6 +583,19 @@ TEST_CASE("scene errors: a particle file's columns and listed sizes or masses re
                  Contains("particles.mass = 5 is not used: particles.masses = [ 1, 2 ] is given"));
   CHECK(listed_sim->particles().mass[1] == 2.0);
   std::filesystem::remove(path);
+}
+
+TEST_CASE("scene errors: sizes, masses and solid fractions the engine cannot hold are refused naming the key", "[scene][errors]") {
+  // The schema said (0, inf) for sizes and masses, but the engine refused those beyond [1e-100, 1e100] and
+  // [1e-150, 1e150]: the reference now gives these ranges.
+  REQUIRE_THROWS_WITH(build(good, {"particles.diameter=1e-101"}),
+                      Contains("particles.diameter: value 1e-101 is out of range: allowed number in [1e-100, 1e+100]"));
+  REQUIRE_THROWS_WITH(build(good, {"particles.mass=1e151"}),
+                      Contains("particles.mass: value 1e+151 is out of range: allowed number in [1e-150, 1e+150]"));
+  REQUIRE_NOTHROW(build(good, {"particles.diameter=1e-100", "particles.mass=1"}));
+  // A solid fraction in (0, 1) whose box volume overflows ran into a non-finite position at the first step.
+  REQUIRE_THROWS_WITH(build(good, {"particles.solid_fraction=1e-309"}),
+                      Contains("particles.solid_fraction: value 1e-309 makes the box's volume") && Contains("overflow"));
 }
 
 TEST_CASE("scene errors: defaults are never refused as unread, and the resolved scene lists only the keys it reads",

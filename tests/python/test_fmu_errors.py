@@ -81,7 +81,7 @@ def test_out_of_range_parameter_gets_the_scene_schema_message(unit):
     fails(unit, lambda: unit.set("contact.restitution", 1.5), "the FMU's parameters", "contact.restitution", "1.5", "(0, 1]")
     fails(unit, lambda: unit.set("particles.count", 0), "particles.count", "0")
     # NaN and inf get the same message, with the schema's exact range (once "[0, inf]" for "(0, inf)")
-    fails(unit, lambda: unit.set("particles.diameter", float("nan")), "particles.diameter", "nan", "(0, inf)")
+    fails(unit, lambda: unit.set("contact.duration", float("nan")), "contact.duration", "nan", "(0, inf)")
     fails(unit, lambda: unit.set("contact.restitution", float("inf")), "contact.restitution", "inf", "(0, 1]")
     unit.initialize({"particles.count": 100})   # the rejected values were not kept
     assert unit.get("contact.restitution") == 0.5
