@@ -259,12 +259,15 @@ Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std:
 void Scene::set_value(std::string_view path, std::string_view toml_value) {
   if (!find_schema_entry(path))
     throw SceneError(fmt::format("--set: unknown key '{}'{}", path, allowed_keys(path)));
+  const SchemaEntry& e = *find_schema_entry(path);
   toml::table parsed;
   try {
     parsed = toml::parse(fmt::format("v = {}", toml_value));
   } catch (const toml::parse_error&) {   // a bare word is taken as a string: --set output.file=run.h5
-    if (std::string named = unholdable_number(*find_schema_entry(path), toml_value); !named.empty())
-      throw SceneError(named);
+    if (std::string named = unholdable_number(e, toml_value); !named.empty()) throw SceneError(named);
+  }
+  // A text key takes the bare word as written, though it reads as a number or boolean (--set scene.name=2024).
+  if (!parsed.contains("v") || (e.kind == ValueKind::text && !parsed.get("v")->is_string())) {
     toml::table t;
     t.insert("v", std::string(toml_value));
     parsed = std::move(t);

@@ -261,6 +261,18 @@ TEST_CASE("scene errors: a bad --set override is named", "[scene][errors]") {
   REQUIRE_THROWS_WITH(build(good, {"contact.restitution=2"}), Contains("contact.restitution") && Contains("value 2") && Contains("(0, 1]"));
 }
 
+TEST_CASE("scene errors: a --set bare word is a text key's value, though it reads as a number or boolean", "[scene][errors]") {
+  // A bare word is a string (--set output.file=run.h5), but --set scene.name=2024 was the integer 2024, refused.
+  const Scene scene = Scene::from_string(good, "s.toml", {"scene.name=2024", "output.file=1e5", "scene.description=true"});
+  CHECK(scene.text("scene.name") == "2024");
+  CHECK(scene.text("output.file") == "1e5");
+  CHECK(scene.text("scene.description") == "true");
+  REQUIRE_THROWS_WITH(build(good, {"particles.layout=3"}),
+                      Contains("particles.layout: value \"3\" is not allowed: allowed string, one of lattice, random, list, file"));
+  // A number key still reads the number, and refuses the bare word.
+  REQUIRE_THROWS_WITH(build(good, {"contact.restitution=high"}), Contains("contact.restitution: expected a number, got \"high\""));
+}
+
 TEST_CASE("scene errors: exact calibration refuses a restitution it cannot realise", "[scene][errors]") {
   REQUIRE_THROWS_AS(build(good, {"contact.calibration=\"exact\"", "contact.restitution=0.1"}), SceneError);
   REQUIRE_THROWS_WITH(build(good, {"contact.calibration=\"exact\"", "contact.restitution=0.1"}),
@@ -522,7 +534,7 @@ TEST_CASE("scene errors: a wrong type is told the allowed values too", "[scene][
   // An integer key said its range; a number, string or array key said only the type it expected.
   REQUIRE_THROWS_WITH(build(good, {"contact.restitution=\"high\""}),
                       Contains("contact.restitution: expected a number, got \"high\": allowed number in (0, 1]"));
-  REQUIRE_THROWS_WITH(build(good, {"particles.layout=3"}),
+  REQUIRE_THROWS_WITH(build(with("layout = \"lattice\"", "layout = 3")),
                       Contains("particles.layout: expected a string, got 3: allowed string, one of lattice, random, list, file"));
   REQUIRE_THROWS_WITH(build(good, {"box.lengths=4"}),
                       Contains("box.lengths: expected an array of numbers, got 4: allowed array of numbers in (0, inf)"));
