@@ -371,6 +371,8 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
         {"contact.calibration", {{"contact.enabled", "true"}, {"adhesion.enabled", "false"}}, ""},
         {"contact.overlap_limit", {{"contact.enabled", "true"}}, ""},
         {"analysis.zero_force", {{"adhesion.enabled", "true"}}, ""},
+        // The quench's rolling dashpot belongs to the consolidation law (protocols/consolidation_programme.cpp).
+        {"programme.quench_damping", {{"adhesion.enabled", "true"}}, ""},
         // The aggregation analysis runs with self-gravity only.
         {"analysis.cluster_tolerance", {{"gravity.enabled", "true"}}, ""},
         {"analysis.aggregation_threshold", {{"gravity.enabled", "true"}}, ""},

@@ -508,6 +508,14 @@ TEST_CASE("scene errors: a key given where the scene does not read it names the 
                       Contains("particles.diameter: value 0.7 is not used with particles.size_distribution = \"uniform\""));
 }
 
+TEST_CASE("scene errors: the quench's rolling dashpot without the consolidation law is refused", "[scene][errors]") {
+  // The programme sets it to 0 under the linear law: programme.quench_damping = 0.5 was ignored without a word.
+  REQUIRE_THROWS_WITH(build(good, {"cell.enabled=true", "programme.quench_damping=0.5"}),
+                      Contains("programme.quench_damping: value 0.5 is not used with adhesion.enabled = false: it needs "
+                               "adhesion.enabled = true"));
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "programme.quench_drag=0.5"}));   // the drag serves any law
+}
+
 TEST_CASE("scene errors: a key another given key replaces is warned about, not refused, and not resolved", "[scene][errors]") {
   // An override cannot remove the scene's own key, so refusing would forbid --set time.dt on a scene that
   // gives steps per contact (and the FMUs' hosts the same); instead the warning names both, and grains check's
