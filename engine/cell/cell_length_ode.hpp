@@ -20,7 +20,7 @@ struct CellLengthParameters {
   double rate_cap = 1e300;    // epsilon-dot max = I_a / T0
   double rtol = 1e-6;         // CVODE relative tolerance
   double atol_length = 1e-9;  // CVODE absolute tolerance on L (on dL/dt: this over the time unit)
-  double time_unit = 1;       // T0: scales the absolute tolerance of the rates
+  double time_unit = 1;       // T = sqrt(a m / F1) at the start pressure: scales the absolute tolerance of the rates
 };
 
 struct CellLengthStatistics {

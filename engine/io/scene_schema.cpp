@@ -216,7 +216,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "P a^(D-1) for F0."},
       {"cell.rtol", K::real, "1e-6", 1e-14, 1e-1, false, false, "", "CVODE relative tolerance on the cell lengths and rates."},
       {"cell.atol", K::real, "1e-9", 0, inf, true, false, "",
-       "CVODE absolute tolerance on the lengths in units of a (on the rates: a / T0)."},
+       "CVODE absolute tolerance on the lengths in units of a (on the rates: a / T, T = sqrt(a m / F1) the output "
+       "`inertial_time` at the start pressure: T0 up to P a^(D-1) = F0)."},
       {"cell.restart_cvode_every_step", K::boolean, "false", 0, 0, false, false, "",
        "Re-initialise CVODE at every particle step instead of keeping its history across steps (for the benchmark "
        "that measures what the kept history saves)."},
