@@ -315,8 +315,8 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = automatic: every core, at most one thread per 2000 particles. Results are deterministic for a given thread count."},
 
       // --- output ---
-      {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path; default `<scene.name>.h5` (`grains consolidate`: `<scene.name>-stages.h5`). The "
-       "command's `--out` takes its place."},
+      {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path, relative to the working directory (not to the scene, as `particles.file` is); "
+       "default `<scene.name>.h5` (`grains consolidate`: `<scene.name>-stages.h5`). The command's `--out` takes its place."},
       {"output.observables_every", K::integer, "100", 1, 9.2e18, false, false, "", "Steps between scalar observable records."},
       {"output.snapshots_every", K::integer, "0", 0, 9.2e18, false, false, "",
        "Steps between particle snapshots; 0 = first and last only."},
