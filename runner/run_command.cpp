@@ -10,6 +10,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/simulation.hpp"
 #include "interactions/pair_filter.hpp"
@@ -94,6 +95,20 @@ PreparedRun prepare_run(const Scene& scene) {
   return r;
 }
 
+// The start-up warnings of `run` (and `check`): the simulation's, and the programme's keys, which `grains
+// consolidate` reads and a plain run does not (a scene shared with it; the converse of its run-length warning).
+std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim) {
+  std::vector<std::string> warnings = sim.warnings();
+  std::vector<std::string> programme;
+  for (const auto& e : scene_schema())
+    if (e.path.starts_with("programme.") && scene.has(e.path)) programme.push_back(std::string(e.path));
+  if (!programme.empty())
+    warnings.push_back(fmt::format("{} {} not used by grains run, which steps the scene as it is (the cell at cell.pressure): "
+                                   "the programme is grains consolidate's", fmt::join(programme, ", "),
+                                   programme.size() > 1 ? "are" : "is"));
+  return warnings;
+}
+
 }  // namespace
 
 int check_scene(const std::string& path, const std::vector<std::string>& overrides) {
@@ -103,7 +118,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
     const auto [output, source] = run_output_path(scene, "");
     check_hdf5_output_path(output, path, scene, source);
   }
-  for (const auto& w : r.sim->warnings()) fmt::print(stderr, "warning: {}\n", w);
+  for (const auto& w : run_warnings(scene, *r.sim)) fmt::print(stderr, "warning: {}\n", w);
   fmt::print("{}", scene.resolved_toml());
   // Derived values, as TOML comments so the output still reads as a scene
   fmt::print("\n# derived: time.dt = {}, {} particles", r.sim->dt(), r.sim->particle_count());
@@ -231,7 +246,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
     fmt::print("  {:<27} {:.6g}\n", "aggregation_time / t_ff", sim.get("aggregation_time") / sim.get("free_fall_time"));
   } catch (const SimulationError&) {
   }
-  fmt::print("  warnings     {}\n", sim.warnings().size());
+  fmt::print("  warnings     {}\n", run_warnings(scene, sim).size());
   fmt::print("  output       {}\n", out.path());
   return stopping ? 130 : 0;
 }
@@ -253,7 +268,7 @@ int run_scene(const RunOptions& opt) {
   catch_stop_signals();
   if (stop_requested()) return 130;
   H5mdWriter out(path, sim->dimension(), periodic, GRAINS_VERSION, scene.resolved_toml(), scene.boolean("output.xdmf"));
-  begin_output(out, scene, *sim, sim->warnings());
+  begin_output(out, scene, *sim, run_warnings(scene, *sim));
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
 

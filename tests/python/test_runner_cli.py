@@ -551,3 +551,22 @@ def test_the_output_name_is_followed_through_a_link_and_never_replaces_what_is_n
     r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", pipe, "--quiet", "--set", "time.steps=10")
     assert r.returncode == 1 and "holds something other than a file" in r.stderr, r.stderr
     assert stat.S_ISFIFO(os.lstat(pipe).st_mode) and not (tmp_path / "pipe.h5.part").exists()
+
+
+def test_run_and_check_say_that_the_programme_keys_are_not_used(grains_bin, root, tmp_path):
+    """`grains consolidate` warns about a run length it does not use; `grains run` stepped a scene's [programme]
+    (a type-1 preparation, say) without a word, as if it had been prepared."""
+    scene = root / "models" / "cohesionless.toml"
+    small = ["--set", "particles.count=100", "--set", "time.steps=5"]
+    note = ("programme.preparation, programme.load, programme.unload are not used by grains run, which steps the scene "
+            "as it is (the cell at cell.pressure): the programme is grains consolidate's")
+    r = run(grains_bin, "check", scene, *small)
+    assert r.returncode == 0 and f"warning: {note}" in r.stderr, r.stderr
+    out = tmp_path / "plain.h5"
+    r = run(grains_bin, "run", scene, *small, "--out", out)
+    assert r.returncode == 0 and f"warning: {note}" in r.stderr, r.stderr
+    assert "warnings     1" in r.stdout, r.stdout
+    with h5py.File(out) as f:
+        assert [w.decode() for w in f["grains/warnings"][()]] == [note]
+    r = run(grains_bin, "check", root / "models" / "collision.toml")
+    assert r.returncode == 0 and "programme" not in r.stderr, r.stderr
