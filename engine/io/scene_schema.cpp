@@ -51,7 +51,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "look at orientations may set false: the step then skips that update (in the frictional gas about a tenth of "
        "the work) and the output has no orientation."},
       {"particles.velocity", K::text, "\"zero\"", 0, 0, false, false, "zero|gaussian|list",
-       "Initial velocities: zero, Gaussian (zero total momentum, scaled to `kinetic_energy`), or explicit `velocities`."},
+       "Initial velocities: zero (for a particle file with velocity columns: the file's), Gaussian (zero total momentum, "
+       "scaled to `kinetic_energy`), or explicit `velocities`; these two take the place of a file's (a warning says so)."},
       {"particles.kinetic_energy", K::real, "1.5", 0, inf, false, false, "",
        "Translational kinetic energy per particle for `velocity = \"gaussian\"`."},
       {"particles.positions", K::real_matrix, "", 0, 0, false, false, "", "Layout `list`: one [x, y(, z)] per particle."},

@@ -362,6 +362,10 @@ InitialState<D> make_initial_state(const Scene& s) {
 
   // --- velocities ---
   const std::string vel = s.text("particles.velocity");
+  // A file's velocity columns are the velocities unless drawn or listed ones take their place (they did silently).
+  if (layout == "file" && rows[0].size() == std::size_t(2 * D + 2) && vel != "zero")
+    st.warnings.push_back(fmt::format("the velocity columns of particles.file '{}' are not used: particles.velocity = \"{}\" "
+                                      "takes their place", file_path.string(), vel));
   if (vel == "gaussian") {
     std::normal_distribution<double> g(0, 1);
     Vec<D> mean = Vec<D>::Zero();

@@ -538,6 +538,28 @@ TEST_CASE("scene errors: a key another given key replaces is warned about, not r
   CHECK(Simulation::create(Scene::from_string(resolved, "resolved.toml"))->warnings().empty());
 }
 
+TEST_CASE("scene errors: drawn or listed velocities in place of a particle file's velocity columns are warned about",
+          "[scene][errors]") {
+  // velocity = "gaussian" replaced the file's columns without a word; "zero" (the default) takes them.
+  const auto path = std::filesystem::temp_directory_path() / "grains-moving-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1 0.5 0 0\n3 0 0 1 1 -0.5 0 0\n";
+  }
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.periodic=false"};
+  const auto kept = Simulation::create(Scene::from_string(good_uncounted, "s.toml", file));
+  CHECK(kept->warnings().empty());
+  CHECK(kept->particles().velocity[0] == 0.5);
+  auto drawn = file;
+  drawn.push_back("particles.velocity=\"gaussian\"");
+  const auto replaced = Simulation::create(Scene::from_string(good_uncounted, "s.toml", drawn));
+  REQUIRE(replaced->warnings().size() == 1);
+  CHECK_THAT(replaced->warnings()[0], Contains("the velocity columns of particles.file") && Contains("grains-moving-rows.txt") &&
+                                          Contains("particles.velocity = \"gaussian\" takes their place"));
+  std::filesystem::remove(path);
+}
+
 TEST_CASE("scene errors: a wrong type is told the allowed values too", "[scene][errors]") {
   // An integer key said its range; a number, string or array key said only the type it expected.
   REQUIRE_THROWS_WITH(build(good, {"contact.restitution=\"high\""}),
