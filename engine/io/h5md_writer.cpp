@@ -22,6 +22,7 @@
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 #include "io/output_error.hpp"
+#include "io/xdmf_views.hpp"
 #include "io/xdmf_writer.hpp"
 
 namespace grains {
@@ -57,6 +58,7 @@ struct H5mdWriter::Impl {
   std::chrono::steady_clock::time_point last_flush = std::chrono::steady_clock::now();
   long record_step = std::numeric_limits<long>::min();   // the step of the observables' record being written
   std::unique_ptr<XdmfWriter> xdmf;
+  std::vector<XdmfView> xdmf_views;         // what each frame shows, named with the first frame
 
   Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components) {
     Series s;
@@ -103,13 +105,19 @@ struct H5mdWriter::Impl {
     append(it->second, "/particles/all/box/" + name, f.step, f.time, data, {hsize_t(dim)});
   }
 
-  // The XDMF arrays, named once the first frame tells which elements the run writes.
+  // The XDMF arrays, named once the first frame tells which elements the run writes. Positions and velocities
+  // are shown with three components (ParaView's wish; 2D runs read z = 0), a 2D spin as a scalar.
   void register_xdmf_fields(bool angular, int angular_components) {
-    xdmf->add_field("radius", "/particles/all/radius/value", 1);
-    xdmf->add_field("mass", "/particles/all/mass/value", 1);
-    if (dim == 3) xdmf->add_field("velocity", "/particles/all/velocity/value", 3);  // ParaView wants 3 components
+    xdmf_views = {{"position", "/particles/all/position/value", dim, 3},
+                  {"radius", "/particles/all/radius/value", 1, 1},
+                  {"mass", "/particles/all/mass/value", 1, 1},
+                  {"velocity", "/particles/all/velocity/value", dim, 3}};
     if (angular && (angular_components == 1 || angular_components == 3))
-      xdmf->add_field("angular_velocity", "/particles/all/angular_velocity/value", angular_components);
+      xdmf_views.push_back({"angular_velocity", "/particles/all/angular_velocity/value", angular_components,
+                            angular_components});
+    if (!xdmf) return;
+    for (const XdmfView& v : xdmf_views)
+      if (v.name != "position") xdmf->add_field(v.name, v.shown);
   }
 
   // An element of a file being resumed, cut back to its rows before `step`, and the row at `step` if `at_step`.
@@ -267,7 +275,7 @@ void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic,
 
   if (write_xdmf) {
     m.xdmf_path = xdmf_path_beside(path);
-    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), dimension);
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
   }
   m.flush();
 }
@@ -318,13 +326,19 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   }
   if (write_xdmf) {
     m.xdmf_path = xdmf_path_beside(path);
-    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), m.dim);
-    if (m.frames > 0) {
-      m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
-      for (std::size_t k = 0; k < m.frames; ++k) m.xdmf->add_frame(k, times[k], m.max_count, m.frames, m.max_count);
-      m.xdmf->write();
-      m.xdmf_frames_on_disk = m.frames;
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
+  }
+  // The views of the frames dropped go with them; the frames kept get theirs if an older grains wrote the file.
+  m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
+  drop_xdmf_views_from(root, m.xdmf_views, m.frames, path);
+  if (m.xdmf && m.frames > 0) {
+    write_xdmf_vertices(root, m.max_count, path);
+    for (std::size_t k = 0; k < m.frames; ++k) {
+      write_xdmf_views(root, m.xdmf_views, k, m.max_count, path);
+      m.xdmf->add_frame(k, times[k], m.max_count);
     }
+    m.xdmf->write();
+    m.xdmf_frames_on_disk = m.frames;
   }
   m.flush();
 }
@@ -369,11 +383,17 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
   m.box_element("offset", f, f.box_lower);  // not in H5MD 1.1, which assumes the box starts at 0
   ++m.frames;
   m.max_count = std::max(m.max_count, f.count);
-  m.flush();
-
   if (m.xdmf) {
     if (m.frames == 1) m.register_xdmf_fields(angular, f.angular_components);
-    m.xdmf->add_frame(m.frames - 1, f.time, f.count, m.frames, m.max_count);
+    if (f.count > 0) {
+      write_xdmf_vertices(m.file.get(), m.max_count, m.path);
+      write_xdmf_views(m.file.get(), m.xdmf_views, m.frames - 1, f.count, m.path);
+    }
+  }
+  m.flush();   // the frame and its views on disk before the .xdmf names them
+
+  if (m.xdmf) {
+    m.xdmf->add_frame(m.frames - 1, f.time, f.count);
     m.update_xdmf(false);
   }
 }
