@@ -38,6 +38,7 @@ constexpr std::chrono::seconds kObservableFlushInterval{1};   // the most a kill
 struct Series {
   h5::Handle group, step, time, value;
   int components = 0;  // 0: one scalar per row or per particle
+  bool shares_clock = false;  // step and time are the position's (hard links), as H5MD 1.1 requires of the box
   // Observables only: rows recorded since the last flush, not yet in the file.
   std::vector<std::int64_t> pending_step;
   std::vector<double> pending_time, pending_value;
@@ -60,12 +61,21 @@ struct H5mdWriter::Impl {
   std::unique_ptr<XdmfWriter> xdmf;
   std::vector<XdmfView> xdmf_views;         // what each frame shows, named with the first frame
 
-  Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components) {
+  // `clock`: the element whose step and time this one's are (hard links), else it gets its own.
+  Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components,
+                     const Series* clock = nullptr) {
     Series s;
     s.components = components;
     s.group = h5::create_group(parent, name, path);
-    s.step = h5::create_extendable(s.group.get(), "step", H5T_STD_I64LE, {}, {}, kObservableChunk, path);
-    s.time = h5::create_extendable(s.group.get(), "time", H5T_IEEE_F64LE, {}, {}, kObservableChunk, path);
+    if (clock) {
+      for (const char* part : {"step", "time"}) h5::hard_link(clock->group.get(), part, s.group.get(), part, path);
+      s.step = h5::open_dataset(s.group.get(), "step", path);
+      s.time = h5::open_dataset(s.group.get(), "time", path);
+      s.shares_clock = true;
+    } else {
+      s.step = h5::create_extendable(s.group.get(), "step", H5T_STD_I64LE, {}, {}, kObservableChunk, path);
+      s.time = h5::create_extendable(s.group.get(), "time", H5T_IEEE_F64LE, {}, {}, kObservableChunk, path);
+    }
     // Chunk: whole frames, several per chunk when frames are small, the particle axis cut when huge.
     hsize_t row_values = 1;
     for (hsize_t n : inner) row_values *= std::max<hsize_t>(n, 1);
@@ -81,8 +91,10 @@ struct H5mdWriter::Impl {
   void append(Series& s, const std::string& what, long step, double time, const double* data,
               const std::vector<hsize_t>& count) {
     const std::int64_t step64 = step;
-    h5::append_row(s.step.get(), H5T_NATIVE_INT64, &step64, {}, path, what + "/step");
-    h5::append_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, {}, path, what + "/time");
+    if (!s.shares_clock) {   // a shared clock has its row from its owner
+      h5::append_row(s.step.get(), H5T_NATIVE_INT64, &step64, {}, path, what + "/step");
+      h5::append_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, {}, path, what + "/time");
+    }
     h5::append_row(s.value.get(), H5T_NATIVE_DOUBLE, data, count, path, what + "/value");
   }
 
@@ -100,8 +112,8 @@ struct H5mdWriter::Impl {
 
   void box_element(const std::string& name, const H5mdFrame& f, const double* data) {
     auto it = series.find("box/" + name);
-    if (it == series.end())
-      it = series.emplace("box/" + name, make_series(box.get(), name, {hsize_t(dim)}, dim)).first;
+    if (it == series.end())   // H5MD 1.1: the box's step and time are hard links to the position's
+      it = series.emplace("box/" + name, make_series(box.get(), name, {hsize_t(dim)}, dim, &series.at("position"))).first;
     append(it->second, "/particles/all/box/" + name, f.step, f.time, data, {hsize_t(dim)});
   }
 
@@ -312,8 +324,11 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   };
   for (const auto& name : members(m.particles.get(), "/particles/all"))
     if (name != "box") m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step, frame_at_step));
-  for (const auto& name : members(m.box.get(), "/particles/all/box"))
-    m.series.emplace("box/" + name, m.reopen_series(m.box.get(), name, resume_step, frame_at_step)).first->second.components = m.dim;
+  for (const auto& name : members(m.box.get(), "/particles/all/box")) {
+    Series& s = m.series.emplace("box/" + name, m.reopen_series(m.box.get(), name, resume_step, frame_at_step)).first->second;
+    s.components = m.dim;
+    s.shares_clock = h5::link_count(s.group.get(), "step", path) > 1;   // files before H5MD's links have their own
+  }
   for (const auto& name : members(m.observables.get(), "/observables"))
     m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
 
