@@ -127,7 +127,6 @@ struct H5mdWriter::Impl {
     if (angular && (angular_components == 1 || angular_components == 3))
       xdmf_views.push_back({"angular_velocity", "/particles/all/angular_velocity/value", angular_components,
                             angular_components});
-    if (!xdmf) return;
     for (const XdmfView& v : xdmf_views)
       if (v.name != "position") xdmf->add_field(v.name, v.shown);
   }
@@ -344,9 +343,9 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
   }
   // The views of the frames dropped go with them; the frames kept get theirs if an older grains wrote the file.
-  m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
-  drop_xdmf_views_from(root, m.xdmf_views, m.frames, path);
+  drop_xdmf_views_from(root, m.frames, path);
   if (m.xdmf && m.frames > 0) {
+    m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
     write_xdmf_vertices(root, m.max_count, path);
     for (std::size_t k = 0; k < m.frames; ++k) {
       write_xdmf_views(root, m.xdmf_views, k, m.max_count, path);

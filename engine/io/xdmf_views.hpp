@@ -27,8 +27,8 @@ std::string xdmf_vertices_path();
 // Makes the views of frame `frame` (its first `count` particles), where they do not exist yet.
 void write_xdmf_views(hid_t file, const std::vector<XdmfView>& views, std::size_t frame, std::size_t count,
                       const std::string& path);
-// Removes the views of frames `first` and later (a resumed run rewrites them).
-void drop_xdmf_views_from(hid_t file, const std::vector<XdmfView>& views, std::size_t first, const std::string& path);
+// Removes the views of frames `first` and later, of every array (a resumed run rewrites them).
+void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path);
 // Makes the connectivity dataset hold at least `count` indices.
 void write_xdmf_vertices(hid_t file, std::size_t count, const std::string& path);
 
