@@ -73,9 +73,11 @@ def test_every_array_is_a_plain_dataset_of_its_frame(grains_bin, root, tmp_path,
     assert_companion_shows_the_file(out, arrays)
 
 
-def test_a_resumed_run_names_the_frames_it_wrote_again(grains_bin, root, tmp_path):
+@pytest.mark.parametrize("views", ["kept", "written-before-the-views"])
+def test_a_resumed_run_names_the_frames_it_wrote_again(grains_bin, root, tmp_path, views):
     """A run killed after its last checkpoint: the frames past it are dropped and written again, and so are the
-    datasets the companion names for them (spoiled here, so that keeping them would show)."""
+    datasets the companion names for them (spoiled here, so that keeping them would show); a file from before the
+    views gets them for the frames it keeps."""
     args = [root / "models/collision-2d.toml", "--set", "output.snapshots_every=50", "--set",
             "output.checkpoint_every=200", "--quiet"]
     whole = tmp_path / "whole.h5"
@@ -87,6 +89,8 @@ def test_a_resumed_run_names_the_frames_it_wrote_again(grains_bin, root, tmp_pat
         position = f["particles/all/position"]
         position["value"][-1] = 7.0
         del f[f"grains/xdmf/velocity/{len(position['step']) - 1}"]
+        if views != "kept":
+            del f["grains/xdmf"]
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
     assert_companion_shows_the_file(killed, {"vertices", "position", "radius", "mass", "velocity", "angular_velocity"})
