@@ -43,44 +43,62 @@ def fail(message):
     sys.exit(2)
 
 
-def read_observables(path, wanted):
-    """Returns {name: (time, value)} in file order, or the requested order when names are given."""
+def read_run(path, read, tries=20):
+    """read(file) on the file opened without HDF5's lock, which the run writing it holds, so a run still going can be
+    drawn. Read while that run writes, the file may not open ("truncated file") or may fail a read for a moment:
+    tried again, 0.1 s apart; a file that never opens is reported."""
+    import time
     import h5py  # imported late so --help works without it
 
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        fail(f"cannot open '{path}' as HDF5: {e}")
-    with f:
-        group = f.get("observables")
-        available = list(group.keys()) if isinstance(group, h5py.Group) else []
-        if not available:
-            fail(f"'{path}' has no observables")
-        names = wanted or ([n for n in PREFERRED if n in available] or available)[:MAX_PANELS]
-        missing = [n for n in names if n not in available]
-        if missing:
-            fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
-        # A run killed inside a flush may leave a series rows ahead of the others: keep the whole records.
-        complete = group.attrs.get("complete_to_step", float("inf"))
-        series = {}
-        for n in names:
-            keep = group[n]["step"][()] <= complete
-            series[n] = (group[n]["time"][()][keep], group[n]["value"][()][keep])
-        return series
+    for attempt in range(tries):
+        try:
+            with h5py.File(path, "r", locking=False) as f:
+                return read(f)
+        except OSError as e:
+            if attempt == tries - 1:
+                fail(f"cannot open '{path}' as HDF5: {e}")
+            time.sleep(0.1)
+
+
+def read_observables(path, wanted, x_name=None):
+    """Returns {name: (time, value)} in file order, or the requested order when names are given, and the (time, value)
+    of `x_name` (None without it), all from one reading and cut at one step."""
+    return read_run(path, lambda f: observables_of(f, path, wanted, x_name))
+
+
+def observables_of(f, path, wanted, x_name):
+    import h5py
+    group = f.get("observables")
+    available = list(group.keys()) if isinstance(group, h5py.Group) else []
+    if not available:
+        fail(f"'{path}' has no observables")
+    names = wanted or ([n for n in PREFERRED if n in available] or available)[:MAX_PANELS]
+    missing = [n for n in names + ([x_name] if x_name else []) if n not in available]
+    if missing:
+        fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
+    # A run killed inside a flush may leave a series rows ahead of the others, and a run still writing leaves a
+    # series' steps, times and values of different lengths: keep the records every series holds whole.
+    rows = {}
+    for n in dict.fromkeys(names + ([x_name] if x_name else [])):
+        step, t, v = (group[n][part][()] for part in ("step", "time", "value"))
+        whole = min(len(step), len(t), len(v))
+        rows[n] = (step[:whole], t[:whole], v[:whole])
+    last = min([group.attrs.get("complete_to_step", float("inf"))] + [step[-1] for step, _, _ in rows.values() if len(step)])
+    series = {n: (t[step <= last], v[step <= last]) for n, (step, t, v) in rows.items()}
+    return {n: series[n] for n in names}, series.get(x_name)
 
 
 def read_context(path):
     """The figure's title (scene name and description) and the aggregation time (NaN if none)."""
-    import h5py
     import tomllib
     title, t_agg = path.name, float("nan")
-    with h5py.File(path, "r") as f:
+    def read(f):
         text = f["parameters"].attrs.get("scene.toml") if "parameters" in f else None
-        if text is not None:
-            scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)).get("scene", {})
-            title = "\n".join(textwrap.fill(x, 80) for x in (scene.get("name"), scene.get("description")) if x) or title
-        if "observables/aggregation_time/value" in f:
-            t_agg = float(f["observables/aggregation_time/value"][-1])
+        scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)).get("scene", {}) if text else {}
+        values = f["observables/aggregation_time/value"] if "observables/aggregation_time/value" in f else []
+        return scene, float(values[-1]) if len(values) else float("nan")
+    scene, t_agg = read_run(path, read)
+    title = "\n".join(textwrap.fill(x, 80) for x in (scene.get("name"), scene.get("description")) if x) or title
     return title, t_agg
 
 
@@ -140,12 +158,12 @@ def main(argv=None):
     if args.out and (problem := image_name_problem("-o/--out", args.out)):
         fail(problem)
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
-    series = read_observables(path, wanted)
     x_name = args.x if args.x != "time" else None
+    series, x_series = read_observables(path, wanted, x_name)
     title, mark = read_context(path)
     x_values = None
     if x_name:
-        x_time, x_values = read_observables(path, [x_name])[x_name]
+        x_time, x_values = x_series
         for name, (t, _) in series.items():
             if len(t) != len(x_time) or (t != x_time).any():
                 fail(f"'{name}' and the x-axis '{x_name}' are not recorded at the same times")

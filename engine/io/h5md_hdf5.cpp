@@ -175,6 +175,21 @@ std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::st
   return dims;
 }
 
+void hard_link(hid_t from, const std::string& name, hid_t to, const std::string& as, const std::string& file) {
+  check(H5Lcreate_hard(from, name.c_str(), to, as.c_str(), H5P_DEFAULT, H5P_DEFAULT), file, "linking " + as + " to " + name);
+}
+
+unsigned link_count(hid_t parent, const std::string& name, const std::string& file) {
+#if H5_VERSION_GE(1, 12, 0)
+  H5O_info2_t info;
+  check(H5Oget_info_by_name3(parent, name.c_str(), &info, H5O_INFO_BASIC, H5P_DEFAULT), file, "looking up " + name);
+#else
+  H5O_info_t info;
+  check(H5Oget_info_by_name2(parent, name.c_str(), &info, H5O_INFO_BASIC, H5P_DEFAULT), file, "looking up " + name);
+#endif
+  return info.rc;
+}
+
 void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, const std::vector<hsize_t>& count,
                  const std::string& file, const std::string& what) {
   if (rows == 0) return;

@@ -77,6 +77,10 @@ inline void append_row(hid_t dataset, hid_t mem_type, const void* data, const st
 }
 // Current shape of a dataset.
 std::vector<hsize_t> shape(hid_t dataset, const std::string& file, const std::string& what);
+// A second name for the object `name` in `from`: `as` in `to` (an HDF5 hard link, the same dataset under both).
+void hard_link(hid_t from, const std::string& name, hid_t to, const std::string& as, const std::string& file);
+// How many hard links name the object `name` in `parent` (more than one: it is shared).
+unsigned link_count(hid_t parent, const std::string& name, const std::string& file);
 
 // Reading back (a resumed run): opening, truncating to the first `rows` rows, whole datasets and attributes.
 Handle open_group(hid_t parent, const std::string& name, const std::string& file);

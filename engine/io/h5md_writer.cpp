@@ -22,6 +22,7 @@
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 #include "io/output_error.hpp"
+#include "io/xdmf_views.hpp"
 #include "io/xdmf_writer.hpp"
 
 namespace grains {
@@ -37,6 +38,7 @@ constexpr std::chrono::seconds kObservableFlushInterval{1};   // the most a kill
 struct Series {
   h5::Handle group, step, time, value;
   int components = 0;  // 0: one scalar per row or per particle
+  bool shares_clock = false;  // step and time are the position's (hard links), as H5MD 1.1 requires of the box
   // Observables only: rows recorded since the last flush, not yet in the file.
   std::vector<std::int64_t> pending_step;
   std::vector<double> pending_time, pending_value;
@@ -57,13 +59,23 @@ struct H5mdWriter::Impl {
   std::chrono::steady_clock::time_point last_flush = std::chrono::steady_clock::now();
   long record_step = std::numeric_limits<long>::min();   // the step of the observables' record being written
   std::unique_ptr<XdmfWriter> xdmf;
+  std::vector<XdmfView> xdmf_views;         // what each frame shows, named with the first frame
 
-  Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components) {
+  // `clock`: the element whose step and time this one's are (hard links), else it gets its own.
+  Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components,
+                     const Series* clock = nullptr) {
     Series s;
     s.components = components;
     s.group = h5::create_group(parent, name, path);
-    s.step = h5::create_extendable(s.group.get(), "step", H5T_STD_I64LE, {}, {}, kObservableChunk, path);
-    s.time = h5::create_extendable(s.group.get(), "time", H5T_IEEE_F64LE, {}, {}, kObservableChunk, path);
+    if (clock) {
+      for (const char* part : {"step", "time"}) h5::hard_link(clock->group.get(), part, s.group.get(), part, path);
+      s.step = h5::open_dataset(s.group.get(), "step", path);
+      s.time = h5::open_dataset(s.group.get(), "time", path);
+      s.shares_clock = true;
+    } else {
+      s.step = h5::create_extendable(s.group.get(), "step", H5T_STD_I64LE, {}, {}, kObservableChunk, path);
+      s.time = h5::create_extendable(s.group.get(), "time", H5T_IEEE_F64LE, {}, {}, kObservableChunk, path);
+    }
     // Chunk: whole frames, several per chunk when frames are small, the particle axis cut when huge.
     hsize_t row_values = 1;
     for (hsize_t n : inner) row_values *= std::max<hsize_t>(n, 1);
@@ -79,8 +91,10 @@ struct H5mdWriter::Impl {
   void append(Series& s, const std::string& what, long step, double time, const double* data,
               const std::vector<hsize_t>& count) {
     const std::int64_t step64 = step;
-    h5::append_row(s.step.get(), H5T_NATIVE_INT64, &step64, {}, path, what + "/step");
-    h5::append_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, {}, path, what + "/time");
+    if (!s.shares_clock) {   // a shared clock has its row from its owner
+      h5::append_row(s.step.get(), H5T_NATIVE_INT64, &step64, {}, path, what + "/step");
+      h5::append_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, {}, path, what + "/time");
+    }
     h5::append_row(s.value.get(), H5T_NATIVE_DOUBLE, data, count, path, what + "/value");
   }
 
@@ -98,18 +112,23 @@ struct H5mdWriter::Impl {
 
   void box_element(const std::string& name, const H5mdFrame& f, const double* data) {
     auto it = series.find("box/" + name);
-    if (it == series.end())
-      it = series.emplace("box/" + name, make_series(box.get(), name, {hsize_t(dim)}, dim)).first;
+    if (it == series.end())   // H5MD 1.1: the box's step and time are hard links to the position's
+      it = series.emplace("box/" + name, make_series(box.get(), name, {hsize_t(dim)}, dim, &series.at("position"))).first;
     append(it->second, "/particles/all/box/" + name, f.step, f.time, data, {hsize_t(dim)});
   }
 
-  // The XDMF arrays, named once the first frame tells which elements the run writes.
+  // The XDMF arrays, named once the first frame tells which elements the run writes. Positions and velocities
+  // are shown with three components (ParaView's wish; 2D runs read z = 0), a 2D spin as a scalar.
   void register_xdmf_fields(bool angular, int angular_components) {
-    xdmf->add_field("radius", "/particles/all/radius/value", 1);
-    xdmf->add_field("mass", "/particles/all/mass/value", 1);
-    if (dim == 3) xdmf->add_field("velocity", "/particles/all/velocity/value", 3);  // ParaView wants 3 components
+    xdmf_views = {{"position", "/particles/all/position/value", dim, 3},
+                  {"radius", "/particles/all/radius/value", 1, 1},
+                  {"mass", "/particles/all/mass/value", 1, 1},
+                  {"velocity", "/particles/all/velocity/value", dim, 3}};
     if (angular && (angular_components == 1 || angular_components == 3))
-      xdmf->add_field("angular_velocity", "/particles/all/angular_velocity/value", angular_components);
+      xdmf_views.push_back({"angular_velocity", "/particles/all/angular_velocity/value", angular_components,
+                            angular_components});
+    for (const XdmfView& v : xdmf_views)
+      if (v.name != "position") xdmf->add_field(v.name, v.shown);
   }
 
   // An element of a file being resumed, cut back to its rows before `step`, and the row at `step` if `at_step`.
@@ -267,7 +286,7 @@ void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic,
 
   if (write_xdmf) {
     m.xdmf_path = xdmf_path_beside(path);
-    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), dimension);
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
   }
   m.flush();
 }
@@ -304,8 +323,11 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   };
   for (const auto& name : members(m.particles.get(), "/particles/all"))
     if (name != "box") m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step, frame_at_step));
-  for (const auto& name : members(m.box.get(), "/particles/all/box"))
-    m.series.emplace("box/" + name, m.reopen_series(m.box.get(), name, resume_step, frame_at_step)).first->second.components = m.dim;
+  for (const auto& name : members(m.box.get(), "/particles/all/box")) {
+    Series& s = m.series.emplace("box/" + name, m.reopen_series(m.box.get(), name, resume_step, frame_at_step)).first->second;
+    s.components = m.dim;
+    s.shares_clock = h5::link_count(s.group.get(), "step", path) > 1;   // files before H5MD's links have their own
+  }
   for (const auto& name : members(m.observables.get(), "/observables"))
     m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
 
@@ -318,13 +340,19 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   }
   if (write_xdmf) {
     m.xdmf_path = xdmf_path_beside(path);
-    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string(), m.dim);
-    if (m.frames > 0) {
-      m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
-      for (std::size_t k = 0; k < m.frames; ++k) m.xdmf->add_frame(k, times[k], m.max_count, m.frames, m.max_count);
-      m.xdmf->write();
-      m.xdmf_frames_on_disk = m.frames;
+    m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
+  }
+  // The views of the frames dropped go with them; the frames kept get theirs if an older grains wrote the file.
+  drop_xdmf_views_from(root, m.frames, path);
+  if (m.xdmf && m.frames > 0) {
+    m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
+    write_xdmf_vertices(root, m.max_count, path);
+    for (std::size_t k = 0; k < m.frames; ++k) {
+      write_xdmf_views(root, m.xdmf_views, k, m.max_count, path);
+      m.xdmf->add_frame(k, times[k], m.max_count);
     }
+    m.xdmf->write();
+    m.xdmf_frames_on_disk = m.frames;
   }
   m.flush();
 }
@@ -369,11 +397,17 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
   m.box_element("offset", f, f.box_lower);  // not in H5MD 1.1, which assumes the box starts at 0
   ++m.frames;
   m.max_count = std::max(m.max_count, f.count);
-  m.flush();
-
   if (m.xdmf) {
     if (m.frames == 1) m.register_xdmf_fields(angular, f.angular_components);
-    m.xdmf->add_frame(m.frames - 1, f.time, f.count, m.frames, m.max_count);
+    if (f.count > 0) {
+      write_xdmf_vertices(m.file.get(), m.max_count, m.path);
+      write_xdmf_views(m.file.get(), m.xdmf_views, m.frames - 1, f.count, m.path);
+    }
+  }
+  m.flush();   // the frame and its views on disk before the .xdmf names them
+
+  if (m.xdmf) {
+    m.xdmf->add_frame(m.frames - 1, f.time, f.count);
     m.update_xdmf(false);
   }
 }

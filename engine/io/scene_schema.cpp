@@ -321,7 +321,7 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"output.observables_every", K::integer, "100", 1, 9.2e18, false, false, "", "Steps between scalar observable records."},
       {"output.snapshots_every", K::integer, "0", 0, 9.2e18, false, false, "",
        "Steps between particle snapshots; 0 = first and last only."},
-      {"output.xdmf", K::boolean, "true", 0, 0, false, false, "", "Write an XDMF file beside the HDF5 file (ParaView)."},
+      {"output.xdmf", K::boolean, "true", 0, 0, false, false, "", "Write an XDMF file beside the HDF5 file (ParaView), and the per-frame views of the arrays it shows (/grains/xdmf, about 2.5 kB of metadata a frame)."},
       {"output.checkpoint_every", K::integer, "0", 0, 9.2e18, false, false, "",
        "Steps between checkpoints of the complete state in the output file, from which `grains resume FILE.h5` "
        "continues a run or programme that was killed; 0 = only when stopped by Ctrl-C or SIGTERM (and, in "

@@ -1,5 +1,6 @@
-// The XDMF companion of an H5MD file: a temporal collection of point clouds whose arrays are
-// hyperslabs of particles/all/*/value, so ParaView can open a run without a plugin.
+// The XDMF companion of an H5MD file: a temporal collection of point clouds whose arrays are the
+// per-frame views of particles/all/*/value (xdmf_views.hpp), so ParaView opens a run without a plugin,
+// with its XDMF reader or its Xdmf3 readers.
 #pragma once
 #include <cstddef>
 #include <string>
@@ -13,15 +14,14 @@ std::string xdmf_path_beside(const std::string& hdf5_path);
 class XdmfWriter {
  public:
   // `h5_name` is written as given (a bare file name keeps the pair relocatable).
-  XdmfWriter(std::string xdmf_path, std::string h5_name, int dimension);
+  XdmfWriter(std::string xdmf_path, std::string h5_name);
 
-  // A per-particle array at `dataset` (e.g. "/particles/all/mass/value"): components == 1 means a
-  // [frames, N] dataset shown as Scalar, 3 a [frames, N, 3] dataset shown as Vector.
-  void add_field(std::string name, std::string dataset, int components);
+  // A per-particle array shown with `components` values (1: Scalar, 3: Vector), read from the views
+  // named `name` (xdmf_view_path); "position", always three components, is the geometry.
+  void add_field(std::string name, int components);
 
-  // Records frame `index` (its row in the datasets) with `count` particles, and the current
-  // dataset shape [frames, max_count, ...] that every reference must quote.
-  void add_frame(std::size_t index, double time, std::size_t count, std::size_t frames, std::size_t max_count);
+  // Records frame `index` (its row in the datasets) with `count` particles.
+  void add_frame(std::size_t index, double time, std::size_t count);
 
   // Rewrites the whole file through a temporary and a rename, so a reader never sees half of it.
   void write() const;
@@ -29,16 +29,15 @@ class XdmfWriter {
   const std::string& path() const { return path_; }
 
  private:
-  struct Field { std::string name, dataset; int components; };
+  struct Field { std::string name; int components; };
   struct Frame { std::size_t index; double time; std::size_t count; };
 
-  std::string slab(const std::string& dataset, std::size_t index, std::size_t count, int components) const;
+  std::string data_item(const std::string& dataset, std::size_t count, int components, const char* number_type,
+                        int precision) const;
 
   std::string path_, h5_name_;
-  int dimension_;
   std::vector<Field> fields_;
   std::vector<Frame> frames_;
-  std::size_t total_frames_ = 0, max_count_ = 0;
 };
 
 }  // namespace grains

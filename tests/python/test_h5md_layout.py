@@ -1,6 +1,7 @@
 """The run file of `grains run` follows H5MD 1.1, its XDMF companion points at real data, and
 runner/plot.py can draw it. Needs GRAINS_BIN (the built `grains` executable); skipped otherwise."""
 import os
+import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -106,3 +107,42 @@ def test_plot_makes_png(run_file, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert str(png) in proc.stdout
     assert png.is_file() and png.stat().st_size > 0
+
+
+def test_box_step_and_time_are_the_positions(run_file):
+    """H5MD 1.1: the box's step and time must be hard links to those of the position."""
+    with h5py.File(run_file, "r") as f:
+        position, box = f["particles/all/position"], f["particles/all/box"]
+        for name in box:
+            for part in ("step", "time"):
+                assert box[name][part].id == position[part].id, f"box/{name}/{part} is not position/{part}"
+            assert box[name]["value"].shape[0] == position["value"].shape[0]
+
+
+@pytest.mark.parametrize("own_clock", [False, True], ids=["linked", "written-before-the-links"])
+def test_a_resumed_run_keeps_one_clock_for_the_box(run_file, tmp_path, own_clock):
+    """A run killed after its last checkpoint resumes to the unbroken run's box rows, its box steps still the
+    position's; a file whose box has its own step and time (grains before the links) goes on appending to them."""
+    binary = os.environ["GRAINS_BIN"]
+    scene = REPO / "models" / "collision-2d.toml"
+    args = ["--set", "output.snapshots_every=50", "--set", "output.checkpoint_every=200", "--quiet"]
+    whole, killed = tmp_path / "whole.h5", tmp_path / "killed.h5"
+    assert subprocess.run([binary, "run", str(scene), "--out", str(whole), *args], capture_output=True).returncode == 0
+    shutil.copy(whole, killed)
+    with h5py.File(killed, "r+") as f:
+        f["grains"].attrs["status"] = "running"
+        if own_clock:
+            for name in f["particles/all/box"]:
+                for part in ("step", "time"):
+                    values = f[f"particles/all/box/{name}/{part}"][()]
+                    del f[f"particles/all/box/{name}/{part}"]
+                    f[f"particles/all/box/{name}"].create_dataset(part, data=values, maxshape=(None,), chunks=(64,))
+    resumed = subprocess.run([binary, "resume", str(killed), "--quiet"], capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    with h5py.File(whole, "r") as a, h5py.File(killed, "r") as b:
+        for name in a["particles/all/box"]:
+            for part in ("step", "time", "value"):
+                element = f"particles/all/box/{name}/{part}"
+                assert np.array_equal(a[element][()], b[element][()]), element
+            shared = b[f"particles/all/box/{name}/step"].id == b["particles/all/position/step"].id
+            assert shared != own_clock
