@@ -267,9 +267,15 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
   // or a few roundings of the host's time of a whole number of dt, the step is that many whole steps.
   const double dt = sim_->dt(), whole = std::round(duration / dt);
   const double rounding = 1e-9 * dt + 4 * std::numeric_limits<double>::epsilon() * (std::abs(current_time) + step);
+  // Any other step is taken in ceil(h / dt) equal steps. Whole steps and one shorter remainder (as until
+  // 2026-12-05) put a short step beside whole ones, where the contacts' sub-step charges (touching, parting,
+  // release), which take the next step to be as long, are off: a head-on collision's restitution came 6e-3
+  // off at h = 1.001 dt, and 4.5e-3 at 1.37 dt, against 2e-4 at h = dt.
+  const double pieces = std::ceil(duration / dt);
   try {
     if (whole >= 1 && std::abs(duration - whole * dt) <= rounding) sim_->step_n(long(whole));
-    else sim_->step(duration);
+    else if (pieces >= 2) sim_->step_evenly(duration, long(pieces));
+    else sim_->step(duration);   // at most dt: one step (none below 1e-9 dt: carried over)
   } catch (const std::exception& e) {
     phase_ = Phase::failed;
     const bool memory = dynamic_cast<const std::bad_alloc*>(&e) != nullptr;

@@ -229,6 +229,16 @@ class SimulationImpl final : public Simulation {
       for (long k = 0; k < n; ++k) one_step(dt_, k == n - 1);
     });
   }
+  void step_evenly(double duration, long n) override {
+    if (!(duration > 0) || !std::isfinite(duration) || n < 1 || duration / double(n) > dt_ * (1 + 1e-12))
+      throw SimulationError(fmt::format("step_evenly: {} equal steps of {} are not allowed: finite, positive, at most dt = {}",
+                                        n, duration / double(n), dt_));
+    const double target = sys_.time + duration, h = duration / double(n);
+    run_steps([&] {
+      for (long k = 0; k < n - 1; ++k) one_step(h, false);
+      one_step(target - sys_.time, true, target);
+    });
+  }
 
   double time() const override { return sys_.time; }
   long step_count() const override { return sys_.step; }
