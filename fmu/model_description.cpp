@@ -27,7 +27,8 @@ std::string causality_name(const FmuVariable& v, int fmi) {
 std::string variability_name(const FmuVariable& v) {
   if (v.role == Role::scene_parameter || v.role == Role::calculated_parameter || v.role == Role::snapshot_option) return "fixed";
   if (v.role == Role::control && v.causality != Causality::input) return "tunable";
-  if (v.role == Role::control) return v.type == ValueType::real ? "continuous" : "discrete";   // FMI: integers are never continuous
+  // FMI: integers are never continuous; a discrete real (network.mark) is held by hosts, not interpolated
+  if (v.role == Role::control) return v.type == ValueType::real && v.variability != Variability::discrete ? "continuous" : "discrete";
   return "continuous";
 }
 bool has_start(const FmuVariable& v) {

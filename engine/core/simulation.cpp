@@ -229,6 +229,16 @@ class SimulationImpl final : public Simulation {
       for (long k = 0; k < n; ++k) one_step(dt_, k == n - 1);
     });
   }
+  void step_evenly(double duration, long n) override {
+    if (!(duration > 0) || !std::isfinite(duration) || n < 1 || duration / double(n) > dt_ * (1 + 1e-12))
+      throw SimulationError(fmt::format("step_evenly: {} equal steps of {} are not allowed: finite, positive, at most dt = {}",
+                                        n, duration / double(n), dt_));
+    const double target = sys_.time + duration, h = duration / double(n);
+    run_steps([&] {
+      for (long k = 0; k < n - 1; ++k) one_step(h, false);
+      one_step(target - sys_.time, true, target);
+    });
+  }
 
   double time() const override { return sys_.time; }
   long step_count() const override { return sys_.step; }
@@ -1156,7 +1166,7 @@ class SimulationImpl final : public Simulation {
       describing_ = OutputGroup::moduli;
       if (moduli_) describe_moduli_variables(out);
       describing_ = OutputGroup::general;
-      VariableInfo mark{"network.mark", "", Causality::input, Variability::continuous,
+      VariableInfo mark{"network.mark", "", Causality::input, Variability::discrete,
                         "setting a new value makes the current contacts the reference of contacts_kept / lost / gained "
                         "(e.g. the stage number of a compression programme)"};
       add_control(mark, [this] { return network_mark_; }, [this](double v) { mark_network(v); });
@@ -1244,7 +1254,7 @@ class SimulationImpl final : public Simulation {
                   ramp_.on = false;   // the host (or the programme) drives the pressure now
                   barostat_->set_target_pressure(v * pressure_scale_, rate_cap(v));
                 });
-    VariableInfo active{"cell.active", "", Causality::input, Variability::continuous,
+    VariableInfo active{"cell.active", "", Causality::input, Variability::discrete,
                         "1: the barostat moves the cell; 0: the cell is held fixed at rest (e.g. while a type-2 sample "
                         "aggregates)", 0, 1};
     active.is_integer = true;

@@ -53,6 +53,9 @@ class Simulation {
   virtual void step(double duration) = 0;
   // Advance exactly n internal steps of the scene's dt.
   virtual void step_n(long n) = 0;
+  // Advance by `duration` in n equal steps of duration / n, the last landing exactly on t + duration: a host's
+  // step that is not a whole number of dt, without a short step beside whole ones (see fmu/instance.cpp).
+  virtual void step_evenly(double duration, long n) = 0;
 
   virtual double time() const = 0;
   virtual long step_count() const = 0;

@@ -8,7 +8,8 @@
 namespace grains {
 
 enum class Causality { parameter, input, output };
-enum class Variability { fixed, tunable, continuous };
+// discrete: an input that matters only where its value changes (a marker, a switch); hosts hold it, never interpolate it.
+enum class Variability { fixed, tunable, continuous, discrete };
 
 struct VariableInfo {
   std::string name;          // dotted scene path for parameters ("contact.restitution"), plain name otherwise
@@ -25,7 +26,8 @@ inline const char* to_string(Causality c) {
   switch (c) { case Causality::parameter: return "parameter"; case Causality::input: return "input"; default: return "output"; }
 }
 inline const char* to_string(Variability v) {
-  switch (v) { case Variability::fixed: return "fixed"; case Variability::tunable: return "tunable"; default: return "continuous"; }
+  switch (v) { case Variability::fixed: return "fixed"; case Variability::tunable: return "tunable";
+    case Variability::discrete: return "discrete"; default: return "continuous"; }
 }
 
 }  // namespace grains

@@ -127,6 +127,7 @@ class ScriptedReadings final : public Simulation {
   static constexpr double inertial_time = 4;
   void step(double) override {}
   void step_n(long) override {}
+  void step_evenly(double, long) override {}
   double time() const override { return 0; }
   long step_count() const override { return 0; }
   double dt() const override { return 1; }
