@@ -39,6 +39,11 @@ std::optional<long> run_steps(const Scene& scene, const Simulation& sim) {
   if (!(steps <= Simulation::max_steps))
     scene.fail(given[0], fmt::format("value {} is {:.3g} steps of dt = {:.6g}; at most {:.0e} steps can be run: a shorter "
                                      "run or a larger time step", scene.real(given[0]), steps, sim.dt(), Simulation::max_steps));
+  // A positive length that rounds to no step is a slip (a duration in the wrong unit, say): it ran 0 steps unwarned.
+  if (std::lround(steps) == 0)
+    scene.fail(given[0], fmt::format("value {} is {:.3g} steps of dt = {:.6g}, which rounds to none: allowed a length of "
+                                     "at least half a step ({:.6g} in time)", scene.real(given[0]), steps, sim.dt(),
+                                     0.5 * sim.dt()));
   return std::lround(steps);
 }
 

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "cloud_scene.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
@@ -65,4 +67,16 @@ TEST_CASE("run length: free-fall times of a cloud without a free-fall time are r
                     Contains("time.free_fall_times: value 3") && Contains("1 particle(s) has none") &&
                         Contains("give time.steps or time.duration instead"));
   CHECK(steps_of(cloud_scene(one) + "[time]\nsteps = 10\n") == 10);
+}
+
+TEST_CASE("run length: a duration that rounds to no step is refused", "[scene][run_length][errors]") {
+  // time.duration below half a step ran 0 steps without a word (grains check said "takes 0 steps").
+  const Scene scene = Scene::from_string(cloud, "cloud.toml");
+  const double dt = Simulation::create(scene)->dt();
+  CHECK_THROWS_WITH(steps_of(cloud, {fmt::format("time.duration={}", 0.4 * dt)}),
+                    Contains("time.duration: value") && Contains("which rounds to none") &&
+                        Contains("at least half a step"));
+  CHECK_THROWS_WITH(steps_of(cloud, {"time.free_fall_times=1e-9"}), Contains("time.free_fall_times: value 1e-09"));
+  CHECK(steps_of(cloud, {fmt::format("time.duration={}", 0.6 * dt)}) == 1);
+  CHECK(steps_of(cloud, {"time.steps=0"}) == 0);   // zero steps asked for in steps is a choice: the initial state
 }
