@@ -419,7 +419,6 @@ std::string range_text(const SchemaEntry& e) {
   }
   if (e.kind == K::boolean || e.kind == K::text || e.kind == K::real_matrix) return "";
   bool lo = e.min > -1e307, hi = e.max < 1e307;
-  if (!lo && !hi) return "";
   // An infinite end is open: inf itself is never a value (in_range refuses non-finite ones).
   return fmt::format("{}{}, {}{}", e.min_open || !lo ? "(" : "[", lo ? fmt::format("{}", e.min) : "-inf",
                      hi ? fmt::format("{}", e.max) : "inf", e.max_open || !hi ? ")" : "]");

@@ -570,6 +570,9 @@ TEST_CASE("scene errors: a wrong type is told the allowed values too", "[scene][
                       Contains("box.lengths: expected an array of numbers, got 4: allowed array of numbers in (0, inf)"));
   REQUIRE_THROWS_WITH(build(good, {"box.lengths=[4, \"4\", 4]"}),
                       Contains("box.lengths: element 1 is \"4\", expected a number: allowed array of numbers in (0, inf)"));
+  // A key without bounds still takes finite numbers only, and says so (it said "allowed array of numbers").
+  REQUIRE_THROWS_WITH(build(good, {"box.lower=[inf, 0, 0]"}),
+                      Contains("box.lower: element 0 = inf is out of range: allowed array of numbers in (-inf, inf)"));
 }
 
 TEST_CASE("scene errors: a number TOML cannot hold, written in the scene file, names its key and the range", "[scene][errors]") {
