@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -259,8 +260,13 @@ void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic,
   {
     h5::Handle h5md = h5::create_group(root, "h5md", path);
     h5::attr_ints(h5md.get(), "version", {1, 1}, false, path);
+    // H5MD's author is the person who ran the simulation, not the program (that is the creator): taken from
+    // the environment, as a name should not travel in shared scene files; "unknown" without it.
     h5::Handle author = h5::create_group(h5md.get(), "author", path);
-    h5::attr_fixed_string(author.get(), "name", "grains", path);
+    const char* name = std::getenv("GRAINS_AUTHOR");
+    const char* email = std::getenv("GRAINS_AUTHOR_EMAIL");
+    h5::attr_fixed_string(author.get(), "name", name && *name ? name : "unknown", path);
+    if (email && *email) h5::attr_fixed_string(author.get(), "email", email, path);
     h5::Handle creator = h5::create_group(h5md.get(), "creator", path);
     h5::attr_fixed_string(creator.get(), "name", "grains", path);
     h5::attr_fixed_string(creator.get(), "version", creator_version, path);

@@ -44,6 +44,23 @@ def test_h5md_header(run_file):
         assert text(f["h5md/creator"].attrs["version"])
 
 
+@pytest.mark.parametrize("who", [{}, {"GRAINS_AUTHOR": "Ada Lovelace", "GRAINS_AUTHOR_EMAIL": "ada@example.org"}])
+def test_h5md_author_is_the_person_not_the_program(tmp_path, who):
+    """H5MD's author is whoever ran the simulation (the program is the creator); it said "grains"."""
+    binary = os.environ.get("GRAINS_BIN")
+    if not binary:
+        pytest.skip("GRAINS_BIN is not set")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("GRAINS_AUTHOR")} | who
+    out = tmp_path / "who.h5"
+    proc = subprocess.run([binary, "run", str(SCENE), "--out", str(out), "--quiet",
+                           "--set", "output.xdmf=false"], capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(out, "r") as f:
+        author = f["h5md/author"].attrs
+        assert text(author["name"]) == who.get("GRAINS_AUTHOR", "unknown")
+        assert ("email" in author) == bool(who) and (not who or text(author["email"]) == who["GRAINS_AUTHOR_EMAIL"])
+
+
 def test_particle_elements(run_file):
     with h5py.File(run_file, "r") as f:
         box = f["particles/all/box"]
