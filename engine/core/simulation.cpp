@@ -478,6 +478,7 @@ class SimulationImpl final : public Simulation {
     const double mstar_min = smallest_reduced_mass();
     AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"), scene.real("adhesion.range"),
                            damping_ratio(scene.real("adhesion.restitution")), scene.real("contact.overlap_limit")};
+    refuse_unholdable_bonds(scene, law);
     kn_ = law.k;
     cn_ = law.damping(2 * mstar_min, 2 * mstar_min);   // the lightest pair's c_n (m* of two masses 2 m* is m*)
     pair_law_scaling_ = {0.0, 0.5};                     // one K_N; c_n = 2 zeta sqrt(m* K_N) per pair
@@ -508,6 +509,25 @@ class SimulationImpl final : public Simulation {
     else if (rolling) keep(std::make_unique<ContactForces<D, L, NoFriction, RollingResistance>>(law, NoFriction{}, rr));
     else keep(std::make_unique<ContactForces<D, L, NoFriction>>(law, NoFriction{}));
     return std::numbers::pi * std::sqrt(mstar_min / law.k);
+  }
+
+  // A bond rests at the overlap F0 / K_N, but the clamp caps the elastic force at K_N f_max min(R_i, R_j)
+  // (physics.md section 2): where F0 reaches that cap no overlap balances the attraction, and the two
+  // smallest grains, once touching, sink through each other (two unit disks at F0 = 2 K_N f_max R ended
+  // with their centres 2e-4 apart and 26 times their kinetic energy, unwarned). No state of such a scene is right.
+  void refuse_unholdable_bonds(const Scene& scene, const AdhesiveContactLaw& law) const {
+    const auto& r = sys_.particles.radius;
+    const double rmin = *std::min_element(r.begin(), r.end());
+    const double largest = law.k * law.overlap_limit * rmin;
+    if (law.attraction >= largest)
+      scene.fail("adhesion.force",
+                 fmt::format("value {:.6g} is not below K_N f_max R_min = {:.6g}, the largest elastic force a clamped contact "
+                             "gives (adhesion.stiffness K_N = {:.6g}, contact.overlap_limit f_max = {:.6g}, smallest radius "
+                             "R_min = {:.6g}): a bond's rest overlap F0 / K_N = {:.6g} lies beyond the clamp f_max R_min = "
+                             "{:.6g}, so bonded grains would sink through each other; allowed [0, {:.6g}) here, or raise "
+                             "adhesion.stiffness or contact.overlap_limit",
+                             law.attraction, largest, law.k, law.overlap_limit, rmin, law.attraction / law.k,
+                             law.overlap_limit * rmin, largest));
   }
 
   // The stiffest, most violent collision: the two lightest particles.

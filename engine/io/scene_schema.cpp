@@ -89,7 +89,9 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Friction is bounded by the elastic part K_N delta. The defaults are the paper's Table I in units a = 1, F0 = 1."},
       {"adhesion.force", K::real, "1.0", 0, inf, false, false, "",
        "F0: the constant attraction of contacting grains, the largest tensile force a bond carries. 0 = the cohesionless "
-       "reference (same law, no attraction)."},
+       "reference (same law, no attraction). Must stay below K_N `contact.overlap_limit` R_min, the largest elastic force "
+       "a clamped contact gives (R_min the smallest radius): a bond rests at the overlap F0 / K_N, beyond the clamp "
+       "no overlap balances F0 and bonded grains sink through each other, so such a value is refused."},
       {"adhesion.range", K::real, "1e-3", 0, inf, false, false, "",
        "D0 (length): the attraction fades linearly to zero as the gap grows from 0 to D0 (paper: D0 / a = 1e-3)."},
       {"adhesion.stiffness", K::real, "1e5", 0, inf, true, false, "",
