@@ -596,11 +596,33 @@ class SimulationImpl final : public Simulation {
     p.time_unit = inertial_time(target_reduced_);
     tolerances_ = {scene.real("cell.tolerance_force"), scene.real("cell.tolerance_torque"),
                    scene.real("cell.tolerance_stress"), scene.real("cell.tolerance_kinetic")};
+    const auto& radius = P.radius;
+    clamp_force_ = kn_ * scene.real("contact.overlap_limit") * *std::min_element(radius.begin(), radius.end());
+    warn_pressure_beyond_clamp("cell.pressure", target_reduced_);
+    if (has_ramp_) warn_pressure_beyond_clamp("cell.pressure_final", ramp_.to);
     barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
     if (!cell_active_) barostat_->hold();
     barostat_->restart_every_step(scene.boolean("cell.restart_cvode_every_step"));
     cell_list_reach_ = list_reach;
     sys_.want_virial = true;
+  }
+
+  // A contact of the pressed packing carries about the pressure's force P a^(D-1); the clamp caps its elastic
+  // force at K_N f_max R_min (physics.md section 2), so a target at or above that cannot be held: the cell
+  // shrinks until the grains sit inside each other (64 disks at P* = 2e4, twice the cap, reached Phi = 1.13
+  // with overlaps past a radius and no warning) or it stops the run as too small. Warned, not refused: the
+  // force a contact takes depends on the packing, and collapse begins below the cap (one contact in a few
+  // carries several times the mean).
+  // Once per simulation: a programme or a host raising the pressure stage by stage would repeat it.
+  void warn_pressure_beyond_clamp(const char* key, double reduced_pressure) {
+    const double force = pressure_force(reduced_pressure);
+    if (pressure_clamp_warned_ || force < clamp_force_) return;
+    pressure_clamp_warned_ = true;
+    warn(fmt::format("{} = {:.6g} asks each contact for about P a^(D-1) = {:.6g}, not below {:.6g}, the largest elastic "
+                     "force a clamped contact gives (K_N contact.overlap_limit R_min): the packing cannot hold this pressure "
+                     "and collapses into overlaps past the clamp; keep P* below {:.6g}, or raise the contacts' stiffness or "
+                     "contact.overlap_limit", key, reduced_pressure, force, clamp_force_,
+                     reduced_pressure * clamp_force_ / force));
   }
 
   // F1 = max(F0, P a^(D-1)): the force scale of the equilibrium test and of the time unit.
@@ -638,8 +660,20 @@ class SimulationImpl final : public Simulation {
       if (!(sys_.box.length[a] > 2 * cell_list_reach_))
         throw SimulationError(fmt::format(
             "step {}: the cell has shrunk to {:.6g} on axis {}, no longer than twice the interaction reach "
-            "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles",
-            sys_.step + 1, sys_.box.length[a], a, cell_list_reach_));
+            "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles{}",
+            sys_.step + 1, sys_.box.length[a], a, cell_list_reach_,
+            // a cell collapsing under a pressure its clamped contacts cannot carry is another cause, with another cure
+            clamped_now() > 0 ? fmt::format(" (or, since {} contacts are clamped now, overlapping past contact.overlap_limit, "
+                                            "a lower pressure: the contacts cannot carry this one)", clamped_now())
+                              : std::string()));
+  }
+  // Contacts clamped at the last force evaluation (the contact module's observable; 0 without contacts).
+  long clamped_now() const {
+    std::vector<std::pair<std::string, double>> out;
+    for (const auto& m : modules_) m->observe(sys_, out);
+    for (const auto& [name, value] : out)
+      if (name == "clamped_contacts") return long(value);
+    return 0;
   }
   Tensor<D> stress() const { return contact_stress_ + kinetic_sum(nullptr) / sys_.box.volume(); }
   // The stress the barostat reads between the steps of a run: while the last kick is pending, its
@@ -1260,6 +1294,7 @@ class SimulationImpl final : public Simulation {
                   if (force_unit_ == 0 && v == 0)
                     throw SimulationError("cell.pressure = 0 is not allowed when cell.force_unit = 0 (cohesionless): "
                                           "a finite value > 0");
+                  warn_pressure_beyond_clamp("cell.pressure", v);
                   target_reduced_ = v;
                   ramp_.on = false;   // the host (or the programme) drives the pressure now
                   barostat_->set_target_pressure(v * pressure_scale_, rate_cap(v));
@@ -1468,6 +1503,8 @@ class SimulationImpl final : public Simulation {
   double target_reduced_ = 0;                       // P*, the input variable cell.pressure
   PressureRamp ramp_;                               // cell.pressure_final: the target's ramp
   bool has_ramp_ = false;                           // the scene has one (its state is then saved)
+  double clamp_force_ = 0;                          // K_N f_max R_min: the most a contact's spring pushes
+  bool pressure_clamp_warned_ = false;              // a target at or above clamp_force_ was warned about
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;

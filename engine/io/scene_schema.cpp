@@ -177,7 +177,10 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"cell.pressure", K::real, "0.01", 0, 1e6, false, false, "",
        "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = the size distribution's largest diameter "
        "(`particles.diameter_max` or `diameter`; for listed or file particles the largest given), F0 = `cell.force_unit`. "
-       "Also the input variable `cell.pressure`, which a host or the runner may change between steps."},
+       "Also the input variable `cell.pressure`, which a host or the runner may change between steps. A target whose "
+       "force on a grain, P a^(D-1), reaches the largest elastic force of a clamped contact, K_N `contact.overlap_limit` "
+       "R_min, cannot be held (the packing collapses into overlaps past the clamp): warned about, once, whether the "
+       "scene, its ramp, a host or the programme sets it."},
       {"cell.pressure_final", K::real, "", 0, 1e6, false, false, "",
        "P* at the end of a continuous ramp of the target pressure from `cell.pressure`, over `cell.ramp_duration` "
        "(geometric in time, a straight line in log P*, when both are positive; linear when one is 0), then held. "
