@@ -137,6 +137,7 @@ class SimulationImpl final : public Simulation {
                        "fewer than 20 steps and restitution will be inaccurate", dt_, tc / 20, tc));
     if (tc > 0) warn_damped_packing_step(tc);
     if (tc > 0) warn_unresolved_approach(scene, rmin);
+    if (tc > 0) warn_sticking_spring_step(scene, tc);
     if (scene.boolean("gravity.enabled")) warn_gravity_step(scene, rmin, tc > 0);
     // The energy check (check_energy): gravity scenes, where W is computed, without the adhesive law (whose
     // attraction's energy and parting charges it does not follow).
@@ -978,6 +979,48 @@ class SimulationImpl final : public Simulation {
                        "dashpots' velocity prediction makes them oscillate with growing amplitude, and dense packings heat "
                        "up instead of settling (time.steps_per_contact {:.0f} or more, without time.dt, would keep below it)",
                        dt_, limit, lightest, int(z), worst_zeta, std::ceil(tc / limit)));
+  }
+
+  // The tangential spring and dashpot of a sticking contact (and the rolling ones) act on the half-step
+  // velocity: x += h v, v += h (-k x - c v) / m is stable only for k h^2 / m + 2 c h / m <= 4, i.e. h below
+  // 4 m / (c + sqrt(c^2 + 4 k m)). The time-step rule sees only the normal spring, and friction.stiffness_ratio
+  // and damping_ratio (rolling.stiffness_ratio) are open-ended: an oblique collision of two unit spheres at
+  // mu = 1e3 left with 1430 times its kinetic energy at k_t = 1e6 k_n, 1.9 times at c_t = 1e3 c_n, unwarned
+  // (it grows from k_t = 330 k_n at 50 steps per contact, where this bound says 289). The mass of the tangential
+  // mode is the pair's reduced mass with the grains' rotation: 1 / m_t = (1 + 1 / kappa) / m*, I = kappa m R^2
+  // (kappa = 2/5 spheres, 1/2 disks); of the rolling mode the pair's reduced moment of inertia. The lightest
+  // pair (the smallest moments) is the fastest: kn_ and cn_ are its. For rolling the bound is cautious: in a
+  // 64-disk gas the spins grew from rolling.stiffness_ratio 45-100, where it says 32 (the smallest grains
+  // need not touch each other).
+  void warn_sticking_spring_step(const Scene& scene, double tc) {
+    const auto stable_step = [](double k, double c, double m) { return 4 * m / (c + std::sqrt(c * c + 4 * k * m)); };
+    const double kappa = D == 3 ? 0.4 : 0.5;
+    const auto say = [&](const std::string& what, double limit, const std::string& mode) {
+      if (dt_ > limit)
+        warn(fmt::format("{}: time.dt = {:.6g} exceeds {:.6g}, the largest step at which {} are stable (the lightest pair; "
+                         "the normal time-step rule does not see it): above it that motion grows every step and collisions "
+                         "gain energy; lower the ratio or the step (time.steps_per_contact {:.0f} or more, without time.dt)",
+                         what, dt_, limit, mode, std::ceil(tc / limit)));
+    };
+    const auto& P = sys_.particles;
+    if (scene.boolean("contact.enabled") && scene.real("friction.coefficient") > 0) {
+      // (+ 0: c_n is -0 at e = 1, -2 m* ln e / t_c)
+      const double kt = scene.real("friction.stiffness_ratio") * kn_, ct = scene.real("friction.damping_ratio") * cn_ + 0.0;
+      say(fmt::format("friction.stiffness_ratio = {:.6g} (k_t = {:.6g}) with friction.damping_ratio = {:.6g} (c_t = {:.6g})",
+                      scene.real("friction.stiffness_ratio"), kt, scene.real("friction.damping_ratio"), ct),
+          stable_step(kt, ct, smallest_reduced_mass() / (1 + 1 / kappa)), "a sticking contact's tangential spring and dashpot");
+    }
+    if (rolling_ && rolling_->stiffness > 0) {
+      std::vector<std::pair<double, std::size_t>> inertia;   // the two smallest moments of inertia
+      for (std::size_t i = 0; i < P.size(); ++i) inertia.emplace_back(kappa * P.mass[i] * P.radius[i] * P.radius[i], i);
+      std::partial_sort(inertia.begin(), inertia.begin() + std::min<std::size_t>(2, inertia.size()), inertia.end());
+      const auto [I1, i1] = inertia[0];
+      const auto [I2, i2] = inertia.size() > 1 ? inertia[1] : inertia[0];
+      const double cr = rolling_->damping * cn_ * P.radius[i1] * P.radius[i2];
+      say(fmt::format("rolling.stiffness_ratio = {:.6g} (K_R = {:.6g}) with rolling.damping_ratio = {:.6g}",
+                      scene.real("rolling.stiffness_ratio"), rolling_->stiffness, rolling_->damping),
+          stable_step(rolling_->stiffness, cr, I1 * I2 / (I1 + I2)), "a sticking contact's rolling spring and dashpot");
+    }
   }
 
   // Two of the fastest initial grains approaching head-on close 2 v_max dt in a step. Beyond the clamp depth
