@@ -138,6 +138,7 @@ class SimulationImpl final : public Simulation {
     if (tc > 0) warn_damped_packing_step(tc);
     if (tc > 0) warn_unresolved_approach(scene, rmin);
     if (tc > 0) warn_sticking_spring_step(scene, tc);
+    if (tc > 0) warn_coarse_coordinates(scene, rmin);
     if (scene.boolean("gravity.enabled")) warn_gravity_step(scene, rmin, tc > 0);
     // The energy check (check_energy): gravity scenes, where W is computed, without the adhesive law (whose
     // attraction's energy and parting charges it does not follow).
@@ -1021,6 +1022,27 @@ class SimulationImpl final : public Simulation {
                       scene.real("rolling.stiffness_ratio"), rolling_->stiffness, rolling_->damping),
           stable_step(rolling_->stiffness, cr, I1 * I2 / (I1 + I2)), "a sticking contact's rolling spring and dashpot");
     }
+  }
+
+  // Positions are doubles: far from the origin their spacing, |x| 2^-52, grows past the overlaps the contacts
+  // work with, and below it nothing moves. Two grains 1e16 radii out kept their speeds but never moved (an
+  // unchanged kinetic energy, no collision, nothing said); at 1e11 radii the collision's restitution was off by
+  // 4e-4, at 1e8 by 1e-6. Warned where the spacing passes a thousandth of the clamp depth f_max R_min.
+  void warn_coarse_coordinates(const Scene& scene, double rmin) {
+    double far = 0;
+    for (const auto& x : sys_.particles.position) far = std::max(far, x.cwiseAbs().maxCoeff());
+    for (int a = 0; a < D; ++a)
+      if (sys_.box.periodic[a])   // positions are wrapped into the box
+        far = std::max({far, std::abs(sys_.box.lower[a]), std::abs(sys_.box.lower[a] + sys_.box.length[a])});
+    const double spacing = std::nextafter(far, std::numeric_limits<double>::infinity()) - far;
+    const double depth = scene.real("contact.overlap_limit") * rmin;
+    const std::string layout = scene.text("particles.layout");
+    const char* key = layout == "list" ? "particles.positions" : layout == "file" ? "particles.file" : "box.lower";
+    if (spacing > 1e-3 * depth)
+      warn(fmt::format("{}: coordinates reach {:.6g}, where doubles are {:.3g} apart, more than 1e-3 of the clamp depth "
+                       "contact.overlap_limit R_min = {:.6g}: overlaps are resolved no finer than that, and moves below it "
+                       "are lost to rounding (grains 1e16 radii out never moved); place the scene near the origin "
+                       "(coordinates below {:.3g})", key, far, spacing, depth, depth * 1e-3 * std::pow(2.0, 52)));
   }
 
   // Two of the fastest initial grains approaching head-on close 2 v_max dt in a step. Beyond the clamp depth

@@ -378,3 +378,26 @@ TEST_CASE("extremes: initial speeds that close more than the clamp depth per ste
   CHECK(missed->get("kinetic_energy") == Approx(1e8));   // what it warns about: the pair passed through unseen
   CHECK(missed->get("clamped_contacts_total") == 0);
 }
+
+// Doubles far from the origin are coarser than the contacts' overlaps: two grains 1e16 radii out kept their
+// speeds and never moved. Coordinates whose spacing passes 1e-3 of the clamp depth are warned about; 1e8 radii
+// out the collision is the one at the origin to 1e-6.
+TEST_CASE("extremes: coordinates too far out for the contacts' overlaps are warned about", "[extremes]") {
+  auto pair_at = [](double x) {
+    ListedParticles p{{{x - 0.6, 0, 0}, {x + 0.6, 0, 0}}, {{0.5, 0, 0}, {-0.5, 0, 0}}, {1, 1}, {1, 1}};
+    return make(listed_scene(3, p, {0.5, 0.1, 50, "global"}));   // clamp depth 1.0 R = 0.5
+  };
+  auto collide = [](Simulation& s) {
+    s.step_n(500);
+    return std::sqrt(s.get("kinetic_energy") / 0.25);
+  };
+  auto home = pair_at(0), near = pair_at(5e7);
+  CHECK(home->warnings().empty());
+  CHECK(near->warnings().empty());
+  CHECK(collide(*near) == Approx(collide(*home)).epsilon(1e-5));
+  auto far = pair_at(5e15);   // doubles 1 apart
+  REQUIRE(far->warnings().size() == 1);
+  CHECK_THAT(far->warnings()[0], Contains("particles.positions: coordinates reach 5e+15, where doubles are 1 apart") &&
+                                     Contains("place the scene near the origin"));
+  CHECK(collide(*far) == 1.0);   // what it warns about: they never met
+}
