@@ -401,3 +401,31 @@ TEST_CASE("extremes: coordinates too far out for the contacts' overlaps are warn
                                      Contains("place the scene near the origin"));
   CHECK(collide(*far) == 1.0);   // what it warns about: they never met
 }
+
+// At a fixed t_c the spring stiffens as ln^2 e: at e = 1e-20 and 50 steps per contact the head-on pair parted at
+// 0.028 against the clamped law's 0.136, warned only about dense packings. The warning now says the collision
+// itself is off, and from how many steps per contact it is not (the t_c / 20 rule's resolution, asked of the
+// undamped frequency).
+TEST_CASE("extremes: a restitution so small that one collision is unresolved says so", "[extremes]") {
+  auto pair = [](double e, double nc) {
+    ListedParticles p{{{0, 0, 0}, {1.1, 0, 0}}, {{1, 0, 0}, {0, 0, 0}}, {1, 1}, {1, 1}};
+    return make(listed_scene(3, p, {e, 0.1, nc, "global"}));
+  };
+  auto coarse = pair(1e-20, 50);
+  REQUIRE(coarse->warnings().size() == 1);
+  CHECK_THAT(coarse->warnings()[0], Contains("damped contacts") && Contains("a binary collision of the lightest pair is off too") &&
+                                        Contains("(time.steps_per_contact 294)") && Contains("the collision is unstable"));
+  HeadOn h;
+  h.e = 1e-20, h.tc = 0.1, h.nc = 50;
+  bool finite = true;
+  const double exact = clamped_for(1e-20, 0.1, 0.5, 0.5);
+  CHECK(std::abs(realised_restitution(h, finite) / exact - 1) > 0.5);   // what it warns about
+  auto fine = pair(1e-20, 330);
+  REQUIRE(fine->warnings().size() == 1);   // the packing's limit still (it asks 649 steps per contact)
+  CHECK_THAT(fine->warnings()[0], !Contains("binary collision"));
+  h.nc = 330;
+  CHECK(realised_restitution(h, finite) == Approx(exact).epsilon(0.005));
+  CHECK_THAT(pair(1e-6, 50)->warnings()[0], Contains("(time.steps_per_contact 91)") && !Contains("unstable"));   // 5 % off
+  auto mild = pair(1e-3, 50);   // 1e-3 off
+  for (const auto& w : mild->warnings()) CHECK_THAT(w, !Contains("binary collision"));
+}
