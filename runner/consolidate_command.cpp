@@ -56,6 +56,9 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   const std::string path = out.path(), name = scene.text("scene.name");
   const int stages = int(programme_stages(settings).size());
   const long first_step = sim.step_count();
+  // The file holds the start-up warnings (begin_output, or the programme being resumed): only later ones are
+  // written, after each stage (a stage's target pressure beyond what the clamped contacts carry).
+  std::size_t warnings_written = sim.warnings().size();
   fmt::print("grains {}: consolidation programme of '{}' ({}D, {} particles, preparation {})\n", GRAINS_VERSION, name,
              sim.dimension(), sim.particle_count(), settings.preparation);
   std::fflush(stdout);
@@ -109,6 +112,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
     write_frame(out, sim);
     status.finish();
+    write_new_warnings(out, sim, warnings_written);
     if (!r.reached) {
       ++unreached;
       // A ramped first compression's budget counts from the ramp's end.

@@ -129,10 +129,6 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   return 0;
 }
 
-namespace {
-
-// Writes (and prints) the warnings the simulation raised since the first `written` ones: the run's own, e.g.
-// the energy check's, raised while the observables are computed.
 void write_new_warnings(H5mdWriter& out, const Simulation& sim, std::size_t& written) {
   const auto& w = sim.warnings();
   for (; written < w.size(); ++written) {
@@ -140,6 +136,8 @@ void write_new_warnings(H5mdWriter& out, const Simulation& sim, std::size_t& wri
     fmt::print(stderr, "warning: {}\n", w[written]);
   }
 }
+
+namespace {
 
 // The run's loop from the simulation's present step to `steps`, then its end and summary: shared by `run`
 // and `resume` (which comes in at a checkpoint's step with the wall time spent before it).

@@ -21,6 +21,9 @@ void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, co
 // A run or programme stopped by an error: its file says so ("failed after step N: ..."), not "running" as a killed
 // run's does, and `grains resume` refuses it.
 void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error);
+// Writes (and prints) the warnings the simulation raised since the first `written` ones: the run's own, e.g.
+// the energy check's, raised while the observables are computed, or a programme's target pressure's.
+void write_new_warnings(H5mdWriter& out, const Simulation& sim, std::size_t& written);
 
 struct RunOptions {
   std::string scene, output;

@@ -98,7 +98,9 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Friction is bounded by the elastic part K_N delta. The defaults are the paper's Table I in units a = 1, F0 = 1."},
       {"adhesion.force", K::real, "1.0", 0, inf, false, false, "",
        "F0: the constant attraction of contacting grains, the largest tensile force a bond carries. 0 = the cohesionless "
-       "reference (same law, no attraction)."},
+       "reference (same law, no attraction). Must stay below K_N `contact.overlap_limit` R_min, the largest elastic force "
+       "a clamped contact gives (R_min the smallest radius): a bond rests at the overlap F0 / K_N, beyond the clamp "
+       "no overlap balances F0 and bonded grains sink through each other, so such a value is refused."},
       {"adhesion.range", K::real, "1e-3", 0, inf, false, false, "",
        "D0 (length): the attraction fades linearly to zero as the gap grows from 0 to D0 (paper: D0 / a = 1e-3)."},
       {"adhesion.stiffness", K::real, "1e5", 0, inf, true, false, "",
@@ -184,7 +186,10 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"cell.pressure", K::real, "0.01", 0, 1e6, false, false, "",
        "Target reduced pressure P* = a P / F0 (2D), a^2 P / F0 (3D); a = the size distribution's largest diameter "
        "(`particles.diameter_max` or `diameter`; for listed or file particles the largest given), F0 = `cell.force_unit`. "
-       "Also the input variable `cell.pressure`, which a host or the runner may change between steps."},
+       "Also the input variable `cell.pressure`, which a host or the runner may change between steps. A target whose "
+       "force on a grain, P a^(D-1), reaches the largest elastic force of a clamped contact, K_N `contact.overlap_limit` "
+       "R_min, cannot be held (the packing collapses into overlaps past the clamp): warned about, once, whether the "
+       "scene, its ramp, a host or the programme sets it."},
       {"cell.pressure_final", K::real, "", 0, 1e6, false, false, "",
        "P* at the end of a continuous ramp of the target pressure from `cell.pressure`, over `cell.ramp_duration` "
        "(geometric in time, a straight line in log P*, when both are positive; linear when one is 0), then held. "

@@ -123,6 +123,22 @@ TEST_CASE("bad adhesion and rolling input is named", "[adhesion][scene]") {
                     Catch::Contains("rolling.stiffness_ratio"));
 }
 
+// The clamp caps the elastic force at K_N f_max R_min = 1e5 * 0.1 * 0.5 = 5000 here: an attraction that reaches
+// it has no rest overlap, and two grains meeting at 0.2 sank to within 2e-4 of each other, gaining energy.
+TEST_CASE("an attraction the clamped contact cannot balance is refused, naming the field, value and bound", "[adhesion][scene]") {
+  auto p = pair(2, 0.2, -0.2);
+  for (const char* force : {"5000", "10000"})
+    CHECK_THROWS_WITH(Simulation::create(Scene::from_string(adhesive_scene(2, p, fmt::format("force = {}\n", force)), "bad")),
+                      Catch::Contains(fmt::format("adhesion.force: value {}", force)) &&
+                          Catch::Contains("not below K_N f_max R_min = 5000") && Catch::Contains("allowed [0, 5000)"));
+  // Below the cap the bond holds, at its rest overlap F0 / K_N = 0.04 (the clamp's f_max R_min is 0.05).
+  auto s = Simulation::create(Scene::from_string(adhesive_scene(2, p, "force = 4000\n"), "holds"));
+  s->step(1.0 + 100 * s->dt() * 50);
+  CHECK(-gap_of(*s) == Approx(4000 / KN).epsilon(1e-6));
+  // The same attraction is allowed where the clamp leaves room for its rest overlap 0.1.
+  CHECK_NOTHROW(Simulation::create(Scene::from_string(adhesive_scene(2, p, "force = 1e4\n") + "[contact]\noverlap_limit = 0.5\n", "room")));
+}
+
 #include "core/system.hpp"
 #include "interactions/adhesive_contact_law.hpp"
 #include "interactions/contact_forces.hpp"

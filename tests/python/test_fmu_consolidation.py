@@ -33,3 +33,23 @@ def test_pressure_ramp_traces_the_consolidation_curve(version):
         assert phi[(False, p)] > phi[(True, p)] + 0.2, (p, phi)   # hysteresis: far denser than on loading
     assert unit.errors() == []
     unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_pressure_the_clamped_contacts_cannot_carry_is_warned_about_once(version):
+    """The unit's clamp carries at most K_N f_max R_min = 12508 F0: a host asking P* = 1e6 (the input's top) drives
+    the packing into overlaps past a radius. Its log says so, once, however often the host asks."""
+    unit = Unit(fmu_path("consolidation", version), logging=True).initialize({"particles.count": 100})
+    try:
+        dt = unit.get("time.dt")
+        unit.set("cell.pressure", 1e4)
+        unit.step(dt)
+        warned = lambda: [m for s, c, m in unit.messages if s == 1 and "clamped contact gives" in m]   # noqa: E731
+        assert warned() == []
+        for p in (1e6, 2e6 / 3, 1e6):
+            unit.set("cell.pressure", p)
+            unit.step(dt)
+        assert len(warned()) == 1, warned()
+        assert "cell.pressure = 1e+06 asks each contact for about P a^(D-1) = 1e+06, not below 12507.6" in warned()[0]
+    finally:
+        unit.free()

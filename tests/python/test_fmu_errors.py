@@ -276,6 +276,23 @@ def test_a_contact_duration_without_a_finite_stiffness_is_refused(unit):
         unit.fmu.reset()
 
 
+@pytest.mark.parametrize("version", [2, 3])
+def test_an_attraction_no_clamped_contact_balances_is_refused(version):
+    """The consolidation unit's clamp carries at most K_N f_max R_min = 1e5 * 0.5 * 0.2502 = 12508: an adhesion.force
+    above it once ran, the bonded grains sinking into each other with a thousandfold kinetic energy."""
+    unit = Unit(fmu_path("consolidation", version))
+    try:
+        unit.set("adhesion.force", 2e4)
+        fails(unit, lambda: unit.fmu.enterInitializationMode(), "adhesion.force: value 20000",
+              "not below K_N f_max R_min = 12507.6", "allowed [0, 12507.6)")
+        unit.fmu.reset()
+        unit.set("adhesion.force", 1e4)   # rest overlap 0.1, inside the clamp's 0.125
+        unit.fmu.enterInitializationMode()
+        unit.fmu.exitInitializationMode()
+    finally:
+        unit.free()
+
+
 NULL_CATEGORY_HOST = """
 import ctypes, sys
 from fmu_host import Unit, fmu_path

@@ -1,0 +1,68 @@
+// The tangential and rolling springs and dashpots of a sticking contact are integrated on the half-step
+// velocity, stable only for k h^2 / m + 2 c h / m <= 4; the normal time-step rule does not see them, and
+// their ratios to the normal law are open-ended. Past that step a frictional collision gained a thousand
+// times its energy, unwarned; now the step is named, and below it the collision stays passive.
+#include <catch2/catch.hpp>
+
+#include <string>
+
+#include <fmt/format.h>
+
+#include "adhesive_scene.hpp"
+#include "core/simulation.hpp"
+#include "head_on_scene.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+using Catch::Contains;
+
+namespace {
+// Two unit spheres (m* = 1/2, tangential mass m* / 3.5) in an oblique, elastic, sticking (mu = 1e3)
+// collision at 50 steps of t_c = 0.1: the bound is k_t = 289 k_n at c_t = 0.
+std::unique_ptr<Simulation> oblique(double stiffness_ratio, double damping_ratio, double restitution = 1.0) {
+  ListedParticles p{{{0, 0, 0}, {1.1, 0.4, 0}}, {{1, 0, 0}, {0, 0, 0}}, {1, 1}, {1, 1}};
+  return Simulation::create(Scene::from_string(
+      listed_scene(3, p, {restitution, 0.1, 50, "global"}) +
+          fmt::format("[friction]\ncoefficient = 1000\nstiffness_ratio = {}\ndamping_ratio = {}\n", stiffness_ratio, damping_ratio),
+      "oblique"));
+}
+double collide(Simulation& s) {
+  const double before = s.get("kinetic_energy");
+  s.step_n(400);
+  REQUIRE(s.get("contacts") == 0);
+  return s.get("kinetic_energy") / before;
+}
+}  // namespace
+
+TEST_CASE("a tangential spring or dashpot too stiff for the step is warned about", "[extremes][friction]") {
+  auto stable = oblique(250, 0);
+  CHECK(stable->warnings().empty());
+  CHECK(collide(*stable) < 1.05);   // stable (resolved by under 3 steps a period: not accurate, no gain to speak of)
+  auto stiff = oblique(330, 0);
+  REQUIRE(stiff->warnings().size() == 1);
+  CHECK_THAT(stiff->warnings()[0], Contains("friction.stiffness_ratio = 330") && Contains("time.dt = 0.002 exceeds 0.00187") &&
+                                       Contains("tangential spring and dashpot are stable"));
+  auto stiffer = oblique(1e4, 0);
+  CHECK(stiffer->warnings().size() == 1);
+  CHECK(collide(*stiffer) > 2);   // what it warns of
+  // The dashpot alone: c_t h / m_t beyond 2 (e = 0.5, c_t = 30 c_n).
+  auto damped = oblique(1, 30, 0.5);
+  REQUIRE(damped->warnings().size() == 1);
+  CHECK_THAT(damped->warnings()[0], Contains("friction.damping_ratio = 30"));
+  CHECK(oblique(1, 3, 0.5)->warnings().empty());
+}
+
+TEST_CASE("a rolling spring too stiff for the step is warned about", "[extremes][rolling]") {
+  // Two unit disks of the consolidation law bonded at rest; I = 1/8, the pair's 1/16; K_R = ratio K_N.
+  ListedParticles p{{{0, 0}, {1 - 1e-5, 0}}, {{0, 0}, {0, 0}}, {1, 1}, {1, 1}};
+  auto bonded = [&](double ratio) {
+    return Simulation::create(Scene::from_string(
+        adhesive_scene(2, p, fmt::format("[rolling]\ncoefficient = 1000\nstiffness_ratio = {}\n", ratio)), "bond"));
+  };
+  CHECK(bonded(1e-4)->warnings().empty());
+  // w h = sqrt(ratio K_N / (1/16)) pi sqrt(0.5 / K_N) / 50 = 0.178 sqrt(ratio): the bound 2 at ratio 126.
+  CHECK(bonded(100)->warnings().empty());
+  auto stiff = bonded(200);
+  REQUIRE(stiff->warnings().size() == 1);
+  CHECK_THAT(stiff->warnings()[0], Contains("rolling.stiffness_ratio = 200") && Contains("rolling spring and dashpot are stable"));
+}
