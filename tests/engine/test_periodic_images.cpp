@@ -8,8 +8,6 @@
 #include <string>
 #include <vector>
 
-#include <fmt/format.h>
-
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "polydisperse_particles.hpp"
