@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 
+#include "core/image.hpp"
 #include "core/vec.hpp"
 
 namespace grains {
@@ -19,10 +20,14 @@ struct Box {
   }
   double volume() const { return length.prod(); }
 
-  // Map a position into the primary cell on periodic axes.
-  Vec<D> wrap(Vec<D> x) const {
+  // Map a position into the primary cell on periodic axes; with `image`, add the cell lengths taken off to it.
+  Vec<D> wrap(Vec<D> x, Image<D>* image = nullptr) const {
     for (int a = 0; a < D; ++a)
-      if (periodic[a]) x[a] -= length[a] * std::floor((x[a] - lower[a]) / length[a]);
+      if (periodic[a]) {
+        const double cells = std::floor((x[a] - lower[a]) / length[a]);
+        x[a] -= length[a] * cells;
+        if (image) (*image)[a] += static_cast<std::int64_t>(cells);
+      }
     return x;
   }
   // Shortest periodic image of a separation vector.

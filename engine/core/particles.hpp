@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/image.hpp"
 #include "core/vec.hpp"
 
 namespace grains {
@@ -22,6 +23,8 @@ struct Particles {
   std::vector<S> angular_velocity, torque;
   std::vector<Orientation<D>> orientation;
   std::vector<double> radius, mass, inv_mass, inertia, inv_inertia;
+  // Bookkeeping only, never read by the dynamics: the cell lengths wrapping has taken off each position.
+  std::vector<Image<D>> image;
 
   std::size_t size() const { return radius.size(); }
 
@@ -31,6 +34,7 @@ struct Particles {
     if constexpr (D == 3) orientation.assign(n, Eigen::Quaterniond::Identity());
     else orientation.assign(n, 0.0);
     for (auto* v : {&radius, &mass, &inv_mass, &inertia, &inv_inertia}) v->assign(n, 0.0);
+    image.assign(n, Image<D>{});
   }
 
   // Moment of inertia: solid sphere 2/5 m R^2, disk 1/2 m R^2.

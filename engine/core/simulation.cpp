@@ -282,9 +282,10 @@ class SimulationImpl final : public Simulation {
   // a pressure ramp, new since, appends the ramp's on flag, and one with cell.contact_damping > 0 then the cell's
   // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count; 9: the
   // adhesive contacts' parting charges of the last evaluation; 10: a gravity scene's energy check follows its
-  // aggregation time; 11: the barostat's last stress, which its next step extrapolates from).
+  // aggregation time; 11: the barostat's last stress, which its next step extrapolates from; 12: the particles' periodic
+  // images, after their orientations).
   // States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e0b;
+  static constexpr std::uint32_t state_format = 0x47524e0c;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -293,6 +294,7 @@ class SimulationImpl final : public Simulation {
     w.put(sys_.time), w.put(sys_.step), w.put(clock_origin_), w.put(clock_steps_);
     w.put_vector(P.position), w.put_vector(P.velocity), w.put_vector(P.force), w.put_vector(P.force_prev),
         w.put_vector(P.angular_velocity), w.put_vector(P.torque), w.put_vector(P.orientation);
+    w.put_vector(P.image);
     sys_.neighbours.save(w);
     sys_.shell.save(w);
     for (const auto& m : modules_) m->save(w);
@@ -368,6 +370,7 @@ class SimulationImpl final : public Simulation {
     sys_.time = r.get<double>(), sys_.step = r.get<long>(), clock_origin_ = r.get<double>(), clock_steps_ = r.get<long>();
     r.get_vector(P.position), r.get_vector(P.velocity), r.get_vector(P.force), r.get_vector(P.force_prev),
         r.get_vector(P.angular_velocity), r.get_vector(P.torque), r.get_vector(P.orientation);
+    r.get_vector(P.image);
     sys_.neighbours.load(r);
     sys_.shell.load(r);
     for (auto& m : modules_) m->load(r);
@@ -399,8 +402,12 @@ class SimulationImpl final : public Simulation {
     v.dimension = D;
     v.count = P.size();
     constexpr int S = D == 3 ? 3 : 1;
+    const bool periodic = sys_.box.any_periodic();
     for (std::size_t i = 0; i < P.size(); ++i) {
-      const Vec<D> x = sys_.box.wrap(P.position[i]);
+      // The stored position may lie whole cells outside since the last wrap: the view's image counts those too.
+      Image<D> image = P.image[i];
+      const Vec<D> x = sys_.box.wrap(P.position[i], &image);
+      if (periodic) v.image.insert(v.image.end(), image.begin(), image.end());
       for (int a = 0; a < D; ++a) {
         v.position.push_back(x[a]);
         v.velocity.push_back(P.velocity[i][a]);
@@ -730,7 +737,7 @@ class SimulationImpl final : public Simulation {
     auto& P = sys_.particles;
     for (const auto& x : P.position)   // never grid a non-finite position
       if (!x.allFinite()) check_finite_at_step(sys_.step + 1);
-    for (auto& x : P.position) x = sys_.box.wrap(x);
+    for (std::size_t i = 0; i < P.size(); ++i) P.position[i] = sys_.box.wrap(P.position[i], &P.image[i]);
     sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
     if (sys_.shell.enabled()) sys_.shell.build(sys_.neighbours, P.position, P.radius, 0.0, sys_.step, false);
     for (auto& m : modules_) m->after_rebuild(sys_.neighbours);

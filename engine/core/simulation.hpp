@@ -2,6 +2,7 @@
 // Built from a resolved scene; time advances only through step(); reading never changes state.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <stdexcept>
@@ -23,7 +24,10 @@ struct SimulationError : std::runtime_error { using std::runtime_error::runtime_
 struct ParticleView {
   int dimension = 3;
   std::size_t count = 0;
-  std::vector<double> position;         // count * dimension, unwrapped into the primary box
+  std::vector<double> position;         // count * dimension, wrapped into the primary box
+  // count * dimension, with a periodic axis only (else empty): the cell lengths the wrapping took off, so that
+  // position + image * box length is the particle's unwrapped position (H5MD's particles/<group>/image).
+  std::vector<std::int64_t> image;
   std::vector<double> velocity;         // count * dimension
   std::vector<double> angular_velocity; // count * (dimension == 3 ? 3 : 1)
   std::vector<double> orientation;      // 3D: count * 4 quaternions (w, x, y, z); 2D: count angles; empty if not tracked

@@ -21,6 +21,7 @@ inline H5mdFrame frame_view(long step, double time, const ParticleView& p, const
   f.angular_components = p.dimension == 3 ? 3 : 1;
   f.orientation = p.orientation.empty() ? nullptr : p.orientation.data();   // empty: not tracked
   f.orientation_components = p.dimension == 3 ? 4 : 1;
+  f.image = p.image.empty() ? nullptr : p.image.data();   // empty: no periodic axis
   f.box_lower = b.lower.data();
   f.box_length = b.length.data();
   return f;

@@ -57,14 +57,18 @@ struct H5mdWriter::Impl {
   std::map<std::string, Series> observable;   // observables/<name>
   std::size_t frames = 0, max_count = 0, xdmf_frames_on_disk = 0;
   bool has_angular = false, has_orientation = false;
+  // Whether frames carry particles/all/image: from the first frame, or the resumed file (one without the element,
+  // written before grains had it, goes on without it, so that its frames keep lining up).
+  bool has_image = false;
   std::chrono::steady_clock::time_point last_flush = std::chrono::steady_clock::now();
   long record_step = std::numeric_limits<long>::min();   // the step of the observables' record being written
   std::unique_ptr<XdmfWriter> xdmf;
   std::vector<XdmfView> xdmf_views;         // what each frame shows, named with the first frame
 
-  // `clock`: the element whose step and time this one's are (hard links), else it gets its own.
+  // `clock`: the element whose step and time this one's are (hard links), else it gets its own. `value_type`:
+  // the values' type in the file.
   Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components,
-                     const Series* clock = nullptr) {
+                     const Series* clock = nullptr, hid_t value_type = H5T_IEEE_F64LE) {
     Series s;
     s.components = components;
     s.group = h5::create_group(parent, name, path);
@@ -80,23 +84,24 @@ struct H5mdWriter::Impl {
     // Chunk: whole frames, several per chunk when frames are small, the particle axis cut when huge.
     hsize_t row_values = 1;
     for (hsize_t n : inner) row_values *= std::max<hsize_t>(n, 1);
-    const hsize_t row_bytes = row_values * sizeof(double);
+    const hsize_t row_bytes = row_values * H5Tget_size(value_type);
     std::vector<hsize_t> chunk_inner = inner;
     if (!chunk_inner.empty() && row_bytes > kMaxChunkBytes)
       chunk_inner[0] = std::max<hsize_t>(1, chunk_inner[0] * kMaxChunkBytes / row_bytes);
     const hsize_t rows = std::clamp<hsize_t>(kFrameChunkBytes / row_bytes, 1, kObservableChunk);
-    s.value = h5::create_extendable(s.group.get(), "value", H5T_IEEE_F64LE, inner, chunk_inner, rows, path);
+    s.value = h5::create_extendable(s.group.get(), "value", value_type, inner, chunk_inner, rows, path);
     return s;
   }
 
-  void append(Series& s, const std::string& what, long step, double time, const double* data,
-              const std::vector<hsize_t>& count) {
+  // `data` holds values of `memory_type`.
+  void append(Series& s, const std::string& what, long step, double time, const void* data,
+              const std::vector<hsize_t>& count, hid_t memory_type = H5T_NATIVE_DOUBLE) {
     const std::int64_t step64 = step;
     if (!s.shares_clock) {   // a shared clock has its row from its owner
       h5::append_row(s.step.get(), H5T_NATIVE_INT64, &step64, {}, path, what + "/step");
       h5::append_row(s.time.get(), H5T_NATIVE_DOUBLE, &time, {}, path, what + "/time");
     }
-    h5::append_row(s.value.get(), H5T_NATIVE_DOUBLE, data, count, path, what + "/value");
+    h5::append_row(s.value.get(), memory_type, data, count, path, what + "/value");
   }
 
   // Appends one per-particle element, creating it on first use with this frame's particle count.
@@ -109,6 +114,16 @@ struct H5mdWriter::Impl {
       throw std::invalid_argument(fmt::format("H5MD output '{}': {} changed from {} to {} components", path, name,
                                               it->second.components, components));
     append(it->second, "/particles/all/" + name, f.step, f.time, data, count);
+  }
+
+  // particles/all/image (H5MD 1.1): integers shaped as the position, on the position's clock like the box.
+  void image_element(const H5mdFrame& f) {
+    auto it = series.find("image");
+    const std::vector<hsize_t> count{f.count, hsize_t(dim)};
+    if (it == series.end())
+      it = series.emplace("image", make_series(particles.get(), "image", count, dim, &series.at("position"),
+                                               H5T_STD_I64LE)).first;
+    append(it->second, "/particles/all/image", f.step, f.time, f.image, count, H5T_NATIVE_INT64);
   }
 
   void box_element(const std::string& name, const H5mdFrame& f, const double* data) {
@@ -327,8 +342,12 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     h5::check(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), path, "listing " + what);
     return names;
   };
-  for (const auto& name : members(m.particles.get(), "/particles/all"))
-    if (name != "box") m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step, frame_at_step));
+  for (const auto& name : members(m.particles.get(), "/particles/all")) {
+    if (name == "box") continue;
+    Series& s = m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step, frame_at_step)).first->second;
+    // The image's step and time are the position's (the position's own are linked to by the box and the image).
+    s.shares_clock = name != "position" && h5::link_count(s.group.get(), "step", m.path) > 1;
+  }
   for (const auto& name : members(m.box.get(), "/particles/all/box")) {
     Series& s = m.series.emplace("box/" + name, m.reopen_series(m.box.get(), name, resume_step, frame_at_step)).first->second;
     s.components = m.dim;
@@ -338,6 +357,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
 
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
+  m.has_image = m.series.count("image") > 0;
   std::vector<double> times;
   if (auto it = m.series.find("position"); it != m.series.end()) {
     times = h5::read_doubles(it->second.time.get(), path, "/particles/all/position/time");
@@ -387,6 +407,10 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
   if (m.frames == 0) {
     m.has_angular = angular;
     m.has_orientation = orient;
+    m.has_image = f.image != nullptr;
+  } else if (m.has_image && !f.image) {
+    throw std::invalid_argument(fmt::format("H5MD output '{}': the frame at step {} lacks the periodic images the "
+                                            "earlier frames have", m.path, f.step));
   } else if (angular != m.has_angular || orient != m.has_orientation) {
     // Rows must line up across elements, which the XDMF hyperslabs rely on.
     throw std::invalid_argument(fmt::format("H5MD output '{}': angular_velocity/orientation must be given in every "
@@ -399,6 +423,7 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
   m.particle_element("mass", f, f.mass, 1);
   if (angular) m.particle_element("angular_velocity", f, f.angular_velocity, f.angular_components);
   if (orient) m.particle_element("orientation", f, f.orientation, f.orientation_components);
+  if (m.has_image) m.image_element(f);
   m.box_element("edges", f, f.box_length);
   m.box_element("offset", f, f.box_lower);  // not in H5MD 1.1, which assumes the box starts at 0
   ++m.frames;

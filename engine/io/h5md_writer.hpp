@@ -2,6 +2,7 @@
 // companion for ParaView. The HDF5 types stay inside the .cpp so users of this header need no hdf5.h.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,6 +23,8 @@ struct H5mdFrame {
   const double* mass = nullptr;            // count
   const double* angular_velocity = nullptr; int angular_components = 0;  // count*components, may be null
   const double* orientation = nullptr; int orientation_components = 0;   // count*4 (w,x,y,z) or count*1, may be null
+  // count*dimension periodic images (unwrapped = position + image * box_length); null without a periodic axis.
+  const std::int64_t* image = nullptr;
   const double* box_lower = nullptr;       // dimension
   const double* box_length = nullptr;      // dimension
 };

@@ -138,7 +138,7 @@ void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt1
 // close in space are close in memory. A random insertion numbers them in random places; the pair
 // loop then gathers from all over memory, and with two threads both cores write nearly every cache
 // line each step. Grains move only a few diameters while a type-2 sample aggregates, so the order
-// lasts through a consolidation cycle. Sizes and masses move with the positions (the particles are
+// lasts through a consolidation cycle. Sizes, masses and images move with the positions (the particles are
 // exchangeable: only their labels change).
 template <int D>
 void number_along_z_curve(Particles<D>& P, const Box<D>& box) {
@@ -156,8 +156,10 @@ void number_along_z_curve(Particles<D>& P, const Box<D>& box) {
   morton::radix_sort(keys, order);
   const auto position = P.position;
   const auto radius = P.radius, mass = P.mass;
+  const auto image = P.image;   // all zero this early; carried so the order never parts a particle from its image
   for (std::size_t i = 0; i < N; ++i) {
     P.position[i] = position[order[i]];
+    P.image[i] = image[order[i]];
     P.set_mass_and_radius(i, mass[order[i]], radius[order[i]]);
   }
 }

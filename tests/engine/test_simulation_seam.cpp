@@ -151,9 +151,10 @@ TEST_CASE("a saved neighbour list whose indices do not hold together is refused 
   s->step_n(200);   // the lattice gas has pairs by then
   auto saved = s->save_state();
   const std::size_t N = s->particle_count();
-  // Its layout: format, D, N, time, step, the clock's origin and whole steps, six vectors of 3-vectors and
-  // the orientations, then the list's range, skin and build count, then its row starts.
-  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 8 + 8 + 6 * (8 + N * 24) + (8 + N * 32) + 3 * 8;
+  // Its layout: format, D, N, time, step, the clock's origin and whole steps, six vectors of 3-vectors,
+  // the orientations and the periodic images (three 64-bit integers each), then the list's range, skin and
+  // build count, then its row starts.
+  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 8 + 8 + 6 * (8 + N * 24) + (8 + N * 32) + (8 + N * 24) + 3 * 8;
   std::uint64_t rows;
   std::memcpy(&rows, saved.data() + at, 8);
   REQUIRE(rows == N + 1);

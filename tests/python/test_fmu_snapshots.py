@@ -66,3 +66,33 @@ def test_missing_plugin_is_a_clear_error(tmp_path, monkeypatch, version):
     unit.initialize()   # without snapshots the FMU runs
     unit.step(0.1)
     unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_snapshots_of_a_periodic_cell_carry_images_that_a_state_keeps(tmp_path, monkeypatch, version):
+    """The consolidation FMU's cell is periodic: its snapshots hold particles/all/image on the position's clock,
+    and an instance continuing from another's serialized state writes the same images as the other."""
+    monkeypatch.chdir(tmp_path)
+    start = {"particles.count": 200, "fmu.snapshots_every": 500}
+    first = Unit(fmu_path("consolidation", version), name="first").initialize(start)
+    h = 1000 * first.get("time.dt")
+    for _ in range(5):
+        first.step(h)
+    state, t0 = first.serialize(first.get_state()), first.time
+    for _ in range(5):
+        first.step(h)
+    first.free()
+    second = Unit(fmu_path("consolidation", version), name="second").initialize(start)
+    second.set_state(second.deserialize(state))
+    second.time = t0
+    for _ in range(5):
+        second.step(h)
+    second.free()
+    with h5py.File(tmp_path / "first.h5") as a, h5py.File(tmp_path / "second.h5") as b:
+        for f in (a, b):
+            assert f["particles/all/image/step"].id == f["particles/all/position/step"].id
+        last = a["particles/all/position/step"][-1]
+        assert b["particles/all/position/step"][-1] == last
+        for field in ("image", "position"):
+            np.testing.assert_array_equal(a[f"particles/all/{field}/value"][-1], b[f"particles/all/{field}/value"][-1])
+        assert (a["particles/all/image/value"][-1] != 0).any()   # some particles crossed the cell by then

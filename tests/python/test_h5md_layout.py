@@ -82,6 +82,13 @@ def test_particle_elements(run_file):
         assert f["particles/all/velocity/value"].shape == (frames, n, dim)
         assert f["particles/all/radius/value"].shape == (frames, n)
         assert box["edges/value"].shape == (frames, dim)
+        # particles/all/image (unwrapped = position + image * edges) only with a periodic axis, on the position's clock
+        periodic = any(text(b) == "periodic" for b in box.attrs["boundary"])
+        assert ("image" in f["particles/all"]) == periodic
+        if periodic:
+            image = f["particles/all/image"]
+            assert image["value"].shape == (frames, n, dim) and image["value"].dtype == np.int64
+            assert image["step"].id == pos["step"].id and image["time"].id == pos["time"].id
 
 
 def test_observables(run_file):
