@@ -73,6 +73,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   long next_checkpoint = next_multiple();
   // A checkpoint after stage `last` (with `progress`: inside the stage after it), the schedule counted from it.
   auto checkpoint = [&](int last, std::vector<double> progress) {
+    // Before the state, which knows the warnings were given (a stage's target beyond the clamp, raised at its start).
+    write_new_warnings(out, sim, warnings_written);
     out.write_checkpoint({.step = sim.step_count(), .stage = last, .unreached = unreached, .time = sim.time(),
                           .wall_seconds = earlier_seconds + status.elapsed_seconds(),
                           .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .threads = sim.threads(),

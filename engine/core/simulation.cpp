@@ -283,9 +283,9 @@ class SimulationImpl final : public Simulation {
   // contact damping; 8: a check sum ends the state, the clock's origin and whole steps follow the step count; 9: the
   // adhesive contacts' parting charges of the last evaluation; 10: a gravity scene's energy check follows its
   // aggregation time; 11: the barostat's last stress, which its next step extrapolates from; 12: the particles' periodic
-  // images, after their orientations).
+  // images, after their orientations; 13: whether the clamp warning was given, after the barostat's stress).
   // States of builds before the word start with D (2, 3).
-  static constexpr std::uint32_t state_format = 0x47524e0c;
+  static constexpr std::uint32_t state_format = 0x47524e0d;
 
   std::vector<std::byte> save_state() const override {
     ByteWriter w;
@@ -304,7 +304,8 @@ class SimulationImpl final : public Simulation {
       w.put(e.first), w.put(e.minimum), w.put(e.minimum_time), w.put(e.started), w.put(e.warned);
     }
     if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
-    if (barostat_) barostat_->save(w), w.put(contact_stress_);
+    // Whether the clamp warning was given: before the controls, whose restored cell.pressure would give it again.
+    if (barostat_) barostat_->save(w), w.put(contact_stress_), w.put(std::uint8_t(pressure_clamp_warned_));
     if (collisions_) collisions_->save(w);
     for (const auto& [index, c] : controls_) w.put(c.get());
     if (has_ramp_) w.put(ramp_.on);   // after the controls: restoring cell.pressure ends the ramp, this resumes it
@@ -384,6 +385,7 @@ class SimulationImpl final : public Simulation {
     if (barostat_) {
       barostat_->load(r);
       contact_stress_ = r.get<Tensor<D>>();
+      pressure_clamp_warned_ = r.get<std::uint8_t>() != 0;
       sys_.box.length = barostat_->length();
     }
     if (collisions_) collisions_->load(r);
@@ -677,15 +679,17 @@ class SimulationImpl final : public Simulation {
     sys_.neighbours.follow_cell(scale, sys_.box);
     sys_.shell.follow_cell(scale, sys_.box);
     for (int a = 0; a < D; ++a)
-      if (!(sys_.box.length[a] > 2 * cell_list_reach_))
+      if (!(sys_.box.length[a] > 2 * cell_list_reach_)) {
+        // a cell collapsing under a pressure its clamped contacts cannot carry is another cause, with another cure
+        const long clamped = clamped_now();
         throw SimulationError(fmt::format(
             "step {}: the cell has shrunk to {:.6g} on axis {}, no longer than twice the interaction reach "
             "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles{}",
             sys_.step + 1, sys_.box.length[a], a, cell_list_reach_,
-            // a cell collapsing under a pressure its clamped contacts cannot carry is another cause, with another cure
-            clamped_now() > 0 ? fmt::format(" (or, since {} contacts are clamped now, overlapping past contact.overlap_limit, "
-                                            "a lower pressure: the contacts cannot carry this one)", clamped_now())
-                              : std::string()));
+            clamped > 0 ? fmt::format(" (or, since {} contacts are clamped now, overlapping past contact.overlap_limit, "
+                                      "a lower pressure: the contacts cannot carry this one)", clamped)
+                        : std::string()));
+      }
   }
   // Contacts clamped at the last force evaluation (the contact module's observable; 0 without contacts).
   long clamped_now() const {

@@ -41,9 +41,10 @@ std::optional<long> run_steps(const Scene& scene, const Simulation& sim) {
                                      "run or a larger time step", scene.real(given[0]), steps, sim.dt(), Simulation::max_steps));
   // A positive length that rounds to no step is a slip (a duration in the wrong unit, say): it ran 0 steps unwarned.
   if (std::lround(steps) == 0)
-    scene.fail(given[0], fmt::format("value {} is {:.3g} steps of dt = {:.6g}, which rounds to none: allowed a length of "
-                                     "at least half a step ({:.6g} in time)", scene.real(given[0]), steps, sim.dt(),
-                                     0.5 * sim.dt()));
+    // The bound in the key's own unit too: time for time.duration, free-fall times for time.free_fall_times.
+    scene.fail(given[0], fmt::format("value {} is {:.3g} steps of dt = {:.6g}, which rounds to none: allowed at least half "
+                                     "a step, {:.6g} ({:.6g} in time)", scene.real(given[0]), steps, sim.dt(),
+                                     0.5 * scene.real(given[0]) / steps, 0.5 * sim.dt()));
   return std::lround(steps);
 }
 

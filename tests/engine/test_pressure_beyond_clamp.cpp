@@ -45,3 +45,17 @@ TEST_CASE("a target pressure beyond what the clamped contacts carry is warned ab
     CHECK_THAT(held->warnings().back(), Contains("cell.pressure = 0.06"));
   }
 }
+
+// A restored state knows whether it was warned: restoring it neither warns again (a resumed programme counts the
+// restored simulation's warnings as already in its file, so one raised there was lost) nor forgets the warning.
+TEST_CASE("a saved state carries whether the clamp warning was given", "[barostat][extremes][state]") {
+  auto warned = Simulation::create(Scene::from_string(packed_cell_scene(2, 64, 0.02), "held"));
+  warned->set(warned->index_of("cell.pressure"), 0.06);
+  REQUIRE(clamp_warnings(*warned) == 1);
+  const auto state = warned->save_state();
+  auto restored = Simulation::create(Scene::from_string(packed_cell_scene(2, 64, 0.02), "held"));
+  restored->restore_state(state);
+  CHECK(clamp_warnings(*restored) == 0);                      // not raised by the restore itself
+  restored->set(restored->index_of("cell.pressure"), 0.1);
+  CHECK(clamp_warnings(*restored) == 0);                      // and given once per trajectory
+}

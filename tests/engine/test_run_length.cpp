@@ -76,7 +76,11 @@ TEST_CASE("run length: a duration that rounds to no step is refused", "[scene][r
   CHECK_THROWS_WITH(steps_of(cloud, {fmt::format("time.duration={}", 0.4 * dt)}),
                     Contains("time.duration: value") && Contains("which rounds to none") &&
                         Contains("at least half a step"));
-  CHECK_THROWS_WITH(steps_of(cloud, {"time.free_fall_times=1e-9"}), Contains("time.free_fall_times: value 1e-09"));
+  // counted in free-fall times, the bound is given in them too (and in time)
+  const double t_ff = Simulation::create(scene)->get("free_fall_time");
+  CHECK_THROWS_WITH(steps_of(cloud, {"time.free_fall_times=1e-9"}),
+                    Contains("time.free_fall_times: value 1e-09") &&
+                        Contains(fmt::format("allowed at least half a step, {:.6g} ({:.6g} in time)", 0.5 * dt / t_ff, 0.5 * dt)));
   CHECK(steps_of(cloud, {fmt::format("time.duration={}", 0.6 * dt)}) == 1);
   CHECK(steps_of(cloud, {"time.steps=0"}) == 0);   // zero steps asked for in steps is a choice: the initial state
 }
