@@ -22,6 +22,7 @@
 #include "output_paths.hpp"
 #include "resume_command.hpp"
 #include "progress.hpp"
+#include "protocols/consolidation_programme.hpp"
 #include "protocols/run_length.hpp"
 #include "stop_cadence.hpp"
 #include "stop_signal.hpp"
@@ -97,11 +98,17 @@ PreparedRun prepare_run(const Scene& scene) {
 
 // The start-up warnings of `run` (and `check`): the simulation's, and the programme's keys, which `grains
 // consolidate` reads and a plain run does not (a scene shared with it; the converse of its run-length warning).
-std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim) {
-  std::vector<std::string> warnings = sim.warnings();
+// The scene's [programme] keys, which only `grains consolidate` reads.
+std::vector<std::string> given_programme_keys(const Scene& scene) {
   std::vector<std::string> programme;
   for (const auto& e : scene_schema())
     if (e.path.starts_with("programme.") && scene.has(e.path)) programme.push_back(std::string(e.path));
+  return programme;
+}
+
+std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim) {
+  std::vector<std::string> warnings = sim.warnings();
+  const std::vector<std::string> programme = given_programme_keys(scene);
   if (!programme.empty())
     warnings.push_back(fmt::format("{} {} not used by grains run, which steps the scene as it is (the cell at cell.pressure): "
                                    "the programme is grains consolidate's", fmt::join(programme, ", "),
@@ -119,6 +126,15 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
     check_hdf5_output_path(output, path, scene, source);
   }
   for (const auto& w : run_warnings(scene, *r.sim)) fmt::print(stderr, "warning: {}\n", w);
+  // A scene with a programme is likely meant for `grains consolidate`: its own checks too (a top pressure below
+  // the start passed `check` and was refused by `consolidate`), said as a warning, since `run` would take the scene.
+  if (!given_programme_keys(scene).empty()) {
+    try {
+      ProgrammeSettings::from_scene(scene);
+    } catch (const SceneError& e) {
+      fmt::print(stderr, "warning: grains consolidate would refuse this scene: {}\n", e.what());
+    }
+  }
   fmt::print("{}", scene.resolved_toml());
   // Derived values, as TOML comments so the output still reads as a scene
   fmt::print("\n# derived: time.dt = {}, {} particles", r.sim->dt(), r.sim->particle_count());

@@ -570,3 +570,17 @@ def test_run_and_check_say_that_the_programme_keys_are_not_used(grains_bin, root
         assert [w.decode() for w in f["grains/warnings"][()]] == [note]
     r = run(grains_bin, "check", root / "models" / "collision.toml")
     assert r.returncode == 0 and "programme" not in r.stderr, r.stderr
+
+
+def test_check_says_what_consolidate_would_refuse(grains_bin, root):
+    """`grains check` of a scene with a programme passed what `grains consolidate` then refused (a top pressure below
+    the start); it now says so as a warning (a plain run would still take the scene)."""
+    scene = root / "models" / "cohesionless.toml"
+    low = ["--set", "programme.load=true", "--set", "programme.top_pressure=1e-9"]
+    r = run(grains_bin, "check", scene, *low)
+    assert r.returncode == 0, r.stderr
+    assert ("warning: grains consolidate would refuse this scene:" in r.stderr
+            and "programme.top_pressure: value 1e-09 is below the start pressure" in r.stderr), r.stderr
+    r = run(grains_bin, "consolidate", scene, *low, "--set", "particles.count=16")
+    assert r.returncode == 1 and "programme.top_pressure: value 1e-09 is below the start pressure" in r.stderr, r.stderr
+    assert "would refuse" not in run(grains_bin, "check", scene).stderr
