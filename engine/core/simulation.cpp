@@ -538,9 +538,7 @@ class SimulationImpl final : public Simulation {
   // smallest grains, once touching, sink through each other (two unit disks at F0 = 2 K_N f_max R ended
   // with their centres 2e-4 apart and 26 times their kinetic energy, unwarned). No state of such a scene is right.
   void refuse_unholdable_bonds(const Scene& scene, const AdhesiveContactLaw& law) const {
-    const auto& r = sys_.particles.radius;
-    const double rmin = *std::min_element(r.begin(), r.end());
-    const double largest = law.k * law.overlap_limit * rmin;
+    const double rmin = smallest_radius(), largest = largest_clamped_force(law.k, law.overlap_limit);
     if (law.attraction >= largest)
       scene.fail("adhesion.force",
                  fmt::format("value {:.6g} is not below K_N f_max R_min = {:.6g}, the largest elastic force a clamped contact "
@@ -550,6 +548,16 @@ class SimulationImpl final : public Simulation {
                              "adhesion.stiffness or contact.overlap_limit",
                              law.attraction, largest, law.k, law.overlap_limit, rmin, law.attraction / law.k,
                              law.overlap_limit * rmin, largest));
+  }
+
+  double smallest_radius() const {
+    const auto& r = sys_.particles.radius;
+    return *std::min_element(r.begin(), r.end());
+  }
+  // K_N f_max R_min: the largest elastic force a clamped contact gives (physics.md section 2), which no bond's
+  // attraction and no contact's share of the pressure may reach.
+  double largest_clamped_force(double stiffness, double overlap_limit) const {
+    return stiffness * overlap_limit * smallest_radius();
   }
 
   // The stiffest, most violent collision: the two lightest particles.
@@ -618,8 +626,7 @@ class SimulationImpl final : public Simulation {
     p.time_unit = inertial_time(target_reduced_);
     tolerances_ = {scene.real("cell.tolerance_force"), scene.real("cell.tolerance_torque"),
                    scene.real("cell.tolerance_stress"), scene.real("cell.tolerance_kinetic")};
-    const auto& radius = P.radius;
-    clamp_force_ = kn_ * scene.real("contact.overlap_limit") * *std::min_element(radius.begin(), radius.end());
+    clamp_force_ = largest_clamped_force(kn_, scene.real("contact.overlap_limit"));
     warn_pressure_beyond_clamp("cell.pressure", target_reduced_);
     if (has_ramp_) warn_pressure_beyond_clamp("cell.pressure_final", ramp_.to);
     barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
