@@ -257,6 +257,11 @@ Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std:
 }
 
 void Scene::set_value(std::string_view path, std::string_view toml_value) {
+  // `--set box=4` was "unknown key 'box'", followed by a list of sections that includes box.
+  if (is_section(path))
+    throw SceneError(fmt::format("--set: '{}' is a section, not a key: give one of its keys, --set {}.KEY=value; "
+                                 "the keys of [{}] are: {}",
+                                 path, path, path, section_keys(path)));
   if (!find_schema_entry(path))
     throw SceneError(fmt::format("--set: unknown key '{}'{}", path, allowed_keys(path)));
   const SchemaEntry& e = *find_schema_entry(path);
