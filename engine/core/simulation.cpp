@@ -1335,11 +1335,13 @@ class SimulationImpl final : public Simulation {
       out("contacts_kept", "", "contacts (h < 0) present both now and at the last network.mark");
       out("contacts_lost", "", "contacts at the last network.mark that are open now");
       out("contacts_gained", "", "contacts now that were open at the last network.mark");
+      // Each bin says its own range: every bin's text said "(the first bin also holds what is below)" until 2026-12-05.
       for (int b = 0; b <= network_bins_; ++b)
         out(fmt::format("force_histogram_{:02}", b), "",
-            b < network_bins_ ? fmt::format("fraction of interactions with F_N / F0 in [{:g}, {:g}) (the first bin also holds "
-                                            "what is below)", -1 + 0.5 * b, -0.5 + 0.5 * b)
-                              : fmt::format("fraction of interactions with F_N / F0 >= {:g}", -1 + 0.5 * network_bins_));
+            fmt::format("fraction of interactions with F_N / F0 {} (static normal force; F0 = 0: over the mean |F_N|)",
+                        b == 0               ? fmt::format("below {:g}: the bin [-1, {:g}) and everything below it", -0.5, -0.5)
+                        : b < network_bins_ ? fmt::format("in [{:g}, {:g})", -1 + 0.5 * b, -0.5 + 0.5 * b)
+                                             : fmt::format(">= {:g}", -1 + 0.5 * network_bins_)));
       describing_ = OutputGroup::moduli;
       if (moduli_) describe_moduli_variables(out);
       describing_ = OutputGroup::general;

@@ -23,3 +23,19 @@ TEST_CASE("every variable of the shipped scenes has a description", "[observable
       if (v.name.ends_with("_energy")) CHECK(v.unit == "J");
   }
 }
+
+TEST_CASE("each force-histogram bin's description gives its own range", "[observables]") {
+  // Every bin's text said "(the first bin also holds what is below)" (a review of the documentation, 2026-12-05).
+  auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/consolidation.toml", {"run.threads=1"}));
+  int seen = 0;
+  for (const auto& v : s->variables()) {
+    if (!v.name.starts_with("force_histogram_")) continue;
+    ++seen;
+    INFO(v.name << ": '" << v.description << "'");
+    CHECK(v.description.find("first bin") == std::string::npos);
+    if (v.name == "force_histogram_00") CHECK(v.description.find("below -0.5") != std::string::npos);
+    if (v.name == "force_histogram_05") CHECK(v.description.find("in [1.5, 2)") != std::string::npos);
+    if (v.name == "force_histogram_20") CHECK(v.description.find(">= 9") != std::string::npos);
+  }
+  CHECK(seen == 21);
+}
