@@ -340,12 +340,15 @@ def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path, scene):
         ke = f["observables/kinetic_energy"]
         whole = ke["step"][:][ke["step"][:] <= complete]
         assert len(whole) > 1, "no observable record flushed after the first one in 2.5 s"
-        assert len(ke["value"]) == len(ke["step"]) == len(ke["time"])
         assert list(ke["step"][:]) == sorted(ke["step"][:])
         for name, series in f["observables"].items():   # whole records only
             steps = series["step"][:]
             assert np.array_equal(steps[steps <= complete], whole), name
-            assert len(series["value"]) == len(steps) == len(series["time"]), name
+            # A series' step, time and value are appended one after the other, so a kill inside a flush can
+            # leave them of different lengths past complete_to_step (a run here had a value a flush short of
+            # its steps, 3181 against 3191 rows): the whole records are in all three.
+            assert len(series["value"]) >= len(whole) and len(series["time"]) >= len(whole), name
+            assert np.all(np.isfinite(series["time"][: len(whole)])), name
         # A run writes status 'running' at its start and replaces it at its end: a killed run's file says so
         # (it had no status, like a file written by some other program).
         status = f["grains"].attrs["status"]
