@@ -112,8 +112,9 @@ def lammps_energies(work, name, data, friction, boundary, steps, every, dt):
     return lammps_thermo(work, name, lammps_script(data, friction, boundary, steps, every, dt))
 
 
-def grains_scene(work, name, table, lengths, periodic, law, steps, every, dt, skin):
-    """A grains scene of the particles in `table` (file layout), the contact law given as scene text."""
+def grains_scene(work, name, table, lengths, periodic, law, steps, every, dt, skin, particles_extra="", snapshots_every=0):
+    """A grains scene of the particles in `table` (file layout), the contact law given as scene text.
+    particles_extra: further [particles] lines (such as angular_velocities); snapshots_every: 0 = none."""
     scene = work / f"{name}.toml"
     scene.write_text(f"""[scene]
 name = "{name}"
@@ -121,7 +122,7 @@ dimension = {len(lengths)}
 [particles]
 layout = "file"
 file = "{table.name}"
-[box]
+{particles_extra}[box]
 periodic = {str(periodic).lower()}
 lengths = [{", ".join(repr(float(l)) for l in lengths)}]
 [time]
@@ -131,7 +132,7 @@ steps = {steps}
 skin = {skin!r}
 [output]
 observables_every = {every}
-snapshots_every = 0
+snapshots_every = {snapshots_every}
 xdmf = false
 {law}""")
     return scene
@@ -153,25 +154,37 @@ def grains_energies(binary, work, scene):
         return np.c_[o["translational_energy/step"][:], o["translational_energy/value"][:], o["rotational_energy/value"][:]]
 
 
-def write_table(path, x, v):
-    """grains' file layout: x y z diameter mass vx vy vz."""
+def write_table(path, x, v, diameters=None, masses=None):
+    """grains' file layout: x y [z] diameter mass vx vy [vz] (as many coordinates as x has columns);
+    every particle DIAMETER and MASS unless diameters and masses are given."""
+    x, v = np.asarray(x, dtype=float), np.asarray(v, dtype=float)
+    d = np.full(len(x), DIAMETER) if diameters is None else np.asarray(diameters, dtype=float)
+    m = np.full(len(x), MASS) if masses is None else np.asarray(masses, dtype=float)
     with open(path, "w") as f:
-        for p, u in zip(x, v):
-            f.write(f"{p[0]:.17g} {p[1]:.17g} {p[2]:.17g} {DIAMETER!r} {MASS!r} {u[0]:.17g} {u[1]:.17g} {u[2]:.17g}\n")
+        for p, u, dk, mk in zip(x, v, d, m):
+            f.write(" ".join(f"{c:.17g}" for c in (*p, dk, mk, *u)) + "\n")
 
 
-def lammps_data(path, x, v, lo, hi):
-    density = MASS / (math.pi / 6 * DIAMETER ** 3)
+def lammps_data(path, x, v, lo, hi, diameters=None, masses=None, types=None, spins=None):
+    """LAMMPS' data file (atom_style sphere) of the particles: every particle DIAMETER and MASS of type 1 and
+    without spin unless diameters, masses, types (1, 2, ...) and spins (n x 3) are given. read_data makes a
+    sphere's mass from the density, in 2D too (4/3 pi r^3 rho): the density written gives back the mass."""
+    n = len(x)
+    d = np.full(n, DIAMETER) if diameters is None else np.asarray(diameters, dtype=float)
+    m = np.full(n, MASS) if masses is None else np.asarray(masses, dtype=float)
+    t = np.ones(n, dtype=int) if types is None else np.asarray(types, dtype=int)
+    w = np.zeros((n, 3)) if spins is None else np.asarray(spins, dtype=float)
     with open(path, "w") as f:
-        f.write(f"grains compare_lammps\n\n{len(x)} atoms\n1 atom types\n\n")
+        f.write(f"grains compare_lammps\n\n{n} atoms\n{t.max()} atom types\n\n")
         for a in range(3):
-            f.write(f"{lo[a]!r} {hi[a]!r} {'xyz'[a]}lo {'xyz'[a]}hi\n")
+            f.write(f"{float(lo[a])!r} {float(hi[a])!r} {'xyz'[a]}lo {'xyz'[a]}hi\n")
         f.write("\nAtoms\n\n")
         for i, p in enumerate(x, 1):
-            f.write(f"{i} 1 {DIAMETER!r} {density!r} {p[0]:.17g} {p[1]:.17g} {p[2]:.17g}\n")
+            density = m[i - 1] / (math.pi / 6 * d[i - 1] ** 3)
+            f.write(f"{i} {t[i - 1]} {float(d[i - 1])!r} {float(density)!r} {p[0]:.17g} {p[1]:.17g} {p[2]:.17g}\n")
         f.write("\nVelocities\n\n")
         for i, u in enumerate(v, 1):
-            f.write(f"{i} {u[0]:.17g} {u[1]:.17g} {u[2]:.17g} 0 0 0\n")
+            f.write(f"{i} {u[0]:.17g} {u[1]:.17g} {u[2]:.17g} {w[i - 1][0]:.17g} {w[i - 1][1]:.17g} {w[i - 1][2]:.17g}\n")
 
 
 def read_lammps_data(path):

@@ -94,6 +94,8 @@ def test_campaign_tools_name_bad_arguments_in_a_line(grains_bin, tmp_path, scrip
     ("bench_consolidation.py", ["settings", "--seeds", "0"], ["--seeds = 0"]),
     ("bench_fmu.py", ["--build", "nosuch"], ["--build nosuch", "no fmus folder"]),
     ("compare_lammps.py", ["--steps", "0"], ["--steps = 0"]),   # "predicts nan", exit 0, before
+    ("compare_lammps_rolling.py", ["--seeds", "0"], ["--seeds = 0"]),
+    ("compare_lammps_rolling.py", ["--steps", "2100"], ["--steps = 2100", "multiple of 500"]),
 ])
 def test_benchmarks_name_bad_counts_and_paths_in_a_line(tmp_path, name, args, words):
     refused(tool(name, *args, cwd=tmp_path), *words)
