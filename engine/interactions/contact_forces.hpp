@@ -20,25 +20,13 @@
 #include "interactions/force_module.hpp"
 #include "interactions/adhesive_contact_law.hpp"
 #include "interactions/cohesive_contacts.hpp"
+#include "interactions/friction.hpp"
 #include "interactions/linear_contact_law.hpp"
 #include "interactions/linear_contacts.hpp"
 #include "interactions/pair_filter.hpp"
 #include "interactions/rolling_resistance.hpp"
 
 namespace grains {
-
-struct NoFriction {
-  static constexpr bool enabled = false;
-};
-
-// Incremental tangential spring with Coulomb bound (physics.md section 4).
-struct CoulombFriction {
-  static constexpr bool enabled = true;
-  double mu = 0.5;
-  double stiffness_ratio = 1.0;   // k_t / k_n
-  double damping_ratio = 0.0;     // c_t / c_n
-  bool elastic_bound = false;     // bound on k_n delta (true) or on the full normal force (false)
-};
 
 template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {

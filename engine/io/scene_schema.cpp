@@ -338,7 +338,7 @@ const std::vector<SchemaEntry>& scene_schema() {
 }
 
 // Keys read only with other keys' values (Scene::validate refuses them given without): each listed
-// where the engine reads it (protocols/initial_state.cpp, core/simulation.cpp).
+// where the engine reads it (protocols/initial_state.cpp, core/simulation_setup.cpp).
 const std::vector<UnreadKeyRule>& unread_key_rules() {
   static const std::vector<UnreadKeyRule> rules = [] {
     std::vector<UnreadKeyRule> r = {
@@ -386,7 +386,7 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
         {"analysis.every", {{"gravity.enabled", "true"}}, ""},
     };
     // Each module's keys, read only with the module on. rolling.coefficient keeps the contact module's own
-    // message (core/simulation.cpp), which names the cohesionless alternative.
+    // message (core/simulation_setup.cpp), which names the cohesionless alternative.
     const std::pair<std::string_view, std::string_view> modules[] = {
         {"adhesion.", "adhesion.enabled"}, {"gravity.", "gravity.enabled"}, {"friction.", "contact.enabled"},
         {"rolling.", "adhesion.enabled"}, {"cell.", "cell.enabled"}, {"programme.", "cell.enabled"}};
