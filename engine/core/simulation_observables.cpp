@@ -245,7 +245,22 @@ void SimulationImpl<D>::mark_network(double value) {
   reference_contacts_ = contact_keys(interactions());
 }
 
-template class SimulationImpl<2>;
-template class SimulationImpl<3>;
+// This file's members, instantiated one by one: each of the Simulation's files instantiates its own
+// (a whole-class instantiation may appear in only one file of a program).
+#define GRAINS_SIMULATION_OBSERVABLES_MEMBERS(D) \
+  template ParticleView SimulationImpl<D>::particles() const; \
+  template BoxView SimulationImpl<D>::box() const; \
+  template void SimulationImpl<D>::refresh(OutputGroup) const; \
+  template void SimulationImpl<D>::refresh_general() const; \
+  template void SimulationImpl<D>::refresh_cell_observables() const; \
+  template EquilibriumMeasures SimulationImpl<D>::equilibrium_ratios() const; \
+  template void SimulationImpl<D>::refresh_bonds() const; \
+  template void SimulationImpl<D>::refresh_network() const; \
+  template void SimulationImpl<D>::refresh_moduli() const; \
+  template std::vector<NetworkInteraction> SimulationImpl<D>::interactions() const; \
+  template void SimulationImpl<D>::mark_network(double);
+GRAINS_SIMULATION_OBSERVABLES_MEMBERS(2)
+GRAINS_SIMULATION_OBSERVABLES_MEMBERS(3)
+#undef GRAINS_SIMULATION_OBSERVABLES_MEMBERS
 
 }  // namespace grains

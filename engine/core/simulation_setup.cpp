@@ -345,7 +345,18 @@ void SimulationImpl<D>::setup_aggregation_analysis(const Scene& scene, double rm
   gravity_stiffness_ = scene.real("gravity.G") * mean_mass * mean_mass / (4 * std::pow(mean_radius, 3));
 }
 
-template class SimulationImpl<2>;
-template class SimulationImpl<3>;
+// This file's members, instantiated one by one: each of the Simulation's files instantiates its own
+// (a whole-class instantiation may appear in only one file of a program).
+#define GRAINS_SIMULATION_SETUP_MEMBERS(D) \
+  template SimulationImpl<D>::SimulationImpl(const Scene&); \
+  template void SimulationImpl<D>::add_contact_module(const Scene&, double); \
+  template double SimulationImpl<D>::add_adhesive_contact_module(const Scene&); \
+  template void SimulationImpl<D>::refuse_unholdable_bonds(const Scene&, const AdhesiveContactLaw&) const; \
+  template double SimulationImpl<D>::smallest_reduced_mass() const; \
+  template void SimulationImpl<D>::setup_cell(const Scene&, double); \
+  template void SimulationImpl<D>::setup_aggregation_analysis(const Scene&, double);
+GRAINS_SIMULATION_SETUP_MEMBERS(2)
+GRAINS_SIMULATION_SETUP_MEMBERS(3)
+#undef GRAINS_SIMULATION_SETUP_MEMBERS
 
 }  // namespace grains

@@ -139,7 +139,15 @@ void SimulationImpl<D>::load_state(std::span<const std::byte> all) {
   for (auto& stamp : refreshed_) stamp = {};
 }
 
-template class SimulationImpl<2>;
-template class SimulationImpl<3>;
+// This file's members, instantiated one by one: each of the Simulation's files instantiates its own
+// (a whole-class instantiation may appear in only one file of a program).
+#define GRAINS_SIMULATION_STATE_MEMBERS(D) \
+  template std::vector<std::byte> SimulationImpl<D>::save_state() const; \
+  template void SimulationImpl<D>::check_loaded() const; \
+  template void SimulationImpl<D>::restore_state(std::span<const std::byte>); \
+  template void SimulationImpl<D>::load_state(std::span<const std::byte>);
+GRAINS_SIMULATION_STATE_MEMBERS(2)
+GRAINS_SIMULATION_STATE_MEMBERS(3)
+#undef GRAINS_SIMULATION_STATE_MEMBERS
 
 }  // namespace grains

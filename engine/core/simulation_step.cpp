@@ -386,21 +386,19 @@ void SimulationImpl<D>::check_finite(const std::string& when) const {
   }
 }
 
-// Instantiated member by member, not as a whole class (which would emit every helper for other files to call):
-// the step's helpers are then instantiated only where the step calls them, and inlined there.
-template void SimulationImpl<2>::step(double);
-template void SimulationImpl<2>::step_n(long);
-template void SimulationImpl<2>::step_evenly(double, long);
-template void SimulationImpl<2>::rebuild();
-template Tensor<2> SimulationImpl<2>::kinetic_sum(const PendingKick*) const;
-template void SimulationImpl<2>::track_aggregation();
-template void SimulationImpl<2>::check_finite(const std::string&) const;
-template void SimulationImpl<3>::step(double);
-template void SimulationImpl<3>::step_n(long);
-template void SimulationImpl<3>::step_evenly(double, long);
-template void SimulationImpl<3>::rebuild();
-template Tensor<3> SimulationImpl<3>::kinetic_sum(const PendingKick*) const;
-template void SimulationImpl<3>::track_aggregation();
-template void SimulationImpl<3>::check_finite(const std::string&) const;
+// Instantiated member by member, the members other files call (a whole-class instantiation would emit
+// every helper for other files to call): the step's helpers are instantiated only where the step calls
+// them, and inlined there.
+#define GRAINS_SIMULATION_STEP_MEMBERS(D) \
+  template void SimulationImpl<D>::step(double); \
+  template void SimulationImpl<D>::step_n(long); \
+  template void SimulationImpl<D>::step_evenly(double, long); \
+  template void SimulationImpl<D>::rebuild(); \
+  template Tensor<D> SimulationImpl<D>::kinetic_sum(const PendingKick*) const; \
+  template void SimulationImpl<D>::track_aggregation(); \
+  template void SimulationImpl<D>::check_finite(const std::string&) const;
+GRAINS_SIMULATION_STEP_MEMBERS(2)
+GRAINS_SIMULATION_STEP_MEMBERS(3)
+#undef GRAINS_SIMULATION_STEP_MEMBERS
 
 }  // namespace grains

@@ -242,7 +242,15 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
               });
 }
 
-template class SimulationImpl<2>;
-template class SimulationImpl<3>;
+// This file's members, instantiated one by one: each of the Simulation's files instantiates its own
+// (a whole-class instantiation may appear in only one file of a program).
+#define GRAINS_SIMULATION_VARIABLES_MEMBERS(D) \
+  template double SimulationImpl<D>::get(std::size_t) const; \
+  template void SimulationImpl<D>::set(std::size_t, double); \
+  template void SimulationImpl<D>::add_control(VariableInfo, std::function<double()>, std::function<void(double)>); \
+  template void SimulationImpl<D>::describe_variables(const Scene&);
+GRAINS_SIMULATION_VARIABLES_MEMBERS(2)
+GRAINS_SIMULATION_VARIABLES_MEMBERS(3)
+#undef GRAINS_SIMULATION_VARIABLES_MEMBERS
 
 }  // namespace grains

@@ -259,7 +259,18 @@ void SimulationImpl<D>::check_energy(double kinetic) const {
                    100 * rise / scale, scale, 100 * energy_rise_limit, cause));
 }
 
-template class SimulationImpl<2>;
-template class SimulationImpl<3>;
+// This file's members, instantiated one by one: each of the Simulation's files instantiates its own
+// (a whole-class instantiation may appear in only one file of a program).
+#define GRAINS_SIMULATION_WARNINGS_MEMBERS(D) \
+  template void SimulationImpl<D>::warn_damped_packing_step(double); \
+  template void SimulationImpl<D>::warn_sticking_spring_step(const Scene&, double); \
+  template void SimulationImpl<D>::warn_coarse_coordinates(const Scene&, double); \
+  template void SimulationImpl<D>::warn_unresolved_approach(const Scene&, double); \
+  template void SimulationImpl<D>::warn_gravity_step(const Scene&, double, bool); \
+  template void SimulationImpl<D>::warn_pressure_beyond_clamp(const char*, double); \
+  template void SimulationImpl<D>::check_energy(double) const;
+GRAINS_SIMULATION_WARNINGS_MEMBERS(2)
+GRAINS_SIMULATION_WARNINGS_MEMBERS(3)
+#undef GRAINS_SIMULATION_WARNINGS_MEMBERS
 
 }  // namespace grains
