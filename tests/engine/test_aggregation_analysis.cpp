@@ -255,7 +255,7 @@ TEST_CASE("aggregation observables: absent without gravity, scene keys are valid
                       Catch::Contains("analysis." + bad.substr(0, bad.find(' '))));
 }
 
-TEST_CASE("clusters: sizes over many classes agree with brute force; one large grain is no quadratic search",
+TEST_CASE("clusters: sizes over many classes agree with brute force, and one large grain is no quadratic search",
           "[aggregation]") {
   // Brute force's labels, in order of first appearance as find_clusters numbers them.
   auto brute_labels = [](const std::vector<Vec<3>>& x, const std::vector<double>& r, double tol) {
