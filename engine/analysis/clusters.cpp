@@ -36,6 +36,82 @@ struct CellHash {
   }
 };
 
+ClusterStats relabel(UnionFind& uf, const std::vector<double>& mass);
+
+// Sizes spread over more than a factor 2: size classes as the neighbour list's (class c holds radii in
+// (r_max / 2^(c+1), r_max / 2^c], the last also all smaller ones), each in a hashed grid of cells 2 R_max(c) + tol
+// wide. Each grain is linked with the later grains of its own class in the 3^D cells around its own, and with
+// every grain of each smaller class within its reach R_i + R_max(c) + tol (or, where the cells are more than the
+// class's grains, with all of them). One grid of cells 2 R_max + tol wide put a whole cloud of small grains in the
+// cells around one large grain: 40,000 spheres and one of 20 diameters took 3.5 s an analysis (0.04 s without it).
+template <int D>
+void link_by_size_class(const std::vector<Vec<D>>& x, const std::vector<double>& radius, double tol, double rmax,
+                        double rmin, UnionFind& uf) {
+  using Cell = std::array<std::int64_t, D>;
+  const std::size_t N = x.size();
+  tol = std::max(0.0, tol);
+  const int classes = int(std::clamp(std::ceil(std::log2(rmax / rmin) - 1e-12), 1.0, 8.0));
+  struct Grid {
+    double rmax = 0, h = 0;
+    std::vector<int> members;   // in index order
+    std::unordered_map<Cell, std::vector<int>, CellHash<D>> cells;
+  };
+  std::vector<Grid> grids(classes);
+  std::vector<int> class_of(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    class_of[i] = int(std::clamp(std::floor(std::log2(rmax / radius[i])), 0.0, double(classes - 1)));
+    Grid& g = grids[class_of[i]];
+    g.rmax = std::max(g.rmax, radius[i]), g.members.push_back(int(i));
+  }
+  auto cell_of = [](const Vec<D>& p, double h) {
+    Cell c;   // clamped as in find_clusters
+    for (int a = 0; a < D; ++a) c[a] = std::int64_t(std::clamp(std::floor(p[a] / h), -4e18, 4e18));
+    return c;
+  };
+  for (Grid& g : grids) {
+    g.h = 2 * g.rmax + tol;
+    for (const int i : g.members) g.cells[cell_of(x[i], g.h)].push_back(i);
+  }
+  auto link = [&](int i, int j) {
+    const double reach = radius[i] + radius[j] + tol;
+    if ((x[j] - x[i]).squaredNorm() < reach * reach) uf.unite(i, j);
+  };
+  constexpr int stencil = D == 3 ? 27 : 9;
+  for (std::size_t i = 0; i < N; ++i) {
+    {
+      const Grid& g = grids[class_of[i]];
+      const Cell home = cell_of(x[i], g.h);
+      for (int s = 0; s < stencil; ++s) {
+        Cell n = home;
+        for (int a = 0, r = s; a < D; ++a, r /= 3) n[a] += r % 3 - 1;
+        if (const auto it = g.cells.find(n); it != g.cells.end())
+          for (const int j : it->second)
+            if (j > int(i)) link(int(i), j);
+      }
+    }
+    for (int b = class_of[i] + 1; b < classes; ++b) {
+      const Grid& g = grids[b];
+      if (g.members.empty()) continue;
+      const double k = std::ceil((radius[i] + g.rmax + tol) / g.h * (1 + 1e-9));   // cells each side
+      if (std::pow(2 * k + 1, D) >= double(g.members.size())) {
+        for (const int j : g.members) link(int(i), j);
+        continue;
+      }
+      const Cell home = cell_of(x[i], g.h);
+      const auto span = std::int64_t(2 * k + 1);
+      for (Cell o{};;) {
+        Cell n = home;
+        for (int a = 0; a < D; ++a) n[a] += o[a] - std::int64_t(k);
+        if (const auto it = g.cells.find(n); it != g.cells.end())
+          for (const int j : it->second) link(int(i), j);
+        int a = 0;
+        while (a < D && ++o[a] == span) o[a++] = 0;
+        if (a == D) break;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 template <int D>
@@ -45,8 +121,14 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   const std::size_t N = x.size();
   if (N == 0) return st;
   const double rmax = *std::max_element(radius.begin(), radius.end());
-  const double h = 2 * rmax + std::max(0.0, tol);   // any linked pair lies in neighbouring cells
+  const double rmin = *std::min_element(radius.begin(), radius.end());
   using Cell = std::array<std::int64_t, D>;
+  UnionFind uf(N);
+  if (rmax > 2 * rmin) {
+    link_by_size_class<D>(x, radius, tol, rmax, rmin, uf);
+    return relabel(uf, mass);
+  }
+  const double h = 2 * rmax + std::max(0.0, tol);   // any linked pair lies in neighbouring cells
   auto cell_of = [&](const Vec<D>& p) {
     Cell c;
     // Clamped so that the conversion is defined (and a neighbour's index does not overflow) for any finite x.
@@ -66,7 +148,6 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   double cells = 1;
   for (int a = 0; a < D; ++a) cells *= double(hi[a]) - double(lo[a]) + 3;   // a margin of one cell each side
   std::vector<int> next(N, -1);
-  UnionFind uf(N);
   constexpr int stencil = D == 3 ? 27 : 9;
   // Each grain i against the later grains of its neighbour cells; first_in(cell): the cell's first grain (-1: none).
   const auto scan = [&](auto&& first_in) {
@@ -108,7 +189,16 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
       return it == head.end() ? -1 : it->second;
     });
   }
-  // Relabel roots 0 .. N_c-1 in order of first appearance; sum masses per cluster.
+  return relabel(uf, mass);
+}
+
+namespace {
+
+// Roots relabelled 0 .. N_c-1 in order of first appearance; masses summed per cluster. The labels depend on the
+// partition alone, not on the order of the unions.
+ClusterStats relabel(UnionFind& uf, const std::vector<double>& mass) {
+  ClusterStats st;
+  const std::size_t N = mass.size();
   st.label.assign(N, -1);
   std::vector<int> root_label(N, -1);
   std::vector<double> cluster_mass;
@@ -125,6 +215,8 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   st.largest_fraction = total > 0 ? cluster_mass[st.largest] / total : 0;
   return st;
 }
+
+}  // namespace
 
 template ClusterStats find_clusters<2>(const std::vector<Vec<2>>&, const std::vector<double>&, const std::vector<double>&, double);
 template ClusterStats find_clusters<3>(const std::vector<Vec<3>>&, const std::vector<double>&, const std::vector<double>&, double);

@@ -144,6 +144,18 @@ Handle open_or_create_group(hid_t parent, const std::string& name, const std::st
   return exists(parent, name, file) ? open_group(parent, name, file) : create_group(parent, name, file);
 }
 
+// Appended rows only ever touch the last chunk, so the chunk cache keeps two chunks. HDF5's default of 1 MB a dataset
+// kept the chunks already written, and every flush (one a frame) walks every cached chunk of every dataset: a
+// two-sphere run with a frame and a record every step took 0.39 ms a frame over its first 23,000 frames and
+// 2.0 ms at 150,000.
+Handle append_access(hid_t type, const std::vector<hsize_t>& chunk, const std::string& file) {
+  std::size_t bytes = H5Tget_size(type);
+  for (hsize_t n : chunk) bytes *= std::size_t(n);
+  Handle dapl = plist(H5P_DATASET_ACCESS, file);
+  check(H5Pset_chunk_cache(dapl.get(), 7, 2 * bytes, 1.0), file, "sizing a chunk cache");
+  return dapl;
+}
+
 Handle create_extendable(hid_t parent, const std::string& name, hid_t type, const std::vector<hsize_t>& inner,
                          const std::vector<hsize_t>& chunk_inner, hsize_t chunk_rows, const std::string& file,
                          bool checksum) {
@@ -162,7 +174,8 @@ Handle create_extendable(hid_t parent, const std::string& name, hid_t type, cons
     const double nan = std::numeric_limits<double>::quiet_NaN();
     check(H5Pset_fill_value(dcpl.get(), H5T_NATIVE_DOUBLE, &nan), file, "setting the fill value of " + name);
   }
-  return Handle(check(H5Dcreate2(parent, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
+  return Handle(check(H5Dcreate2(parent, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(),
+                                 append_access(type, chunk, file).get()),
                       file, "creating dataset " + name),
                 H5Dclose);
 }
@@ -215,6 +228,22 @@ void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, 
 
 Handle open_group(hid_t parent, const std::string& name, const std::string& file) {
   return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + name), H5Gclose);
+}
+
+Handle open_extendable(hid_t parent, const std::string& name, const std::string& file) {
+  hid_t type_id = -1;
+  std::vector<hsize_t> chunk;
+  {
+    Handle d = open_dataset(parent, name, file);
+    type_id = check(H5Dget_type(d.get()), file, "reading the type of " + name);
+    Handle dcpl(check(H5Dget_create_plist(d.get()), file, "reading the layout of " + name), H5Pclose);
+    chunk.resize(H5S_MAX_RANK);
+    chunk.resize(std::size_t(check(H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()), file, "reading the chunks of " + name)));
+  }
+  Handle type(type_id, H5Tclose);
+  return Handle(check(H5Dopen2(parent, name.c_str(), append_access(type.get(), chunk, file).get()), file,
+                      "opening dataset " + name),
+                H5Dclose);
 }
 
 Handle open_dataset(hid_t parent, const std::string& name, const std::string& file) {

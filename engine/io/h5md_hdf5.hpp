@@ -85,6 +85,10 @@ unsigned link_count(hid_t parent, const std::string& name, const std::string& fi
 // Reading back (a resumed run): opening, truncating to the first `rows` rows, whole datasets and attributes.
 Handle open_group(hid_t parent, const std::string& name, const std::string& file);
 Handle open_dataset(hid_t parent, const std::string& name, const std::string& file);
+// An extendable dataset (create_extendable's) opened to append rows: its chunk cache holds two chunks.
+Handle open_extendable(hid_t parent, const std::string& name, const std::string& file);
+// The access list of such a dataset: a chunk cache of two chunks of `chunk` (dimensions) values of `type`.
+Handle append_access(hid_t type, const std::vector<hsize_t>& chunk, const std::string& file);
 bool exists(hid_t parent, const std::string& name, const std::string& file);
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);
 std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what);

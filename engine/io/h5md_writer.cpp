@@ -151,9 +151,9 @@ struct H5mdWriter::Impl {
   Series reopen_series(hid_t parent, const std::string& name, long step, bool at_step) {
     Series s;
     s.group = h5::open_group(parent, name, path);
-    s.step = h5::open_dataset(s.group.get(), "step", path);
-    s.time = h5::open_dataset(s.group.get(), "time", path);
-    s.value = h5::open_dataset(s.group.get(), "value", path);
+    s.step = h5::open_extendable(s.group.get(), "step", path);
+    s.time = h5::open_extendable(s.group.get(), "time", path);
+    s.value = h5::open_extendable(s.group.get(), "value", path);
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
     const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
                                           : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());

@@ -1,6 +1,7 @@
 // Pairs of starting particles that overlap beyond what the contact law takes (a given list or file): such a pair
 // flies apart with the energy of its clamped spring, and a coincident pair has no contact direction at all.
-// A grid of cells one largest diameter wide: O(N) for any layout.
+// Grids of cells one diameter of each size class wide (the neighbour list's classes): O(N) for any layout, a few
+// grains far larger than the rest among them.
 #pragma once
 #include <cstddef>
 
@@ -13,7 +14,7 @@ struct InitialOverlaps {
   std::size_t deep = 0;                 // pairs with delta > overlap_limit * min(R_i, R_j)
   std::size_t i = 0, j = 0;             // the deepest of them (by delta / min(R_i, R_j))
   double overlap = 0, ratio = 0;        // its delta and delta / min(R_i, R_j)
-  bool coincident = false;              // some pair at the same position: the first found
+  bool coincident = false;              // some pair at the same position: the first (lowest indices)
   std::size_t same_i = 0, same_j = 0;
 };
 
