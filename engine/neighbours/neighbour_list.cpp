@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <limits>
 #include <numeric>
 
@@ -220,23 +221,22 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       partner[k] = f.j[n], image[k] = f.image[n];
     }
   }
-  if (history_) {   // rows sorted by partner (insertion sort: rows are short), then a merge walk against the old rows
+  if (history_) {   // each entry's entry in the previous list: the old row's partners sorted in scratch, each new entry looked up there
+    // The rows keep their order of discovery: the pair loop sums each particle's forces in row order, and rows sorted
+    // here (until 2026-12-05) made a run with the collision log part from the same run without it in the last bits.
     previous_entry_.assign(partner.size(), -1);
-#pragma omp parallel for num_threads(nthreads) schedule(static)
-    for (std::size_t i = 0; i < N; ++i) {
-      const std::size_t b = start[i], e = start[i + 1];
-      for (std::size_t k = b + 1; k < e; ++k) {
-        const std::uint32_t j = partner[k];
-        const std::uint8_t img = image[k];
-        std::size_t h = k;
-        for (; h > b && partner[h - 1] > j; --h) partner[h] = partner[h - 1], image[h] = image[h - 1];
-        partner[h] = j, image[h] = img;
-      }
-      if (i + 1 < previous_start_.size()) {
-        std::size_t o = previous_start_[i], oe = previous_start_[i + 1];
-        for (std::size_t k = b; k < e; ++k) {
-          while (o < oe && previous_partner_[o] < partner[k]) ++o;
-          if (o < oe && previous_partner_[o] == partner[k]) previous_entry_[k] = std::int64_t(o);
+#pragma omp parallel num_threads(nthreads)
+    {
+      std::vector<std::pair<std::uint32_t, std::uint32_t>> old;   // (partner, entry) of the row in the previous list
+#pragma omp for schedule(static)
+      for (std::size_t i = 0; i < N; ++i) {
+        if (i + 1 >= previous_start_.size()) continue;
+        old.clear();
+        for (std::uint32_t o = previous_start_[i]; o < previous_start_[i + 1]; ++o) old.emplace_back(previous_partner_[o], o);
+        std::sort(old.begin(), old.end());   // a partner listed twice (two images) maps to its first entry, as before
+        for (std::size_t k = start[i]; k < start[i + 1]; ++k) {
+          const auto it = std::lower_bound(old.begin(), old.end(), std::pair<std::uint32_t, std::uint32_t>{partner[k], 0});
+          if (it != old.end() && it->first == partner[k]) previous_entry_[k] = std::int64_t(it->second);
         }
       }
     }

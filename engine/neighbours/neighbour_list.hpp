@@ -3,7 +3,8 @@
 // size class) so that a size ratio of 10 costs about as much as monodisperse. Rows are in the
 // (deterministic) order of discovery. History of a few pairs (the contacts) follows the pairs with
 // match_previous(); history of every pair with carry(), which needs configure(..., history = true):
-// rows are then sorted by partner and matched against the previous list.
+// each entry is then matched against the previous list's row (the rows' order stays that of discovery,
+// with or without history, so that the forces summed in row order do not depend on it).
 #pragma once
 #include <algorithm>
 #include <array>
@@ -30,7 +31,7 @@ template <int D>
 class NeighbourList {
  public:
   // `range`: surface gap up to which a pair interacts (0 for plain contact); `skin`: extra margin;
-  // `history`: carry() will be used (costs a sort and a merge walk per build).
+  // `history`: carry() will be used (costs a sort of each old row and a look-up per entry per build).
   void configure(double range, double skin, bool history = false) { range_ = range, skin_ = skin, history_ = history; }
   double skin() const { return skin_; }
 
