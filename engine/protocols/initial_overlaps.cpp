@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace grains {
@@ -70,7 +71,11 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
       found.coincident = true, found.same_i = lo, found.same_j = hi;
     if (!(overlap > overlap_limit * rmin_ij)) return;
     ++found.deep;
-    if (overlap / rmin_ij > found.ratio) found.i = lo, found.j = hi, found.overlap = overlap, found.ratio = overlap / rmin_ij;
+    // Equally deep pairs: the lowest indices, as testing every pair in index order names them (the classes' grids
+    // visit a large grain's pairs with smaller ones at the large grain, out of that order).
+    const double ratio = overlap / rmin_ij;
+    if (ratio > found.ratio || (ratio > 0 && ratio == found.ratio && std::pair(lo, hi) < std::pair(found.i, found.j)))
+      found.i = lo, found.j = hi, found.overlap = overlap, found.ratio = ratio;
   };
   constexpr int neighbour_cells = D == 3 ? 27 : 9;
   std::vector<unsigned long long> keys;

@@ -12,7 +12,7 @@ namespace grains {
 
 struct InitialOverlaps {
   std::size_t deep = 0;                 // pairs with delta > overlap_limit * min(R_i, R_j)
-  std::size_t i = 0, j = 0;             // the deepest of them (by delta / min(R_i, R_j))
+  std::size_t i = 0, j = 0;             // the deepest of them (by delta / min(R_i, R_j); lowest indices on ties)
   double overlap = 0, ratio = 0;        // its delta and delta / min(R_i, R_j)
   bool coincident = false;              // some pair at the same position: the first (lowest indices)
   std::size_t same_i = 0, same_j = 0;

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <type_traits>
 
 #include "protocols/initial_overlaps.hpp"
 
@@ -58,6 +59,8 @@ void agrees_with_every_pair(std::array<bool, D> periodic, double decades, unsign
     CHECK(a.coincident == b.coincident);
     CHECK(a.same_i == b.same_i);
     CHECK(a.same_j == b.same_j);
+    CHECK(a.i == b.i);
+    CHECK(a.j == b.j);
     CHECK(b.deep > 0);
   }
 }
@@ -99,4 +102,29 @@ TEST_CASE("initial overlaps: one grain far larger than a bed of small ones is no
   CHECK(o.j == 90000);
   CHECK_FALSE(o.coincident);
   CHECK(seconds < 3.0);   // about 0.05 s here
+}
+
+TEST_CASE("initial overlaps: of equally deep pairs, the one with the lowest indices is named", "[initial-overlaps]") {
+  // Pair (1, 5): a small disk on a large one; pair (2, 3): two small ones; both overlap by half the small radius
+  // (exactly, in binary). The size classes' grids visit (1, 5) at the large grain 5, after (2, 3): they named (2, 3),
+  // where testing every pair in index order (and the single grid before them) names (1, 5).
+  auto check = [](auto dim) {
+    constexpr int D = decltype(dim)::value;
+    Box<D> box;
+    box.length = Vec<D>::Constant(100.0), box.lower = Vec<D>::Constant(-50.0), box.periodic.fill(false);
+    Particles<D> P;
+    P.resize(6);
+    P.radius = {1, 0.25, 0.25, 0.25, 0.25, 1};
+    for (int i = 0; i < 6; ++i) P.position[i] = Vec<D>::Constant(10.0 * i - 30);
+    P.position[1] = P.position[5], P.position[1][0] += 1.125;
+    P.position[3] = P.position[2], P.position[3][0] += 0.375;
+    const InitialOverlaps o = find_initial_overlaps<D>(P, box, 0.1);
+    CAPTURE(D);
+    CHECK(o.deep == 2);
+    CHECK(o.ratio == 0.5);
+    CHECK(o.i == 1);
+    CHECK(o.j == 5);
+  };
+  check(std::integral_constant<int, 2>{});
+  check(std::integral_constant<int, 3>{});
 }
