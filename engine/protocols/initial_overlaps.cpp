@@ -17,7 +17,10 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
   // Size classes as the neighbour list's: class c holds radii in (r_max / 2^(c+1), r_max / 2^c] (the last also all
   // smaller ones), each in a grid of cells one of its own largest diameters wide. One grid sized by the largest grain
   // put a whole bed of small grains in the cells around a large one: 159,000 disks and one of 40 diameters took 12 s
-  // (0.2 s without it). With one class this is the single grid it was, visited in the same order.
+  // (0.2 s without it). With one class this is the single grid it was, visited in the same order. Each grain looks up
+  // the larger classes' grids, not a large grain the smaller classes' (as until the second reading of 2026-12-05: it
+  // scanned (2 R / r)^D cells or every grain of the class, 20,000 disks of radius 1 and 20,000 of 0.001 spread thin
+  // 1.5 s, the single grid 0.04 s).
   const double rmax = *std::max_element(P.radius.begin(), P.radius.end());
   const double rmin = *std::min_element(P.radius.begin(), P.radius.end());
   const int classes = int(std::clamp(std::ceil(std::log2(rmax / rmin) - 1e-12), 1.0, 8.0));
@@ -81,9 +84,12 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
   std::vector<unsigned long long> keys;
   for (std::size_t i = 0; i < N; ++i) {
     const int own = class_of[i];
-    // Its own class: the 3^D cells around its own, the later grains in them (each pair once).
-    {
-      const Grid& g = grids[own];
+    // Each larger class, then its own: the 3^D cells around its own in the class's grid. It is no larger than any
+    // grain of a larger class, so a pair that touches lies in neighbouring cells there; in its own class, the later
+    // grains (each pair once).
+    for (int b = 0; b <= own; ++b) {
+      const Grid& g = grids[b];
+      if (g.members.empty()) continue;
       const auto home = coords(g, P.position[i]);
       keys.clear();
       for (int m = 0; m < neighbour_cells; ++m) {
@@ -97,41 +103,7 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
       for (const unsigned long long k : keys)
         if (const auto it = g.cells.find(k); it != g.cells.end())
           for (const std::size_t j : it->second)
-            if (j > i) test(i, j);
-    }
-    // Each class of smaller grains: the cells within its reach r_i + r_max of the class, or all the class's grains
-    // where they are fewer than those cells (a grain thousands of times larger than the class).
-    for (int b = own + 1; b < classes; ++b) {
-      const Grid& g = grids[b];
-      if (g.members.empty()) continue;
-      const double reach = (P.radius[i] + g.rmax) * (1 + 1e-9);
-      std::array<long long, D> from, span;
-      double cells = 1;
-      const auto home = coords(g, P.position[i]);
-      for (int a = 0; a < D; ++a) {
-        const double k = std::ceil(reach / g.cell[a]);
-        if (box.periodic[a] && 2 * k + 1 >= double(g.n[a])) from[a] = 0, span[a] = g.n[a];   // the whole axis, once
-        else from[a] = home[a] - (long long)std::min(k, 1e15), span[a] = 2 * (long long)std::min(k, 1e15) + 1;
-        cells *= double(span[a]);
-      }
-      if (cells >= double(g.members.size())) {
-        for (const std::size_t j : g.members) test(i, j);
-        continue;
-      }
-      keys.clear();
-      for (std::array<long long, D> o{};;) {
-        auto c = from;
-        for (int a = 0; a < D; ++a) c[a] += o[a];
-        keys.push_back(key(g, c));
-        int a = 0;
-        while (a < D && ++o[a] == span[a]) o[a++] = 0;
-        if (a == D) break;
-      }
-      std::sort(keys.begin(), keys.end());   // far cells of an open box may share a key: each once
-      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-      for (const unsigned long long k : keys)
-        if (const auto it = g.cells.find(k); it != g.cells.end())
-          for (const std::size_t j : it->second) test(i, j);
+            if (b < own || j > i) test(i, j);
     }
   }
   return found;
