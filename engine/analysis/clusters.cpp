@@ -49,7 +49,7 @@ ClusterStats relabel(UnionFind& uf, const std::vector<double>& mass);
 // spread thin took 0.6 s, the single grid 0.016 s.)
 template <int D>
 void link_by_size_class(const std::vector<Vec<D>>& x, const std::vector<double>& radius, double tol, double rmax,
-                        double rmin, UnionFind& uf) {
+                        double rmin, UnionFind& uf, std::size_t& tested) {
   using Cell = std::array<std::int64_t, D>;
   const std::size_t N = x.size();
   tol = std::max(0.0, tol);
@@ -76,6 +76,7 @@ void link_by_size_class(const std::vector<Vec<D>>& x, const std::vector<double>&
     for (const int i : g.members) g.cells[cell_of(x[i], g.h)].push_back(i);
   }
   auto link = [&](int i, int j) {
+    ++tested;
     const double reach = radius[i] + radius[j] + tol;
     if ((x[j] - x[i]).squaredNorm() < reach * reach) uf.unite(i, j);
   };
@@ -108,8 +109,11 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   using Cell = std::array<std::int64_t, D>;
   UnionFind uf(N);
   if (rmax > 2 * rmin) {
-    link_by_size_class<D>(x, radius, tol, rmax, rmin, uf);
-    return relabel(uf, mass);
+    std::size_t tested = 0;
+    link_by_size_class<D>(x, radius, tol, rmax, rmin, uf, tested);
+    ClusterStats out = relabel(uf, mass);
+    out.pairs_tested = tested;
+    return out;
   }
   const double h = 2 * rmax + std::max(0.0, tol);   // any linked pair lies in neighbouring cells
   auto cell_of = [&](const Vec<D>& p) {
@@ -132,6 +136,7 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
   for (int a = 0; a < D; ++a) cells *= double(hi[a]) - double(lo[a]) + 3;   // a margin of one cell each side
   std::vector<int> next(N, -1);
   constexpr int stencil = D == 3 ? 27 : 9;
+  std::size_t tested = 0;
   // Each grain i against the later grains of its neighbour cells; first_in(cell): the cell's first grain (-1: none).
   const auto scan = [&](auto&& first_in) {
     for (std::size_t i = 0; i < N; ++i)
@@ -140,6 +145,7 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
         for (int a = 0, r = s; a < D; ++a, r /= 3) n[a] += r % 3 - 1;
         for (int j = first_in(n); j >= 0; j = next[j]) {
           if (j <= int(i)) continue;
+          ++tested;
           const double reach = radius[i] + radius[j] + tol;
           if ((x[j] - x[i]).squaredNorm() < reach * reach) uf.unite(int(i), j);
         }
@@ -172,7 +178,9 @@ ClusterStats find_clusters(const std::vector<Vec<D>>& x, const std::vector<doubl
       return it == head.end() ? -1 : it->second;
     });
   }
-  return relabel(uf, mass);
+  ClusterStats out = relabel(uf, mass);
+  out.pairs_tested = tested;
+  return out;
 }
 
 namespace {

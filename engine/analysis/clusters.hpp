@@ -16,6 +16,7 @@ struct ClusterStats {
   std::vector<int> label;         // cluster of each particle, 0 .. count-1 (in order of first appearance)
   int largest = -1;               // label of the heaviest cluster (lowest label on ties); -1 if no particles
   double largest_fraction = 0;    // f_max: mass of the heaviest cluster / total mass
+  std::size_t pairs_tested = 0;   // candidate pairs whose distance was measured (the search's cost, for tests)
 };
 
 template <int D>

@@ -66,6 +66,7 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
     for (const std::size_t i : g.members) g.cells[key(g, coords(g, P.position[i]))].push_back(i);
 
   auto test = [&](std::size_t i, std::size_t j) {
+    ++found.pairs_tested;
     const double d = box.minimum_image(P.position[j] - P.position[i]).norm();
     const double rmin_ij = std::min(P.radius[i], P.radius[j]);
     const double overlap = P.radius[i] + P.radius[j] - d;

@@ -16,6 +16,7 @@ struct InitialOverlaps {
   double overlap = 0, ratio = 0;        // its delta and delta / min(R_i, R_j)
   bool coincident = false;              // some pair at the same position: the first (lowest indices)
   std::size_t same_i = 0, same_j = 0;
+  std::size_t pairs_tested = 0;         // candidate pairs whose distance was measured (the check's cost, for tests)
 };
 
 template <int D>

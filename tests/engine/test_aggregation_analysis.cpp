@@ -298,15 +298,15 @@ TEST_CASE("clusters: sizes over many classes agree with brute force, and one lar
     for (int j = -19; j <= 19; ++j)
       for (int k = -19; k <= 19; ++k)
         if (const Vec<3> p(1.5 * i, 1.5 * j, 1.5 * k); p.norm() > 20.25) cloud.push_back(p), rc.push_back(0.5), mc.push_back(1);
-  const auto start = std::chrono::steady_clock::now();
   const auto cs = find_clusters<3>(cloud, rc, mc, 1e-3);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::size_t linked = 0;   // the lattice's spheres do not touch one another: the clusters are the large one's
   for (std::size_t i = 1; i < cloud.size(); ++i) linked += cloud[i].norm() < 20.5 + 1e-3;
   CHECK(cloud.size() > 45000);
   CHECK(linked > 200);
   CHECK(cs.count == cloud.size() - linked);
-  CHECK(seconds < 1.5);
+  // The cost as pairs measured, not time (a timed test fails on a slow machine).
+  INFO("pairs tested: " << cs.pairs_tested);
+  CHECK(cs.pairs_tested < 30 * cloud.size());
 }
 
 TEST_CASE("clusters: many large grains among many far smaller ones are no quadratic search", "[aggregation]") {
@@ -318,9 +318,8 @@ TEST_CASE("clusters: many large grains among many far smaller ones are no quadra
   std::vector<Vec<2>> x;
   std::vector<double> r, m;
   for (int i = 0; i < 80000; ++i) x.emplace_back(u(rng), u(rng)), r.push_back(i % 2 ? 1e-3 : 1.0), m.push_back(r.back());
-  const auto start = std::chrono::steady_clock::now();
   const auto cs = find_clusters<2>(x, r, m, 0.0);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   CHECK(cs.count + 1000 < x.size());   // many grains linked (large ones touching, tiny ones on large ones)
-  CHECK(seconds < 0.8);
+  INFO("pairs tested: " << cs.pairs_tested);
+  CHECK(cs.pairs_tested < 20 * x.size());
 }

@@ -4,7 +4,6 @@
 // check quadratic (a test below took about a minute).
 #include <catch2/catch.hpp>
 
-#include <chrono>
 #include <cmath>
 #include <random>
 #include <type_traits>
@@ -92,16 +91,16 @@ TEST_CASE("initial overlaps: one grain far larger than a bed of small ones is no
     const double overlap = 200.5 - box.minimum_image(P.position[90000] - P.position[k]).norm();
     if (overlap > 0.1 * 0.5) ++deep, ratio = std::max(ratio, overlap / 0.5);
   }
-  const auto start = std::chrono::steady_clock::now();
   const InitialOverlaps o = find_initial_overlaps<2>(P, box, 0.1);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   CHECK(deep > 70000);
   CHECK(o.deep == deep);
   CHECK(o.ratio == ratio);
   CHECK(o.i < 90000);
   CHECK(o.j == 90000);
   CHECK_FALSE(o.coincident);
-  CHECK(seconds < 3.0);   // about 0.05 s here
+  // The cost as pairs measured, not time (a timed test fails on a slow machine): the single grid measured 4e9.
+  INFO("pairs tested: " << o.pairs_tested);
+  CHECK(o.pairs_tested < 20 * P.size());
 }
 
 TEST_CASE("initial overlaps: of equally deep pairs, the one with the lowest indices is named", "[initial-overlaps]") {
@@ -139,9 +138,8 @@ TEST_CASE("initial overlaps: many large grains among many far smaller ones are n
   Particles<2> P;
   P.resize(80000);
   for (std::size_t i = 0; i < 80000; ++i) P.position[i] = Vec<2>(u(rng), u(rng)), P.radius[i] = i % 2 ? 1e-3 : 1.0;
-  const auto start = std::chrono::steady_clock::now();
   const InitialOverlaps o = find_initial_overlaps<2>(P, box, 0.1);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   CHECK(o.deep > 1000);
-  CHECK(seconds < 0.6);
+  INFO("pairs tested: " << o.pairs_tested);
+  CHECK(o.pairs_tested < 20 * P.size());
 }
