@@ -15,7 +15,9 @@ grains_install_system() {
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   command -v cmake >/dev/null && missing=("${missing[@]/cmake}")
-  command -v python3 >/dev/null && missing=("${missing[@]/python3-venv}")
+  # A python3 that can make a virtual environment with pip needs no python3-venv (one not from Debian, say);
+  # Debian's python3 without that package lacks ensurepip, and `python3 -m venv` fails (a fresh Debian 12 did).
+  python3 -c "import ensurepip, venv" 2>/dev/null && missing=("${missing[@]/python3-venv}")
   local real=()
   for p in "${missing[@]}"; do [ -n "$p" ] && real+=("$p"); done
   [ ${#real[@]} -eq 0 ] && return 0
@@ -27,9 +29,10 @@ grains_install_system() {
 }
 
 grains_install_python() {
-  if [ ! -x "$GRAINS_VENV/bin/python" ]; then
+  # Without pip the environment is a failed creation's remains (python3 -m venv without ensurepip): made anew.
+  if [ ! -x "$GRAINS_VENV/bin/python" ] || [ ! -x "$GRAINS_VENV/bin/pip" ]; then
     echo "grains: creating Python environment in $GRAINS_VENV" >&2
-    python3 -m venv "$GRAINS_VENV"
+    python3 -m venv --clear "$GRAINS_VENV"
   fi
   if ! "$GRAINS_VENV/bin/python" -c "import numpy, h5py, matplotlib, pytest, scipy, fmpy, dask" 2>/dev/null; then
     "$GRAINS_VENV/bin/pip" install -q --disable-pip-version-check -r "$GRAINS_ROOT/runner/requirements.txt"
