@@ -8,6 +8,8 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "neighbours/size_classes.hpp"
+
 namespace grains {
 
 namespace {
@@ -53,7 +55,8 @@ void link_by_size_class(const std::vector<Vec<D>>& x, const std::vector<double>&
   using Cell = std::array<std::int64_t, D>;
   const std::size_t N = x.size();
   tol = std::max(0.0, tol);
-  const int classes = int(std::clamp(std::ceil(std::log2(rmax / rmin) - 1e-12), 1.0, 8.0));
+  const SizeClasses sizes(rmax, rmin);
+  const int classes = sizes.count;
   struct Grid {
     double rmax = 0, h = 0;
     std::vector<int> members;   // in index order
@@ -62,7 +65,7 @@ void link_by_size_class(const std::vector<Vec<D>>& x, const std::vector<double>&
   std::vector<Grid> grids(classes);
   std::vector<int> class_of(N);
   for (std::size_t i = 0; i < N; ++i) {
-    class_of[i] = int(std::clamp(std::floor(std::log2(rmax / radius[i])), 0.0, double(classes - 1)));
+    class_of[i] = sizes.of(radius[i]);
     Grid& g = grids[class_of[i]];
     g.rmax = std::max(g.rmax, radius[i]), g.members.push_back(int(i));
   }

@@ -13,6 +13,7 @@
 
 #include "interactions/pair_filter.hpp"   // avx512(): whether the AVX-512 pieces run
 #include "neighbours/candidate_test.hpp"
+#include "neighbours/size_classes.hpp"
 
 namespace grains {
 
@@ -104,15 +105,12 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
 template <int D>
 void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<double>& radius, const Box<D>& box, int threads) {
   const std::size_t N = x.size();
-  // Size classes: class c holds radii in (r_max / 2^(c+1), r_max / 2^c]; class 0 is the largest.
-  double rmax = N ? *std::max_element(radius.begin(), radius.end()) : 1.0;
-  double rmin = N ? *std::min_element(radius.begin(), radius.end()) : 1.0;
-  int classes = std::max(1, int(std::ceil(std::log2(rmax / rmin) - 1e-12)));
-  classes = std::min(classes, 8);
+  const SizeClasses sizes(N ? *std::max_element(radius.begin(), radius.end()) : 1.0,
+                          N ? *std::min_element(radius.begin(), radius.end()) : 1.0);
+  const int classes = sizes.count;
   class_of_.assign(N, 0);
   if (classes > 1)
-    for (std::size_t i = 0; i < N; ++i)
-      class_of_[i] = std::uint8_t(std::min(classes - 1, std::max(0, int(std::floor(std::log2(rmax / radius[i]))))));
+    for (std::size_t i = 0; i < N; ++i) class_of_[i] = std::uint8_t(sizes.of(radius[i]));
 
   Vec<D> lo = box.lower, hi = box.lower + box.length;
   for (int a = 0; a < D; ++a)
@@ -243,7 +241,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   }
   reference_ = x;
   strain_since_build_.setOnes();
-  list_reach_ = 2 * (N ? rmax : 0.0) + range_ + skin_;
+  list_reach_ = 2 * (N ? sizes.rmax : 0.0) + range_ + skin_;
   ++builds_;
 }
 

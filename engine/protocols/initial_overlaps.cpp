@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "neighbours/size_classes.hpp"
+
 namespace grains {
 
 template <int D>
@@ -21,13 +23,11 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
   // the larger classes' grids, not a large grain the smaller classes' (as until the second reading of 2026-12-05: it
   // scanned (2 R / r)^D cells or every grain of the class, 20,000 disks of radius 1 and 20,000 of 0.001 spread thin
   // 1.5 s, the single grid 0.04 s).
-  const double rmax = *std::max_element(P.radius.begin(), P.radius.end());
-  const double rmin = *std::min_element(P.radius.begin(), P.radius.end());
-  const int classes = int(std::clamp(std::ceil(std::log2(rmax / rmin) - 1e-12), 1.0, 8.0));
-  std::vector<int> class_of(N, 0);
-  if (classes > 1)
-    for (std::size_t i = 0; i < N; ++i)
-      class_of[i] = int(std::clamp(std::floor(std::log2(rmax / P.radius[i])), 0.0, double(classes - 1)));
+  const SizeClasses sizes(*std::max_element(P.radius.begin(), P.radius.end()),
+                          *std::min_element(P.radius.begin(), P.radius.end()));
+  const int classes = sizes.count;
+  std::vector<int> class_of(N);
+  for (std::size_t i = 0; i < N; ++i) class_of[i] = sizes.of(P.radius[i]);
 
   struct Grid {
     std::array<long long, D> n{};
