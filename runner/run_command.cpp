@@ -96,9 +96,6 @@ PreparedRun prepare_run(const Scene& scene) {
   return r;
 }
 
-// The start-up warnings of `run` (and `check`): the simulation's, the programme's keys, which `grains
-// consolidate` reads and a plain run does not (a scene shared with it; the converse of its run-length warning),
-// and the elastic moduli's cost at every record.
 // The scene's [programme] keys, which only `grains consolidate` reads.
 std::vector<std::string> given_programme_keys(const Scene& scene) {
   std::vector<std::string> programme;
@@ -107,6 +104,9 @@ std::vector<std::string> given_programme_keys(const Scene& scene) {
   return programme;
 }
 
+// The start-up warnings of `run` (and `check`): the simulation's, the programme's keys, which `grains
+// consolidate` reads and a plain run does not (a scene shared with it; the converse of its run-length warning),
+// and the elastic moduli's cost at every record.
 std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim) {
   std::vector<std::string> warnings = sim.warnings();
   const std::vector<std::string> programme = given_programme_keys(scene);
