@@ -133,3 +133,17 @@ def test_main_sh_draws_what_plot_py_draws_by_default(grains_bin, root, tmp_path)
                        text=True)
     assert p.returncode == 0, p.stderr
     assert out.with_suffix(".png").read_bytes() == again.read_bytes()
+
+
+def test_initial_states_legend_says_what_an_open_point_is(tmp_path):
+    """A sample not in equilibrium is drawn open (docs: type 1 with M_c = m, two of four); the legend said only
+    "grains"."""
+    sys.path.insert(0, str(ROOT / "runner"))
+    import initial_states
+
+    final = {"type1": [{"phi": "0.708", "reached": "1"}, {"phi": "0.702", "reached": "0"}]}
+    fig = initial_states.plot(final, tmp_path / "states.png")
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "grains, one per sample (open: not in equilibrium)" in labels and "paper (±2 bars)" in labels
+    open_points = [line for line in fig.axes[0].lines if line.get_markerfacecolor() == "none"]
+    assert [line.get_ydata()[0] for line in open_points] == [0.702]
