@@ -118,17 +118,28 @@ def observables_of(f, path, wanted, x_name):
 
 
 def read_context(path):
-    """The figure's title (scene name and description) and the aggregation time (NaN if none)."""
+    """The figure's title (scene name and description), the aggregation time (NaN if none) and the label of P*."""
     import tomllib
     title, t_agg = path.name, float("nan")
     def read(f):
         text = f["parameters"].attrs.get("scene.toml") if "parameters" in f else None
-        scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)).get("scene", {}) if text else {}
+        scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)) if text else {}
         values = f["observables/aggregation_time/value"] if "observables/aggregation_time/value" in f else []
         return scene, float(values[-1]) if len(values) else float("nan")
     scene, t_agg = read_run(path, read)
-    title = "\n".join(textwrap.fill(x, 80) for x in (scene.get("name"), scene.get("description")) if x) or title
-    return title, t_agg
+    about = scene.get("scene", {})
+    title = "\n".join(textwrap.fill(x, 80) for x in (about.get("name"), about.get("description")) if x) or title
+    return title, t_agg, pressure_label(scene)
+
+
+def pressure_label(scene):
+    """What P* is in this scene (docs/scene-reference.md, cell.pressure and cell.force_unit): a P / F0 in 2D, a^2 P /
+    F0 in 3D, and in a cohesionless cell (force_unit = 0) P a^(D-2) / k_n. One label for all read a P / F0 in 3D and
+    in the cohesionless packing, whose P* is P / K_N."""
+    three = scene.get("scene", {}).get("dimension") == 3
+    if scene.get("cell", {}).get("force_unit") == 0:
+        return "P* = a P / k_n" if three else "P* = P / K_N"
+    return "P* = a² P / F0" if three else "P* = a P / F0"
 
 
 def image_formats():
@@ -158,16 +169,17 @@ def log_axis(values):
                 and (v == 0).sum() <= 0.1 * v.size)
 
 
-def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), companions=None):
+def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None):
     """The figure of the panels in `series` ({name: (time, value)}); `companions`: {name: (time, value)} of the
     reference series drawn dashed in their panels (COMPANIONS); `mark`: the aggregation time on the plot's horizontal
-    axis (NaN: none)."""
+    axis (NaN: none); `labels`: panel titles in place of LABELS'."""
     import matplotlib
 
     matplotlib.use("Agg")  # no display needed
     import matplotlib.pyplot as plt
 
     companions = companions or {}
+    labels = {**LABELS, **(labels or {})}
     fig, axes = plt.subplots(len(series), 1, sharex=True, squeeze=False, figsize=(7, 2.2 * len(series) + 0.9),
                              layout="constrained")   # room for a two-line title above the first panel
     for ax, (name, (t, v)) in zip(axes[:, 0], series.items()):
@@ -175,7 +187,7 @@ def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), comp
         reference = COMPANIONS.get(name, (None, None))
         drawn_with = reference[0] in companions and (x_values is None or len(companions[reference[0]][1]) == len(v))
         ax.plot(t if x_values is None else x_values, v, lw=1, label="measured" if drawn_with else "_nolegend_")
-        title_text = LABELS.get(name, name)
+        title_text = labels.get(name, name)
         if drawn_with:
             rt, rv = companions[reference[0]]
             ax.plot(rt if x_values is None else x_values, rv, "--", color="0.3", lw=1, label=reference[1])
@@ -201,11 +213,11 @@ def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), comp
     return fig
 
 
-def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan"), companions=None):
+def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None):
     """Writes figure(...) to `out`."""
     import matplotlib.pyplot as plt
 
-    fig = figure(series, x_name, x_values, title, mark, companions)
+    fig = figure(series, x_name, x_values, title, mark, companions, labels)
     fig.savefig(out, dpi=120)
     plt.close(fig)
 
@@ -225,7 +237,7 @@ def main(argv=None):
         fail(problem)
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
     series, x_name, x_series, companions = read_observables(path, wanted, args.x)
-    title, mark = read_context(path)
+    title, mark, pressure = read_context(path)
     x_values = None
     if x_name:
         x_time, x_values = x_series
@@ -235,7 +247,7 @@ def main(argv=None):
         # the aggregation time where the axis is at it (an axis that grows with time, as t / t_ff does)
         mark = float(np.interp(mark, x_time, x_values)) if (np.diff(x_values) > 0).all() else float("nan")
     out = Path(args.out) if args.out else path.with_suffix(".png")
-    plot(series, out, x_name, x_values, title, mark, companions)
+    plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure})
     print(out)
     return 0
 

@@ -19,10 +19,11 @@ plot_tool = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(plot_tool)
 
 
-def run_file(path, observables, name="scene"):
-    """An H5MD-like run file with these observables ({name: values}), recorded at steps 0, 10, 20, ..."""
+def run_file(path, observables, name="scene", scene=""):
+    """An H5MD-like run file with these observables ({name: values}), recorded at steps 0, 10, 20, ..., and the scene
+    `[scene] name` with the TOML `scene` after it."""
     with h5py.File(path, "w") as f:
-        f.create_group("parameters").attrs["scene.toml"] = f'[scene]\nname = "{name}"\n'
+        f.create_group("parameters").attrs["scene.toml"] = f'[scene]\nname = "{name}"\n{scene}'
         for key, values in observables.items():
             values = np.asarray(values, float)
             group = f.create_group(f"observables/{key}")
@@ -147,3 +148,13 @@ def test_initial_states_legend_says_what_an_open_point_is(tmp_path):
     assert "grains, one per sample (open: not in equilibrium)" in labels and "paper (±2 bars)" in labels
     open_points = [line for line in fig.axes[0].lines if line.get_markerfacecolor() == "none"]
     assert [line.get_ydata()[0] for line in open_points] == [0.702]
+
+
+@pytest.mark.parametrize("scene, label", [("dimension = 2\n", "P* = a P / F0"), ("dimension = 3\n", "P* = a² P / F0"),
+                                          ("dimension = 2\n[cell]\nforce_unit = 0\n", "P* = P / K_N"),
+                                          ("dimension = 3\n[cell]\nforce_unit = 0\n", "P* = a P / k_n")])
+def test_the_pressure_panel_says_what_p_star_is_in_the_scene(tmp_path, monkeypatch, scene, label):
+    """P* is a P / F0 in 2D, a^2 P / F0 in 3D and P a^(D-2) / k_n in a cohesionless cell (scene reference,
+    cell.pressure): every scene's panel read a P / F0."""
+    path = run_file(tmp_path / "cell.h5", {"pressure_reduced": [1e-5, 1e-5], "solid_fraction": [0.36, 0.4]}, scene=scene)
+    assert drawn(path, monkeypatch).axes[0].get_title() == label
