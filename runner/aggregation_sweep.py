@@ -346,8 +346,14 @@ def plot_sweep(points, x_key, title, path):
     damping = x_key == "zeta"
     fig, axes = plt.subplots(1, 3 if damping else 2, figsize=(13 if damping else 9, 4))
     x = [p[x_key] for p in points]
+    axes[1].sharex(axes[0])   # both against the same range, with the points that have no t_agg
     for ax, key, label in zip(axes, ("cluster_index", "t_agg_over_t_ff"), ("final N_c / N", "t_agg / t_ff")):
         ax.plot(x, [p[key] for p in points], "o-")
+        never = [p[x_key] for p in points if not math.isfinite(p[key])]
+        if never:   # no aggregation time (NaN): marked at the panel's top, where the line just left them out
+            ax.plot(never, [0.95] * len(never), "v", color="0.4", transform=ax.get_xaxis_transform(),
+                    label="never aggregated (f_max < threshold to the end)" if key == "t_agg_over_t_ff" else "no value")
+            ax.legend(fontsize=7)
         hot = [p for p in points if p.get("heated_runs")]   # figures of runs that heated up: ringed, not trusted
         if hot:
             ax.plot([p[x_key] for p in hot], [p[key] for p in hot], "o", ms=11, mfc="none", mec="red",
@@ -367,30 +373,39 @@ def plot_sweep(points, x_key, title, path):
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return fig
 
 
 def plot_map(points, damping, stiffness, path):
     """Maps over (k*, zeta) of D_f of the largest cluster and of the final N_c / N."""
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
-    for ax, key, label, limits in ((axes[0], "fractal_dimension", "D_f of the largest cluster (blank: none)", (1, 3)),
+    for ax, key, label, limits in ((axes[0], "fractal_dimension", "D_f of the largest cluster (blank: none)", (1, 3.05)),
                                    (axes[1], "cluster_index", "final N_c / N", (0, 1))):
         grid = np.full((len(damping), len(stiffness)), np.nan)
         for p in points:
             grid[damping.index(p["zeta"]), stiffness.index(p["k_star"])] = p[key]
+        # (D_f up to 3.05: the fits of compact aggregates scatter a little above 3)
         image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis", vmin=limits[0], vmax=limits[1])
-        for p in points:   # cells whose runs heated up (energy rose): their figures are not the model's
-            if p.get("heated_runs"):
-                ax.text(stiffness.index(p["k_star"]), damping.index(p["zeta"]), "‡", ha="center", va="center", color="red")
+        for p in points:
+            x, y = stiffness.index(p["k_star"]), damping.index(p["zeta"])
+            # a value beyond the colour scale (D_f below 1: a cluster sunk into the softened core) is written in its
+            # cell: its colour alone said 1
+            outside = not limits[0] <= p[key] <= limits[1]
+            if outside:
+                ax.text(x, y + 0.22, f"{p[key]:.2f}", ha="center", va="center", color="white", fontsize=7)
+            if p.get("heated_runs"):   # runs that heated up (energy rose): their figures are not the model's
+                ax.text(x, y - 0.22 if outside else y, "‡", ha="center", va="center", color="red")
         ax.set_xticks(range(len(stiffness)), [f"{k:.0e}" for k in stiffness], rotation=45)
         ax.set_yticks(range(len(damping)), [f"{z:g}" for z in damping])
         ax.set_xlabel("k*")
         ax.set_ylabel("ζ")
-        fig.colorbar(image, ax=ax, label=label)
-    fig.suptitle("At 3 t_ff, median of the seeds (‡: runs that heated up)")
+        fig.colorbar(image, ax=ax, label=label, extend="both" if key == "fractal_dimension" else "neither")
+    fig.suptitle("At 3 t_ff, median of the seeds (‡: runs that heated up; a number: D_f outside the colour scale)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return fig
 
 
 def stiffness_shapes(grid, damping, stiffness):

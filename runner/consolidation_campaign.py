@@ -53,6 +53,9 @@ PAPER = {
     "consolidation-rr": {"phi_0.01": (0.524, 0.008), "z_0.01": (3.0, None), "lambda": (0.194, 0.004), "phi_max": (0.7745, None),
                          "d_F_0": (1.52, None), "d_F_0.01": (1.52, None)},
 }
+# The paper's fit of its mean loading curve (physics.md section 9 table): P0*, Phi0, lambda, Phimax, alpha; drawn
+# beside ours, so the plot shows where the curves part, not only Phi(0.01).
+PAPER_FIT = {"consolidation": (0.0237, 0.469, 0.349, 0.7808, 0.91), "consolidation-rr": (0.0316, 0.515, 0.194, 0.7745, 1.08)}
 RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02, "d_F_0": 0.05, "d_F_0.01": 0.05}
 
 
@@ -337,8 +340,8 @@ def plot(summaries, path):
             ax.plot(r["p"], r["phi"], "o", color=colours.get(scene), ms=3, label=label)
             missed = ~r["all_reached"]
             ax.plot(r["all_p"][missed], r["all_phi"][missed], "o", mfc="none", color=colours.get(scene), ms=4)
-        if len(results) > 1:   # the mean curve and its fit, as the paper's Fig. 11 draws them
-            p, phi, _ = mean_curve(results)
+        p, phi, _ = mean_curve(results) if len(results) > 1 else ([], [], [])
+        if len(p):   # the mean curve and its fit, as the paper's Fig. 11 draws them (none: no stage to average)
             ax.plot(p, phi, "D", color=colours.get(scene), mec="black", ms=5, label=f"{scene}: mean over the samples")
             try:
                 fit = fit_loading(p, phi)
@@ -349,6 +352,11 @@ def plot(summaries, path):
                         label=f"fit to the mean: λ = {fit['lambda']:.3g}, Φmax = {fit['phi_max']:.4g}")
             except (ValueError, RuntimeError):
                 pass   # the table says why
+        p0, phi0, lam, phi_max, alpha = PAPER_FIT[scene]
+        grid = np.geomspace(0.01, 13.33, 200)   # the paper's programme
+        inv = plateau_then(grid, p0, 1 / phi0, lambda q: inverse_phi_crossover(q, 1 / phi0, lam, phi_max, alpha, p0))
+        ax.plot(grid, 1 / inv, ":", color=colours.get(scene), lw=1.5,
+                label=f"paper {scene}: its fit, λ = {lam:.3g}, Φmax = {phi_max:.4g}")
         value, bar = PAPER[scene]["phi_0.01"]
         ax.errorbar([0.01], [value], yerr=[2 * bar], fmt="s", color=colours.get(scene), capsize=4, mfc="white",
                     label=f"paper {scene}, P* = 0.01 (±2 bars)")
@@ -356,9 +364,11 @@ def plot(summaries, path):
     ax.set_xlabel("P* = a P / F0")
     ax.set_ylabel("solid fraction Φ")
     ax.set_title("Type-2 consolidation, loading branch, every sample")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6.5)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return fig
 
 
 def main():

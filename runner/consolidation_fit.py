@@ -90,7 +90,7 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
     dof = max(1, len(y) - fitted)
     cov = np.linalg.pinv(a.T @ a) * residual / dof
     return {"P0": float(p0), "phi0": 1.0 / inv_phi0, "lambda": lam, "lambda_err": math.sqrt(max(cov[1, 1], 0.0)),
-            "stages": int(keep.sum())}
+            "stages": int(keep.sum()), "P_last": float(p[keep].max())}
 
 
 def fit_crossover(p, phi, p0=None, guess=None):
@@ -210,7 +210,8 @@ def read_stages(path):
     return p[keep], phi[keep], branch[keep]
 
 
-def plot(p, phi, branch, regime2, crossover, out):
+def plot(p, phi, branch, regime2, crossover, out, title=""):
+    """Phi and 1/Phi against P* with both fits, their parameters in the legend; returns the figure."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -225,18 +226,22 @@ def plot(p, phi, branch, regime2, crossover, out):
             c = crossover
             inv = plateau_then(curve, c["P0"], 1 / c["phi0"], lambda q: inverse_phi_crossover(
                 q, 1 / c["phi0"], c["lambda"], c["phi_max"], c["alpha"], c["P0"]))
-            ax.plot(curve, f(1.0 / inv), "-", label="regimes II-III fit")
-        line = curve[(curve >= regime2["P0"]) & (curve <= 10 * regime2["P0"])]
+            ax.plot(curve, f(1.0 / inv), "-",
+                    label=f"regimes II-III fit: λ = {c['lambda']:.3f}, Φmax = {c['phi_max']:.4f}, P1* = {c['P1']:.3g}")
+        # the line over the stages it was fitted to: drawn to 10 P0* it ran past them, to Phi 0.9 above the data
+        line = curve[(curve >= regime2["P0"]) & (curve <= regime2["P_last"])]
         ax.plot(line, f(1.0 / inverse_phi_regime_two(line, 1 / regime2["phi0"], regime2["lambda"], regime2["P0"])),
-                "--", label="regime II line")
+                "--", label=f"regime II line: λ = {regime2['lambda']:.3f}, P0* = {regime2['P0']:.3g}")
         ax.set_xscale("log")
     top.set_ylabel("solid fraction Φ")
     bottom.set_ylabel("1 / Φ")
     bottom.set_xlabel("reduced pressure P*")
-    top.legend()
+    top.legend(fontsize=8)
+    top.set_title(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)
+    return fig
 
 
 def main(argv=None):
@@ -275,7 +280,7 @@ def main(argv=None):
               f"lambda = {c['lambda']:.4f} +- {c['lambda_err']:.2g}, Phimax = {c['phi_max']:.4f} +- {c['phi_max_err']:.2g}, "
               f"alpha = {c['alpha']:.3f} +- {c['alpha_err']:.2g}, P1* = {c['P1']:.4g} +- {c['P1_err']:.2g}")
     out = args.out or str(pathlib.Path(args.table).with_suffix("")) + "-fit.png"
-    plot(p, phi, branch, regime2, crossover, out)
+    plot(p, phi, branch, regime2, crossover, out, f"Consolidation curve of {pathlib.Path(args.table).name}")
     print(f"plot: {out}")
     return 0
 

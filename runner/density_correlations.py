@@ -206,7 +206,7 @@ def plot(results, out, title):
         a = r["a"]
         fit_k = r["k"][r["k"] <= r["k_max"] * (1 + 1e-12)]
         if r["fractal_range"]:
-            label = f"{label}: d_F = {r['d_F']:.2f}, xi = {r['xi'] / a:.1f} a"
+            label = f"{label}: d_F = {r['d_F']:.2f}, ξ = {r['xi'] / a:.1f} a"
             fitted = np.exp(blob_form(fit_k, math.log(r["I0"]), r["d_F"], math.log(r["xi"])))
             ax.axvline(2 * np.pi * a / r["xi"], color=colour, ls=":", lw=0.8)
         else:
@@ -217,12 +217,13 @@ def plot(results, out, title):
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("k a  (a: largest diameter)")
-    ax.set_ylabel("I(k) / a^2")
+    ax.set_ylabel("I(k) / a²")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)
+    return fig
 
 
 def main(argv=None):
@@ -284,7 +285,8 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
         configurations = [c for c, _ in states]
         a = 2 * max(float(np.max(radii)) for _, radii, _ in configurations)
         r = analyse(configurations, points_per_diameter, k_max / a)
-        results.append((f"P* = {target:g}", r))
+        # Phi in the label: the state drawn (a stage short of its target is drawn at the target's P*)
+        results.append((f"P* = {target:g} (Φ {np.mean([p for _, p in states]):.3f})", r))
         # the samples' own fits, for the spread between samples beside the pooled fit's error
         single = [analyse([c], points_per_diameter, k_max / a)["d_F"] for c in configurations] if len(states) > 1 else []
         finite = [d for d in single if np.isfinite(d)]   # samples with no fractal range of their own are left out
@@ -308,7 +310,7 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
         writer.writerows(rows)
     out = out or stem.parent / f"{stem.name}-intensity.png"
     first = samples[0][0].name + (f" and {len(samples) - 1} more" if len(samples) > 1 else "")
-    plot(results, out, f"Scattering intensity of {first}, pooled\nlines: blob fits; dotted: 2 pi / xi")
+    plot(results, out, f"Scattering intensity of {first}, pooled\nlines: blob fits; dotted: 2π / ξ")
     print(f"wrote {table} and {out}")
     return rows
 

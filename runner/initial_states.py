@@ -115,22 +115,25 @@ def plot(final, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, len(final), figsize=(2.2 * len(final), 3.6))
+    fig, axes = plt.subplots(1, len(final), figsize=(max(2.2 * len(final), 5), 3.9))
     for ax, (s, rows) in zip(np.atleast_1d(axes), final.items()):
         value, bar = STATES[s][2]
         ax.errorbar([0], [value], yerr=[2 * bar], fmt="s", color="black", capsize=5, mfc="white", label="paper (±2 bars)")
         for k, r in enumerate(rows):
             reached = r["reached"] == "1"
             ax.plot([0.4 + 0.08 * k], [float(r["phi"])], "o", color="tab:blue", mfc="tab:blue" if reached else "none",
-                    label="grains" if k == 0 else None)
+                    label="grains, one per sample (open: not in equilibrium)" if k == 0 else None)
         ax.set_xlim(-0.4, 1.0)
         ax.set_xticks([])
         ax.set_title(s, fontsize=9)
         ax.margins(y=0.3)
     np.atleast_1d(axes)[0].set_ylabel("solid fraction Φ")
-    np.atleast_1d(axes)[0].legend(fontsize=7, loc="lower left")
-    fig.tight_layout()
+    # below the panels: too wide for one, and it covered a panel's samples
+    fig.legend(*np.atleast_1d(axes)[0].get_legend_handles_labels(), fontsize=8, loc="lower center", ncol=2)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return fig
 
 
 if __name__ == "__main__":

@@ -41,11 +41,6 @@ if [ -z "$h5" ]; then
 fi
 png="${h5%.h5}.png"
 "$GRAINS_BUILD/runner/grains" run "$scene" --out "$h5" ${args[@]+"${args[@]}"}
-# Gravity scenes: f_max, N_c / N and Q against t / t_ff; others: the energies and contacts against time.
-if h5="$h5" "$GRAINS_VENV/bin/python" -c \
-    'import h5py, os, sys; sys.exit("time_over_free_fall" not in h5py.File(os.environ["h5"])["observables"])'; then
-  plot_args=(--observables largest_cluster_fraction,cluster_index,virial_ratio --x time_over_free_fall)
-else
-  plot_args=(--observables kinetic_energy,elastic_energy,contacts,max_overlap_ratio)
-fi
-"$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$h5" -o "$png" "${plot_args[@]}"
+# plot.py draws the scene's main observables by its kind (gravity: f_max, N_c / N and Q against t / t_ff; a
+# pressure-controlled cell: P* and its target, Phi, z, K; others: energies, contacts, overlap).
+"$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$h5" -o "$png"

@@ -3,10 +3,15 @@
     python runner/plot.py RUN.h5 [-o OUT.png] [--observables a,b,c] [--x NAME]
 
 Reads observables/<name>/{time,value} from an H5MD file and draws each observable in its own
-subplot over a shared time axis (by default the scene's main ones, at most 6), or over another
-observable recorded at the same times (`--x time_over_free_fall`: against t / t_ff). The figure is
-titled with the scene's name and description; a quantity spanning more than three decades is drawn
-on a log axis, and the aggregation time, when the run reached it, is marked. Prints the image's path
+subplot over a shared time axis, or over another observable recorded at the same times
+(`--x time_over_free_fall`: against t / t_ff). Without --observables it draws the scene's main ones,
+chosen by what the file holds: a gravity scene f_max, N_c / N and Q against t / t_ff; a
+pressure-controlled cell P* (with its target), Phi, z and K; a collision log K, contacts, collisions and
+the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap. The
+figure is titled with the scene's name and description; a quantity that is nowhere negative and whose
+positive values span more than three decades is drawn on a log axis (its zeros, when at most a tenth of
+the records, left out and said so), a panel without finite values says so, and the aggregation time,
+when the run reached it, is marked. Prints the image's path
 (-o: PNG, or another format matplotlib writes, e.g. .pdf or .svg). Exits with code 2 and a message naming the
 file when it is missing or holds no observables, or naming the option when -o has no supported extension.
 """
@@ -18,14 +23,25 @@ from pathlib import Path
 import numpy as np
 
 MAX_PANELS = 6
-# The default panels, in this order, when the file has them (else the file's first observables).
-PREFERRED = ["largest_cluster_fraction", "cluster_index", "virial_ratio", "pressure_reduced", "solid_fraction",
-             "coordination", "kinetic_energy", "contacts"]
+# The default panels by the kind of scene: the first entry whose marker observable the file has gives the panels it
+# has and the horizontal axis (None: time). A cell scene plotted as its energies said nothing of its pressure or
+# packing, and Q of a gravity scene is what the aggregation paper reads.
+KINDS = [
+    ("time_over_free_fall", ["largest_cluster_fraction", "cluster_index", "virial_ratio"], "time_over_free_fall"),
+    ("pressure_reduced", ["pressure_reduced", "solid_fraction", "coordination", "kinetic_energy"], None),
+    ("adhesive_collision_fraction", ["kinetic_energy", "contacts", "collision_count", "adhesive_collision_fraction"], None),
+    (None, ["kinetic_energy", "elastic_energy", "contacts", "max_overlap_ratio"], None),
+]
+# A panel's reference series, drawn dashed in it when the file has it.
+COMPANIONS = {"pressure_reduced": ("pressure_target", "target")}
+TIME_LABEL = "time t (the scene's units)"
 LABELS = {
     "largest_cluster_fraction": "f_max: mass fraction of the largest cluster",
     "cluster_index": "N_c / N: clusters per particle",
     "virial_ratio": "Q = K / |W|: virial ratio",
     "time_over_free_fall": "t / t_ff",
+    "collision_count": "collisions (completed)",
+    "adhesive_collision_fraction": "adhesive collisions / collisions",
     "kinetic_energy": "kinetic energy K",
     "gravity_potential_energy": "gravitational potential energy W",
     "elastic_energy": "elastic energy of the contacts",
@@ -60,9 +76,17 @@ def read_run(path, read, tries=20):
             time.sleep(0.1)
 
 
+def default_panels(available):
+    """The panels (at most MAX_PANELS) and the horizontal axis (None: time) of a file with these observables."""
+    for marker, names, x_name in KINDS:
+        if marker is None or marker in available:
+            return ([n for n in names if n in available] or available)[:MAX_PANELS], x_name
+
+
 def read_observables(path, wanted, x_name=None):
-    """Returns {name: (time, value)} in file order, or the requested order when names are given, and the (time, value)
-    of `x_name` (None without it), all from one reading and cut at one step."""
+    """Returns {name: (time, value)} in file order, or the requested order when names are given, the (time, value)
+    of `x_name` (None without it) and {name: (time, value)} of the panels' companions, all from one reading and cut
+    at one step. Without `wanted`, the panels and (without `x_name`) the axis are the scene kind's default_panels."""
     return read_run(path, lambda f: observables_of(f, path, wanted, x_name))
 
 
@@ -72,34 +96,50 @@ def observables_of(f, path, wanted, x_name):
     available = list(group.keys()) if isinstance(group, h5py.Group) else []
     if not available:
         fail(f"'{path}' has no observables")
-    names = wanted or ([n for n in PREFERRED if n in available] or available)[:MAX_PANELS]
+    names = wanted
+    if not wanted:
+        names, default_x = default_panels(available)
+        x_name = default_x if x_name is None else x_name
+    x_name = None if x_name == "time" else x_name   # --x time: the records' own time
+    companions = [COMPANIONS[n][0] for n in names if n in COMPANIONS and COMPANIONS[n][0] in available]
     missing = [n for n in names + ([x_name] if x_name else []) if n not in available]
     if missing:
         fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
     # A run killed inside a flush may leave a series rows ahead of the others, and a run still writing leaves a
     # series' steps, times and values of different lengths: keep the records every series holds whole.
     rows = {}
-    for n in dict.fromkeys(names + ([x_name] if x_name else [])):
+    for n in dict.fromkeys(names + companions + ([x_name] if x_name else [])):
         step, t, v = (group[n][part][()] for part in ("step", "time", "value"))
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
     last = min([group.attrs.get("complete_to_step", float("inf"))] + [step[-1] for step, _, _ in rows.values() if len(step)])
     series = {n: (t[step <= last], v[step <= last]) for n, (step, t, v) in rows.items()}
-    return {n: series[n] for n in names}, series.get(x_name)
+    return {n: series[n] for n in names}, x_name, series.get(x_name), {n: series[n] for n in companions}
 
 
 def read_context(path):
-    """The figure's title (scene name and description) and the aggregation time (NaN if none)."""
+    """The figure's title (scene name and description), the aggregation time (NaN if none) and the label of P*."""
     import tomllib
     title, t_agg = path.name, float("nan")
     def read(f):
         text = f["parameters"].attrs.get("scene.toml") if "parameters" in f else None
-        scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)).get("scene", {}) if text else {}
+        scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)) if text else {}
         values = f["observables/aggregation_time/value"] if "observables/aggregation_time/value" in f else []
         return scene, float(values[-1]) if len(values) else float("nan")
     scene, t_agg = read_run(path, read)
-    title = "\n".join(textwrap.fill(x, 80) for x in (scene.get("name"), scene.get("description")) if x) or title
-    return title, t_agg
+    about = scene.get("scene", {})
+    title = "\n".join(textwrap.fill(x, 80) for x in (about.get("name"), about.get("description")) if x) or title
+    return title, t_agg, pressure_label(scene)
+
+
+def pressure_label(scene):
+    """What P* is in this scene (docs/scene-reference.md, cell.pressure and cell.force_unit): a P / F0 in 2D, a^2 P /
+    F0 in 3D, and in a cohesionless cell (force_unit = 0) P a^(D-2) / k_n. One label for all read a P / F0 in 3D and
+    in the cohesionless packing, whose P* is P / K_N."""
+    three = scene.get("scene", {}).get("dimension") == 3
+    if scene.get("cell", {}).get("force_unit") == 0:
+        return "P* = a P / k_n" if three else "P* = P / K_N"
+    return "P* = a² P / F0" if three else "P* = a P / F0"
 
 
 def image_formats():
@@ -117,29 +157,67 @@ def image_name_problem(option, out):
     return None
 
 
-def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan")):
-    """`mark`: the aggregation time on the plot's horizontal axis (NaN: none)."""
+def log_axis(values):
+    """Whether a panel reads better on a log axis: nowhere negative, its positive values spanning more than three
+    decades, and zero in at most a tenth of the records (then left out). Q of a cold cloud starts at 0 and decays over
+    five decades after its peak: on a linear axis the decay, and a second peak, were a flat line at 0. A lone
+    collision's contacts, zero most of the time, read better on a linear axis."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    positive = v[v > 0]
+    return bool(positive.size and not (v < 0).any() and positive.max() > 1e3 * positive.min()
+                and (v == 0).sum() <= 0.1 * v.size)
+
+
+def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None):
+    """The figure of the panels in `series` ({name: (time, value)}); `companions`: {name: (time, value)} of the
+    reference series drawn dashed in their panels (COMPANIONS); `mark`: the aggregation time on the plot's horizontal
+    axis (NaN: none); `labels`: panel titles in place of LABELS'."""
     import matplotlib
 
     matplotlib.use("Agg")  # no display needed
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(series), 1, sharex=True, squeeze=False, figsize=(7, 2.2 * len(series) + 0.9))
+    companions = companions or {}
+    labels = {**LABELS, **(labels or {})}
+    fig, axes = plt.subplots(len(series), 1, sharex=True, squeeze=False, figsize=(7, 2.2 * len(series) + 0.9),
+                             layout="constrained")   # room for a two-line title above the first panel
     for ax, (name, (t, v)) in zip(axes[:, 0], series.items()):
         # Vector observables ([frames, k]) get one line per component.
-        ax.plot(t if x_values is None else x_values, v, lw=1)
-        ax.set_title(LABELS.get(name, name), fontsize=10)
-        positive = np.asarray(v, float)[np.isfinite(v)]
-        if positive.size and (positive > 0).all() and positive.max() > 1e3 * positive.min():
-            ax.set_yscale("log")
+        reference = COMPANIONS.get(name, (None, None))
+        drawn_with = reference[0] in companions and (x_values is None or len(companions[reference[0]][1]) == len(v))
+        ax.plot(t if x_values is None else x_values, v, lw=1, label="measured" if drawn_with else "_nolegend_")
+        title_text = labels.get(name, name)
+        if drawn_with:
+            rt, rv = companions[reference[0]]
+            ax.plot(rt if x_values is None else x_values, rv, "--", color="0.3", lw=1, label=reference[1])
+            ax.legend(fontsize=8, loc="best")
+        finite = np.asarray(v, float)[np.isfinite(v)]
+        if not finite.size:   # a run just started, or a quantity never defined in it (NaN)
+            ax.text(0.5, 0.5, "no values yet" if not np.size(v) else "no finite values (NaN)", transform=ax.transAxes,
+                    ha="center", va="center", color="0.4")
+        elif log_axis(v):
+            ax.set_yscale("log", nonpositive="mask")
+            if (finite == 0).any():
+                title_text += " (log axis; zeros not drawn)"
+        else:
+            ax.ticklabel_format(axis="y", useOffset=False)   # Phi 0.35999 as it is, not as 1e-5 + 3.5999e-1
+        ax.set_title(title_text, fontsize=10)
         if np.isfinite(mark):
             ax.axvline(mark, color="0.4", ls="--", lw=0.8, label="aggregation time")
         ax.grid(alpha=0.3)
     if np.isfinite(mark):
         axes[0, 0].legend(fontsize=8, loc="best")
-    axes[-1, 0].set_xlabel(LABELS.get(x_name, x_name) if x_name else "time")
+    axes[-1, 0].set_xlabel(LABELS.get(x_name, x_name) if x_name else TIME_LABEL)
     fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    return fig
+
+
+def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None):
+    """Writes figure(...) to `out`."""
+    import matplotlib.pyplot as plt
+
+    fig = figure(series, x_name, x_values, title, mark, companions, labels)
     fig.savefig(out, dpi=120)
     plt.close(fig)
 
@@ -158,9 +236,8 @@ def main(argv=None):
     if args.out and (problem := image_name_problem("-o/--out", args.out)):
         fail(problem)
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
-    x_name = args.x if args.x != "time" else None
-    series, x_series = read_observables(path, wanted, x_name)
-    title, mark = read_context(path)
+    series, x_name, x_series, companions = read_observables(path, wanted, args.x)
+    title, mark, pressure = read_context(path)
     x_values = None
     if x_name:
         x_time, x_values = x_series
@@ -170,7 +247,7 @@ def main(argv=None):
         # the aggregation time where the axis is at it (an axis that grows with time, as t / t_ff does)
         mark = float(np.interp(mark, x_time, x_values)) if (np.diff(x_values) > 0).all() else float("nan")
     out = Path(args.out) if args.out else path.with_suffix(".png")
-    plot(series, out, x_name, x_values, title, mark)
+    plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure})
     print(out)
     return 0
 

@@ -247,3 +247,34 @@ def test_an_intermediate_k_star_over_two_points_is_not_decided_and_nothing_reads
     intermediate = [line.rsplit("|", 2)[-2].strip() for line in lines[2:] if "intermediate" in line.split("|")[1]]
     assert intermediate == ["not decided: an intermediate k* needs 3 points or more"] * 2, lines
     assert "no rise between neighbours" in "\n".join(sweep.findings(damping, [], 100, 0.1))
+
+
+def sweep_point(zeta, k_star, t_agg, cluster_index, fractal_dimension, heated_runs=0):
+    return {"zeta": zeta, "k_star": k_star, "t_agg_over_t_ff": t_agg, "cluster_index": cluster_index,
+            "fractal_dimension": fractal_dimension, "heated_runs": heated_runs, "t": np.linspace(0, 3, 4),
+            "q": np.array([0, 0.4, 0.01, 1e-4])}
+
+
+def test_damping_plot_marks_the_points_that_never_aggregated(tmp_path):
+    """The weak dampings, whose clouds never aggregate, have no t_agg (NaN): the line left them out without a word,
+    and its panel's axis started at the first damping that aggregated."""
+    pytest.importorskip("matplotlib")
+    points = [sweep_point(z, 6469, t, c, 3.0) for z, t, c in ((0, math.nan, 0.94), (0.01, math.nan, 0.56),
+                                                              (0.05, 1.5, 0.01), (0.5, 0.9, 0.001))]
+    fig = sweep.plot_sweep(points, "zeta", "damping", tmp_path / "damping.png")
+    t_agg = fig.axes[1]
+    never = [line for line in t_agg.lines if line.get_label().startswith("never aggregated")]
+    assert len(never) == 1 and list(never[0].get_xdata()) == [0, 0.01]
+    assert t_agg.get_xlim() == fig.axes[0].get_xlim()   # the same range as the N_c / N panel, zeta = 0 in it
+
+
+def test_map_writes_a_fractal_dimension_beyond_its_colour_scale(tmp_path):
+    """D_f of a cluster sunk into the softened core came out 0.35 (docs/aggregation-sweep, zeta 0.02, k* 100): the map's
+    colour scale, clipped at 1, drew it as D_f = 1."""
+    pytest.importorskip("matplotlib")
+    points = [sweep_point(z, k, 1.0, 0.001, d, heated) for z, k, d, heated in
+              ((0.02, 100, 0.35, 0), (0.02, 1000, 2.81, 0), (0.1, 100, 2.08, 1), (0.1, 1000, 0.62, 1))]
+    fig = sweep.plot_map(points, [0.02, 0.1], [100, 1000], tmp_path / "map.png")
+    texts = sorted((t.get_text(), t.get_position()) for t in fig.axes[0].texts)
+    assert texts == [("0.35", (0, 0.22)), ("0.62", (1, 1.22)), ("‡", (0, 1)), ("‡", (1, 1 - 0.22))]
+    assert fig.axes[0].images[0].colorbar.extend == "both"

@@ -357,3 +357,29 @@ def test_a_sample_whose_fit_has_no_plateau_below_phimax_is_left_out_of_the_mean(
     assert math.isnan(s["lambda"]) and math.isnan(s["phi_max"])
     neighbour = campaign.summarise(table.with_name("consolidation-seed10.csv"))
     assert 1.5 < neighbour["lambda"] < 2.5   # a steep but proper fit stays (1.93)
+
+
+def campaign_sample(p, phi, reached):
+    reached = np.asarray(reached, bool)
+    return {"all_p": p, "all_phi": phi, "all_reached": reached, "p": p[reached], "phi": phi[reached]}
+
+
+def test_plot_draws_the_papers_fitted_curve_and_no_mean_where_there_is_none(tmp_path):
+    """The plot marked the paper at P* = 0.01 only: where our curves part from its (the no-rolling samples' loading
+    rises too fast) took the tables to see. A campaign with no stage in equilibrium listed a mean curve it did not
+    draw."""
+    pytest.importorskip("matplotlib")
+    p, phi = synthetic_curve()
+    fig = campaign.plot({"consolidation": [campaign_sample(p, phi, p > 0.02), campaign_sample(p, phi - 0.01, p > 0.02)],
+                         "consolidation-rr": [campaign_sample(p, phi, p < 0), campaign_sample(p, phi, p < 0)]},
+                        tmp_path / "campaign.png")
+    lines = {line.get_label(): line for line in fig.axes[0].lines}
+    paper = lines["paper consolidation: its fit, λ = 0.349, Φmax = 0.7808"]
+    x, y = paper.get_xdata(), paper.get_ydata()
+    assert y[0] == pytest.approx(0.469) and x[0] == pytest.approx(0.01)   # the plateau Phi0 below P0*
+    # at the paper's P1* = 0.2718 its form gives Phi = 0.686508 (tests/python/test_consolidation_fit.py); the
+    # 200-point curve, read between its points, within 1e-3 of it
+    assert np.interp(math.log(0.271832), np.log(x), y) == pytest.approx(0.686508, abs=1e-3)
+    assert "paper consolidation-rr: its fit, λ = 0.194, Φmax = 0.7745" in lines
+    assert "consolidation: mean over the samples" in lines
+    assert "consolidation-rr: mean over the samples" not in lines   # no stage of it in equilibrium

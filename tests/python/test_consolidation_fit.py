@@ -194,3 +194,24 @@ def test_reads_the_stage_table_the_hdf5_file_names(grains_bin, tmp_path):
     usage = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), "--help"],
                            capture_output=True, text=True).stdout
     assert "stages/" not in usage and "the stage table it names" in " ".join(usage.split())
+
+
+def test_plot_draws_each_fit_over_its_stages_with_its_parameters(tmp_path):
+    """The regime II line was drawn to 10 P0* whatever stages it was fitted to (P* <= 0.1): past them it rose to
+    Phi 0.9, above every stage; the legend gave no fitted value."""
+    pytest.importorskip("matplotlib")
+    p = programme()
+    phi = synthetic_phi(p)
+    branch = np.array(["loading"] * p.size)
+    regime2 = cf.fit_regime_two(p, phi, p_max=0.1)
+    crossover = cf.fit_crossover(p, phi)
+    fig = cf.plot(p, phi, branch, regime2, crossover, tmp_path / "fit.png", "stages.csv")
+    top = fig.axes[0]
+    line = [l for l in top.lines if l.get_label().startswith("regime II line")]
+    assert len(line) == 1 and line[0].get_xdata().max() <= p[p <= 0.1].max()
+    assert line[0].get_xdata().min() >= regime2["P0"]
+    labels = [l.get_label() for l in top.lines]
+    assert f"regime II line: λ = {regime2['lambda']:.3f}, P0* = {regime2['P0']:.3g}" in labels
+    assert any(label.startswith(f"regimes II-III fit: λ = {crossover['lambda']:.3f}, Φmax = {crossover['phi_max']:.4f}")
+               for label in labels)
+    assert top.get_title() == "stages.csv"

@@ -169,3 +169,20 @@ def test_a_fit_whose_d_f_error_passes_half_of_it_has_no_fractal_range():
     # The same form without the noise, over many wave vectors per shell, keeps its range.
     fit = dc.fit_blob(k, (1 + (3 * k) ** 2) ** -0.8, np.full(k.size, 200), 0.4, 6.28)
     assert fit["fractal_range"] and fit["d_F"] == pytest.approx(1.6, rel=1e-6)
+
+
+def test_plot_legend_names_the_solid_fraction_of_each_state(tmp_path, monkeypatch):
+    """A stage is drawn at its target P*, also when it ended short of it: the legend gives the state's Phi too, so a
+    state that never compressed (Phi of the gas) shows as such."""
+    rng = np.random.default_rng(4)
+    edge, radius = 40.0, 0.5
+    count = int(0.4 * edge ** 2 / (math.pi * radius ** 2))
+    frames = [(random_sequential_disks(rng, count, edge, radius), np.full(count, radius), np.array([edge, edge]), p)
+              for p in (0.02, 1e-4, 2e-8, 0.013)]
+    stages = tmp_path / "sample.h5"
+    write_stages(stages, frames)
+    drawn, plot = [], dc.plot
+    monkeypatch.setattr(dc, "plot", lambda *args: drawn.append(plot(*args)))
+    dc.report([(stages, *dc.read_frames(stages))], [0.0, 0.01])
+    labels = [t.get_text() for t in drawn[0].axes[0].get_legend().get_texts()]
+    assert [label.split(":")[0] for label in labels] == ["P* = 0 (Φ 0.400)", "P* = 0.01 (Φ 0.400)"]

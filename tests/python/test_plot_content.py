@@ -1,0 +1,160 @@
+"""What runner/plot.py draws, read from the matplotlib figure (panels, axes, plotted data), not from pixels. The run
+files are written here with h5py in grains' layout (observables/NAME/{step,time,value}), so no binary is needed."""
+import importlib.util
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+h5py = pytest.importorskip("h5py")
+pytest.importorskip("matplotlib")
+
+spec = importlib.util.spec_from_file_location("plot_tool", ROOT / "runner" / "plot.py")
+plot_tool = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(plot_tool)
+
+
+def run_file(path, observables, name="scene", scene=""):
+    """An H5MD-like run file with these observables ({name: values}), recorded at steps 0, 10, 20, ..., and the scene
+    `[scene] name` with the TOML `scene` after it."""
+    with h5py.File(path, "w") as f:
+        f.create_group("parameters").attrs["scene.toml"] = f'[scene]\nname = "{name}"\n{scene}'
+        for key, values in observables.items():
+            values = np.asarray(values, float)
+            group = f.create_group(f"observables/{key}")
+            group["step"] = np.arange(len(values)) * 10
+            group["time"] = np.arange(len(values)) * 0.5
+            group["value"] = values
+    return path
+
+
+def drawn(path, monkeypatch, *args):
+    """The figure plot.py's main() draws of `path` with these options."""
+    import matplotlib.pyplot as plt
+
+    figures = []
+    monkeypatch.setattr(plot_tool, "plot", lambda series, out, *rest: figures.append(plot_tool.figure(series, *rest)))
+    assert plot_tool.main([str(path), "-o", str(path.with_suffix(".png")), *args]) == 0
+    plt.close("all")
+    return figures[0]
+
+
+def panel(fig, title_start):
+    found = [ax for ax in fig.axes if ax.get_title().startswith(title_start)]
+    assert len(found) == 1, [ax.get_title() for ax in fig.axes]
+    return found[0]
+
+
+def test_virial_ratio_of_a_cold_start_on_a_log_axis(tmp_path, monkeypatch):
+    """Q starts at 0 (the cloud at rest) and decays over decades after its peak: on the linear axis the old rule gave
+    it (a zero barred the log axis) the decay and any second peak were a flat line at 0."""
+    q = [0.0, 1e-3, 0.1, 0.43, 0.01, 1e-4, 3e-4, 1e-5, 5e-6, 6e-6, 5e-6]
+    path = run_file(tmp_path / "cloud.h5", {"virial_ratio": q, "time_over_free_fall": np.linspace(0, 3, len(q)),
+                                            "largest_cluster_fraction": np.linspace(0.001, 1, len(q)),
+                                            "cluster_index": np.linspace(1, 0.001, len(q))})
+    fig = drawn(path, monkeypatch)
+    ax = panel(fig, "Q = K / |W|")
+    assert ax.get_yscale() == "log" and "zeros not drawn" in ax.get_title()
+    assert np.array_equal(ax.lines[0].get_ydata(), q)
+    assert fig.axes[-1].get_xlabel() == "t / t_ff"   # a gravity scene: against the free-fall time by default
+
+
+def test_a_series_mostly_zero_stays_linear(tmp_path, monkeypatch):
+    """A lone collision: contacts and elastic energy are zero but for the contact, and read better on a linear axis;
+    the kinetic energy, never zero, spanning more than three decades, goes on a log axis."""
+    elastic = np.zeros(50)
+    elastic[20:25] = [1e-9, 0.05, 0.14, 0.05, 1e-9]
+    kinetic = np.full(50, 0.25)
+    kinetic[20:25] = [0.2, 0.01, 1e-4, 0.01, 0.07]
+    path = run_file(tmp_path / "collision.h5", {"kinetic_energy": kinetic, "elastic_energy": elastic,
+                                                "contacts": elastic > 0, "max_overlap_ratio": elastic * 0.3})
+    fig = drawn(path, monkeypatch)
+    assert panel(fig, "elastic energy").get_yscale() == "linear"
+    assert panel(fig, "kinetic energy").get_yscale() == "log"
+    assert "units" in fig.axes[-1].get_xlabel()   # the time's units named: the scene's own
+
+
+def test_a_cell_scene_shows_its_pressure_against_the_target_and_its_packing(tmp_path, monkeypatch):
+    """A pressure-controlled scene was drawn as its energies, contacts and overlap (runner/main.sh), saying nothing of
+    the pressure it is held at or the packing it reaches."""
+    target = np.full(8, 0.01)
+    measured = [0.0, 0.02, 0.015, 0.011, 0.0102, 0.0099, 0.01, 0.01]
+    path = run_file(tmp_path / "cell.h5", {"pressure_reduced": measured, "pressure_target": target,
+                                           "solid_fraction": np.linspace(0.36, 0.5, 8), "coordination": np.linspace(0, 3, 8),
+                                           "kinetic_energy": np.linspace(1, 0.1, 8), "contacts": np.arange(8),
+                                           "elastic_energy": np.linspace(0, 1, 8), "max_overlap_ratio": np.linspace(0, 1e-3, 8)})
+    fig = drawn(path, monkeypatch)
+    assert [ax.get_title() for ax in fig.axes] == ["P* = a P / F0", "solid fraction Phi", "coordination number z",
+                                                   "kinetic energy K"]
+    pressure = fig.axes[0]
+    assert [line.get_label() for line in pressure.lines] == ["measured", "target"]
+    assert np.array_equal(pressure.lines[0].get_ydata(), measured)
+    assert np.array_equal(pressure.lines[1].get_ydata(), target)
+
+
+def test_collision_log_scene_shows_the_adhesive_fraction(tmp_path, monkeypatch):
+    path = run_file(tmp_path / "medea.h5", {"kinetic_energy": [2, 1.9, 1.8], "contacts": [0, 2, 1],
+                                            "collision_count": [0, 1, 3], "adhesive_collision_fraction": [np.nan, 0, 1 / 3],
+                                            "elastic_energy": [0, 1e-3, 0]})
+    fig = drawn(path, monkeypatch)
+    assert fig.axes[-1].get_title() == "adhesive collisions / collisions"
+
+
+def test_panels_without_values_say_so(tmp_path, monkeypatch):
+    """A series with no finite value (NaN throughout, as D_f before any cluster) or no records is an empty panel:
+    it says which."""
+    path = run_file(tmp_path / "nan.h5", {"fractal_dimension": [np.nan] * 4, "kinetic_energy": [1, 2, 3, 4]})
+    fig = drawn(path, monkeypatch, "--observables", "fractal_dimension,kinetic_energy")
+    assert [t.get_text() for t in fig.axes[0].texts] == ["no finite values (NaN)"]
+    assert len(fig.axes[1].texts) == 0
+    empty = plot_tool.figure({"kinetic_energy": (np.array([]), np.array([]))})
+    assert [t.get_text() for t in empty.axes[0].texts] == ["no values yet"]
+
+
+def test_main_sh_draws_what_plot_py_draws_by_default(grains_bin, root, tmp_path):
+    """runner/main.sh chose the panels itself (energies for every scene without gravity); now plot.py's defaults, by the
+    kind of scene, are the one choice: main.sh's picture of a cell scene is plot.py's, byte for byte."""
+    env = dict(os.environ, GRAINS_BUILD=str(pathlib.Path(grains_bin).parents[1]),
+               GRAINS_VENV=str(pathlib.Path(sys.executable).parents[1]), OMP_WAIT_POLICY="passive")
+    if not (pathlib.Path(env["GRAINS_VENV"]) / "bin" / "python").exists():
+        pytest.skip("not run from the project's virtual environment")
+    out = tmp_path / "cell.h5"
+    r = subprocess.run(["bash", str(root / "runner" / "main.sh"), str(root / "models" / "consolidation.toml"), "--out",
+                        str(out), "--set", "particles.count=100", "--set", "time.steps=300", "--set",
+                        "analysis.elastic_moduli=false", "--set", "run.threads=1", "--quiet"],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    again = tmp_path / "again.png"
+    p = subprocess.run([sys.executable, str(root / "runner" / "plot.py"), str(out), "-o", str(again)], capture_output=True,
+                       text=True)
+    assert p.returncode == 0, p.stderr
+    assert out.with_suffix(".png").read_bytes() == again.read_bytes()
+
+
+def test_initial_states_legend_says_what_an_open_point_is(tmp_path):
+    """A sample not in equilibrium is drawn open (docs: type 1 with M_c = m, two of four); the legend said only
+    "grains"."""
+    sys.path.insert(0, str(ROOT / "runner"))
+    import initial_states
+
+    final = {"type1": [{"phi": "0.708", "reached": "1"}, {"phi": "0.702", "reached": "0"}]}
+    fig = initial_states.plot(final, tmp_path / "states.png")
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "grains, one per sample (open: not in equilibrium)" in labels and "paper (±2 bars)" in labels
+    open_points = [line for line in fig.axes[0].lines if line.get_markerfacecolor() == "none"]
+    assert [line.get_ydata()[0] for line in open_points] == [0.702]
+
+
+@pytest.mark.parametrize("scene, label", [("dimension = 2\n", "P* = a P / F0"), ("dimension = 3\n", "P* = a² P / F0"),
+                                          ("dimension = 2\n[cell]\nforce_unit = 0\n", "P* = P / K_N"),
+                                          ("dimension = 3\n[cell]\nforce_unit = 0\n", "P* = a P / k_n")])
+def test_the_pressure_panel_says_what_p_star_is_in_the_scene(tmp_path, monkeypatch, scene, label):
+    """P* is a P / F0 in 2D, a^2 P / F0 in 3D and P a^(D-2) / k_n in a cohesionless cell (scene reference,
+    cell.pressure): every scene's panel read a P / F0."""
+    path = run_file(tmp_path / "cell.h5", {"pressure_reduced": [1e-5, 1e-5], "solid_fraction": [0.36, 0.4]}, scene=scene)
+    assert drawn(path, monkeypatch).axes[0].get_title() == label
