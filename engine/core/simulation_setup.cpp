@@ -137,7 +137,7 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
                "effect at the next step; 0 is off)", 0.0},
               [this] { return drag_; }, [this](double gamma) { drag_ = gamma; });
   if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
-    add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
+    add_control({"gravity.G", "m^3/(kg s^2)", Causality::parameter, Variability::tunable,
                  "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off once "
                  "initialized, while the scene itself needs G > 0)", 0.0},
                 [g = gravity_] { return g->G(); },
