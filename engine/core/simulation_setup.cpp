@@ -277,6 +277,11 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
   const UnitGrain unit = unit_grain(scene, P);
   length_unit_ = unit.diameter;
   grain_mass_ = unit.mass;
+  // Without adhesion no force of the scene gives P* its unit: a fixed F0 = 1 (the default until 2026-12-05) made
+  // the same scene written in other units another pressure (forces x 1e-15: a target past the clamp, CVODE failed).
+  if (!scene.boolean("adhesion.enabled") && !scene.has("cell.force_unit"))
+    scene.fail("cell.force_unit", "missing: without adhesion, give the force unit of P* in the scene's units, a value "
+                                  "> 0 (P* = P a^(D-1) / value), or 0 (P* = P a^(D-2) / k_n)");
   force_unit_ = cell_force_unit(scene);
   pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
   inertia_number_ = scene.real("cell.inertia_number");

@@ -199,7 +199,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Simulated time over which the target pressure goes from `cell.pressure` to `cell.pressure_final` "
        "(required with it)."},
       {"cell.force_unit", K::real, "", 0, inf, false, false, "",
-       "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, else 1. 0 = cohesionless: "
+       "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, and required "
+       "without adhesion (in the scene's units: no other force of the scene sets it). 0 = cohesionless: "
        "`cell.pressure` (and `pressure_final`) is then P a^(D-2) / k_n (P / K_N in 2D), and must be > 0, and F1 = "
        "P a^(D-1)."},
       {"cell.mass", K::real, "", 0, inf, true, false, "",

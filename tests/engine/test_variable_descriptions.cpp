@@ -40,7 +40,7 @@ TEST_CASE("each force-histogram bin's description gives its own range", "[observ
   CHECK(seen == 21);
 }
 
-TEST_CASE("stresses and moduli are declared per length in 2D, per area in 3D; G with its dimension", "[observables]") {
+TEST_CASE("declared units: stresses and moduli per length in 2D and per area in 3D and G with its dimension", "[observables]") {
   // Every scene declared "Pa" until 2026-12-05, but a 2D stress is a force per length (the FMUs' model
   // descriptions show these units), and G had none.
   for (const char* name : {"consolidation", "consolidation-3d", "aggregation"}) {
