@@ -203,9 +203,15 @@ void SimulationImpl<D>::add_contact_module(const Scene& scene, double tc) {
 template <int D>
 double SimulationImpl<D>::add_adhesive_contact_module(const Scene& scene) {
   const double mstar_min = smallest_reduced_mass();
-  AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"), scene.real("adhesion.range"),
+  // Left out, D0 is the paper's D0 / a = 1e-3 of the grains' size: the fixed 1e-3 (until 2026-12-05) was a length in
+  // whatever units the scene is written (grains of 1e-6 m attracted across a thousand diameters, and the box was
+  // refused as too small for that reach).
+  const double a = unit_grain(scene, sys_.particles).diameter;
+  AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"),
+                         scene.has("adhesion.range") ? scene.real("adhesion.range") : 1e-3 * a,
                          damping_ratio(scene.real("adhesion.restitution")), scene.real("contact.overlap_limit")};
   refuse_unholdable_bonds(scene, law);
+  adhesion_range_ = law.range;
   kn_ = law.k;
   cn_ = law.damping(2 * mstar_min, 2 * mstar_min);   // the lightest pair's c_n (m* of two masses 2 m* is m*)
   pair_law_scaling_ = {0.0, 0.5};                     // one K_N; c_n = 2 zeta sqrt(m* K_N) per pair
@@ -218,7 +224,6 @@ double SimulationImpl<D>::add_adhesive_contact_module(const Scene& scene) {
   const double mu = scene.real("friction.coefficient");
   CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), true};
   const double mu_r = scene.real("rolling.coefficient");
-  const double a = unit_grain(scene, sys_.particles).diameter;
   // No rolling spring without rolling resistance (mu_R = 0); the rolling dashpot may still act.
   RollingResistance rr{mu_r > 0 ? scene.real("rolling.stiffness_ratio") * law.k * a * a : 0.0, mu_r,
                        scene.real("rolling.damping_ratio")};

@@ -77,7 +77,7 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
   param("time.dt", dt_, "s", "internal time step");
   if (network_) {
     param("adhesion.force", attraction_, "N", "F0: attraction of contacting grains");
-    param("adhesion.range", scene.real("adhesion.range"), "m", "D0: range of the attraction beyond contact");
+    param("adhesion.range", adhesion_range_, "m", "D0: range of the attraction beyond contact");
     param("adhesion.restitution", scene.real("adhesion.restitution"), "", "e_N, sets the normal damping as if F0 = 0");
     param("contact.k_n", kn_, "N/m", "normal stiffness K_N");
     param("contact.c_n", cn_, "kg/s", "normal damping of the lightest pair");

@@ -116,3 +116,34 @@ TEST_CASE("the neighbour list of an open box lists a scaled configuration's pair
   CHECK(a.start == b.start);
   CHECK(a.partner == b.partner);
 }
+
+// adhesion.range defaulted to 1e-3, a length in the scene's units: grains of a micrometre attracted across a
+// thousand diameters, and the periodic box was refused as shorter than that reach. Now 1e-3 a, as in the paper.
+TEST_CASE("the adhesion's default range is a thousandth of the grains' size, in any units", "[units]") {
+  const auto scene = [](double L) {
+    return fmt::format(R"(
+[scene]
+dimension = 2
+[particles]
+layout = "random"
+count = 64
+size_distribution = "uniform"
+diameter_min = {}
+diameter_max = {}
+solid_fraction = 0.3
+[contact]
+overlap_limit = 0.5
+[adhesion]
+enabled = true
+force = {}
+stiffness = 1e5
+[run]
+threads = 1
+)", 0.5 * L, 1.0 * L, 1.0 * L);
+  };
+  for (double L : {1.0, 1e-6, 1e3}) {
+    INFO("lengths x " << L);
+    auto s = Simulation::create(Scene::from_string(scene(L), "adhesive"));
+    CHECK(s->get("adhesion.range") == 1e-3 * L);
+  }
+}
