@@ -219,7 +219,7 @@ class SimulationImpl final : public Simulation {
   double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0, gravity_stiffness_ = 0;
   long analysis_every_ = 100;
   bool network_ = false;   // adhesion scenes: contact-network outputs
-  double attraction_ = 0, zero_force_ = 1e-5, network_mark_ = 0;
+  double attraction_ = 0, adhesion_range_ = 0, zero_force_ = 1e-5, network_mark_ = 0;
   static constexpr int network_bins_ = 20;   // histogram of F_N / F0: width 0.5 from -1, plus one open bin
   std::vector<std::uint64_t> reference_contacts_;
   double aggregation_time_ = std::numeric_limits<double>::quiet_NaN();

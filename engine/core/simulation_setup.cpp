@@ -137,7 +137,7 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
                "effect at the next step; 0 is off)", 0.0},
               [this] { return drag_; }, [this](double gamma) { drag_ = gamma; });
   if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
-    add_control({"gravity.G", "", Causality::parameter, Variability::tunable,
+    add_control({"gravity.G", "m^3/(kg s^2)", Causality::parameter, Variability::tunable,
                  "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off once "
                  "initialized, while the scene itself needs G > 0)", 0.0},
                 [g = gravity_] { return g->G(); },
@@ -203,9 +203,15 @@ void SimulationImpl<D>::add_contact_module(const Scene& scene, double tc) {
 template <int D>
 double SimulationImpl<D>::add_adhesive_contact_module(const Scene& scene) {
   const double mstar_min = smallest_reduced_mass();
-  AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"), scene.real("adhesion.range"),
+  // Left out, D0 is the paper's D0 / a = 1e-3 of the grains' size: the fixed 1e-3 (until 2026-12-05) was a length in
+  // whatever units the scene is written (grains of 1e-6 m attracted across a thousand diameters, and the box was
+  // refused as too small for that reach).
+  const double a = unit_grain(scene, sys_.particles).diameter;
+  AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"),
+                         scene.has("adhesion.range") ? scene.real("adhesion.range") : 1e-3 * a,
                          damping_ratio(scene.real("adhesion.restitution")), scene.real("contact.overlap_limit")};
   refuse_unholdable_bonds(scene, law);
+  adhesion_range_ = law.range;
   kn_ = law.k;
   cn_ = law.damping(2 * mstar_min, 2 * mstar_min);   // the lightest pair's c_n (m* of two masses 2 m* is m*)
   pair_law_scaling_ = {0.0, 0.5};                     // one K_N; c_n = 2 zeta sqrt(m* K_N) per pair
@@ -218,7 +224,6 @@ double SimulationImpl<D>::add_adhesive_contact_module(const Scene& scene) {
   const double mu = scene.real("friction.coefficient");
   CoulombFriction fr{mu, scene.real("friction.stiffness_ratio"), scene.real("friction.damping_ratio"), true};
   const double mu_r = scene.real("rolling.coefficient");
-  const double a = unit_grain(scene, sys_.particles).diameter;
   // No rolling spring without rolling resistance (mu_R = 0); the rolling dashpot may still act.
   RollingResistance rr{mu_r > 0 ? scene.real("rolling.stiffness_ratio") * law.k * a * a : 0.0, mu_r,
                        scene.real("rolling.damping_ratio")};
@@ -277,6 +282,11 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
   const UnitGrain unit = unit_grain(scene, P);
   length_unit_ = unit.diameter;
   grain_mass_ = unit.mass;
+  // Without adhesion no force of the scene gives P* its unit: a fixed F0 = 1 (the default until 2026-12-05) made
+  // the same scene written in other units another pressure (forces x 1e-15: a target past the clamp, CVODE failed).
+  if (!scene.boolean("adhesion.enabled") && !scene.has("cell.force_unit"))
+    scene.fail("cell.force_unit", "missing: without adhesion, give the force unit of P* in the scene's units, a value "
+                                  "> 0 (P* = P a^(D-1) / value), or 0 (P* = P a^(D-2) / k_n)");
   force_unit_ = cell_force_unit(scene);
   pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
   inertia_number_ = scene.real("cell.inertia_number");

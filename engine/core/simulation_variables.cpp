@@ -29,6 +29,10 @@ std::pair<const char*, const char*> module_observable_description(const std::str
   return it != known.end() ? it->second : std::pair<const char*, const char*>{"", "undescribed module observable"};
 }
 
+// A stress is a force per area in 3D, per length in 2D (the disks' mass is per disk, their density per area).
+template <int D>
+constexpr const char* stress_unit = D == 3 ? "Pa" : "N/m";
+
 }  // namespace
 
 template <int D>
@@ -73,7 +77,7 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
   param("time.dt", dt_, "s", "internal time step");
   if (network_) {
     param("adhesion.force", attraction_, "N", "F0: attraction of contacting grains");
-    param("adhesion.range", scene.real("adhesion.range"), "m", "D0: range of the attraction beyond contact");
+    param("adhesion.range", adhesion_range_, "m", "D0: range of the attraction beyond contact");
     param("adhesion.restitution", scene.real("adhesion.restitution"), "", "e_N, sets the normal damping as if F0 = 0");
     param("contact.k_n", kn_, "N/m", "normal stiffness K_N");
     param("contact.c_n", cn_, "kg/s", "normal damping of the lightest pair");
@@ -174,16 +178,16 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
 template <int D>
 template <class Out>
 void SimulationImpl<D>::describe_moduli_variables(Out& out) {
-  out("B", "Pa", "bulk modulus of the contact network: sum_ab C_ab / D^2 (2D: (C11 + C12) / 2)");
-  out("G", "Pa", "shear modulus for the cell's pure shears: (tr C - sum_ab C_ab / D) / (2 (D - 1)) (2D: (C11 - C12) / 2)");
+  out("B", stress_unit<D>, "bulk modulus of the contact network: sum_ab C_ab / D^2 (2D: (C11 + C12) / 2)");
+  out("G", stress_unit<D>, "shear modulus for the cell's pure shears: (tr C - sum_ab C_ab / D) / (2 (D - 1)) (2D: (C11 - C12) / 2)");
   const char* digits = "123";
   for (int a = 0; a < D; ++a)
     for (int b = a; b < D; ++b)
-      out(fmt::format("C{}{}", digits[a], digits[b]), "Pa",
+      out(fmt::format("C{}{}", digits[a], digits[b]), stress_unit<D>,
           "stiffness d sigma_a / d eps_b over the cell's diagonal strains (the inverse of the compliance)");
-  out("B_Voigt", "Pa", "Voigt bulk modulus: every grain follows the strain affinely without rotating (an upper bound of B)");
-  out("G_Voigt", "Pa", "Voigt shear modulus (an upper bound of G)");
-  out("B_Reuss", "Pa", "Reuss estimate: force increments proportional to the static forces, V P^2 / sum (F_N^2/K_N + F_T^2/K_T + Gamma^2/K_R)");
+  out("B_Voigt", stress_unit<D>, "Voigt bulk modulus: every grain follows the strain affinely without rotating (an upper bound of B)");
+  out("G_Voigt", stress_unit<D>, "Voigt shear modulus (an upper bound of G)");
+  out("B_Reuss", stress_unit<D>, "Reuss estimate: force increments proportional to the static forces, V P^2 / sum (F_N^2/K_N + F_T^2/K_T + Gamma^2/K_R)");
   out("Z2", "", "<F_N^2 + (K_N/K_T) F_T^2 + (K_N/K_R) Gamma^2> / <F_N>^2 over the interactions carrying force");
   out("moduli_mechanisms", "", "strain directions the contact network does not resist (B or G is then 0 within round-off)");
   out("moduli_unstable_modes", "", "negative stiffness directions (distant bonds' -F0/D0 not held): the moduli are then NaN");
@@ -198,9 +202,9 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
   for (int a = 0; a < D; ++a) out(fmt::format("cell_strain_rate_{}", xyz[a]), "1/s", "(dL/dt) / L");
   for (int a = 0; a < D; ++a)
     for (int b = a; b < D; ++b)
-      out(fmt::format("stress_{}{}", xyz[a], xyz[b]), "Pa", "stress tensor, contact + kinetic, compressive positive");
-  out("pressure", "Pa", "trace(stress) / D, contact + kinetic");
-  out("pressure_kinetic", "Pa", "kinetic part of the pressure (velocities relative to the affine flow)");
+      out(fmt::format("stress_{}{}", xyz[a], xyz[b]), stress_unit<D>, "stress tensor, contact + kinetic, compressive positive");
+  out("pressure", stress_unit<D>, "trace(stress) / D, contact + kinetic");
+  out("pressure_kinetic", stress_unit<D>, "kinetic part of the pressure (velocities relative to the affine flow)");
   out("pressure_reduced", "", "P* of the current stress: a P / F0 (2D), a^2 P / F0 (3D)");
   out("pressure_target", "", "P* the barostat drives the stress to: cell.pressure, or with a ramp (cell.pressure_final) its value at "
       "the start of the last step");

@@ -95,14 +95,16 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Adhesive normal law of physics.md section 6 instead of the restitution-calibrated spring-dashpot: "
        "F_N = K_N delta - F0 - c_n v_n while overlapping, -F0 (1 - h / D0) for gaps 0 <= h < D0, nothing beyond. "
        "`contact.restitution`, `duration` and `calibration` are not used; `contact.overlap_limit` still applies. "
-       "Friction is bounded by the elastic part K_N delta. The defaults are the paper's Table I in units a = 1, F0 = 1."},
+       "Friction is bounded by the elastic part K_N delta. The defaults are the paper's Table I in units a = 1, F0 = 1 "
+       "(`range` relative to a, so in any units)."},
       {"adhesion.force", K::real, "1.0", 0, inf, false, false, "",
        "F0: the constant attraction of contacting grains, the largest tensile force a bond carries. 0 = the cohesionless "
        "reference (same law, no attraction). Must stay below K_N `contact.overlap_limit` R_min, the largest elastic force "
        "a clamped contact gives (R_min the smallest radius): a bond rests at the overlap F0 / K_N, beyond the clamp "
        "no overlap balances F0 and bonded grains sink through each other, so such a value is refused."},
-      {"adhesion.range", K::real, "1e-3", 0, inf, false, false, "",
-       "D0 (length): the attraction fades linearly to zero as the gap grows from 0 to D0 (paper: D0 / a = 1e-3)."},
+      {"adhesion.range", K::real, "", 0, inf, false, false, "",
+       "D0 (length): the attraction fades linearly to zero as the gap grows from 0 to D0; default 1e-3 a (the paper's "
+       "D0 / a = 1e-3), a = the size distribution's largest diameter (for listed or file particles the largest given)."},
       {"adhesion.stiffness", K::real, "1e5", 0, inf, true, false, "",
        "K_N (force / length), the same for every pair (paper: kappa = a K_N / F0 = 1e5). The time step is "
        "dt = t_c / time.steps_per_contact with t_c = pi sqrt(m*_min / K_N), m*_min the smallest reduced mass."},
@@ -199,7 +201,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Simulated time over which the target pressure goes from `cell.pressure` to `cell.pressure_final` "
        "(required with it)."},
       {"cell.force_unit", K::real, "", 0, inf, false, false, "",
-       "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, else 1. 0 = cohesionless: "
+       "F0: the force unit of P* and of the equilibrium test; default `adhesion.force` when adhesion is on, and required "
+       "without adhesion (in the scene's units: no other force of the scene sets it). 0 = cohesionless: "
        "`cell.pressure` (and `pressure_final`) is then P a^(D-2) / k_n (P / K_N in 2D), and must be > 0, and F1 = "
        "P a^(D-1)."},
       {"cell.mass", K::real, "", 0, inf, true, false, "",

@@ -105,8 +105,8 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
 template <int D>
 void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<double>& radius, const Box<D>& box, int threads) {
   const std::size_t N = x.size();
-  const SizeClasses sizes(N ? *std::max_element(radius.begin(), radius.end()) : 1.0,
-                          N ? *std::min_element(radius.begin(), radius.end()) : 1.0);
+  const double rmax = N ? *std::max_element(radius.begin(), radius.end()) : 1.0;
+  const SizeClasses sizes(rmax, N ? *std::min_element(radius.begin(), radius.end()) : 1.0);
   const int classes = sizes.count;
   class_of_.assign(N, 0);
   if (classes > 1)
@@ -117,7 +117,10 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     if (!box.periodic[a] && N) {   // open axis: the grid spans the particles
       lo[a] = hi[a] = x[0][a];
       for (const auto& p : x) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
-      hi[a] += 1e-9 * (1 + std::abs(hi[a]));
+      // Widened far above the coordinates' rounding, in the scene's lengths (a diameter, not 1: an absolute
+      // pad moved the cells, and the order of the pairs with them, when the same scene was written in
+      // smaller units).
+      hi[a] += 1e-9 * (2 * rmax + std::abs(hi[a]));
     }
 
   grids_.resize(classes);

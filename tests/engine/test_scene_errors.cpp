@@ -498,7 +498,8 @@ TEST_CASE("scene errors: a key given where the scene does not read it names the 
   REQUIRE_THROWS_WITH(build(good, {"cell.restart_cvode_every_step=true"}),
                       Contains("cell.restart_cvode_every_step: value true is not used with cell.enabled = false"));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=false"}));
-  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.pressure=0.5", "cell.pressure_final=2", "cell.ramp_duration=10"}));
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=1", "cell.pressure=0.5", "cell.pressure_final=2",
+                               "cell.ramp_duration=10"}));
 
   // Found by a review (2026-12-05), each accepted without a word: the tree's opening angle with direct
   // summation, a programme without a cell, one diameter for drawn sizes.
@@ -522,7 +523,17 @@ TEST_CASE("scene errors: the quench's rolling dashpot without the consolidation 
   REQUIRE_THROWS_WITH(build(good, {"cell.enabled=true", "programme.quench_damping=0.5"}),
                       Contains("programme.quench_damping: value 0.5 is not used with adhesion.enabled = false: it needs "
                                "adhesion.enabled = true"));
-  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "programme.quench_drag=0.5"}));   // the drag serves any law
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=1", "programme.quench_drag=0.5"}));   // any law
+}
+
+TEST_CASE("scene errors: a cell without adhesion names its force unit", "[scene][errors][units]") {
+  // It was 1 by default, a force in whatever units the scene is written: the same scene with forces x 1e-15
+  // asked each contact for 1e11 times its clamped force, and CVODE failed.
+  REQUIRE_THROWS_WITH(build(good, {"cell.enabled=true", "cell.pressure=0.01"}),
+                      Contains("cell.force_unit: missing: without adhesion, give the force unit of P* in the scene's "
+                               "units, a value > 0") && Contains("or 0 (P* = P a^(D-2) / k_n)"));
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=1", "cell.pressure=0.01"}));
+  REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=0", "cell.pressure=0.01"}));
 }
 
 TEST_CASE("scene errors: a key another given key replaces is warned about, not refused, and not resolved", "[scene][errors]") {

@@ -39,3 +39,28 @@ TEST_CASE("each force-histogram bin's description gives its own range", "[observ
   }
   CHECK(seen == 21);
 }
+
+TEST_CASE("declared units: stresses and moduli per length in 2D and per area in 3D and G with its dimension", "[observables]") {
+  // Every scene declared "Pa" until 2026-12-05, but a 2D stress is a force per length (the FMUs' model
+  // descriptions show these units), and G had none.
+  for (const char* name : {"consolidation", "consolidation-3d", "aggregation"}) {
+    auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/" + name + ".toml", {"run.threads=1"}));
+    const std::string stress = s->dimension() == 3 ? "Pa" : "N/m";
+    int seen = 0;
+    for (const auto& v : s->variables()) {
+      INFO(name << ": " << v.name << " [" << v.unit << "]");
+      const bool pressure = v.name == "pressure" || v.name == "pressure_kinetic";
+      const bool modulus = v.name == "B" || v.name == "G" || v.name.starts_with("B_") || v.name.starts_with("G_") ||
+                           (v.name.size() == 3 && v.name[0] == 'C');
+      if (v.name.starts_with("stress_") || pressure || modulus) {
+        CHECK(v.unit == stress);
+        ++seen;
+      }
+      if (v.name == "gravity.G") {
+        CHECK(v.unit == "m^3/(kg s^2)");
+        ++seen;
+      }
+    }
+    CHECK(seen > 0);
+  }
+}
