@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 
 import fmpy
 from fmpy import read_model_description
@@ -46,13 +47,15 @@ def host_process(script, *args, env=None, timeout=None):
 # leaves one folder per call in the system's temporary directory: ten per run of the test suite).
 _scratch = tempfile.TemporaryDirectory(prefix="grains-fmus-")
 _extracted = {}
+_extracting = threading.Lock()   # Units made in several threads at once unpacked into one folder, over a loaded binary
 
 
 def extracted(path):
     path = str(path)
-    if path not in _extracted:
-        _extracted[path] = fmpy.extract(path, unzipdir=os.path.join(_scratch.name, str(len(_extracted))))
-    return _extracted[path]
+    with _extracting:
+        if path not in _extracted:
+            _extracted[path] = fmpy.extract(path, unzipdir=os.path.join(_scratch.name, str(len(_extracted))))
+        return _extracted[path]
 
 
 # fmpy's FMI 2 logger proxy (which formats the printf-style message) holds one callback for the whole process, the
