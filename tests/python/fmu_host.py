@@ -64,7 +64,8 @@ def extracted(path):
 # to the Unit its instance's componentEnvironment names.
 _fmi2_messages = {}   # componentEnvironment -> that Unit's message list
 _fmi2_keys = itertools.count(1)   # next() is atomic: Units are made in threads too
-_fmi2_logger = fmi2CallbackLoggerTYPE(lambda env, inst, status, cat, msg: _fmi2_messages[env].append(
+unrouted_messages = []   # of FMI 2 instances made with fmpy's own callbacks (no componentEnvironment), which share the proxy
+_fmi2_logger = fmi2CallbackLoggerTYPE(lambda env, inst, status, cat, msg: _fmi2_messages.get(env, unrouted_messages).append(
     (status, cat.decode(), msg.decode())))
 
 
