@@ -1,7 +1,5 @@
 #include "live_instances.hpp"
 
-#include <omp.h>
-
 #include <cstdint>
 #include <map>
 #include <mutex>
@@ -9,6 +7,8 @@
 #include <vector>
 
 #include <fmt/format.h>
+
+#include "worker_pool.hpp"
 
 namespace grains::fmu {
 namespace {
@@ -51,6 +51,7 @@ std::map<std::uintptr_t, OwnedState>::iterator owned_state(const Instance& owner
 
 void* hand_out(std::unique_ptr<Instance> instance) {
   if (!instance) return nullptr;
+  prepare_worker_pools();
   std::lock_guard lock(registry().mutex);
   const std::uintptr_t handle = registry().take_handle();
   registry().instances.emplace(handle, std::move(instance));
@@ -86,7 +87,7 @@ void free_instance(const void* handle) {
   gone.reset();
   // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
   // thread outlives the instance. Another instance's next step simply starts a new pool.
-  omp_pause_resource_all(omp_pause_soft);
+  release_worker_pool();
 }
 
 void* hand_out_state(const Instance& owner, std::unique_ptr<SavedState> state) {

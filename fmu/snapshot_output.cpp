@@ -23,7 +23,10 @@ std::string this_binary_directory() {
 SnapshotOutput::SnapshotOutput(const std::string& path, const Simulation& sim, const std::string& version,
                                const std::string& scene_toml) {
   const std::string plugin = this_binary_directory() + "/" + snapshot_plugin_file;
-  library_ = dlopen(plugin.c_str(), RTLD_NOW | RTLD_LOCAL);
+  // Never unloaded: the HDF5 library it brings in leaves thread keys whose destructors run when a host thread that
+  // wrote snapshots ends. Unloaded with the instance, HDF5 took those destructors' code with it, and the host
+  // crashed when such a thread ended.
+  library_ = dlopen(plugin.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
   if (!library_)
     throw std::runtime_error(fmt::format("fmu.snapshots_every asks for HDF5 snapshots, but the snapshot plugin cannot be "
                                          "loaded: {} (it needs the HDF5 shared library, e.g. Debian's libhdf5-103-1; "

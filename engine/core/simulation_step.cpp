@@ -349,8 +349,10 @@ Tensor<D> SimulationImpl<D>::kinetic_sum(const PendingKick* kick) const {
     return sum;
   }
   std::vector<Tensor<D>> part(std::size_t(T), Tensor<D>::Zero());
+  // T shares whatever number of threads OpenMP starts (a host's parallel region around the step, OMP_THREAD_LIMIT,
+  // OMP_DYNAMIC): the sum, and the pressure the barostat follows, depend on T alone.
 #pragma omp parallel num_threads(T)
-  add_share(omp_get_thread_num(), omp_get_num_threads(), part[std::size_t(omp_get_thread_num())]);
+  for (int t = omp_get_thread_num(); t < T; t += omp_get_num_threads()) add_share(t, T, part[std::size_t(t)]);
   Tensor<D> sum = part[0];
   for (std::size_t t = 1; t < part.size(); ++t) sum += part[t];
   return sum;

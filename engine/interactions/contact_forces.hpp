@@ -133,34 +133,43 @@ class ContactForces final : public ForceModule<D> {
       std::vector<Mat> thread_virial(Virial ? T : 0, Mat::Zero());
 #pragma omp parallel num_threads(T) reduction(+ : clamped_now)
       {
-        const int t = omp_get_thread_num();
-        Gathered& g = gathered_[t];
-        for (const std::uint32_t j : g.far) g.far_seen[j] = 0;   // the last evaluation's, merged since
-        g.far.clear();
-        g.far_seen.resize(N, 0);
-        Mat local = Mat::Zero();
-        // Each thread takes a contiguous range of rows with about as much work as the others (share_rows):
-        // a slab of space when the particles are numbered along a space-filling curve (initial_state), so
-        // its partners are mostly its own particles too. It adds straight into
-        // the forces and torques of its rows' particles, and into its own arrays (zero on entry) those of
-        // partners beyond its rows, listing them; a pair is stored under its lower index, so no partner lies
-        // before its rows.
-        const std::size_t rb = shares_.bounds[std::size_t(t)], re = shares_.bounds[std::size_t(t) + 1];
-        clamped_now += loop<Virial, true>(s, rb, re, s.thread_force[t].data(), s.thread_torque[t].data(), local, g, batch);
-        if constexpr (Virial) thread_virial[t] = local;
+        // OpenMP may start fewer threads than T (a host's own parallel region around the step, OMP_THREAD_LIMIT,
+        // OMP_DYNAMIC): each thread then takes several of the T shares, in the same order, so every row is evaluated
+        // and the sums are those of T threads. (One share per thread left the last share's rows without their
+        // contact forces: 27 contacts instead of 11 after 600 steps of the aggregation FMU under OMP_THREAD_LIMIT=1.)
+        const int team = omp_get_num_threads();
+        for (int t = omp_get_thread_num(); t < T; t += team) {
+          Gathered& g = gathered_[t];
+          for (const std::uint32_t j : g.far) g.far_seen[j] = 0;   // the last evaluation's, merged since
+          g.far.clear();
+          g.far_seen.resize(N, 0);
+          Mat local = Mat::Zero();
+          // Each share is a contiguous range of rows with about as much work as the others (share_rows):
+          // a slab of space when the particles are numbered along a space-filling curve (initial_state), so
+          // its partners are mostly its own particles too. It adds straight into
+          // the forces and torques of its rows' particles, and into its own arrays (zero on entry) those of
+          // partners beyond its rows, listing them; a pair is stored under its lower index, so no partner lies
+          // before its rows.
+          const std::size_t rb = shares_.bounds[std::size_t(t)], re = shares_.bounds[std::size_t(t) + 1];
+          clamped_now += loop<Virial, true>(s, rb, re, s.thread_force[t].data(), s.thread_torque[t].data(), local, g, batch);
+          if constexpr (Virial) thread_virial[t] = local;
+        }
 #pragma omp barrier
-        // Each thread adds the earlier threads' shares of its particles, in thread order (deterministic
+        // Each share adds the earlier shares' parts of its particles, in share order (deterministic
         // for a thread count), and zeroes what it read: the arrays are zero again for the next evaluation.
-        for (int u = 0; u < t; ++u)
-          for (const std::uint32_t j : gathered_[u].far) {
-            if (j < rb || j >= re) continue;
-            P.force[j] += s.thread_force[u][j];
-            s.thread_force[u][j].setZero();
-            if constexpr (torques_) {
-              P.torque[j] += s.thread_torque[u][j];
-              s.thread_torque[u][j].setZero();
+        for (int t = omp_get_thread_num(); t < T; t += team) {
+          const std::size_t rb = shares_.bounds[std::size_t(t)], re = shares_.bounds[std::size_t(t) + 1];
+          for (int u = 0; u < t; ++u)
+            for (const std::uint32_t j : gathered_[u].far) {
+              if (j < rb || j >= re) continue;
+              P.force[j] += s.thread_force[u][j];
+              s.thread_force[u][j].setZero();
+              if constexpr (torques_) {
+                P.torque[j] += s.thread_torque[u][j];
+                s.thread_torque[u][j].setZero();
+              }
             }
-          }
+        }
       }
       if constexpr (Virial)
         for (const Mat& w : thread_virial) s.virial += w;

@@ -321,7 +321,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "pair. Results do not depend on it (bit for bit); only the speed does."},
 
       // --- execution ---
-      {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = automatic: every core, at most one thread per 2000 particles. Results are deterministic for a given thread count."},
+      {"run.threads", K::integer, "0", 0, 1024, false, false, "", "Worker threads; 0 = automatic: every core, at most one thread per 2000 particles. Results are deterministic for a given thread count, also where OpenMP starts fewer threads (`OMP_THREAD_LIMIT`, `OMP_DYNAMIC`, a host's own parallel region): each takes several threads' shares."},
 
       // --- output ---
       {"output.file", K::text, "", 0, 0, false, false, "", "HDF5 (H5MD) output path, relative to the working directory (not to the scene, as `particles.file` is); "

@@ -1,12 +1,18 @@
 """A small FMI host over fmpy's low-level classes, the same for FMI 2 and 3, that keeps every log
 message the FMU sends. Used by the tests/python/test_fmu_*.py files and runner/bench_fmu.py."""
 import ctypes
+import itertools
 import os
 import pathlib
+import signal
+import subprocess
+import sys
 import tempfile
+import threading
 
 import fmpy
 from fmpy import read_model_description
+from fmpy.fmi2 import fmi2CallbackLoggerTYPE
 from fmpy.fmi1 import FMICallException  # noqa: F401  (re-exported for the tests)
 
 
@@ -21,17 +27,46 @@ def fmu_path(model, version):
     return fmu_dir() / f"fmi{version}" / f"{model}.fmu"
 
 
+def host_process(script, *args, env=None, timeout=None):
+    """Runs a host script in its own process (a crash there fails the test, not the suite) with fmu_host importable;
+    `env` adds to the environment. `timeout` (seconds) only ends a host that hangs, with the processes it forked."""
+    here = pathlib.Path(__file__).parent
+    env = dict(os.environ, **(env or {}))
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")]))
+    with subprocess.Popen([sys.executable, "-c", script, *map(str, args)], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, env=env, start_new_session=True) as host:
+        try:
+            out, err = host.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(host.pid, signal.SIGKILL)
+            raise
+    return subprocess.CompletedProcess(host.args, host.returncode, out, err)
+
+
 # Each FMU a process opens is unpacked once, into a folder removed when the process ends (fmpy.extract alone
 # leaves one folder per call in the system's temporary directory: ten per run of the test suite).
 _scratch = tempfile.TemporaryDirectory(prefix="grains-fmus-")
 _extracted = {}
+_extracting = threading.Lock()   # Units made in several threads at once unpacked into one folder, over a loaded binary
 
 
 def extracted(path):
     path = str(path)
-    if path not in _extracted:
-        _extracted[path] = fmpy.extract(path, unzipdir=os.path.join(_scratch.name, str(len(_extracted))))
-    return _extracted[path]
+    with _extracting:
+        if path not in _extracted:
+            _extracted[path] = fmpy.extract(path, unzipdir=os.path.join(_scratch.name, str(len(_extracted))))
+        return _extracted[path]
+
+
+# fmpy's FMI 2 logger proxy (which formats the printf-style message) holds one callback for the whole process, the
+# last one given to it: every FMI 2 instance's messages went to the newest Unit, and once that Unit was collected, to
+# freed memory (a crash, with instances in threads). So one callback, kept for the process's life, hands each message
+# to the Unit its instance's componentEnvironment names.
+_fmi2_messages = {}   # componentEnvironment -> that Unit's message list
+_fmi2_keys = itertools.count(1)   # next() is atomic: Units are made in threads too
+unrouted_messages = []   # of FMI 2 instances made with fmpy's own callbacks (no componentEnvironment), which share the proxy
+_fmi2_logger = fmi2CallbackLoggerTYPE(lambda env, inst, status, cat, msg: _fmi2_messages.get(env, unrouted_messages).append(
+    (status, cat.decode(), msg.decode())))
 
 
 class Unit:
@@ -46,14 +81,15 @@ class Unit:
         kw = dict(guid=self.md.guid, unzipDirectory=extracted(path),
                   modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         if self.version == 2:
-            from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+            from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions
             from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE
             from fmpy.logging import addLoggerProxy
             libc = ctypes.CDLL(None)
             libc.calloc.restype = ctypes.c_void_p
             self._callbacks = fmi2CallbackFunctions()
-            self._callbacks.logger = fmi2CallbackLoggerTYPE(
-                lambda env, inst, status, cat, msg: self.messages.append((status, cat.decode(), msg.decode())))
+            self._callbacks.logger = _fmi2_logger
+            self._callbacks.componentEnvironment = next(_fmi2_keys)
+            _fmi2_messages[self._callbacks.componentEnvironment] = self.messages
             self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(libc.calloc)
             self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(libc.free)
             addLoggerProxy(ctypes.byref(self._callbacks))

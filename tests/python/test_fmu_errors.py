@@ -1,14 +1,10 @@
 """Illegal calls and bad values: each returns an error status with a clear message through the host's
 logger, and the host process (this one) carries on; the instance can be reset and used again."""
-import os
-import pathlib
 import shutil
-import subprocess
-import sys
 
 import pytest
 
-from fmu_host import FMICallException, Unit, extracted, fmu_path
+from fmu_host import FMICallException, Unit, extracted, fmu_path, host_process
 
 
 @pytest.fixture(params=[2, 3], ids=["fmi2", "fmi3"])
@@ -16,13 +12,6 @@ def unit(request):
     u = Unit(fmu_path("aggregation", request.param))
     yield u
     u.free()
-
-
-def host_process(script, version):
-    """Runs a host script in its own process (a crash there fails the test, not the suite) with fmu_host importable."""
-    here = pathlib.Path(__file__).parent
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")])))
-    return subprocess.run([sys.executable, "-c", script, str(version)], capture_output=True, text=True, env=env)
 
 
 def fails(unit, call, *words):
