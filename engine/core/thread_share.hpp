@@ -22,7 +22,7 @@ inline std::pair<std::size_t, std::size_t> thread_share(std::size_t n, int t, in
 inline std::pair<std::size_t, std::size_t> row_share(const std::vector<std::uint32_t>& start, int t, int threads) {
   const std::size_t rows = start.empty() ? 0 : start.size() - 1;
   const auto row_at = [&](int u) -> std::size_t {
-    if (u <= 0) return 0;
+    if (u <= 0 || rows == 0) return 0;   // an empty list has no start[rows] to read
     if (u >= threads) return rows;
     const std::uint64_t target = std::uint64_t(start[rows]) * std::uint64_t(u) / std::uint64_t(threads);
     return std::size_t(std::lower_bound(start.begin(), start.begin() + rows, target) - start.begin());

@@ -457,9 +457,10 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       const int b = group.begin, e = group.end;
       const std::array<double, 3>&lo = group.lo, &hi = group.hi;   // the group's bounding box
       L.clear();
+      // Pointers by data() + index: &x_[to] with to == size() is out of range for operator[].
       auto add_particles = [&](int from, int to) {
-        L.x.insert(L.x.end(), &x_[from], &x_[to]), L.y.insert(L.y.end(), &y_[from], &y_[to]);
-        L.z.insert(L.z.end(), &z_[from], &z_[to]), L.m.insert(L.m.end(), &m_[from], &m_[to]);
+        L.x.insert(L.x.end(), x_.data() + from, x_.data() + to), L.y.insert(L.y.end(), y_.data() + from, y_.data() + to);
+        L.z.insert(L.z.end(), z_.data() + from, z_.data() + to), L.m.insert(L.m.end(), m_.data() + from, m_.data() + to);
       };
       add_particles(b, e);
       // Cells used whole are noted during the walk and copied into the lists after it.
