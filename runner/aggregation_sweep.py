@@ -390,8 +390,9 @@ def plot_map(points, damping, stiffness, path):
         for p in points:
             x, y = stiffness.index(p["k_star"]), damping.index(p["zeta"])
             # a value beyond the colour scale (D_f below 1: a cluster sunk into the softened core) is written in its
-            # cell: its colour alone said 1
-            outside = not limits[0] <= p[key] <= limits[1]
+            # cell: its colour alone said 1. No value (NaN: no cluster) is a blank cell, not a number ("nan" was
+            # written there, white on white, and pushed the cell's dagger off centre)
+            outside = math.isfinite(p[key]) and not limits[0] <= p[key] <= limits[1]
             if outside:
                 ax.text(x, y + 0.22, f"{p[key]:.2f}", ha="center", va="center", color="white", fontsize=7)
             if p.get("heated_runs"):   # runs that heated up (energy rose): their figures are not the model's

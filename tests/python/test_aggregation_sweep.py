@@ -278,3 +278,15 @@ def test_map_writes_a_fractal_dimension_beyond_its_colour_scale(tmp_path):
     texts = sorted((t.get_text(), t.get_position()) for t in fig.axes[0].texts)
     assert texts == [("0.35", (0, 0.22)), ("0.62", (1, 1.22)), ("‡", (0, 1)), ("‡", (1, 1 - 0.22))]
     assert fig.axes[0].images[0].colorbar.extend == "both"
+
+
+def test_map_leaves_a_cell_without_a_fractal_dimension_blank(tmp_path):
+    """A point whose runs formed no cluster has no D_f (NaN, "blank: none" on the colour bar): the map wrote "nan" in
+    it, white on the white cell, and drew its dagger below the centre as if beside a number (docs/aggregation-sweep,
+    k* 10 at zeta 0.01 to 0.1)."""
+    pytest.importorskip("matplotlib")
+    points = [sweep_point(z, k, 1.0, 0.001, d, heated) for z, k, d, heated in
+              ((0.02, 100, math.nan, 1), (0.02, 1000, math.nan, 0), (0.1, 100, 0.35, 1), (0.1, 1000, 2.9, 0))]
+    fig = sweep.plot_map(points, [0.02, 0.1], [100, 1000], tmp_path / "map.png")
+    texts = sorted((t.get_text(), t.get_position()) for t in fig.axes[0].texts)
+    assert texts == [("0.35", (0, 1.22)), ("‡", (0, 0)), ("‡", (0, 1 - 0.22))]
