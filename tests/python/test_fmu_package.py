@@ -72,6 +72,28 @@ def binary_of(path, version):
     return f"{extracted(path)}/binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
 
 
+# Scene keys with a dimension, by the packaged scenes that expose them: until 2026-12-05 the FMUs declared units for
+# their outputs only, and a host saw the grains' diameter or the adhesion's force as pure numbers.
+DIMENSIONED_PARAMETERS = {
+    "aggregation": {"particles.diameter": "m", "particles.density": "kg/m^3", "contact.duration": "s"},
+    "collision": {"particles.diameter": "m", "contact.duration": "s"},
+    "consolidation": {"particles.diameter_max": "m", "particles.diameter_min": "m", "particles.density": "kg/m^2",
+                      "adhesion.force": "N", "adhesion.stiffness": "N/m", "adhesion.range": "m"},
+}
+PURE_NUMBERS = {"contact.restitution", "friction.coefficient", "gravity.softening", "time.steps_per_contact",
+                "particles.solid_fraction", "adhesion.restitution", "contact.overlap_limit"}
+
+
+def test_scene_parameters_declare_their_units(fmu):
+    model, _, path = fmu
+    variables = {v.name: v for v in fmpy.read_model_description(str(path)).modelVariables}
+    declared = {name: variables[name].unit for name in DIMENSIONED_PARAMETERS[model] if name in variables}
+    assert declared == {name: unit for name, unit in DIMENSIONED_PARAMETERS[model].items() if name in variables}
+    assert len(declared) >= 2, f"{model}: the packaged scene exposes fewer of these keys than expected: {sorted(variables)}"
+    for name in PURE_NUMBERS & variables.keys():
+        assert variables[name].unit in (None, ""), f"{name} is a pure number, declared {variables[name].unit}"
+
+
 def test_binary_needs_only_the_c_and_cxx_runtimes(fmu):
     _, version, path = fmu
     dynamic = subprocess.run(["readelf", "-d", binary_of(path, version)], capture_output=True, text=True, check=True).stdout
