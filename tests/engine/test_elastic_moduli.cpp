@@ -192,7 +192,10 @@ TEST_CASE("disordered packing: symmetric stiffness, B and G below Voigt, the den
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> jitter(-0.12, 0.12), size(0.42, 0.58);
   auto t = triangular(8, 8, 1.0);
-  for (auto& p : t.x) p += Vec<2>(jitter(rng), jitter(rng));
+  for (auto& p : t.x) {   // drawn in sequence (y first, as GCC evaluated Vec<2>(jitter(rng), jitter(rng))): argument
+    const double dy = jitter(rng), dx = jitter(rng);   // order is unspecified, clang drew x first: another packing,
+    p += Vec<2>(dx, dy);                                // one with a mechanism
+  }
   for (auto& r : t.radius) r = size(rng);
   const double kn = 1e5, kt = 0.7 * kn, kr = 1e-3 * kn;
   const auto springs = springs_of<2>(t.x, t.radius, t.L, {kn, kt, kr});
