@@ -67,6 +67,15 @@ def test_archive_has_the_standard_layout(fmu, root):
     assert zipfile.ZipFile(path).read("resources/scene.toml").decode() == (root / "models" / f"{model}.toml").read_text()
 
 
+def test_documentation_states_the_stepping_rule_the_fmu_follows(fmu):
+    # documentation/index.html is what a user of another host reads; until 2026-12-05 it still described the rule
+    # replaced that day (whole steps and one shorter remainder). The rule itself: test_fmu_uneven_steps.py.
+    _, _, path = fmu
+    html = zipfile.ZipFile(path).read("documentation/index.html").decode()
+    assert "ceil(h / dt) equal steps" in html
+    assert "shorter step" not in html
+
+
 def binary_of(path, version):
     md = fmpy.read_model_description(str(path))
     return f"{extracted(path)}/binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
