@@ -1,5 +1,6 @@
 # Assembles and zips one model's FMUs (run by the build: cmake -D... -P package_fmu.cmake).
-# Layout: modelDescription.xml, binaries/<platform>/<identifier>.so, resources/scene.toml,
+# Layout: modelDescription.xml, binaries/<platform>/<identifier>.so (with grains_fork_guard.so and grains_snapshots.so
+# beside it), resources/scene.toml,
 # documentation/index.html, extra/org.fmi-standard.fmi-ls-ref/ (reference results).
 file(REMOVE_RECURSE ${STAGE})
 execute_process(COMMAND ${DESCRIBE} ${SCENE} ${IDENTIFIER} ${STAGE}/generated ${VERSION} RESULT_VARIABLE failed)
@@ -17,6 +18,7 @@ foreach(version 2 3)
   file(COPY_FILE ${STAGE}/generated/fmi${version}/modelDescription.xml ${root}/modelDescription.xml)
   file(COPY_FILE ${BINARY} ${root}/binaries/${platform}/${IDENTIFIER}.so)
   file(COPY_FILE ${PLUGIN} ${root}/binaries/${platform}/grains_snapshots.so)   # optional HDF5 snapshots
+  file(COPY_FILE ${FORK_GUARD} ${root}/binaries/${platform}/grains_fork_guard.so)   # the fork handler that stays loaded
   file(COPY_FILE ${SCENE} ${root}/resources/scene.toml)
   file(COPY ${STAGE}/generated/documentation ${STAGE}/generated/extra DESTINATION ${root})
   file(MAKE_DIRECTORY ${OUT}/fmi${version})

@@ -40,11 +40,16 @@ std::filesystem::path decode_resource_location(const std::string& location) {
   return std::filesystem::path(decoded);
 }
 
-std::filesystem::path resources_beside_binary() {
+std::filesystem::path binary_directory() {
   Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&resources_beside_binary), &info) == 0 || !info.dli_fname) return {};
-  // <fmu>/binaries/<platform>/<model>.so
-  return std::filesystem::absolute(info.dli_fname).parent_path().parent_path().parent_path() / "resources";
+  if (dladdr(reinterpret_cast<void*>(&binary_directory), &info) == 0 || !info.dli_fname) return {};
+  return std::filesystem::absolute(info.dli_fname).parent_path();
+}
+
+std::filesystem::path resources_beside_binary() {
+  const std::filesystem::path binaries = binary_directory();   // <fmu>/binaries/<platform>
+  if (binaries.empty()) return {};
+  return binaries.parent_path().parent_path() / "resources";
 }
 
 }  // namespace grains::fmu

@@ -8,21 +8,13 @@
 
 #include "core/simulation.hpp"
 #include "io/h5md_frame_view.hpp"
+#include "resource_location.hpp"
 #include "snapshot_plugin.hpp"
 
 namespace grains::fmu {
-namespace {
-std::string this_binary_directory() {
-  Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&this_binary_directory), &info) == 0 || !info.dli_fname) return ".";
-  std::string p = info.dli_fname;
-  return p.substr(0, p.find_last_of('/'));
-}
-}  // namespace
-
 SnapshotOutput::SnapshotOutput(const std::string& path, const Simulation& sim, const std::string& version,
                                const std::string& scene_toml) {
-  const std::string plugin = this_binary_directory() + "/" + snapshot_plugin_file;
+  const std::string plugin = (binary_directory() / snapshot_plugin_file).string();
   // Never unloaded: the HDF5 library it brings in leaves thread keys whose destructors run when a host thread that
   // wrote snapshots ends. Unloaded with the instance, HDF5 took those destructors' code with it, and the host
   // crashed when such a thread ended.

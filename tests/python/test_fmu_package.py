@@ -59,7 +59,8 @@ def test_archive_has_the_standard_layout(fmu, root):
     md = fmpy.read_model_description(str(path))
     assert md.fmiVersion == f"{version}.0"
     binary = f"binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
-    for required in ["modelDescription.xml", binary, "resources/scene.toml", "documentation/index.html",
+    fork_guard = f"binaries/{PLATFORM[version]}/grains_fork_guard.so"
+    for required in ["modelDescription.xml", binary, fork_guard, "resources/scene.toml", "documentation/index.html",
                      f"extra/org.fmi-standard.fmi-ls-ref/{model}_ref.csv",
                      f"extra/org.fmi-standard.fmi-ls-ref/{model}_ref.opt",
                      "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml"]:
@@ -79,6 +80,10 @@ def test_documentation_states_the_stepping_rule_the_fmu_follows(fmu):
 def binary_of(path, version):
     md = fmpy.read_model_description(str(path))
     return f"{extracted(path)}/binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
+
+
+def fork_guard_of(path, version):
+    return f"{extracted(path)}/binaries/{PLATFORM[version]}/grains_fork_guard.so"
 
 
 # Scene keys with a dimension, by the packaged scenes that expose them: until 2026-12-05 the FMUs declared units for
@@ -103,13 +108,26 @@ def test_scene_parameters_declare_their_units(fmu):
         assert variables[name].unit in (None, ""), f"{name} is a pure number, declared {variables[name].unit}"
 
 
-def test_binary_needs_only_the_c_and_cxx_runtimes(fmu):
+@pytest.mark.parametrize("library", [binary_of, fork_guard_of], ids=["binary", "fork_guard"])
+def test_binary_needs_only_the_c_and_cxx_runtimes(fmu, library):
     _, version, path = fmu
-    dynamic = subprocess.run(["readelf", "-d", binary_of(path, version)], capture_output=True, text=True, check=True).stdout
+    dynamic = subprocess.run(["readelf", "-d", library(path, version)], capture_output=True, text=True, check=True).stdout
     needed = {line.split("[")[1].split("]")[0] for line in dynamic.splitlines() if "(NEEDED)" in line}
     assert needed, "readelf found no dependencies at all (not a dynamic library?)"
     assert needed <= ALLOWED_LIBRARIES, f"not allowed: {needed - ALLOWED_LIBRARIES}"
     assert not any(bad in " ".join(needed) for bad in ("hdf5", "sundials", "fmt", "curl", "ssl"))
+
+
+def test_fork_guard_stays_loaded_and_exports_nothing(fmu):
+    """The FMU binary finds an already loaded guard by its SONAME; -z nodelete keeps it loaded, with its fork handler."""
+    _, version, path = fmu
+    dynamic = subprocess.run(["readelf", "-d", fork_guard_of(path, version)], capture_output=True, text=True,
+                             check=True).stdout
+    assert "Library soname: [grains_fork_guard.so]" in dynamic
+    assert any("(FLAGS_1)" in line and "NODELETE" in line for line in dynamic.splitlines()), dynamic
+    symbols = subprocess.run(["nm", "-D", "--defined-only", fork_guard_of(path, version)], capture_output=True,
+                             text=True, check=True).stdout
+    assert symbols.strip() == "", symbols
 
 
 def test_binary_exports_every_fmi_function_and_nothing_else(fmu):
