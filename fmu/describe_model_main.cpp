@@ -73,6 +73,11 @@ int main(int argc, char** argv) {
     info.name = scene.text("scene.name");
     info.identifier = argv[2];
     info.description = scene.text("scene.description");
+    // A cell scene's description tells of `grains consolidate`'s preparation and programme, which the FMU does
+    // not run: a host reading it expected an aggregation and a stepwise loading that never came.
+    if (scene.boolean("cell.enabled"))
+      info.description += ". This FMU runs no preparation or programme (grains consolidate does): it steps the "
+                          "scene's initial state at the target pressure the host sets (input cell.pressure)";
     info.version = argv[4];
     // Communication steps of 100 dt, or fewer so that a short run still gives 100 points (the collision:
     // 5 dt, where 100 would sample its whole run 5 times); a whole number of dt either way.

@@ -169,11 +169,11 @@ std::string documentation_html(const ModelTable& t, const ModelInfo& info) {
   std::string out = fmt::format(
       "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title></head><body>\n<h1>grains FMU: {0}</h1>\n<p>{1}</p>\n"
       "<p>Co-simulation FMU (FMI 2.0 and 3.0) of the grains DEM engine. Parameters are scene keys (see the scene "
-      "reference); the scene itself is <code>resources/scene.toml</code>. Internal steps use the scene's dt "
-      "(<code>time.dt</code>): a communication step h of k whole dt, to within the rounding of the host's clock, takes "
-      "k steps, as the runner does; any other h takes ceil(h / dt) equal steps, none longer than dt. A host whose "
-      "clock counts whole nanoseconds (libcosim) gets whole steps only where dt is a whole number of nanoseconds."
-      "</p>\n"
+      "reference); the scene itself is <code>resources/scene.toml</code>. Internal steps use the scene's dt: a "
+      "communication step h of k whole dt (within 1e-9 dt or the rounding of the host's clock) takes k steps of dt, "
+      "the runner's; any other h takes ceil(h / dt) equal steps landing on t + h (an h below 1e-9 dt is carried "
+      "over). Inputs are held over a step. A host whose clock counts whole nanoseconds (libcosim) gets whole steps "
+      "only where dt is a whole number of nanoseconds.</p>\n"
       "<table border=\"1\"><tr><th>reference</th><th>name</th><th>causality</th><th>variability</th><th>start</th><th>unit</th>"
       "<th>meaning</th></tr>\n",
       xml_escape(info.name), xml_escape(info.description));

@@ -9,7 +9,8 @@ the test suite: minutes to an hour of run time).
 Three sweeps, each point a `grains run` of the scene to its end (3 t_ff) with its own seed(s):
   - damping: zeta over --damping at k* = --fixed-stiffness (default: the scene's own, ~6.5e3);
   - stiffness: k* over --stiffness at zeta = --fixed-damping; `auto` (default) takes, as the paper does,
-    the smallest swept zeta whose cloud ends as a dense aggregate (final N_c / N <= 0.05);
+    the smallest swept zeta whose cloud ends as a dense aggregate (final N_c / N <= 0.05); `--stiffness`
+    with no value leaves this sweep out;
   - with --map, every (zeta, k*) pair, for the map of the fractal dimension.
 zeta sets the restitution e = exp(-pi zeta / sqrt(1 - zeta^2)) (0 <= zeta < 1) and k* the contact
 duration t_c = sqrt(m* (pi^2 + ln^2 e) / (k* k_g)), m* = m / 2 and k_g = G m^2 / (4 R^3) of the scene's
@@ -466,8 +467,12 @@ def plot_virial_map(points, damping, stiffness, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].split("\n    python")[0].replace("\n", " "))
-    ap.add_argument("--damping", type=float, nargs="+", default=DAMPING, help="damping ratios zeta in [0, 1)")
-    ap.add_argument("--stiffness", type=float, nargs="+", default=STIFFNESS, help="normalised stiffnesses k* > 0")
+    ap.add_argument("--damping", type=float, nargs="+", default=DAMPING,
+                    help=f"damping ratios zeta in [0, 1) of the damping sweep (default: {' '.join(map(str, DAMPING))})")
+    # The stiffness sweep follows the damping sweep unless asked not to: a user who gave two dampings got eight runs.
+    ap.add_argument("--stiffness", type=float, nargs="*", default=STIFFNESS,
+                    help="normalised stiffnesses k* > 0 of the stiffness sweep, which follows the damping sweep "
+                         f"(default: {' '.join(f'{k:g}' for k in STIFFNESS)}); --stiffness with no value: the damping sweep alone")
     ap.add_argument("--fixed-stiffness", type=float, help="k* of the damping sweep (default: the scene's)")
     ap.add_argument("--fixed-damping", default="auto", help="zeta of the stiffness sweep, or auto (default)")
     ap.add_argument("--map", action="store_true", help="also every (zeta, k*) pair, for the fractal-dimension map")
@@ -599,14 +604,17 @@ def main(argv=None):
 
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
     damping = points([(z, fixed_stiffness) for z in args.damping])
-    if args.fixed_damping == "auto":
+    if not args.stiffness:
+        fixed_damping = None
+    elif args.fixed_damping == "auto":
         dense = [p["zeta"] for p in damping if p["cluster_index"] <= DENSE]
         if not dense:
             ap.error(f"--fixed-damping auto: no swept zeta ends as a dense aggregate (final N_c / N <= {DENSE}); give one")
         fixed_damping = min(dense)
     else:
         fixed_damping = float(args.fixed_damping)
-    print(f"stiffness sweep: {len(args.stiffness)} points at zeta = {fixed_damping:g}", flush=True)
+    if args.stiffness:
+        print(f"stiffness sweep: {len(args.stiffness)} points at zeta = {fixed_damping:g}", flush=True)
     stiffness = points([(fixed_damping, k) for k in args.stiffness])
     grid = points([(z, k) for z in args.damping for k in args.stiffness]) if args.map else []
 
@@ -627,7 +635,8 @@ def main(argv=None):
     print(text)
     (out / "summary.md").write_text(text + "\n")
     plot_sweep(damping, "zeta", f"Damping sweep at k* = {fixed_stiffness:.3g}, median of {args.seeds} seed(s)", out / "damping.png")
-    plot_sweep(stiffness, "k_star", f"Stiffness sweep at ζ = {fixed_damping:g}, median of {args.seeds} seed(s)", out / "stiffness.png")
+    if stiffness:
+        plot_sweep(stiffness, "k_star", f"Stiffness sweep at ζ = {fixed_damping:g}, median of {args.seeds} seed(s)", out / "stiffness.png")
     if grid:
         plot_map(grid, list(dict.fromkeys(args.damping)), list(dict.fromkeys(args.stiffness)), out / "map.png")
         plot_virial_map(grid, list(dict.fromkeys(args.damping)), list(dict.fromkeys(args.stiffness)), out / "virial-map.png")

@@ -151,6 +151,14 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   // A scene may be meant for `consolidate` or an FMU, which need no run length: said, not refused.
   else fmt::print("; no run length: `grains run` needs time.duration, time.steps or time.free_fall_times");
   fmt::print("\n");
+  // What a scene is aimed by but does not set: a user after a given k* had to run a step to read it.
+  std::vector<std::string> aims;
+  for (const auto& [name, shown] : {std::pair{"contact.k_n", "contact.k_n"}, {"contact.c_n", "contact.c_n"},
+                                     {"normalised_stiffness", "k* = k_n / k_g (normalised_stiffness)"},
+                                     {"free_fall_time", "t_ff (free_fall_time)"}})
+    if (std::ranges::any_of(r.sim->variables(), [&](const VariableInfo& v) { return v.name == name; }))
+      aims.push_back(fmt::format("{} = {:.6g}", shown, r.sim->get(name)));
+  if (!aims.empty()) fmt::print("# derived: {}\n", fmt::join(aims, ", "));
   return 0;
 }
 

@@ -178,6 +178,7 @@ class SimulationImpl final : public Simulation {
   void warn_gravity_step(const Scene& scene, double rmin, bool contacts);
   void warn_pressure_beyond_clamp(const char* key, double reduced_pressure);
   void check_energy(double kinetic) const;
+  void check_pass_through() const;
 
   // --- saved state (simulation_state.cpp) ---
   void check_loaded() const;
@@ -237,6 +238,7 @@ class SimulationImpl final : public Simulation {
     std::uint8_t started = 0, warned = 0;
   };
   mutable EnergyWatch energy_watch_;
+  mutable bool pass_through_warned_ = false;   // check_pass_through has warned (once per run; part of the saved state)
   // Pressure-controlled cell (absent unless cell.enabled).
   std::unique_ptr<Barostat<D>> barostat_;
   Tensor<D> contact_stress_ = Tensor<D>::Zero();   // from the last force evaluation

@@ -126,6 +126,7 @@ void SimulationImpl<D>::refresh_general() const {
     if (kn_ > 0) o["normalised_stiffness"] = kn_ / gravity_stiffness_;
   }
   if (energy_check_) check_energy(kt + kr);
+  if (energy_check_ && kn_ > 0) check_pass_through();
   if (collisions_) {
     const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
     o["collision_count"] = n;

@@ -190,6 +190,25 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
 
 
+def test_a_stiffness_option_without_values_runs_the_damping_sweep_alone(grains_bin, tmp_path):
+    """Until 2026-12-05 every sweep ran the stiffness sweep after the damping one (six more runs by default), so a user
+    asking for two dampings got eight runs; `--stiffness` with no value now leaves it out. The help lists the defaults."""
+    small = ["--set", "particles.count=30", "--set", "time.duration=0.5", "--set", "analysis.every=20",
+             "--set", "output.observables_every=50"]
+    tool = [sys.executable, str(ROOT / "runner/aggregation_sweep.py")]
+    run = subprocess.run([*tool, "--grains", grains_bin, "--out", str(tmp_path), "--damping", "0.3", "0.5",
+                          "--stiffness", "--jobs", "1", "--threads", "1", *small], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    rows = list(csv.DictReader((tmp_path / "sweep.csv").open()))
+    assert [(r["sweep"], float(r["zeta"])) for r in rows] == [("damping", 0.3), ("damping", 0.5)]
+    assert len(list(tmp_path.glob("*.h5"))) == 2 and "stiffness sweep" not in run.stdout
+    assert (tmp_path / "damping.png").is_file() and not (tmp_path / "stiffness.png").exists()
+    assert "vs k*" not in (tmp_path / "summary.md").read_text()
+    usage = subprocess.run([*tool, "--help"], capture_output=True, text=True).stdout
+    assert " ".join(f"{k:g}" for k in sweep.STIFFNESS) in " ".join(usage.split())
+    assert " ".join(map(str, sweep.DAMPING)) in " ".join(usage.split())
+
+
 def test_a_stiffness_that_names_its_runs_as_the_scene_k_star_does_is_that_point(grains_bin, tmp_path):
     """The scene's k* (6468.79) and --stiffness 6469 both name their runs k6469: until 2026-12-05 the second was
     refused as a run with other settings, and the sweep stopped."""

@@ -68,15 +68,6 @@ def test_archive_has_the_standard_layout(fmu, root):
     assert zipfile.ZipFile(path).read("resources/scene.toml").decode() == (root / "models" / f"{model}.toml").read_text()
 
 
-def test_documentation_states_the_stepping_rule_the_fmu_follows(fmu):
-    # documentation/index.html is what a user of another host reads; until 2026-12-05 it still described the rule
-    # replaced that day (whole steps and one shorter remainder). The rule itself: test_fmu_uneven_steps.py.
-    _, _, path = fmu
-    html = zipfile.ZipFile(path).read("documentation/index.html").decode()
-    assert "ceil(h / dt) equal steps" in html
-    assert "shorter step" not in html
-
-
 def binary_of(path, version):
     md = fmpy.read_model_description(str(path))
     return f"{extracted(path)}/binaries/{PLATFORM[version]}/{md.coSimulation.modelIdentifier}.so"
@@ -96,6 +87,23 @@ DIMENSIONED_PARAMETERS = {
 }
 PURE_NUMBERS = {"contact.restitution", "friction.coefficient", "gravity.softening", "time.steps_per_contact",
                 "particles.solid_fraction", "adhesion.restitution", "contact.overlap_limit"}
+
+
+# What a host reads before stepping: until 2026-12-05 the FMU's page said a step that is not a whole number of dt ends
+# with one shorter step (the rule before equal steps), and the consolidation FMU's description promised the type-2
+# aggregation and the stepwise loading of `grains consolidate`, which the FMU does not run.
+def test_documentation_states_how_a_communication_step_is_taken(fmu):
+    _, _, path = fmu
+    page = zipfile.ZipFile(path).read("documentation/index.html").decode()
+    assert "ceil(h / dt) equal steps" in page
+    assert "shorter step" not in page
+
+
+def test_a_cell_scenes_description_says_the_fmu_runs_no_programme(fmu):
+    model, _, path = fmu
+    description = fmpy.read_model_description(str(path)).description
+    says = "runs no preparation or programme" in description and "input cell.pressure" in description
+    assert says == (model == "consolidation")
 
 
 def test_scene_parameters_declare_their_units(fmu):

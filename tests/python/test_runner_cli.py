@@ -143,6 +143,30 @@ def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
     assert r.returncode == 0 and "# derived: time.dt = 0.002, 2 particles, `grains run` takes 500 steps" in r.stdout
 
 
+def test_check_prints_the_stiffness_and_free_fall_time_a_run_records(grains_bin, root, tmp_path):
+    """A scene is aimed at a k* through contact.duration, which `check` did not translate: a user had to run a step
+    and read normalised_stiffness. It now prints k_n, c_n, k* and t_ff, the values the run records."""
+    r = run(grains_bin, "check", root / "models" / "aggregation.toml", "--set", "particles.count=50")
+    assert r.returncode == 0, r.stderr
+    derived = [line for line in r.stdout.splitlines() if line.startswith("# derived: contact.k_n = ")]
+    assert len(derived) == 1, r.stdout
+    printed = dict(part.rsplit(" = ", 1) for part in derived[0].removeprefix("# derived: ").split(", "))
+    h5 = tmp_path / "one.h5"
+    r = run(grains_bin, "run", root / "models" / "aggregation.toml", "--set", "particles.count=50", "--set", "time.steps=1",
+            "--out", h5, "--quiet")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(h5, "r") as f:
+        recorded = {key: f[f"observables/{name}/value"][0] for key, name in
+                    (("k* = k_n / k_g (normalised_stiffness)", "normalised_stiffness"),
+                     ("t_ff (free_fall_time)", "free_fall_time"))}
+    for key, value in recorded.items():
+        assert float(printed[key]) == pytest.approx(value, rel=1e-5)
+    # k* = k_n / k_g with k_g = G m^2 / (4 R^3) = 2 for the scene's unit grains
+    assert float(printed["contact.k_n"]) == pytest.approx(2 * recorded["k* = k_n / k_g (normalised_stiffness)"], rel=1e-5)
+    r = run(grains_bin, "check", root / "models" / "gas.toml")   # no gravity: k_n and c_n only
+    assert r.returncode == 0 and "k_g" not in r.stdout and "# derived: contact.k_n = " in r.stdout
+
+
 def test_check_says_when_run_would_want_a_run_length(grains_bin, root, tmp_path):
     """A scene without a run length suits `consolidate` and the FMUs but not `run`: `check` accepts it and says
     so, and `run` refuses it with the same keys."""
