@@ -10,7 +10,6 @@
 
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
-#include "scene_key_units.hpp"
 
 namespace grains::fmu {
 namespace {
@@ -54,7 +53,7 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
     v.variability = Variability::fixed;
     v.scene_key = v.name;
     v.description = std::string(e.doc);
-    v.unit = scene_key_unit(e.path, t.dimension);
+    v.unit = scene_key_unit(e.path, t.dimension);   // the schema's, as the scene reference gives it
     v.type = e.kind == ValueKind::real ? ValueType::real : e.kind == ValueKind::integer ? ValueType::integer : ValueType::boolean;
     v.start = e.kind == ValueKind::real ? scene.real(e.path) : e.kind == ValueKind::integer ? double(scene.integer(e.path))
                                                                                            : double(scene.boolean(e.path));

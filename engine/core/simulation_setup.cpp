@@ -126,18 +126,19 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
   rebuild();
   describe_variables(scene);
   if (rolling_)
-    add_control({"rolling.damping_ratio", "", Causality::parameter, Variability::tunable,
+    add_control({"rolling.damping_ratio", scene_key_unit("rolling.damping_ratio", D), Causality::parameter,
+                 Variability::tunable,
                  "beta = c_r / (c_n R_i R_j) of the rolling dashpot on the relative spin (tunable: takes effect at "
                  "the next step; 0 is the paper's law)", 0.0, 1.0},
                 [r = rolling_] { return r->damping; }, [r = rolling_](double beta) { r->damping = beta; });
   drag_ = scene.real("drag.rate");
-  add_control({"drag.rate", "1/s", Causality::parameter, Variability::tunable,
+  add_control({"drag.rate", scene_key_unit("drag.rate", D), Causality::parameter, Variability::tunable,
                "gamma: every step multiplies velocities (relative to the cell's affine flow) and spins by "
                "exp(-gamma dt), a drag on every grain that no paper's law has: a relaxation aid (tunable: takes "
                "effect at the next step; 0 is off)", 0.0},
               [this] { return drag_; }, [this](double gamma) { drag_ = gamma; });
   if (gravity_)   // a host may steer the strength of self-gravity between steps (t_ff keeps the initial G)
-    add_control({"gravity.G", "m^3/(kg s^2)", Causality::parameter, Variability::tunable,
+    add_control({"gravity.G", scene_key_unit("gravity.G", D), Causality::parameter, Variability::tunable,
                  "gravitational constant G (tunable: takes effect at the next step; 0 switches gravity off once "
                  "initialized, while the scene itself needs G > 0)", 0.0},
                 [g = gravity_] { return g->G(); },

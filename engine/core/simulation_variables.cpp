@@ -70,25 +70,30 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
     vars_.push_back({std::move(name), std::move(unit), Causality::parameter, Variability::fixed, std::move(doc)});
     parameter_values_.push_back(value);
   };
-  param("particles.count", double(sys_.particles.size()), "", "number of particles");
+  // A parameter named after a scene key has the key's unit (the schema's dimension).
+  auto key_param = [&](std::string name, double value, std::string doc) {
+    std::string unit = scene_key_unit(name, D);
+    param(std::move(name), value, std::move(unit), std::move(doc));
+  };
+  key_param("particles.count", double(sys_.particles.size()), "number of particles");
   vars_.back().is_integer = true;
-  param("scene.dimension", D, "", "2 = disks, 3 = spheres");
+  key_param("scene.dimension", D, "2 = disks, 3 = spheres");
   vars_.back().is_integer = true;
-  param("time.dt", dt_, "s", "internal time step");
+  key_param("time.dt", dt_, "internal time step");
   if (network_) {
-    param("adhesion.force", attraction_, "N", "F0: attraction of contacting grains");
-    param("adhesion.range", adhesion_range_, "m", "D0: range of the attraction beyond contact");
-    param("adhesion.restitution", scene.real("adhesion.restitution"), "", "e_N, sets the normal damping as if F0 = 0");
+    key_param("adhesion.force", attraction_, "F0: attraction of contacting grains");
+    key_param("adhesion.range", adhesion_range_, "D0: range of the attraction beyond contact");
+    key_param("adhesion.restitution", scene.real("adhesion.restitution"), "e_N, sets the normal damping as if F0 = 0");
     param("contact.k_n", kn_, "N/m", "normal stiffness K_N");
     param("contact.c_n", cn_, "kg/s", "normal damping of the lightest pair");
-    param("friction.coefficient", scene.real("friction.coefficient"), "", "Coulomb coefficient mu");
-    param("rolling.coefficient", scene.real("rolling.coefficient"), "m", "mu_R: rolling moment bound over K_N delta");
+    key_param("friction.coefficient", scene.real("friction.coefficient"), "Coulomb coefficient mu");
+    key_param("rolling.coefficient", scene.real("rolling.coefficient"), "mu_R: rolling moment bound over K_N delta");
   } else if (scene.boolean("contact.enabled")) {
-    param("contact.restitution", scene.real("contact.restitution"), "", "normal restitution e");
-    param("contact.duration", scene.real("contact.duration"), "s", "contact duration t_c");
+    key_param("contact.restitution", scene.real("contact.restitution"), "normal restitution e");
+    key_param("contact.duration", scene.real("contact.duration"), "contact duration t_c");
     param("contact.k_n", kn_, "N/m", "normal stiffness (global mode: from the smallest reduced mass)");
     param("contact.c_n", cn_, "kg/s", "normal damping (global mode)");
-    param("friction.coefficient", scene.real("friction.coefficient"), "", "Coulomb coefficient mu");
+    key_param("friction.coefficient", scene.real("friction.coefficient"), "Coulomb coefficient mu");
   }
   auto out = [&](std::string name, std::string unit, std::string doc) {
     vars_.push_back({std::move(name), std::move(unit), Causality::output, Variability::continuous, std::move(doc)});
@@ -220,7 +225,7 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
   out("cvode_rhs_evaluations", "", "CVODE right-hand-side evaluations so far");
   out("cvode_reinitialisations", "", "CVODE restarts (a new target pressure, a released cell, and one every 500 particle steps: a saved state carries the steps since the last)");
   out("cvode_seconds", "s", "wall time spent in CVODE (this process)");
-  add_control({"cell.pressure", "", Causality::input, Variability::continuous,
+  add_control({"cell.pressure", scene_key_unit("cell.pressure", D), Causality::input, Variability::continuous,
                "target reduced pressure P* (a P / F0 in 2D, a^2 P / F0 in 3D)", 0, 1e6},
               [this] { return target_reduced_; },
               [this](double v) {
@@ -232,7 +237,7 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
                 ramp_.on = false;   // the host (or the programme) drives the pressure now
                 barostat_->set_target_pressure(v * pressure_scale_, rate_cap(v));
               });
-  VariableInfo active{"cell.active", "", Causality::input, Variability::discrete,
+  VariableInfo active{"cell.active", scene_key_unit("cell.active", D), Causality::input, Variability::discrete,
                       "1: the barostat moves the cell; 0: the cell is held fixed at rest (e.g. while a type-2 sample "
                       "aggregates)", 0, 1};
   active.is_integer = true;

@@ -11,6 +11,8 @@
 
 #include <toml++/toml.h>
 
+#include "io/scene_units.hpp"
+
 namespace grains {
 
 struct SceneError : std::runtime_error { using std::runtime_error::runtime_error; };
@@ -22,6 +24,9 @@ enum class ValueKind { real, integer, boolean, text, real_array, real_matrix };
 struct SchemaEntry {
   std::string_view path;
   ValueKind kind;
+  // Every number's dimension, a pure number's too (Dimension{}); none for text and switches, which are not
+  // quantities. A number without one was forgotten (a test says which).
+  std::optional<Dimension> dimension;
   std::string_view fallback;
   double min = -1e308, max = 1e308;
   bool min_open = false, max_open = false;
@@ -32,6 +37,9 @@ struct SchemaEntry {
 
 const std::vector<SchemaEntry>& scene_schema();
 const SchemaEntry* find_schema_entry(std::string_view path);
+// The SI unit of a schema key in a scene of this dimension (2D densities per area): "" for a pure number, text or a
+// switch. The FMUs declare it, and the engine's variables named after a key.
+std::string scene_key_unit(std::string_view path, int scene_dimension);
 std::string schema_reference_markdown();   // the scene reference page, generated from the schema
 
 struct UnreadKeyRule;

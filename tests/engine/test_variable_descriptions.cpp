@@ -64,3 +64,19 @@ TEST_CASE("declared units: stresses and moduli per length in 2D and per area in 
     CHECK(seen > 0);
   }
 }
+
+TEST_CASE("a variable named after a scene key has the key's unit, the schema's", "[observables][units]") {
+  // The engine's parameters and controls (time.dt, adhesion.force, gravity.G, drag.rate, ...) wrote their units out
+  // until 2026-12-05, beside the FMUs' own table of the scene keys' units.
+  int seen = 0;
+  for (const char* name : {"aggregation", "collision", "consolidation", "consolidation-rr-3d", "cohesionless"}) {
+    auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/" + name + ".toml", {"run.threads=1"}));
+    for (const auto& v : s->variables()) {
+      if (!find_schema_entry(v.name)) continue;
+      INFO(name << ": " << v.name << " [" << v.unit << "]");
+      CHECK(v.unit == scene_key_unit(v.name, s->dimension()));
+      seen += !v.unit.empty();
+    }
+  }
+  CHECK(seen >= 10);
+}

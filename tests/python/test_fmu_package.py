@@ -2,6 +2,7 @@
 exports only FMI functions, and reference results that the FMU reproduces."""
 import csv
 import subprocess
+import tomllib
 import zipfile
 
 import fmpy
@@ -114,6 +115,35 @@ def test_scene_parameters_declare_their_units(fmu):
     assert len(declared) >= 2, f"{model}: the packaged scene exposes fewer of these keys than expected: {sorted(variables)}"
     for name in PURE_NUMBERS & variables.keys():
         assert variables[name].unit in (None, ""), f"{name} is a pure number, declared {variables[name].unit}"
+
+
+def reference_units(grains_bin, dimension):
+    """Each scene key's SI unit for disks (2) or spheres (3) as the scene reference's unit column gives it ("" for a
+    pure number, text or a switch)."""
+    text = subprocess.run([grains_bin, "scene-reference"], capture_output=True, text=True, check=True).stdout
+    units, section = {}, None
+    for line in text.splitlines():
+        if line.startswith("## ["):
+            section = line[len("## ["):-1]
+        elif section and line.startswith("| `"):
+            key, _, unit = (cell.strip() for cell in line.strip("|").split(" | ")[:3])
+            if "(3D)" in unit:
+                unit = dict(reversed(part.rsplit(" ", 1)) for part in unit.split(", "))[f"({dimension}D)"]
+            units[f"{section}.{key.strip('`')}"] = "" if unit == "1" else unit
+    return units
+
+
+def test_every_variable_named_after_a_scene_key_declares_the_scene_references_unit(fmu, grains_bin):
+    """Every key, not only those DIMENSIONED_PARAMETERS names: the parameters, controls and inputs of the packaged
+    scenes take their units from the scene schema, as the reference does."""
+    _, _, path = fmu
+    variables = fmpy.read_model_description(str(path)).modelVariables
+    dimension = tomllib.loads(zipfile.ZipFile(path).read("resources/scene.toml").decode())["scene"].get("dimension", 3)
+    units = reference_units(grains_bin, dimension)
+    assert units["particles.density"] == ("kg/m^2" if dimension == 2 else "kg/m^3")
+    named = [v for v in variables if v.name in units]
+    assert len(named) >= 8
+    assert {v.name: v.unit or "" for v in named} == {v.name: units[v.name] for v in named}
 
 
 @pytest.mark.parametrize("library", [binary_of, fork_guard_of], ids=["binary", "fork_guard"])
