@@ -38,7 +38,7 @@ def _fake_sundials_tools(fakes, log, apt_fails=False):
     what the real ones would (the source tarball, its folder, the installed package's CMake file)."""
     _fake(fakes, "dpkg-query", 'echo "6.4.1+dfsg1-3"')
     _fake(fakes, "apt-get", f'echo "apt-get $*" >> {log}; ' +
-          ("exit 100" if apt_fails else 'case "$*" in *source*) touch sundials_6.4.1+dfsg1.orig.tar.xz;; esac'))
+          ("exit 100" if apt_fails else 'case "$*" in *"source --download-only"*) touch sundials_6.4.1+dfsg1.orig.tar.xz;; esac'))
     _fake(fakes, "tar", f'echo "tar $*" >> {log}; while [ "$1" != "-C" ]; do shift; done; mkdir -p "$2/sundials-6.4.1"')
     _fake(fakes, "cmake", f'echo "cmake $*" >> {log}; for a in "$@"; do case "$a" in -DCMAKE_INSTALL_PREFIX=*) '
           'echo "${a#*=}" > "$(dirname "$0")/prefix";; esac; done; '
