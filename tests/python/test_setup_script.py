@@ -31,3 +31,57 @@ def test_debian_python_without_venv_gets_python3_venv(root, tmp_path):
     r = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert not asked.exists(), asked.read_text()
+
+
+def _fake_sundials_tools(fakes, log, apt_fails=False):
+    """dpkg-query names Debian's SUNDIALS version; apt-get, tar and cmake only record their arguments and leave
+    what the real ones would (the source tarball, its folder, the installed package's CMake file)."""
+    _fake(fakes, "dpkg-query", 'echo "6.4.1+dfsg1-3"')
+    _fake(fakes, "apt-get", f'echo "apt-get $*" >> {log}; ' +
+          ("exit 100" if apt_fails else 'case "$*" in *"source --download-only"*) touch sundials_6.4.1+dfsg1.orig.tar.xz;; esac'))
+    _fake(fakes, "tar", f'echo "tar $*" >> {log}; while [ "$1" != "-C" ]; do shift; done; mkdir -p "$2/sundials-6.4.1"')
+    _fake(fakes, "cmake", f'echo "cmake $*" >> {log}; for a in "$@"; do case "$a" in -DCMAKE_INSTALL_PREFIX=*) '
+          'echo "${a#*=}" > "$(dirname "$0")/prefix";; esac; done; '
+          'case "$1" in --install) p="$(cat "$(dirname "$0")/prefix")"; mkdir -p "$p/lib/cmake/sundials"; '
+          'touch "$p/lib/cmake/sundials/SUNDIALSConfig.cmake";; esac')
+
+
+def test_setup_builds_cvode_optimised_from_debians_source(root, tmp_path):
+    """Debian 12's SUNDIALS is compiled without optimisation (its packaging's -DCMAKE_C_FLAGS=-fcommon replaces -O2),
+    and CVODE took three times the processor time it takes at -O2 (docs/speed.md, Consolidation): the setup builds the
+    installed version's source package at -O2, once, into the build folder, where grains_build finds it."""
+    fakes = tmp_path / "bin"
+    fakes.mkdir()
+    log = tmp_path / "calls"
+    _fake_sundials_tools(fakes, log)
+    build = tmp_path / "build"
+    env = dict(os.environ, PATH=f"{fakes}:{os.environ['PATH']}", GRAINS_BUILD=str(build))
+    script = f'source "{root}/runner/setup.sh"; grains_build_sundials'
+    r = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    calls = log.read_text()
+    assert "source --download-only sundials=6.4.1+dfsg1-3" in calls, calls
+    configure = next(line for line in calls.splitlines() if line.startswith("cmake -S"))
+    assert "-DCMAKE_C_FLAGS=-O2 -fcommon" in configure and "-DBUILD_CVODE=OFF" not in configure, configure
+    assert f"-DCMAKE_INSTALL_PREFIX={build}/sundials" in configure, configure
+    assert (build / "sundials/lib/cmake/sundials/SUNDIALSConfig.cmake").exists()
+    assert not (build / "sundials-source").exists(), "the source and its build are removed once installed"
+
+    log.unlink()   # built already: nothing fetched or built again
+    r = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True)
+    assert r.returncode == 0 and not log.exists(), r.stderr
+
+
+def test_setup_links_the_systems_sundials_when_the_source_cannot_be_had(root, tmp_path):
+    fakes = tmp_path / "bin"
+    fakes.mkdir()
+    log = tmp_path / "calls"
+    _fake_sundials_tools(fakes, log, apt_fails=True)
+    build = tmp_path / "build"
+    env = dict(os.environ, PATH=f"{fakes}:{os.environ['PATH']}", GRAINS_BUILD=str(build))
+    r = subprocess.run(["bash", "-c", f'source "{root}/runner/setup.sh"; grains_build_sundials'], env=env,
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "could not build SUNDIALS" in r.stderr and "linking the system's" in r.stderr, r.stderr
+    assert not (build / "sundials").exists()
+    assert "cmake" not in log.read_text()
