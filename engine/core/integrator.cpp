@@ -38,8 +38,17 @@ inline void turn_by(double t2, double h, const double* w, double* q) {
 }
 
 // Every angle below 1e-2: the series branch only, so the loop vectorises; compiled for AVX2 and the
-// baseline and picked at run time (the same results: the same operations, no FMA).
+// baseline and picked at run time (the same results: the same operations, no FMA). Not under clang's
+// ThreadSanitizer: it instruments the clones' resolver, which the loader runs before the sanitizer is set up
+// (every program died of SIGSEGV in __tsan_func_entry before main).
+#if defined(__clang__) && defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define GRAINS_NO_CLONES
+#endif
+#endif
+#ifndef GRAINS_NO_CLONES
 __attribute__((target_clones("avx2", "default")))
+#endif
 void turn_small(std::size_t n, double h, const double* __restrict w, double* __restrict q) {
   const double h2 = h * h;
 #pragma omp simd
