@@ -472,7 +472,7 @@ def main(argv=None):
     # The stiffness sweep follows the damping sweep unless asked not to: a user who gave two dampings got eight runs.
     ap.add_argument("--stiffness", type=float, nargs="*", default=STIFFNESS,
                     help="normalised stiffnesses k* > 0 of the stiffness sweep, which follows the damping sweep "
-                         f"(default: {' '.join(f'{k:g}' for k in STIFFNESS)}); --stiffness with no value: the damping sweep alone")
+                         f"(default: {' '.join(f'{k:g}' for k in STIFFNESS)}); --stiffness with no value: the damping sweep alone (no --map or --fixed-damping)")
     ap.add_argument("--fixed-stiffness", type=float, help="k* of the damping sweep (default: the scene's)")
     ap.add_argument("--fixed-damping", default="auto", help="zeta of the stiffness sweep, or auto (default)")
     ap.add_argument("--map", action="store_true", help="also every (zeta, k*) pair, for the fractal-dimension map")
@@ -499,6 +499,12 @@ def main(argv=None):
             ap.error(f"--fixed-damping: {args.fixed_damping!r}; give auto or a number in [0, 1)")
         if not 0 <= fixed < 1:
             ap.error(f"--fixed-damping: {fixed} is outside [0, 1)")
+    if not args.stiffness:   # --stiffness with no value: no stiffness sweep, so nothing these would act on
+        for asked, name in ((args.map, "--map (every --damping with every --stiffness)"),
+                            (args.fixed_damping != "auto", f"--fixed-damping {args.fixed_damping} (the stiffness sweep's zeta)")):
+            if asked:
+                ap.error(f"{name} needs stiffnesses, but --stiffness was given no value (the damping sweep alone): "
+                         "give --stiffness values or leave it out")
     for name, value in (("--seeds", args.seeds), ("--jobs", args.jobs)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")

@@ -209,6 +209,20 @@ def test_a_stiffness_option_without_values_runs_the_damping_sweep_alone(grains_b
     assert " ".join(map(str, sweep.DAMPING)) in " ".join(usage.split())
 
 
+def test_a_map_or_a_fixed_damping_without_stiffnesses_is_refused(grains_bin, tmp_path):
+    """`--stiffness` with no value leaves out the stiffness sweep, and with it every k* of the map: `--map` then ran
+    the damping sweep, wrote no map and ended with status 0, and `--fixed-damping` was silently unused. Refused before
+    any run, naming the option."""
+    tool = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--damping", "0.3",
+            "--jobs", "1", "--threads", "1", "--set", "particles.count=30", "--set", "time.duration=0.5"]   # small, if run
+    for option, named in ((["--map"], "--map"), (["--fixed-damping", "0.5"], "--fixed-damping 0.5")):
+        out = tmp_path / option[0].strip("-")
+        bad = subprocess.run([*tool, "--out", str(out), "--stiffness", *option], capture_output=True, text=True)
+        assert bad.returncode == 2, bad.stdout + bad.stderr
+        assert f"{named} " in bad.stderr and "--stiffness was given no value" in bad.stderr, bad.stderr
+        assert not out.exists()   # refused before any run
+
+
 def test_a_stiffness_that_names_its_runs_as_the_scene_k_star_does_is_that_point(grains_bin, tmp_path):
     """The scene's k* (6468.79) and --stiffness 6469 both name their runs k6469: until 2026-12-05 the second was
     refused as a run with other settings, and the sweep stopped."""
