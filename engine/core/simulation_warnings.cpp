@@ -274,12 +274,13 @@ void SimulationImpl<D>::check_pass_through() const {
   const auto overlap = o.find("max_overlap_ratio");
   if (pass_through_warned_ || overlap == o.end() || !(overlap->second > pass_through_overlap)) return;
   pass_through_warned_ = true;
-  warn(fmt::format("contact check: at t = {:.6g} ({:.3g} t_ff, step {}) two grains overlap by {:.3g} times the smaller "
+  warn(fmt::format("contact check: at t = {:.6g} ({:.3g} t_ff, step {}) two grains overlap by {:.4g} times the smaller "
                    "one's radius (max_overlap_ratio): they are passing through each other. The contact force stops "
-                   "growing at contact.overlap_limit times that radius, which cannot hold what gravity presses on the "
-                   "grains (k* = {:.3g}, from the lightest pair's k_n and the mean grain's k_g): the "
-                   "clusters, D_f and aggregation time from here on are artefacts; raise k* (a shorter contact.duration) "
-                   "or contact.overlap_limit",
+                   "growing at contact.overlap_limit times that radius, which cannot hold grains that gravity presses "
+                   "together harder than that (k* = {:.3g}, from the lightest pair's k_n and the mean grain's k_g) or "
+                   "that meet faster than the step resolves (the start-up warning on unresolved approaches says so): "
+                   "the clusters, D_f and aggregation time from here on are artefacts; raise k* (a shorter "
+                   "contact.duration), contact.overlap_limit or time.steps_per_contact",
                    sys_.time, sys_.time / free_fall_time_, sys_.step, overlap->second, o.at("normalised_stiffness")));
 }
 
