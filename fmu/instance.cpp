@@ -282,9 +282,7 @@ Status Instance::do_step(double current_time, double step, double* reached_time)
     return error(fmt::format("DoStep from t = {:.9g} by {:.9g} failed: {}", now, step, memory ? out_of_memory_message : e.what()));
   }
   host_time_ = current_time + step;
-  const auto& w = sim_->warnings();
-  for (; warnings_logged_ < w.size(); ++warnings_logged_)
-    if (enabled(log_warning)) logger_(Status::warning, log_warning, w[warnings_logged_]);
+  log_new_warnings();
   if (reached_time) *reached_time = time();
   return write_snapshot_if_due();
 }
@@ -368,7 +366,15 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
                            sim_ ? sim_->particle_count() : table_.particle_count, table_.dimension);
     return error(fmt::format("the call passes {} values for variables holding {}{}", values.size(), k, arrays));
   }
+  log_new_warnings();   // the outputs' checks (energy, pass-through) run as they are read
   return Status::ok;
+}
+
+void Instance::log_new_warnings() {
+  if (!sim_) return;
+  const auto& w = sim_->warnings();
+  for (; warnings_logged_ < w.size(); ++warnings_logged_)
+    if (enabled(log_warning)) logger_(Status::warning, log_warning, w[warnings_logged_]);
 }
 
 Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::span<const double> values) {

@@ -101,6 +101,7 @@ class Instance {
   // Errors for FMI functions this FMU does not support, with the reason.
   Status unsupported(const char* function, const char* why);
   Status error(const std::string& message);
+  void log_new_warnings();   // sim_'s warnings not yet passed to the logger
   void log_call(const std::string& call);
 
  private:
@@ -119,8 +120,9 @@ class Instance {
   Scene scene_;               // packaged_ plus the host's overrides
   std::map<std::size_t, double> pending_controls_;   // control values set before the Simulation exists
   std::unique_ptr<Simulation> sim_;
-  // sim_'s warnings passed to the logger so far: those raised since (by a step, or by the energy check while a
-  // host read the outputs) are logged at the end of the next DoStep.
+  // sim_'s warnings passed to the logger so far: those raised since, by a step or by the checks that run as a host
+  // reads the outputs (energy, pass-through), are logged at the end of that DoStep or read. Until 2026-12-05 a
+  // read's warnings waited for the next DoStep, so those of the last read before Terminate never reached the host.
   std::size_t warnings_logged_ = 0;
   bool dirty_ = true;         // scene_ changed since sim_ was built
   ModelTable table_;          // of the packaged scene: references and types never change
