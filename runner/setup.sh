@@ -49,6 +49,11 @@ GRAINS_SUNDIALS="$GRAINS_BUILD/sundials"
 grains_build_sundials() {
   [ -f "$GRAINS_SUNDIALS/lib/cmake/sundials/SUNDIALSConfig.cmake" ] && return 0
   local work="$GRAINS_BUILD/sundials-source" version
+  # Tried once: a machine that cannot fetch the source would otherwise try again at every command.
+  if [ -f "$work/failed" ]; then
+    echo "grains: linking the system's SUNDIALS, unoptimised (building it failed before: $work/log; remove $work to try again)" >&2
+    return 0
+  fi
   version="$(dpkg-query -W -f='${source:Version}' libsundials-dev 2>/dev/null)" || version=""
   rm -rf "$work" && mkdir -p "$work/sources" "$work/lists/partial" "$work/cache/archives/partial"
   # The source twins (deb-src) of the system's Debian archive entries, in apt state of our own.
@@ -73,6 +78,7 @@ grains_build_sundials() {
     rm -rf "$work"
   else
     rm -rf "$GRAINS_SUNDIALS"
+    touch "$work/failed"
     echo "grains: could not build SUNDIALS (log: $work/log): linking the system's, unoptimised" >&2
   fi
 }
