@@ -207,8 +207,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   out.flush();
   const long finished = from.stage + long(records.size());
   if (stopped)
-    fmt::print("  stages       {} of {} finished ({} not reached)  INTERRUPTED in stage {} (continue it with grains resume)\n",
-               finished, stages, unreached, finished);
+    fmt::print("  stages       {} of {} finished ({} not reached)  INTERRUPTED in stage {} (continue it with grains resume {})\n",
+               finished, stages, unreached, finished, out.path());
   else
     fmt::print("  stages       {} ({} not reached)\n", finished, unreached);
   if (first_step > 0)

@@ -256,8 +256,8 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   fmt::print("grains {}: scene '{}' ({}D, {} particles)\n", GRAINS_VERSION, scene.text("scene.name"), sim.dimension(),
              sim.particle_count());
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim.step_count(), sim.dt(), sim.time(),
-             stopping ? "  INTERRUPTED (continue it with grains resume)"
-                      : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : "");
+             stopping ? fmt::format("  INTERRUPTED (continue it with grains resume {})", out.path())
+                      : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : std::string());
   if (first > 0) fmt::print("  resumed      at step {} (the wall time and rate below are since then)\n", first);
   fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s), pair loop {})\n", seconds, rate, sim.threads(),
              pair_filter::isa_name(pair_filter::isa()));

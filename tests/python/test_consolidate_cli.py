@@ -134,7 +134,7 @@ def test_consolidate_acts_on_an_interrupt_between_rare_checks(grains_bin, root, 
                                         "programme.check_every=100000000", "--set", "programme.stage_budget=1000000000"],
                                        out, 0.5, within=10)
     assert code == 130, stderr
-    assert "INTERRUPTED in stage 0" in stdout
+    assert f"INTERRUPTED in stage 0 (continue it with grains resume {out})" in stdout
     with h5py.File(out) as f:
         status = f["grains"].attrs["status"]
         status = status.decode() if isinstance(status, bytes) else status

@@ -313,7 +313,7 @@ def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path, stop
     p.send_signal(stop)
     stdout, stderr = p.communicate(timeout=60)
     assert p.returncode == 130, stderr
-    assert "INTERRUPTED" in stdout
+    assert f"INTERRUPTED (continue it with grains resume {out})" in stdout   # the file named, ready to paste
     with h5py.File(out) as f:
         status = f["grains"].attrs["status"]
         status = status.decode() if isinstance(status, bytes) else status
