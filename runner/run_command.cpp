@@ -258,7 +258,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
   fmt::print("  steps        {} of dt = {:.6g}  (t = {:.6g}){}\n", sim.step_count(), sim.dt(), sim.time(),
              stopping ? fmt::format("  INTERRUPTED (continue it with grains resume {})", out.path())
                       : aggregated ? "  stopped at the aggregation (analysis.stop_at_aggregation)" : std::string());
-  if (first > 0) fmt::print("  resumed      at step {} (the wall time and rate below are since then)\n", first);
+  if (first > 0) fmt::print("  resumed      at step {} (the wall time, rate and first kinetic energy below are since then)\n", first);
   fmt::print("  wall time    {:.2f} s  ({:.3g} particle-steps/s, {} thread(s), pair loop {})\n", seconds, rate, sim.threads(),
              pair_filter::isa_name(pair_filter::isa()));
   fmt::print("  kinetic energy  {:.6g} -> {:.6g}\n", initial_energy, sim.get("kinetic_energy"));
