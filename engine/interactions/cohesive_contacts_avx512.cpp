@@ -13,12 +13,12 @@ namespace {
 using namespace pair_avx512;
 
 template <bool Dense>
-GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
+GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
   // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
   // results are never stored.
-  const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation,
+  const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, shifts, in.position, in.radius, in.touched, in.evaluation,
                               in.slot_radius);
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
   const std::uint32_t k0 = c.k0;
@@ -123,9 +123,10 @@ long dense_evaluations() { return dense_evaluations_.load(); }
 
 long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
                      std::size_t n, const Output& out) {
+  const ImageShifts<2> shifts(in.shift);
   if (in.dense)
-    return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<true>(in, rows, pairs, images, q, lanes, out); });
-  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<false>(in, rows, pairs, images, q, lanes, out); });
+    return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<true>(in, shifts, rows, pairs, images, q, lanes, out); });
+  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8<false>(in, shifts, rows, pairs, images, q, lanes, out); });
 }
 
 }  // namespace grains::cohesive_contacts

@@ -82,12 +82,12 @@ GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmas
   for (int a = 0; a < 3; ++a) force[a] = add(force[a], ft[a]);
 }
 
-GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
+GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<3>& shifts, const std::uint32_t* rows, const std::uint32_t* pairs,
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
   // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
   // results are never stored.
-  const Contacts8<3> c(rows, pairs, images, q, live, in.partner, in.shift, in.position, in.radius, in.touched, in.evaluation);
+  const Contacts8<3> c(rows, pairs, images, q, live, in.partner, shifts, in.position, in.radius, in.touched, in.evaluation);
   const __m256i i = c.i, j = c.j, i3 = c.iD, j3 = c.jD;
   const V* r = c.r;
   const V d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
@@ -150,7 +150,8 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const std::uint32_t* rows, c
 
 long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
                      std::size_t n, const Output& out) {
-  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8(in, rows, pairs, images, q, lanes, out); });
+  const ImageShifts<3> shifts(in.shift);
+  return in_batches(n, [&](std::size_t q, __mmask8 lanes) { return evaluate8(in, shifts, rows, pairs, images, q, lanes, out); });
 }
 
 }  // namespace grains::linear_contacts

@@ -44,6 +44,20 @@ GRAINS_AVX512_PAIRS inline V copysign(V magnitude, V sign) {
                                              _mm512_and_si512(_mm512_castpd_si512(sign), sign_bit())));
 }
 
+// The 2D vectors of eight particles, a[2 idx[l]] and a[2 idx[l] + 1] for l = 0 .. 7, as x and y components:
+// eight 16-byte loads, transposed, where two gathers would load every lane's line twice. Used for the positions
+// of the dense cohesive kernel (about 2.5 % of its force evaluation on the cohesive bench disks); for the
+// velocities as well it measured slower (the loads' shuffles compete with the kernel's own for one port).
+GRAINS_AVX512_PAIRS inline void load_2d(const double* a, const std::uint32_t* idx, V& x, V& y) {
+  const auto two = [&](int l) GRAINS_AVX512_PAIRS {
+    return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a + 2 * std::size_t(idx[l]))), _mm_loadu_pd(a + 2 * std::size_t(idx[l + 1])), 1);
+  };
+  const V low = _mm512_insertf64x4(_mm512_castpd256_pd512(two(0)), two(2), 1);   // x0 y0 x1 y1 x2 y2 x3 y3
+  const V high = _mm512_insertf64x4(_mm512_castpd256_pd512(two(4)), two(6), 1);
+  x = _mm512_permutex2var_pd(low, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), high);
+  y = _mm512_permutex2var_pd(low, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), high);
+}
+
 // The lanes' mask: all eight, or the first `left` of them.
 inline __mmask8 first_lanes(std::size_t left) { return left >= 8 ? __mmask8(0xFF) : __mmask8((1u << left) - 1); }
 
@@ -85,35 +99,57 @@ long in_batches(std::size_t n, Batch batch) {
 }
 
 // The periodic image shifts of the neighbour list (shift[s], s = sum (k_a + 1) 3^a), component by component,
-// looked up by permutation rather than gathered: axis a's register holds shift[d 3^a][a] in lanes d = 0, 1, 2.
+// looked up by permutation rather than gathered. In 2D the nine shifts of an axis fill two registers, indexed
+// by s itself (lanes 0-7 and 8 of shift[s][a]); in 3D axis a's register holds shift[d 3^a][a] in lanes d = 0,
+// 1, 2 (the same value: a shift's component depends on its own axis's digit only), looked up by s's digits.
 template <int D>
 struct ImageShifts {
-  V table[D];
+  V table[D][2];
   GRAINS_AVX512_PAIRS explicit ImageShifts(const Vec<D>* shift) {
     for (int a = 0; a < D; ++a) {
-      const int unit = a == 0 ? 1 : a == 1 ? 3 : 9;
-      table[a] = _mm512_setr_pd(shift[0][a], shift[unit][a], shift[2 * unit][a], 0, 0, 0, 0, 0);
+      if constexpr (D == 2) {
+        table[a][0] = _mm512_setr_pd(shift[0][a], shift[1][a], shift[2][a], shift[3][a], shift[4][a], shift[5][a], shift[6][a],
+                                     shift[7][a]);
+        table[a][1] = _mm512_setr_pd(shift[8][a], 0, 0, 0, 0, 0, 0, 0);
+      } else {
+        const int unit = a == 0 ? 1 : a == 1 ? 3 : 9;
+        table[a][0] = table[a][1] = _mm512_setr_pd(shift[0][a], shift[unit][a], shift[2 * unit][a], 0, 0, 0, 0, 0);
+      }
     }
   }
-  // Components of shift[s] for the lanes' image indices s (s < 3^D; s / 3 = (11 s) >> 5 is exact there).
+  // Components of shift[s] for the lanes' image indices s (s < 3^D; in 3D, s / 3 = (11 s) >> 5 is exact there).
   GRAINS_AVX512_PAIRS void lookup(__m256i s, V out[D]) const {
-    const __m256i three = _mm256_set1_epi32(3), eleven = _mm256_set1_epi32(11);
-    __m256i rest = s;
-    for (int a = 0; a < D; ++a) {
-      const __m256i next = _mm256_srli_epi32(_mm256_mullo_epi32(rest, eleven), 5);
-      const __m256i digit = a == D - 1 ? rest : _mm256_sub_epi32(rest, _mm256_mullo_epi32(next, three));
-      out[a] = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(digit), table[a]);
-      rest = next;
+    if constexpr (D == 2) {
+      const __m512i index = _mm512_cvtepu32_epi64(s);
+      for (int a = 0; a < D; ++a) out[a] = _mm512_permutex2var_pd(table[a][0], index, table[a][1]);
+    } else {
+      const __m256i three = _mm256_set1_epi32(3), eleven = _mm256_set1_epi32(11);
+      __m256i rest = s;
+      for (int a = 0; a < D; ++a) {
+        const __m256i next = _mm256_srli_epi32(_mm256_mullo_epi32(rest, eleven), 5);
+        const __m256i digit = a == D - 1 ? rest : _mm256_sub_epi32(rest, _mm256_mullo_epi32(next, three));
+        out[a] = _mm512_permutexvar_pd(_mm512_cvtepu32_epi64(digit), table[a][0]);
+        rest = next;
+      }
     }
   }
 };
+
+// Particle index times D, the lanes' offsets into the D-vectors of the particle arrays (a shift and an
+// addition: a multiplication of 32-bit lanes takes ten cycles and the gathers wait for it).
+template <int D>
+GRAINS_AVX512_PAIRS inline __m256i times_dim(__m256i i) {
+  const __m256i twice = _mm256_slli_epi32(i, 1);
+  return D == 2 ? twice : _mm256_add_epi32(twice, i);
+}
 
 // The geometry of eight gathered pairs q .. q + 7 (rows[q], list entries pairs[q], images[q]) and which of
 // them are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
 // r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2 (as Eigen sums it), touching when d2 < (R_i + R_j)^2.
 // Lanes of indices i D and j D address the D-vectors of the particle arrays. Dense: the pairs' entries k
 // are consecutive from k0 = pairs[q] (the shell's slots), so the per-entry data (partner, stamps, and the
-// radii, slot_radius[0][k] = R_i and slot_radius[1][k] = R_j) are loaded.
+// radii, slot_radius[0][k] = R_i and slot_radius[1][k] = R_j) are loaded, and in 2D a whole batch's positions
+// too (load_2d).
 template <int D, bool Dense = false>
 struct Contacts8 {
   __m256i i, k, j, iD, jD;
@@ -121,7 +157,7 @@ struct Contacts8 {
   V r[D], d2, Ri, Rj, Rsum;
   __mmask8 steady;
   GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
-                                __mmask8 live, const std::uint32_t* partner, const Vec<D>* shift, const double* position,
+                                __mmask8 live, const std::uint32_t* partner, const ImageShifts<D>& shifts, const double* position,
                                 const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
                                 const double* const* slot_radius = nullptr) {
     i = _mm256_maskz_loadu_epi32(live, rows + q);
@@ -129,12 +165,17 @@ struct Contacts8 {
     k0 = pairs[q];
     j = Dense ? _mm256_maskz_loadu_epi32(live, partner + k0)
               : _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, partner, 4);
-    const __m256i dim = _mm256_set1_epi32(D);
-    iD = _mm256_mullo_epi32(i, dim), jD = _mm256_mullo_epi32(j, dim);
+    iD = times_dim<D>(i), jD = times_dim<D>(j);
     V s[D];
-    ImageShifts<D>(shift).lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), s);
+    shifts.lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), s);
+    V xj[D], xi[D];
+    if (D == 2 && Dense && live == 0xFF) {   // every lane's row and partner read as plain integers
+      load_2d(position, partner + k0, xj[0], xj[1]), load_2d(position, rows + q, xi[0], xi[1]);
+    } else {
+      for (int a = 0; a < D; ++a) xj[a] = gather(position + a, jD, live), xi[a] = gather(position + a, iD, live);
+    }
     for (int a = 0; a < D; ++a) {
-      r[a] = sub(add(gather(position + a, jD, live), s[a]), gather(position + a, iD, live));
+      r[a] = sub(add(xj[a], s[a]), xi[a]);
       d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
     }
     if constexpr (Dense) Ri = _mm512_maskz_loadu_pd(live, slot_radius[0] + k0), Rj = _mm512_maskz_loadu_pd(live, slot_radius[1] + k0);

@@ -17,7 +17,7 @@ GRAINS_AVX512_PAIRS std::size_t select(const Geometry<D>& g, std::uint32_t k_beg
   using pair_avx512::gather;   // not the pair filter's own gather
   const double* x = g.position[0].data();
   const V tail = all(g.tail_reach);
-  const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), dim = _mm256_set1_epi32(D);
+  const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const ImageShifts<D> shifts(g.shift);
   std::size_t n = 0;
   for (std::uint32_t k = k_begin; k < k_end; k += 8) {
@@ -25,7 +25,7 @@ GRAINS_AVX512_PAIRS std::size_t select(const Geometry<D>& g, std::uint32_t k_beg
     const __m256i j = _mm256_maskz_loadu_epi32(live, g.partner + k);
     const __m256i i = _mm256_maskz_loadu_epi32(live, g.owner + k);
     const __m256i s = _mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, g.image + k));
-    const __m256i jx = _mm256_mullo_epi32(j, dim), ix = _mm256_mullo_epi32(i, dim);
+    const __m256i jx = times_dim<D>(j), ix = times_dim<D>(i);
     V shift[D];
     shifts.lookup(s, shift);
     V d2 = _mm512_setzero_pd();
