@@ -113,9 +113,7 @@ std::unique_ptr<Instance> Instance::create(std::string name, std::string_view to
                           "and the resources come from different builds", token, expected));
     return nullptr;
   }
-  for (const auto& w : in->sim_->warnings())
-    if (in->enabled(log_warning)) in->logger_(Status::warning, log_warning, w);
-  in->warnings_logged_ = in->sim_->warnings().size();
+  in->log_new_warnings();   // the start-up warnings
   return in;
 }
 
@@ -178,10 +176,9 @@ Status Instance::ensure_built() {
                                fmt::join(changed, ", "), structure_change(now, table_)));
     }
     for (const auto& [index, value] : pending_controls_) sim->set(index, value);
-    for (const auto& w : sim->warnings())
-      if (enabled(log_warning)) logger_(Status::warning, log_warning, w);
     sim_ = std::move(sim);
-    warnings_logged_ = sim_->warnings().size();
+    warnings_logged_ = 0;   // a new simulation: its start-up warnings
+    log_new_warnings();
     dirty_ = false;
   } catch (const std::bad_alloc&) {
     return error(out_of_memory_message);
