@@ -45,9 +45,10 @@ grains_install_python() {
 # bit-identical results (docs/speed.md, "CVODE"). Built once per build folder; when the source cannot be fetched
 # or built, the engine links the system's SUNDIALS as before, and says so here.
 GRAINS_SUNDIALS="$GRAINS_BUILD/sundials"
+GRAINS_SUNDIALS_CMAKE="$GRAINS_SUNDIALS/lib/cmake/sundials"   # its package configuration, which CMake is given
 
 grains_build_sundials() {
-  [ -f "$GRAINS_SUNDIALS/lib/cmake/sundials/SUNDIALSConfig.cmake" ] && return 0
+  [ -f "$GRAINS_SUNDIALS_CMAKE/SUNDIALSConfig.cmake" ] && return 0
   local work="$GRAINS_BUILD/sundials-source" version
   # Tried once: a machine that cannot fetch the source would otherwise try again at every command.
   if [ -f "$work/failed" ]; then
@@ -85,7 +86,7 @@ grains_build_sundials() {
 
 grains_build() {
   local sundials=()
-  [ -f "$GRAINS_SUNDIALS/lib/cmake/sundials/SUNDIALSConfig.cmake" ] && sundials=(-DSUNDIALS_DIR="$GRAINS_SUNDIALS/lib/cmake/sundials")
+  [ -f "$GRAINS_SUNDIALS_CMAKE/SUNDIALSConfig.cmake" ] && sundials=(-DSUNDIALS_DIR="$GRAINS_SUNDIALS_CMAKE")
   cmake -S "$GRAINS_ROOT" -B "$GRAINS_BUILD" -DCMAKE_BUILD_TYPE=Release "${sundials[@]}" >/dev/null
   # The compiler's diagnostics only (not file names that hold "error"); a failed build stops here, even
   # when an older binary is still in place.
