@@ -39,9 +39,10 @@ struct Input {
   bool elastic_bound;
   // Rolling resistance: K_R, mu_R, c_r / (c_n R_i R_j).
   double rolling_stiffness, rolling_coefficient, rolling_damping;
-  // A deforming cell: the pair's flow velocity (strain rate times r) counts in v_n and v_t.
+  // A deforming cell: the pair's flow velocity (strain rate times r) counts in v_n, the cell's share of the
+  // pair's move over the step (ContactForces::flow_factor times r) in v_t.
   bool affine;
-  double strain_rate_x, strain_rate_y;
+  double strain_rate_x, strain_rate_y, flow_factor_x, flow_factor_y;
   // The gap up to which a pair interacts (the pair filter's tail reach), for Output::interacting.
   double tail_reach;
 };

@@ -76,8 +76,16 @@ template <bool Dense>
   const V wi = gather(in.angular_velocity, i), wj = gather(in.angular_velocity, j);
   V uxi, uyi, uxj, uyj;
   gather_pairs(in.velocity, i, uxi, uyi), gather_pairs(in.velocity, j, uxj, uyj);
-  const V ux = add(sub(uxj, uxi), flow_x), uy = add(sub(uyj, uyi), flow_y);
-  const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
+  const V hvx = sub(uxj, uxi), hvy = sub(uyj, uyi);
+  // The relative velocity along the tangent of the step's middle, with the lever arms there (tangential_force).
+  const V ux = in.affine ? add(hvx, mul(all(in.flow_factor_x), rx)) : add(hvx, zero());
+  const V uy = in.affine ? add(hvy, mul(all(in.flow_factor_y), ry)) : add(hvy, zero());
+  const V ut = add(mul(ux, tx), mul(uy, ty)), un = add(mul(ux, nx), mul(uy, ny));
+  const V half_step = all(0.5 * in.dt);
+  const V eps = div(mul(half_step, ut), d), d_mid = sub(d, mul(half_step, un));
+  const V half_mid = mul(all(0.5), sub(Rsum, d_mid));
+  const V arm_i_mid = sub(Ri, half_mid), arm_j_mid = sub(Rj, half_mid);
+  const V vt = sub(sub(add(ut, mul(eps, un)), mul(wj, arm_j_mid)), mul(wi, arm_i_mid));
   const V xi_before = per_entry<Dense>(in.tangential, k, k0, live, full);
   V xi = add(xi_before, mul(vt, all(in.dt)));
   const V minus_kt = neg(kt);

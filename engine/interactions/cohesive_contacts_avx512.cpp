@@ -71,9 +71,17 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
   const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
   const V tx = neg(ny), ty = nx;   // t = (-n_y, n_x)
   const V wi = gather(in.angular_velocity, i, live), wj = gather(in.angular_velocity, j, live);
-  const V ux = add(sub(gather(in.velocity, j2, live), gather(in.velocity, i2, live)), flow_x);
-  const V uy = add(sub(gather(in.velocity + 1, j2, live), gather(in.velocity + 1, i2, live)), flow_y);
-  const V vt = sub(sub(add(mul(ux, tx), mul(uy, ty)), mul(wj, arm_j)), mul(wi, arm_i));
+  const V hvx = sub(gather(in.velocity, j2, live), gather(in.velocity, i2, live));
+  const V hvy = sub(gather(in.velocity + 1, j2, live), gather(in.velocity + 1, i2, live));
+  // The relative velocity along the tangent of the step's middle, with the lever arms there (tangential_force).
+  const V ux = in.affine ? add(hvx, mul(all(in.flow_factor_x), rx)) : add(hvx, _mm512_setzero_pd());
+  const V uy = in.affine ? add(hvy, mul(all(in.flow_factor_y), ry)) : add(hvy, _mm512_setzero_pd());
+  const V ut = add(mul(ux, tx), mul(uy, ty)), un = add(mul(ux, nx), mul(uy, ny));
+  const V half_step = all(0.5 * in.dt);
+  const V eps = div(mul(half_step, ut), d), d_mid = sub(d, mul(half_step, un));
+  const V half_mid = mul(all(0.5), sub(Rsum, d_mid));
+  const V arm_i_mid = sub(Ri, half_mid), arm_j_mid = sub(Rj, half_mid);
+  const V vt = sub(sub(add(ut, mul(eps, un)), mul(wj, arm_j_mid)), mul(wi, arm_i_mid));
   V xi = add(per_entry<Dense>(in.tangential, k, k0, live), mul(vt, all(in.dt)));
   const V minus_kt = neg(kt);
   V ft = sub(mul(minus_kt, xi), mul(ct, vt));

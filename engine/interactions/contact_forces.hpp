@@ -28,6 +28,15 @@
 
 namespace grains {
 
+// A touching pair's geometry where its springs need it (ContactForces::spring_motion): the normal at the
+// step's start (3D: the springs turn from it to the current one), the distance and normal at the step's middle
+// (where the half-step velocities are), and the cell's share of the pair's move over the step, as a velocity.
+template <int D>
+struct SpringMotion {
+  double d_mid = 0;
+  Vec<D> n_before, n_mid, flow_mid;
+};
+
 template <int D, class Law, class Friction, class Rolling = NoRolling>
 class ContactForces final : public ForceModule<D> {
   static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
@@ -406,7 +415,8 @@ class ContactForces final : public ForceModule<D> {
     in.touched = touched_.data(), in.evaluation = evaluation_;
     in.k = law_.k, in.c = law_.c, in.overlap_limit = law_.overlap_limit, in.dt = s.dt;
     in.affine = s.affine_flow;
-    for (int a = 0; a < D; ++a) in.strain_rate[a] = s.strain_rate[a];
+    for (int a = 0; a < D; ++a)
+      in.strain_rate[a] = s.strain_rate[a], in.scale[a] = s.cell_scale[a], in.flow_factor[a] = flow_factor(s, a);
     if constexpr (Friction::enabled) {
       in.tangential = reinterpret_cast<double*>(tangential_.data());
       in.velocity = reinterpret_cast<const double*>(P.velocity.data());
@@ -447,6 +457,7 @@ class ContactForces final : public ForceModule<D> {
     }
     in.affine = s.affine_flow;
     in.strain_rate_x = s.strain_rate[0], in.strain_rate_y = s.strain_rate[1];
+    in.flow_factor_x = flow_factor(s, 0), in.flow_factor_y = flow_factor(s, 1);
     in.tail_reach = law_.reach();
     return in;
   }
@@ -705,19 +716,18 @@ class ContactForces final : public ForceModule<D> {
       if (const double charge = law_.parting_charge(step, cn); charge != 0)
         parted.push_back({std::uint32_t(i), std::uint32_t(j), charge});
     Vec<D> f = fn * n;   // on j
-    if constexpr (Friction::enabled) {
-      // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
-      // torques of F_t balance its moment and total angular momentum is conserved exactly.
-      const double half_overlap = 0.5 * (Rsum - d);
-      f += tangential_force(P, i, j, k, n, flow, Ri - half_overlap, Rj - half_overlap, mi, mj, fn, elastic, cn, dt,
-                            torque, ti);
+    if constexpr (Friction::enabled || Rolling::enabled) {
+      const SpringMotion<D> motion = spring_motion(s, r, P.velocity[j] - P.velocity[i]);
+      if constexpr (Friction::enabled)
+        f += tangential_force(P, i, j, k, n, d, motion, Rsum, Ri, Rj, mi, mj, fn, elastic, cn, dt, torque, ti);
+      if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, motion, elastic, cn, Ri, Rj, dt, torque, ti);
     }
-    if constexpr (Rolling::enabled) rolling_moment(P, i, j, k, n, elastic, cn, Ri, Rj, dt, torque, ti);
     return f;
   }
 
   // Tangential force on j; adds the torques (on i into ti). Ri, Rj: distances from the centres to the contact point.
-  // xi accumulates the half-step (position-consistent) tangential velocity, and the dashpot acts on
+  // xi accumulates the half-step (position-consistent) tangential velocity, at the middle of the step (the
+  // normal, lever arms and cell flow there: SpringMotion), and the dashpot acts on
   // the same velocity: a predicted end-of-step velocity (as the normal dashpot uses) is stable only
   // for c dt / m < 0.57 and the tangential-rotational mass of a disk pair is m* / 3, so grains with a
   // few contacts went unstable at c_t = c_n; the half-step velocity is stable up to c dt / m < 2.
@@ -730,17 +740,26 @@ class ContactForces final : public ForceModule<D> {
   // only is passive: the capped force does at most the work the spring and the dashpot would have done.
   // Without a dashpot (c_t = 0, the consolidation scenes) the trial force is the spring's and both rules agree.
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                          const Vec<D>& flow, double Ri, double Rj, double mi, double mj, double fn, double elastic,
-                          double cn, double dt, Spin<D>* torque, Spin<D>& ti) {
+                          double d, const SpringMotion<D>& motion, double Rsum, double radius_i, double radius_j, double mi,
+                          double mj, double fn, double elastic, double cn, double dt, Spin<D>* torque, Spin<D>& ti) {
+    // Lever arms to the contact point, the middle of the overlap: they add up to d, so the
+    // torques of F_t balance its moment and total angular momentum is conserved exactly.
+    const double half_overlap = 0.5 * (Rsum - d), Ri = radius_i - half_overlap, Rj = radius_j - half_overlap;
+    const Vec<D>& flow = motion.flow_mid;
     const double kt = friction_.stiffness_ratio * law_.stiffness(mi, mj);
     const double ct = friction_.damping_ratio * cn;
     const double bound = friction_.mu * (friction_.elastic_bound ? elastic : fn);   // >= 0
     if constexpr (D == 2) {
       // Everything along t = z x n: omega x (R n) = omega R t, and F_t = f t has torque -R f on both
-      // grains (lever arms -Rj n and Ri n, forces f t and -f t).
+      // grains (lever arms -Rj n and Ri n, forces f t and -f t). The relative velocity u is taken along the
+      // tangent of the step's middle, t + eps n, eps = (h/2) u_t / d the pair's turn over half a step, with the
+      // lever arms there (d - (h/2) u_n): to second order, as the midpoint rule needs, without a root.
       const Vec<2> t(-n[1], n[0]);
-      const double vt = (P.velocity[j] - P.velocity[i] + flow).dot(t) - P.angular_velocity[j][0] * Rj -
-                        P.angular_velocity[i][0] * Ri;
+      const Vec<2> u = P.velocity[j] - P.velocity[i] + flow;
+      const double ut = u.dot(t), un = u.dot(n), half_step = 0.5 * dt;
+      const double eps = half_step * ut / d, d_mid = d - half_step * un;
+      const double half_mid = 0.5 * (Rsum - d_mid), Ri_mid = radius_i - half_mid, Rj_mid = radius_j - half_mid;
+      const double vt = ut + eps * un - P.angular_velocity[j][0] * Rj_mid - P.angular_velocity[i][0] * Ri_mid;
       double& xi = history_.tangential[k][0];
       xi += vt * dt;
       double ft = -kt * xi - ct * vt;
@@ -752,9 +771,13 @@ class ContactForces final : public ForceModule<D> {
       ti[0] -= Ri * ft;
       return ft * t;
     } else {
+      // The same at the middle of the step, where the half-step velocities are (SpringMotion).
+      const double half_mid = 0.5 * (Rsum - motion.d_mid), Ri_mid = radius_i - half_mid, Rj_mid = radius_j - half_mid;
+      const Vec<3>& nm = motion.n_mid;
       Vec<3>& xi = history_.tangential[k];
-      turn_into_tangent_plane(xi, n);
-      Vec<3> vt = (P.velocity[j] - P.angular_velocity[j].cross(Rj * n)) - (P.velocity[i] + P.angular_velocity[i].cross(Ri * n)) + flow;
+      turn_into_tangent_plane(xi, motion.n_before, n);
+      Vec<3> vt = (P.velocity[j] - P.angular_velocity[j].cross(Rj_mid * nm)) - (P.velocity[i] + P.angular_velocity[i].cross(Ri_mid * nm)) + flow;
+      vt -= vt.dot(nm) * nm;
       vt -= vt.dot(n) * n;
       xi += vt * dt;
       Vec<3> ft = -kt * xi - ct * vt;
@@ -770,20 +793,49 @@ class ContactForces final : public ForceModule<D> {
     }
   }
 
-  // 3D springs (xi, theta_R) follow the contact: v is turned into the plane normal to n, keeping its
-  // length, with one root (of the ratio of the squared lengths).
-  static void turn_into_tangent_plane(Vec<3>& v, const Vec<3>& n) {
-    const double before = v.squaredNorm();
+  // 3D springs (xi, theta_R) follow the contact: v, in the plane normal to n_before, is turned by the rotation
+  // that takes n_before to n (about n_before x n, which keeps its length and its direction about n), then what
+  // rounding left along n is taken off. Until 2026-12-05 v was projected into the new plane and rescaled to its
+  // old length: that turns it towards the rotation axis by (w h)^2 / 2 a step, first order in a turning contact
+  // (docs/accuracy.md, "Order of whole scenes").
+  static void turn_into_tangent_plane(Vec<3>& v, const Vec<3>& n_before, const Vec<3>& n) {
+    v -= v.dot(n) / (1 + n_before.dot(n)) * (n_before + n);
     v -= v.dot(n) * n;
-    const double after = v.squaredNorm();
-    if (after > 0) v *= std::sqrt(before / after);
+  }
+
+  // The pair's geometry at the step's start and middle, where the springs need it: the step moved the pair
+  // by dt v(t + dt/2) exactly (then, in a deforming cell, scaled it with the cell). v: the relative half-step
+  // velocity. Written out operation by operation: the batched kernels repeat them in this order.
+  static SpringMotion<D> spring_motion(const System<D>& s, const Vec<D>& r, const Vec<D>& v) {
+    SpringMotion<D> m;
+    if constexpr (D == 3) {   // 2D: tangential_force takes the middle of the step to second order itself
+      Vec<D> before, mid;
+      for (int a = 0; a < D; ++a) {
+        before[a] = (s.affine_flow ? r[a] / s.cell_scale[a] : r[a]) - s.dt * v[a];
+        mid[a] = 0.5 * (before[a] + r[a]);
+      }
+      m.d_mid = std::sqrt(mid.squaredNorm());
+      m.n_mid = mid * (1 / m.d_mid);
+      m.n_before = before * (1 / std::sqrt(before.squaredNorm()));
+    }
+    m.flow_mid = Vec<D>::Zero();
+    if (s.affine_flow)
+      for (int a = 0; a < D; ++a) m.flow_mid[a] = flow_factor(s, a) * r[a];
+    return m;
+  }
+  // The cell's share of a pair's move over the step, as a velocity, is this times the pair vector r: the
+  // scaling r / scale -> r over the step h (exact: with it, h (v + flow) is the pair's whole move; the strain
+  // rate at the step's end is half a step late). An evaluation without a step (h = 0) takes the strain rate.
+  static double flow_factor(const System<D>& s, int a) {
+    return s.dt > 0 ? (1 - 1 / s.cell_scale[a]) / s.dt : s.strain_rate[a];
   }
 
   // Rolling resistance (physics.md section 5): theta_R accumulates the half-step relative rotation
   // (3D: its part perpendicular to n, the spring rotated into the current tangent plane like xi);
   // with K_R = 0 (mu_R = 0) only the rolling dashpot acts. Ri, Rj: the grains' radii; c_n: the pair's.
   void rolling_moment(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
-                      double elastic, double cn, double Ri, double Rj, double dt, Spin<D>* torque, Spin<D>& ti) {
+                      const SpringMotion<D>& motion, double elastic, double cn, double Ri, double Rj, double dt,
+                      Spin<D>* torque, Spin<D>& ti) {
     const Spin<D> spin = P.angular_velocity[j] - P.angular_velocity[i];
     Spin<D> moment = Spin<D>::Zero();   // on j
     if (rolling_.stiffness > 0) {
@@ -797,8 +849,10 @@ class ContactForces final : public ForceModule<D> {
           theta[0] = moment[0] / -rolling_.stiffness;
         }
       } else {   // into the tangent plane like xi, the bound on squared lengths
-        turn_into_tangent_plane(theta, n);
-        theta += (spin - spin.dot(n) * n) * dt;
+        turn_into_tangent_plane(theta, motion.n_before, n);
+        const Vec<3>& nm = motion.n_mid;
+        Vec<3> turn = spin - spin.dot(nm) * nm;
+        theta += (turn - turn.dot(n) * n) * dt;
         moment = -rolling_.stiffness * theta;
         const double mag2 = moment.squaredNorm();
         if (mag2 > bound * bound) {

@@ -22,7 +22,7 @@ struct Input {
   std::uint32_t evaluation;
   double k, c, overlap_limit, dt;                                  // the law, the step
   bool affine;                                                     // a deforming cell: the flow counts in v_n
-  double strain_rate[3];
+  double strain_rate[3], scale[3], flow_factor[3];                 // ... the step's scaling (ContactForces::flow_factor)
   // Friction, when `tangential` is set: the springs xi (x, y, z per list entry), the half-step
   // velocities and spins they advance with (x, y, z triples), k_t, c_t / c_n, mu, and whether the
   // Coulomb bound is on k_n delta (true) or on the whole normal force.

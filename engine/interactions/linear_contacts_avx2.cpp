@@ -30,30 +30,47 @@ GRAINS_AVX2_PAIRS inline void gather3(const double* a, const Lanes4& idx3, V out
 
 // ContactForces::tangential_force (3D) on the steady lanes m, as in linear_contacts_avx512.cpp.
 GRAINS_AVX2_PAIRS void friction(const Input& in, const Contacts4<3>& c, V m, const V n[3], V elastic, V fn, V d,
-                                const V flow[3], V force[3], Results8& b, unsigned half) {
+                                const V /*flow: the springs take it at the middle of the step*/[3], V force[3], Results8& b, unsigned half) {
   const Lanes4 k3 = times(c.kl, 3), i3 = times(c.il, 3), j3 = times(c.jl, 3);
   // Lever arms to the middle of the overlap.
   const V half_overlap = mul(all(0.5), sub(c.Rsum, d));
   const V arm_i = sub(c.Ri, half_overlap), arm_j = sub(c.Rj, half_overlap);
   const V kt = all(in.friction_stiffness), ct = all(in.friction_damping_ratio * in.c);
   const V bound = mul(all(in.mu), in.elastic_bound ? elastic : fn);
-  // turn_into_tangent_plane(xi, n)
-  V xi[3];
-  gather3(in.tangential, k3, xi);
-  const V before = dot(xi, xi);
-  const V along = dot(xi, n);
-  for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(along, n[a]));
-  const V after = dot(xi, xi);
-  const V turned = both(m, greater(after, zero()));
-  const V stretch = blend(turned, all(1.0), _mm256_sqrt_pd(blend(turned, all(1.0), div(before, after))));
-  for (int a = 0; a < 3; ++a) xi[a] = blend(turned, xi[a], mul(xi[a], stretch));
-  // vt = (v_j - w_j x (R_j n)) - (v_i + w_i x (R_i n)) + flow, then its part in the tangent plane.
-  V wi[3], wj[3], ui[3], uj[3], lever_i[3], lever_j[3], spin_i[3], spin_j[3], vt[3];
+  V wi[3], wj[3], ui[3], uj[3];
   gather3(in.angular_velocity, i3, wi), gather3(in.angular_velocity, j3, wj);
   gather3(in.velocity, i3, ui), gather3(in.velocity, j3, uj);
+  // The pair at the start and the middle of the step (ContactForces::spring_motion), from the half-step velocities.
+  V hv[3], bfr[3], mid[3], nb[3], nm[3], flow_mid[3];
+  for (int a = 0; a < 3; ++a) {
+    hv[a] = sub(uj[a], ui[a]);
+    bfr[a] = sub(in.affine ? div(c.r[a], all(in.scale[a])) : c.r[a], mul(all(in.dt), hv[a]));
+    mid[a] = mul(all(0.5), add(bfr[a], c.r[a]));
+  }
+  const V d_mid = _mm256_sqrt_pd(dot(mid, mid));
+  const V inverse_mid = div(all(1.0), d_mid), inverse_before = div(all(1.0), _mm256_sqrt_pd(dot(bfr, bfr)));
+  for (int a = 0; a < 3; ++a) {
+    nm[a] = mul(mid[a], inverse_mid), nb[a] = mul(bfr[a], inverse_before);
+    flow_mid[a] = in.affine ? mul(all(in.flow_factor[a]), c.r[a]) : zero();
+  }
+  const V half_mid = mul(all(0.5), sub(c.Rsum, d_mid));
+  const V arm_i_mid = sub(c.Ri, half_mid), arm_j_mid = sub(c.Rj, half_mid);
+  // turn_into_tangent_plane(xi, n_before, n): the rotation that takes n_before to n, then the rounding's part along n off.
+  V xi[3];
+  gather3(in.tangential, k3, xi);
+  const V turn = div(dot(xi, n), add(all(1.0), dot(nb, n)));
+  for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(turn, add(nb[a], n[a])));
+  const V along = dot(xi, n);
+  for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(along, n[a]));
+  // vt = (v_j - w_j x (R_j n)) - (v_i + w_i x (R_i n)) + flow at the middle of the step, then its part in the
+  // tangent plane there and (to rounding the same) in the current one.
+  V lever_i[3], lever_j[3], lever_i_mid[3], lever_j_mid[3], spin_i[3], spin_j[3], vt[3];
   scaled(arm_i, n, lever_i), scaled(arm_j, n, lever_j);
-  cross(wj, lever_j, spin_j), cross(wi, lever_i, spin_i);
-  for (int a = 0; a < 3; ++a) vt[a] = add(sub(sub(uj[a], spin_j[a]), add(ui[a], spin_i[a])), flow[a]);
+  scaled(arm_i_mid, nm, lever_i_mid), scaled(arm_j_mid, nm, lever_j_mid);
+  cross(wj, lever_j_mid, spin_j), cross(wi, lever_i_mid, spin_i);
+  for (int a = 0; a < 3; ++a) vt[a] = add(sub(sub(uj[a], spin_j[a]), add(ui[a], spin_i[a])), flow_mid[a]);
+  const V normal_mid = dot(vt, nm);
+  for (int a = 0; a < 3; ++a) vt[a] = sub(vt[a], mul(normal_mid, nm[a]));
   const V normal = dot(vt, n);
   for (int a = 0; a < 3; ++a) vt[a] = sub(vt[a], mul(normal, n[a]));
   // The spring, the force and the Coulomb cap.
