@@ -2,8 +2,9 @@
 // (adhesion, friction, optionally rolling resistance; physics.md sections 4-6) for the contacts that
 // already touched at the last force evaluation and do not part within the step. Those take no onset or
 // parting corrections, so each is the same straight-line arithmetic; the pair loop (contact_forces.hpp)
-// evaluates a contact's first step, a parting contact (its stamp left as it was for it) and the attraction
-// across gaps itself, and adds every result in list order. Each lane does the portable
+// evaluates a contact's first step and a parting contact (its stamp left as it was for it) itself, and the
+// attraction across gaps where the AVX2 build runs (the AVX-512 one evaluates it too: Results8::ready), and
+// adds every result in list order. Each lane does the portable
 // code's operations in the same order, with correctly rounded roots and divisions and no multiply-add
 // contraction (engine/CMakeLists.txt), so the forces, torques and springs are bit-identical to it.
 #pragma once

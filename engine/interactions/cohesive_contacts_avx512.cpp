@@ -17,7 +17,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
   // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
-  // results are never stored.
+  // contact results are never stored (Results8 gets zeros or a tail's force there).
   const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, shifts, in.position, in.radius, in.touched, in.evaluation,
                               in.slot_radius);
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
@@ -25,6 +25,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
   const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
   __mmask8 m = c.steady;
   Results8& b = out.results[q / 8];   // q is a multiple of 8
+  b.steady = m;
   // The lanes that interact: by the pair filter's test, d^2 < ((R_i + R_j) + tail)^2, over the shell's
   // entries; else the lanes are the filter's selection, every one interacting.
   __mmask8 interacting = live;
