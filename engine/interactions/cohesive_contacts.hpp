@@ -2,8 +2,9 @@
 // (adhesion, friction, optionally rolling resistance; physics.md sections 4-6) for the contacts that
 // already touched at the last force evaluation and do not part within the step. Those take no onset or
 // parting corrections, so each is the same straight-line arithmetic; the pair loop (contact_forces.hpp)
-// evaluates a contact's first step, a parting contact (its stamp left as it was for it) and the attraction
-// across gaps itself, and adds every result in list order. Each lane does the portable
+// evaluates a contact's first step and a parting contact (its stamp left as it was for it) itself, and the
+// attraction across gaps where the AVX2 build runs (the AVX-512 one evaluates it too: Results8::ready), and
+// adds every result in list order. Each lane does the portable
 // code's operations in the same order, with correctly rounded roots and divisions and no multiply-add
 // contraction (engine/CMakeLists.txt), so the forces, torques and springs are bit-identical to it.
 #pragma once
@@ -32,8 +33,8 @@ struct Input {
   // and the pairs' radii are read per slot too: slot_radius[0][k] = R_i, slot_radius[1][k] = R_j.
   bool dense = false;
   const double* slot_radius[2] = {nullptr, nullptr};
-  // The law: K_N, F0, f_max, the step.
-  double k, attraction, overlap_limit, dt;
+  // The law: K_N, F0, D0, f_max, the step.
+  double k, attraction, range, overlap_limit, dt;
   // Friction: k_t / k_n, c_t / c_n, mu, bound on k_n delta (true) or on the normal force.
   double friction_stiffness_ratio, friction_damping_ratio, mu;
   bool elastic_bound;
@@ -58,6 +59,10 @@ struct alignas(64) Results8 {
   double fx[8], fy[8], torque_i[8], torque_j[8], moment[8], rx[8], ry[8];
   std::uint32_t partner[8];
   std::uint8_t steady, interacting;
+  // The lanes whose results the pair loop adds as they are: the steady contacts and, from the AVX-512
+  // kernel, the open pairs in the attraction's range (a central force, zero torques) and the shell's
+  // entries that do not interact (all zero). The pair loop evaluates the others itself.
+  std::uint8_t ready;
 };
 
 struct Output {

@@ -27,6 +27,7 @@ template <bool Dense>
   Results8& b = out.results[q / 8];
   const unsigned half = q & 7;   // 0 or 4: the block's first or second half (the first one writes the bits)
   b.steady = std::uint8_t(half ? b.steady | steady << 4 : steady);
+  b.ready = b.steady;   // the steady contacts only (the pair loop evaluates the attraction's tail itself)
   if (out.interacting) {   // the pair filter's test: d^2 < ((R_i + R_j) + tail)^2
     const V reach = add(Rsum, all(in.tail_reach));
     const unsigned interacting = bits(both(live, less(d2, mul(reach, reach))));
@@ -58,6 +59,7 @@ template <bool Dense>
       in.touched[Dense ? k0 + __builtin_ctz(l) : k.at[__builtin_ctz(l)]] = in.evaluation - 1;
     m = _mm256_andnot_pd(parting, m);
     b.steady = std::uint8_t(b.steady & ~(parts << half));
+    b.ready = b.steady;
   }
 
   // Normal law (AdhesiveContactLaw::force with onset {1, 0}, no parting).

@@ -17,7 +17,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
                                       const std::uint8_t* images, std::size_t q, __mmask8 live, const Output& out) {
   // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
   // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
-  // results are never stored.
+  // contact results are never stored (Results8 gets zeros or a tail's force there).
   const Contacts8<2, Dense> c(rows, pairs, images, q, live, in.partner, shifts, in.position, in.radius, in.touched, in.evaluation,
                               in.slot_radius);
   const __m256i i = c.i, k = c.k, j = c.j, i2 = c.iD, j2 = c.jD;
@@ -26,11 +26,17 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
   __mmask8 m = c.steady;
   Results8& b = out.results[q / 8];   // q is a multiple of 8
   b.steady = m;
-  if (out.interacting) {   // the pair filter's test: d^2 < ((R_i + R_j) + tail)^2
+  // The lanes that interact: by the pair filter's test, d^2 < ((R_i + R_j) + tail)^2, over the shell's
+  // entries; else the lanes are the filter's selection, every one interacting.
+  __mmask8 interacting = live;
+  if (out.interacting) {
     const V reach = add(Rsum, all(in.tail_reach));
-    b.interacting = _mm512_mask_cmp_pd_mask(live, d2, mul(reach, reach), _CMP_LT_OQ);
+    b.interacting = interacting = _mm512_mask_cmp_pd_mask(live, d2, mul(reach, reach), _CMP_LT_OQ);
   }
-  if (!m) return 0;
+  // Open pairs within the attraction range (the pair loop's tail) and, over the shell, pairs that do not
+  // interact: their results are stored too (below), so that the pair loop adds whole blocks without a branch
+  // per pair.
+  const __mmask8 tail = __mmask8(interacting & ~c.touching), quiet = __mmask8(live & ~interacting);
 
   const V d = _mm512_sqrt_pd(d2);
   const V nx = div(rx, d), ny = div(ry, d);
@@ -92,13 +98,24 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
     xi = _mm512_mask_div_pd(xi, shortened, copysign(bound, xi), kt);
   }
   set_per_entry<Dense>(in.tangential, k, k0, m, xi);
-  _mm256_mask_storeu_epi32(b.partner, m, j);
-  _mm512_mask_store_pd(b.torque_j, m, mul(arm_j, ft));
-  _mm512_mask_store_pd(b.torque_i, m, mul(arm_i, ft));
-  _mm512_mask_store_pd(b.fx, m, add(mul(fn, nx), mul(ft, tx)));
-  _mm512_mask_store_pd(b.fy, m, add(mul(fn, ny), mul(ft, ty)));
-  _mm512_mask_store_pd(b.rx, m, rx);
-  _mm512_mask_store_pd(b.ry, m, ry);
+  // The forces on j: a steady contact's, a tail's (AdhesiveContactLaw::tail(d - Rsum) / d * r, as the pair
+  // loop computes it), zero elsewhere. Zero torques and forces leave the sums they are added to as they were
+  // (none of them is ever -0: they start at +0, and a sum is -0 only if both terms are).
+  V fx = _mm512_maskz_mov_pd(m, add(mul(fn, nx), mul(ft, tx))), fy = _mm512_maskz_mov_pd(m, add(mul(fn, ny), mul(ft, ty)));
+  if (tail) {
+    const V gap = sub(d, Rsum);
+    const V pull = mul(all(-in.attraction), sub(all(1.0), div(gap, all(in.range))));
+    const V pull_d = div(pull, d);
+    fx = _mm512_mask_mul_pd(fx, tail, pull_d, rx), fy = _mm512_mask_mul_pd(fy, tail, pull_d, ry);
+  }
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(b.partner), j);
+  _mm512_store_pd(b.torque_j, _mm512_maskz_mov_pd(m, mul(arm_j, ft)));
+  _mm512_store_pd(b.torque_i, _mm512_maskz_mov_pd(m, mul(arm_i, ft)));
+  _mm512_store_pd(b.fx, fx);
+  _mm512_store_pd(b.fy, fy);
+  _mm512_store_pd(b.rx, rx);
+  _mm512_store_pd(b.ry, ry);
+  b.ready = __mmask8(m | tail | quiet);
 
   // Rolling resistance (rolling_moment, 2D): a scalar spring, the bound a comparison of absolute values.
   if (in.rolling_angle) {
@@ -117,7 +134,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
       set_per_entry<Dense>(in.rolling_angle, k, k0, m, theta);
     }
     if (in.rolling_damping > 0) moment = sub(moment, mul(mul(mul(mul(all(in.rolling_damping), cn), Ri), Rj), spin));
-    _mm512_mask_store_pd(b.moment, m, moment);
+    _mm512_store_pd(b.moment, _mm512_maskz_mov_pd(m, moment));
   }
   return __builtin_popcount(clamped & m);
 }

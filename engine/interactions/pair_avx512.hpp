@@ -144,7 +144,7 @@ GRAINS_AVX512_PAIRS inline __m256i times_dim(__m256i i) {
 }
 
 // The geometry of eight gathered pairs q .. q + 7 (rows[q], list entries pairs[q], images[q]) and which of
-// them are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
+// them touch and which are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
 // r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2 (as Eigen sums it), touching when d2 < (R_i + R_j)^2.
 // Lanes of indices i D and j D address the D-vectors of the particle arrays. Dense: the pairs' entries k
 // are consecutive from k0 = pairs[q] (the shell's slots), so the per-entry data (partner, stamps, and the
@@ -155,7 +155,7 @@ struct Contacts8 {
   __m256i i, k, j, iD, jD;
   std::uint32_t k0;
   V r[D], d2, Ri, Rj, Rsum;
-  __mmask8 steady;
+  __mmask8 touching, steady;
   GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
                                 __mmask8 live, const std::uint32_t* partner, const ImageShifts<D>& shifts, const double* position,
                                 const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
@@ -181,7 +181,8 @@ struct Contacts8 {
     if constexpr (Dense) Ri = _mm512_maskz_loadu_pd(live, slot_radius[0] + k0), Rj = _mm512_maskz_loadu_pd(live, slot_radius[1] + k0);
     else Ri = gather(radius, i, live), Rj = gather(radius, j, live);
     Rsum = add(Ri, Rj);
-    steady = steady_contacts<Dense>(_mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ), k, k0, touched, evaluation);
+    touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
+    steady = steady_contacts<Dense>(touching, k, k0, touched, evaluation);
   }
 };
 
