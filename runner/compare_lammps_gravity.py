@@ -506,15 +506,17 @@ def main():
     ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("lammps-gravity"))
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     args = ap.parse_args()
-    if args.free_fall_times <= 0:
-        ap.error(f"--free-fall-times {args.free_fall_times}: must be > 0")
+    if not 0 < args.free_fall_times < math.inf:
+        ap.error(f"--free-fall-times {args.free_fall_times}: must be a finite number > 0")
     if len(set(args.seeds)) != len(args.seeds):
         ap.error(f"--seeds {' '.join(map(str, args.seeds))}: each seed once")
+    if any(s < 0 for s in args.seeds):
+        ap.error(f"--seeds {' '.join(map(str, args.seeds))}: particles.seed is a number >= 0")
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
+    if not args.binary.exists():
+        ap.error(f"--binary {args.binary}: no such file (cmake --build build)")
     if not shutil.which("lmp"):
         sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps_gravity.py installs it")
-    if not args.binary.exists():
-        sys.exit(f"error: --binary {args.binary}: not built (cmake --build build)")
     args.out.mkdir(parents=True, exist_ok=True)
     kn, cn, m_star = kn_cn()
     report = ["# The aggregation scene against LAMMPS on identical initial states", "",
