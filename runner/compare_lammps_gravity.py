@@ -183,8 +183,7 @@ thermo {every}
 
 def lammps_run(work, name, script):
     """Runs a script; (its thermo rows step, K, W; its dumped positions, frames x N x 3)."""
-    for old in ("positions.dump",):
-        (work / old).unlink(missing_ok=True)
+    (work / "positions.dump").unlink(missing_ok=True)   # a run without dumps must not read an older one's
     (work / f"{name}.lmp").write_text(script)
     text = run(["lmp", "-in", f"{name}.lmp", "-log", "none"], work)
     rows = np.array(re.findall(r"^\s+(\d+)\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s*$", text, re.MULTILINE), dtype=float)
@@ -198,19 +197,20 @@ def lammps_run(work, name, script):
 
 
 def grains_run(binary, work, scene):
-    """grains' observables (a dict of name -> (step, value)) and snapshots (steps, positions)."""
+    """grains' observables (a dict of name -> (steps, values)), its snapshots' steps and positions, and the
+    file's attributes."""
     out = work / (scene.stem + ".h5")
     run([binary, "run", scene, "--quiet", "--out", out, "--set", "run.threads=1"], work)
     with h5py.File(out, "r") as f:
         o = f["observables"]
         obs = {k: (o[k]["step"][:], o[k]["value"][:]) for k in o}
-        p = f["particles/all/position"]
-        steps = f["particles/all/velocity/step"][:]
-        return obs, steps, p["value"][:], {k: float(v[()]) if np.ndim(v) == 0 else v for k, v in f.attrs.items()}
+        steps = f["particles/all/velocity/step"][:]   # the positions' steps (H5MD: position has no own)
+        return obs, steps, f["particles/all/position/value"][:], {k: float(v[()]) if np.ndim(v) == 0 else v for k, v in f.attrs.items()}
 
 
 def clusters(x, radius=DIAMETER / 2, tol=TOL):
-    """physics.md section 8 for equal spheres: (cluster sizes, largest first; labels) for d < 2R + tol."""
+    """physics.md section 8 for equal spheres, linked when d < 2R + tol: (the clusters' sizes, each particle's
+    index into them)."""
     n = len(x)
     parent = np.arange(n)
 
