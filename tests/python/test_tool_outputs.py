@@ -96,6 +96,10 @@ def test_campaign_tools_name_bad_arguments_in_a_line(grains_bin, tmp_path, scrip
     ("compare_lammps.py", ["--steps", "0"], ["--steps = 0"]),   # "predicts nan", exit 0, before
     ("compare_lammps_rolling.py", ["--seeds", "0"], ["--seeds = 0"]),
     ("compare_lammps_rolling.py", ["--steps", "2100"], ["--steps = 2100", "multiple of 500"]),
+    ("compare_lammps_gravity.py", ["--free-fall-times", "0"], ["--free-fall-times 0.0", "> 0"]),
+    ("compare_lammps_gravity.py", ["--free-fall-times", "nan"], ["--free-fall-times nan", "finite"]),
+    ("compare_lammps_gravity.py", ["--seeds", "1", "1"], ["--seeds 1 1", "each seed once"]),
+    ("compare_lammps_gravity.py", ["--binary", "nosuch"], ["--binary", "nosuch", "no such file"]),
 ])
 def test_benchmarks_name_bad_counts_and_paths_in_a_line(tmp_path, name, args, words):
     refused(tool(name, *args, cwd=tmp_path), *words)
