@@ -497,7 +497,8 @@ def mean_sd(values):
     v = v[np.isfinite(v)]
     if len(v) == 0:
         return "nan"
-    return f"{v.mean():.3g} ± {v.std(ddof=1):.2g}" if len(v) > 1 else f"{v[0]:.3g}"
+    # Fixed decimals: the figures are all of order 0.001-3, and D_f = 3.001 must not print as "3".
+    return f"{v.mean():.3f} ± {v.std(ddof=1):.3f}" if len(v) > 1 else f"{v[0]:.3f}"
 
 
 def main():
