@@ -53,6 +53,11 @@ class ByteReader {
  public:
   explicit ByteReader(std::span<const std::byte> b) : bytes_(b) {}
   template <class T> T get() {
+    if constexpr (std::is_same_v<T, bool>) {   // a byte other than 0 or 1 is no bool: reading it as one is undefined
+      const auto b = get<std::uint8_t>();
+      if (b > 1) throw std::runtime_error("saved state holds a flag that is neither 0 nor 1 (corrupted, or from another scene)");
+      return b == 1;
+    }
     T x;
     need(sizeof(T));
     // Eigen fixed-size types are plain scalars whose copy assignment is user-provided, so not "trivially

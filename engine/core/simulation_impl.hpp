@@ -252,6 +252,9 @@ class SimulationImpl final : public Simulation {
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;
+  // While load_state sets the controls: a state carries the barostat's hold or release (its restart flag and rate),
+  // which cell.active's setter must not make again (it restarted CVODE after a restored state, found by fuzzing).
+  bool loading_controls_ = false;
   double drag_ = 0;   // drag.rate gamma
   double contact_damping_ = 0;                       // multiplies the contacts' affine damping of the cell
   static constexpr long contact_damping_every_ = 10;  // steps between its updates (one pass over the list)

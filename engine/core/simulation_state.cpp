@@ -1,4 +1,5 @@
 // A simulation's complete state as bytes (save_state / restore_state), for checkpoints and FMU hosts.
+#include <cmath>
 #include <cstring>
 
 #include <fmt/format.h>
@@ -62,7 +63,22 @@ std::vector<std::byte> SimulationImpl<D>::save_state() const {
 // the list's, the modules' per-pair arrays the list's pairs.
 template <int D>
 void SimulationImpl<D>::check_loaded() const {
-  const std::size_t N = sys_.particles.size();
+  const auto& P = sys_.particles;
+  const std::size_t N = P.size();
+  // Every per-particle array has a row per particle: a state of other lengths was read past its end at the next step.
+  for (std::size_t n : {P.position.size(), P.velocity.size(), P.force.size(), P.force_prev.size(), P.angular_velocity.size(),
+                        P.torque.size(), P.orientation.size(), P.image.size()})
+    if (n != N) throw SimulationError(fmt::format("the saved particle arrays have {} rows, the scene {} particles", n, N));
+  // A position a run keeps lies near its cell on a periodic axis: one 1e19 cells off overflowed the image count that
+  // wrapping it adds up (found by fuzzing); a non-finite one is no position anywhere.
+  const auto& box = sys_.box;
+  for (std::size_t i = 0; i < N; ++i)
+    for (int a = 0; a < D; ++a) {
+      const double x = P.position[i][a];
+      if (!std::isfinite(x) || (box.periodic[a] && std::abs(x - box.lower[a]) > 1e6 * box.length[a]))
+        throw SimulationError(fmt::format("the saved position of particle {} is {} on axis {}: a finite number, within "
+                                          "1e6 cell lengths of the periodic cell", i, x, a));
+    }
   const auto& list = sys_.neighbours;
   const auto& shell = sys_.shell;
   if (!list.start.empty() && list.start.size() != N + 1)
@@ -134,7 +150,14 @@ void SimulationImpl<D>::load_state(std::span<const std::byte> all) {
     sys_.box.length = barostat_->length();
   }
   if (collisions_) collisions_->load(r);
-  for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
+  loading_controls_ = true;
+  try {
+    for (auto& [index, c] : controls_) c.set(r.get<double>());   // the network mark is unchanged: no new reference
+  } catch (...) {
+    loading_controls_ = false;
+    throw;
+  }
+  loading_controls_ = false;
   if (has_ramp_) ramp_.on = r.get<bool>();
   if (barostat_ && contact_damping_ > 0) barostat_->set_contact_damping(r.get<Vec<D>>());
   if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");

@@ -246,6 +246,7 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
                 if (v != 0 && v != 1) throw SimulationError(fmt::format("cell.active = {} is not allowed: 0 or 1", v));
                 if ((v == 1) == cell_active_) return;   // unchanged (a restored state sets every control)
                 cell_active_ = v == 1;
+                if (loading_controls_) return;   // the restored barostat is held or released already
                 if (cell_active_) barostat_->release();
                 else barostat_->hold();
               });

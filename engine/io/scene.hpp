@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include <toml++/toml.h>
+#include "io/toml.hpp"
 
 #include "io/scene_units.hpp"
 

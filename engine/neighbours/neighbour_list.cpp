@@ -283,8 +283,10 @@ void NeighbourList<D>::load(ByteReader& r) {
   if (image.size() != partner.size()) refuse("an image per pair");
   if (!shift.empty() && shift.size() != (D == 3 ? 27u : 9u)) refuse("3^D image shifts");
   if (!reference_.empty() && reference_.size() != rows) refuse("a reference position per row");
-  for (std::size_t i = 0; i < rows; ++i) {
+  // Every row in order before any is read: a later row's start below an earlier one's let that row run past the pairs.
+  for (std::size_t i = 0; i < rows; ++i)
     if (start[i] > start[i + 1]) refuse("rows out of order");
+  for (std::size_t i = 0; i < rows; ++i) {
     for (std::uint32_t k = start[i]; k < start[i + 1]; ++k)
       if (partner[k] <= i || partner[k] >= rows || image[k] >= shift.size()) refuse("a pair's partner or image out of range");
   }

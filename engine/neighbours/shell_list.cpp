@@ -80,8 +80,10 @@ void ShellList<D>::load(ByteReader& r) {
   const std::size_t n = entry.size(), rows = start.empty() ? 0 : start.size() - 1;
   if (owner.size() != n || partner.size() != n || image.size() != n) refuse("a row, partner and image per entry");
   if (start.empty() ? n != 0 : start.front() != 0 || start.back() != n) refuse("its rows do not cover its entries");
-  for (std::size_t i = 0; i < rows; ++i) {
+  // Every row in order before any is read: a later row's start below an earlier one's let that row run past the entries.
+  for (std::size_t i = 0; i < rows; ++i)
     if (start[i] > start[i + 1]) refuse("rows out of order");
+  for (std::size_t i = 0; i < rows; ++i) {
     for (std::uint32_t e = start[i]; e < start[i + 1]; ++e)
       if (owner[e] != i || partner[e] <= i || partner[e] >= rows || image[e] >= (D == 3 ? 27 : 9))
         refuse("an entry's row, partner or image out of range");

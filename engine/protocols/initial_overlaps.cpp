@@ -44,7 +44,9 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
   for (Grid& g : grids) {
     const double dmax = 2 * g.rmax;
     for (int a = 0; a < D; ++a) {   // periodic axes tiled exactly, so that cell indices wrap
-      g.n[a] = box.periodic[a] ? std::max(1LL, (long long)std::floor(box.length[a] / dmax)) : 0;
+      // At most 1e6 cells an axis (wider cells find the same pairs): a tiny grain's L / d in a large box (1e-30 in
+      // 10) overflowed the integer it was converted to (found by fuzzing).
+      g.n[a] = box.periodic[a] ? (long long)std::clamp(std::floor(box.length[a] / dmax), 1.0, 1e6) : 0;
       g.cell[a] = box.periodic[a] ? box.length[a] / double(g.n[a]) : dmax;
     }
   }

@@ -64,7 +64,9 @@ std::size_t insert_in_order(Particles<D>& P, const Box<D>& box, const std::vecto
   std::array<long long, D> n;
   Vec<D> cell;
   for (int a = 0; a < D; ++a) {
-    n[a] = std::max(1LL, (long long)std::floor(box.length[a] / dmax));
+    // At most 1e6 cells an axis (wider cells find the same pairs), so that the keys below cannot overflow: a tiny
+    // grain's L / d in a large box (1e-30 in 10) overflowed the integer it was converted to (found by fuzzing).
+    n[a] = (long long)std::clamp(std::floor(box.length[a] / dmax), 1.0, 1e6);
     cell[a] = box.length[a] / double(n[a]);
   }
   std::unordered_multimap<long long, std::size_t> grid;

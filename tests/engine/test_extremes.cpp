@@ -429,3 +429,29 @@ TEST_CASE("extremes: a restitution so small that one collision is unresolved say
   auto mild = pair(1e-3, 50);   // 1e-3 off
   for (const auto& w : mild->warnings()) CHECK_THAT(w, !Contains("binary collision"));
 }
+
+// Found by fuzzing (tests/fuzz/fuzz_particle_file, 2026-12-05): the set-up's cell grids (random insertion, the
+// initial overlap check) converted L / d to an integer, beyond its range for grains 1e-30 wide in a box of 10
+// (undefined behaviour; UBSan reported it, a Release build happened to make one cell). At most 1e6 cells an axis now.
+TEST_CASE("extremes: grains 1e-30 wide in a box of 10 are set up and step", "[extremes]") {
+  for (const std::string layout : {"lattice", "random"}) {
+    INFO(layout);
+    auto sim = make(fmt::format(R"(
+[scene]
+dimension = 3
+[particles]
+layout = "{}"
+count = 8
+diameter = 1e-30
+[box]
+lengths = [10.0, 10.0, 10.0]
+[contact]
+restitution = 0.5
+duration = 0.05
+[run]
+threads = 1
+)", layout));
+    sim->step_n(3);
+    CHECK(sim->particles().radius[0] == 0.5e-30);
+  }
+}

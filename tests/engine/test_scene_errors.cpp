@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/simulation.hpp"
@@ -139,6 +140,26 @@ TEST_CASE("scene errors: a TOML syntax error gives the file and line", "[scene][
   REQUIRE_THROWS_AS(build(broken), SceneError);
   REQUIRE_THROWS_WITH(build(broken), Contains("bad.toml:5") && Contains("syntax"));
   REQUIRE_THROWS_WITH(build("[scene\ndimension = 3\n"), Contains("bad.toml:1") && Contains("syntax"));
+}
+
+// Found by fuzzing (tests/fuzz/fuzz_scene, 2026-12-05), two defects of toml++ 3.3.0 behind a syntax error
+// (io/toml.hpp): a table header whose name starts with neither a key's character nor a quote broke an assertion, which
+// aborted a build without NDEBUG (Debug, the sanitized builds); a character such as U+00A1 or U+FEFD where whitespace
+// may stand reached __builtin_unreachable() (undefined behaviour, which UBSan reports). A Release build reported both.
+TEST_CASE("scene errors: a malformed table header or a stray character is a syntax error, not an abort", "[scene][errors]") {
+  const std::pair<std::string, std::string> cases[] = {
+      {"[:", "expected bare key starting character or string delimiter, saw ':'"},
+      {"[[=", "expected bare key starting character or string delimiter, saw '='"},
+      {"[[[1]]]", "expected bare key starting character or string delimiter, saw '['"},
+      {"[ :]", "expected bare key starting character or string delimiter, saw ':'"},
+      {"seed = 1 \u00a1", "expected a comment or whitespace, saw '\u00a1'"},
+      {"\ufefd", "expected keys, tables, whitespace or comments, saw '\ufefd'"},
+      {"seed = [1, \u00a1]", "could not determine value type"}};
+  for (const auto& [line, what] : cases) {
+    INFO(line);
+    REQUIRE_THROWS_WITH(build("[scene]\ndimension = 3\n" + line + "\n"),
+                        Contains("bad.toml:3") && Contains("TOML syntax error") && Contains(what));
+  }
 }
 
 TEST_CASE("scene errors: inconsistent layouts name the key, the value and what would work", "[scene][errors]") {

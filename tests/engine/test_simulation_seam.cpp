@@ -6,6 +6,7 @@
 #include "core/byte_stream.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "packed_cell_scene.hpp"
 
 using namespace grains;
 
@@ -169,6 +170,13 @@ TEST_CASE("a saved neighbour list whose indices do not hold together is refused 
     std::memcpy(changed.data() + at + 8 + 4 * N, &bad, 4);   // the last row's end
     CHECK_THROWS_WITH(s->restore_state(reseal(changed)), Catch::Contains("neighbour list is inconsistent"));
   }
+  {   // the first row's end far past the pairs, the next rows as they were (found by fuzzing: the first row was read
+      // to that end, past the pairs' array, before the rows' order was checked)
+    auto changed = saved;
+    const std::uint32_t far = 0x40000000u;
+    std::memcpy(changed.data() + at + 8 + 4, &far, 4);
+    CHECK_THROWS_WITH(s->restore_state(reseal(changed)), Catch::Contains("rows out of order"));
+  }
   std::uint64_t pairs;   // just after the row starts
   std::memcpy(&pairs, saved.data() + at + 8 + 4 * (N + 1), 8);
   REQUIRE(pairs > 0);
@@ -179,6 +187,82 @@ TEST_CASE("a saved neighbour list whose indices do not hold together is refused 
   std::memcpy(saved.data() + at + 8 + 4 * (N + 1) + 8, &beyond, 4);
   CHECK_THROWS_WITH(s->restore_state(reseal(saved)), Catch::Contains("neighbour list is inconsistent"));
   CHECK(s->step_count() == 200);
+}
+
+namespace {
+std::vector<std::byte> resealed(std::vector<std::byte> bytes) {   // a new check sum over the changed bytes
+  const auto body = std::span(bytes).first(bytes.size() - 8);
+  const std::uint64_t sum = check_sum(body);
+  std::memcpy(bytes.data() + body.size(), &sum, 8);
+  return bytes;
+}
+}  // namespace
+
+// Found by fuzzing (tests/fuzz/fuzz_state, 2026-12-05): the particle arrays' lengths were never compared with the
+// particle count, so a state with a row too few was taken, and the next step read past the array's end.
+TEST_CASE("a saved state whose particle arrays have a row too few is refused even under a valid check sum", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  s->step_n(20);
+  const auto saved = s->save_state();
+  const std::size_t N = s->particle_count();
+  // After format, D, N, time, step and the clock's origin and whole steps: the positions' count, then their rows.
+  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 8 + 8;
+  std::uint64_t rows;
+  std::memcpy(&rows, saved.data() + at, 8);
+  REQUIRE(rows == N);
+  auto changed = saved;
+  rows = N - 1;
+  std::memcpy(changed.data() + at, &rows, 8);
+  const auto last = changed.begin() + std::ptrdiff_t(at + 8 + (N - 1) * 24);
+  changed.erase(last, last + 24);   // the last position's row
+  CHECK_THROWS_WITH(s->restore_state(resealed(changed)), Catch::Contains("particle arrays have 124 rows, the scene 125"));
+  CHECK(s->step_count() == 20);
+  s->step_n(2);
+}
+
+// Found by fuzzing (tests/fuzz/fuzz_state): a restored position 1e19 cell lengths off overflowed the image count that
+// wrapping it at the next step added up (undefined behaviour, which UBSan reported).
+TEST_CASE("a saved position far outside the periodic cell is refused", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  s->step_n(20);
+  auto saved = s->save_state();
+  const double far = 1e25;
+  std::memcpy(saved.data() + 4 + 4 + 8 + 8 + 8 + 8 + 8 + 8, &far, 8);   // the first position's x
+  CHECK_THROWS_WITH(s->restore_state(resealed(saved)), Catch::Contains("saved position of particle 0 is 1e+25 on axis 0"));
+  CHECK(s->step_count() == 20);
+}
+
+// Found by fuzzing (tests/fuzz/fuzz_state): a saved flag (the ramp's, the shell's, the barostat's) was read as a
+// bool from whatever byte the state held, undefined behaviour for any byte but 0 and 1 (UBSan reported it).
+TEST_CASE("a saved flag byte that is neither 0 nor 1 is refused", "[seam]") {
+  // A ramped cell without contact damping: the ramp's on flag is the state's last byte before its check sum.
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 16, 0.01, "pressure_final = 0.1\nramp_duration = 1.0"), "ramp"));
+  s->step_n(5);
+  auto saved = s->save_state();
+  std::byte& on = saved[saved.size() - 9];
+  REQUIRE(on == std::byte{1});
+  on = std::byte{2};
+  CHECK_THROWS_WITH(s->restore_state(resealed(saved)), Catch::Contains("a flag that is neither 0 nor 1"));
+  CHECK(s->step_count() == 5);
+}
+
+// Found by fuzzing (tests/fuzz/fuzz_state: a refused state left the barostat's restart flag set): restoring a state
+// sets every control, and cell.active's setter released the held cell, which restarts CVODE at the next step, where
+// the state's own barostat had no restart pending: a state saved with the cell active, restored while a host held it,
+// did not continue as the run that saved it.
+TEST_CASE("a state restored while the host holds the cell continues as the run that saved it", "[seam]") {
+  const std::string scene = packed_cell_scene(2, 16, 0.01);
+  auto s = Simulation::create(Scene::from_string(scene, "cell"));
+  auto t = Simulation::create(Scene::from_string(scene, "cell"));
+  s->step_n(30), t->step_n(30);
+  const auto saved = s->save_state();
+  s->set("cell.active", 0);
+  s->step_n(3);
+  s->restore_state(saved);
+  REQUIRE(s->get("cell.active") == 1);
+  s->step_n(40), t->step_n(40);
+  CHECK(s->save_state() == t->save_state());
+  CHECK(s->box().length == t->box().length);
 }
 
 TEST_CASE("step(k dt) takes exactly the k steps of step_n(k), also late in a run", "[seam]") {
