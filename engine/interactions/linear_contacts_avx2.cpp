@@ -30,7 +30,7 @@ GRAINS_AVX2_PAIRS inline void gather3(const double* a, const Lanes4& idx3, V out
 
 // ContactForces::tangential_force (3D) on the steady lanes m, as in linear_contacts_avx512.cpp.
 GRAINS_AVX2_PAIRS void friction(const Input& in, const Contacts4<3>& c, V m, const V n[3], V elastic, V fn, V d,
-                                const V /*flow: the springs take it at the middle of the step*/[3], V force[3], Results8& b, unsigned half) {
+                                V force[3], Results8& b, unsigned half) {
   const Lanes4 k3 = times(c.kl, 3), i3 = times(c.il, 3), j3 = times(c.jl, 3);
   // Lever arms to the middle of the overlap.
   const V half_overlap = mul(all(0.5), sub(c.Rsum, d));
@@ -162,12 +162,7 @@ GRAINS_AVX2_PAIRS long evaluate4(const Input& in, const std::uint32_t* rows, con
   }
   f = _mm256_max_pd(f, zero());   // std::max(0.0, f)
   V force[3] = {mul(f, n[0]), mul(f, n[1]), mul(f, n[2])};
-  if (in.tangential) {
-    V flow[3] = {all(0.0), all(0.0), all(0.0)};
-    if (in.affine)
-      for (int a = 0; a < 3; ++a) flow[a] = mul(all(in.strain_rate[a]), r[a]);
-    friction(in, c, m, n, elastic, f, d, flow, force, b, half);
-  }
+  if (in.tangential) friction(in, c, m, n, elastic, f, d, force, b, half);   // the springs take the cell's flow themselves (in.flow_factor)
   std::memcpy(b.partner + half, c.jl.at, sizeof c.jl.at);
   for (int a = 0; a < 3; ++a) _mm256_store_pd(b.f[a] + half, force[a]);
   for (int a = 0; a < 3; ++a) _mm256_store_pd(b.r[a] + half, r[a]);

@@ -25,7 +25,7 @@ GRAINS_AVX512_PAIRS inline void scaled(V s, const V v[3], V out[3]) {
 // adds F_t to `force` (on j) and stores both torques. fn: the normal force, elastic: k_n delta_used.
 // Loads take every live lane (see evaluate8).
 GRAINS_AVX512_PAIRS void friction(const Input& in, const Contacts8<3>& c, __mmask8 live, __mmask8 m, const V n[3], V elastic, V fn, V d,
-                                  const V /*flow: the springs take it at the middle of the step*/[3], V force[3], Results8& b) {
+                                  V force[3], Results8& b) {
   const __m256i k3 = _mm256_mullo_epi32(c.k, _mm256_set1_epi32(3));
   // Lever arms to the middle of the overlap.
   const V half_overlap = mul(all(0.5), sub(c.Rsum, d));
@@ -151,12 +151,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<3>& shifts
   }
   f = _mm512_max_pd(f, all(0.0));   // std::max(0.0, f)
   V force[3] = {mul(f, n[0]), mul(f, n[1]), mul(f, n[2])};
-  if (in.tangential) {
-    V flow[3] = {all(0.0), all(0.0), all(0.0)};
-    if (in.affine)
-      for (int a = 0; a < 3; ++a) flow[a] = mul(all(in.strain_rate[a]), r[a]);
-    friction(in, c, live, m, n, elastic, f, d, flow, force, b);
-  }
+  if (in.tangential) friction(in, c, live, m, n, elastic, f, d, force, b);   // the springs take the cell's flow themselves (in.flow_factor)
   _mm256_mask_storeu_epi32(b.partner, m, j);
   for (int a = 0; a < 3; ++a) _mm512_mask_store_pd(b.f[a], m, force[a]);
   for (int a = 0; a < 3; ++a) _mm512_mask_store_pd(b.r[a], m, r[a]);

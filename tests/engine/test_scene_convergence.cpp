@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "core/simulation.hpp"
+#include "head_on_scene.hpp"
 #include "io/scene.hpp"
 
 using namespace grains;
@@ -125,6 +126,11 @@ std::string rows(const std::vector<std::vector<double>>& m) {
   return r + "]";
 }
 
+// Unit grains (diameter 1, mass 1) at positions x with velocities v.
+ListedParticles unit_grains(const std::vector<std::vector<double>>& x, const std::vector<std::vector<double>>& v) {
+  return {x, v, std::vector<double>(x.size(), 1.0), std::vector<double>(x.size(), 1.0)};
+}
+
 std::string module_keys(const Modules& m) {
   std::string s = fmt::format("[adhesion]\nenabled = true\nstiffness = 1e4\nrestitution = {}\n", m.restitution);
   if (m.friction > 0 || m.friction_damping > 0)
@@ -162,23 +168,7 @@ std::string bonded_cluster(int dimension, const Modules& m) {
     spin.back() += m.spin;   // the grains turn with the cluster
     w.push_back(spin);
   }
-  return fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "list"
-positions = {}
-velocity = "list"
-velocities = {}
-angular_velocities = {}
-diameters = [{}]
-masses = [{}]
-[box]
-periodic = false
-[run]
-threads = 1
-)", dimension, rows(x), rows(v), rows(w), fmt::join(std::vector<double>(x.size(), 1.0), ", "),
-                     fmt::join(std::vector<double>(x.size(), 1.0), ", ")) + module_keys(m);
+  return listed_particles_toml(dimension, unit_grains(x, v), "angular_velocities = " + rows(w)) + module_keys(m);
 }
 
 }  // namespace
@@ -273,28 +263,14 @@ std::string gravitating_spheres(double restitution, double friction, double fric
     v.push_back(u);
     w.push_back({1e-2 * noise(), 1e-2 * noise(), 1e-2 * noise() + (i < 4 ? spin : 0.0)});
   }
-  std::string text = fmt::format(R"(
-[scene]
-dimension = 3
-[particles]
-layout = "list"
-positions = {}
-velocity = "list"
-velocities = {}
-angular_velocities = {}
-diameters = [1, 1, 1, 1, 1]
-masses = [1, 1, 1, 1, 1]
-[box]
-periodic = false
+  std::string text = listed_particles_toml(3, unit_grains(x, v), "angular_velocities = " + rows(w)) + fmt::format(R"(
 [contact]
 restitution = {}
 duration = 0.02
 [gravity]
 enabled = true
 G = 10
-[run]
-threads = 1
-)", rows(x), rows(v), rows(w), restitution);
+)", restitution);
   if (friction > 0) text += fmt::format("[friction]\ncoefficient = {}\ndamping_ratio = {}\n", friction, friction_damping);
   return text;
 }
