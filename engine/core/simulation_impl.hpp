@@ -142,6 +142,7 @@ class SimulationImpl final : public Simulation {
   inline void check_finite_at_step(long step) const;
   // Also called at set-up and by the observables.
   void rebuild();
+  void check_within_reach_of_cell() const;
   Tensor<D> kinetic_sum(const PendingKick* kick) const;
   void track_aggregation();
   void check_finite(const std::string& when) const;

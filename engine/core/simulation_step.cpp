@@ -228,6 +228,7 @@ void SimulationImpl<D>::rebuild() {
   auto& P = sys_.particles;
   for (const auto& x : P.position)   // never grid a non-finite position
     if (!x.allFinite()) check_finite_at_step(sys_.step + 1);
+  check_within_reach_of_cell();
   for (std::size_t i = 0; i < P.size(); ++i) P.position[i] = sys_.box.wrap(P.position[i], &P.image[i]);
   sys_.neighbours.build(P.position, P.radius, sys_.box, sys_.threads);
   if (sys_.shell.enabled()) sys_.shell.build(sys_.neighbours, P.position, P.radius, 0.0, sys_.step, false);
@@ -363,6 +364,26 @@ template <int D>
 void SimulationImpl<D>::track_aggregation() {
   if (!analysis_ || !std::isnan(aggregation_time_)) return;
   if (clusters().largest_fraction >= aggregation_threshold_) aggregation_time_ = sys_.time;
+}
+
+// Positions are wrapped into the periodic cell at every list build, and no stable step moves a particle far
+// between builds: one 1e6 cell lengths off (a finite but huge velocity, e.g. from a restored state: found by
+// fuzzing) would overflow the image count that wrapping adds up, so the run stops here and says why.
+template <int D>
+void SimulationImpl<D>::check_within_reach_of_cell() const {
+  const auto& P = sys_.particles;
+  const auto& box = sys_.box;
+  for (std::size_t i = 0; i < P.size(); ++i)
+    for (int a = 0; a < D; ++a) {
+      if (!box.periodic[a]) continue;
+      const double cells = std::abs(P.position[i][a] - box.lower[a]) / box.length[a];
+      if (cells > 1e6)
+        throw SimulationError(fmt::format(
+            "particle {} is {:.3g} cell lengths from the periodic cell on axis {} at step {} (t = {:.9g}), moved "
+            "there since the neighbour list's last build: its velocity is ({}), which no stable step reaches; "
+            "look at the initial or restored state and the time step",
+            i, cells, a, sys_.step + 1, sys_.time, fmt::join(P.velocity[i], ", ")));
+    }
 }
 
 template <int D>

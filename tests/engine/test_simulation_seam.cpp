@@ -232,6 +232,25 @@ TEST_CASE("a saved position far outside the periodic cell is refused", "[seam]")
   CHECK(s->step_count() == 20);
 }
 
+// Found by fuzzing (tests/fuzz/fuzz_state): a restored velocity finite but huge moved a particle ~1e127 cell lengths
+// in one step, and wrapping it at the next list build overflowed its image count (undefined behaviour).
+TEST_CASE("a particle flung far beyond its periodic cell in one step stops the run with an error that names it", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  s->step_n(20);
+  auto saved = s->save_state();
+  const std::size_t N = s->particle_count();
+  // After the positions' count and rows: the velocities' count, then their rows; particle 3's x.
+  const std::size_t at = 4 + 4 + 8 + 8 + 8 + 8 + 8 + 8 + N * 24 + 8 + 3 * 24;
+  double v;
+  std::memcpy(&v, saved.data() + at, 8);
+  REQUIRE(std::abs(v) < 10);
+  v = 1e130;
+  std::memcpy(saved.data() + at, &v, 8);
+  s->restore_state(resealed(saved));   // a velocity is no error in itself
+  CHECK_THROWS_WITH(s->step_n(1), Catch::Contains("particle 3 is") && Catch::Contains("cell lengths from the periodic cell on axis 0") &&
+                                      Catch::Contains("1e+130"));
+}
+
 // Found by fuzzing (tests/fuzz/fuzz_state): a saved flag (the ramp's, the shell's, the barostat's) was read as a
 // bool from whatever byte the state held, undefined behaviour for any byte but 0 and 1 (UBSan reported it).
 TEST_CASE("a saved flag byte that is neither 0 nor 1 is refused", "[seam]") {
