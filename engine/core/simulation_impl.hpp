@@ -143,6 +143,7 @@ class SimulationImpl final : public Simulation {
   // Also called at set-up and by the observables.
   void rebuild();
   void check_within_reach_of_cell() const;
+  std::string blow_up_hint() const;
   Tensor<D> kinetic_sum(const PendingKick* kick) const;
   void track_aggregation();
   void check_finite(const std::string& when) const;

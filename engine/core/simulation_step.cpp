@@ -380,9 +380,8 @@ void SimulationImpl<D>::check_within_reach_of_cell() const {
       if (cells > 1e6)
         throw SimulationError(fmt::format(
             "particle {} is {:.3g} cell lengths from the periodic cell on axis {} at step {} (t = {:.9g}), moved "
-            "there since the neighbour list's last build: its velocity is ({}), which no stable step reaches; "
-            "look at the initial or restored state and the time step",
-            i, cells, a, sys_.step + 1, sys_.time, fmt::join(P.velocity[i], ", ")));
+            "there since the neighbour list's last build: its velocity is ({}), which no stable step reaches; {}",
+            i, cells, a, sys_.step + 1, sys_.time, fmt::join(P.velocity[i], ", "), blow_up_hint()));
     }
 }
 
@@ -396,17 +395,21 @@ void SimulationImpl<D>::check_finite(const std::string& when) const {
     const bool bad = !P.position[i].allFinite() || !P.velocity[i].allFinite() || !P.force[i].allFinite() ||
                      !P.angular_velocity[i].allFinite();
     if (!bad) continue;
-    // Blame the step rules (or the energy check's finding) only when a check found them broken.
-    const std::string hint =
-        warnings_.empty()
-            ? fmt::format("dt = {:.6g} passed the time-step checks at start-up, so look at the initial state "
-                          "(coincident or deeply overlapping particles) and the scene's parameters", dt_)
-            : fmt::format("the checks warned: {}", fmt::join(warnings_, "; "));
     throw SimulationError(fmt::format("non-finite value at {}: particle {} (mass {:.6g}) has position ({}), velocity "
                                       "({}), force ({}); {}",
                                       when, i, P.mass[i], fmt::join(P.position[i], ", "), fmt::join(P.velocity[i], ", "),
-                                      fmt::join(P.force[i], ", "), hint));
+                                      fmt::join(P.force[i], ", "), blow_up_hint()));
   }
+}
+
+// What a run that blew up should look at. Blame the step rules (or the energy check's finding) only when a check
+// found them broken.
+template <int D>
+std::string SimulationImpl<D>::blow_up_hint() const {
+  return warnings_.empty()
+             ? fmt::format("dt = {:.6g} passed the time-step checks at start-up, so look at the initial (or restored) "
+                           "state (coincident or deeply overlapping particles) and the scene's parameters", dt_)
+             : fmt::format("the checks warned: {}", fmt::join(warnings_, "; "));
 }
 
 // Instantiated member by member, the members other files call (a whole-class instantiation would emit
