@@ -30,9 +30,10 @@ inline ListedParticles head_on_pair(int dimension, double gap) {
   return p;
 }
 
-// The [scene], [particles] and [box] sections of listed particles in an open box, single-threaded.
-// `particle_keys`: further keys of [particles] (e.g. angular_velocities).
-inline std::string listed_particles_toml(int dimension, const ListedParticles& p, const std::string& particle_keys = "") {
+// The [scene], [particles] and [box] sections of listed particles, single-threaded, in an open box unless
+// `box_keys` says otherwise. `particle_keys`: further keys of [particles] (e.g. angular_velocities).
+inline std::string listed_particles_toml(int dimension, const ListedParticles& p, const std::string& particle_keys = "",
+                                         const std::string& box_keys = "periodic = false") {
   auto rows = [](const std::vector<std::vector<double>>& m) {
     std::vector<std::string> r;
     for (const auto& row : m) r.push_back(fmt::format("[{}]", fmt::join(row, ", ")));
@@ -50,11 +51,12 @@ diameters = [{}]
 {}
 {}
 [box]
-periodic = false
+{}
 [run]
 threads = 1
 )", dimension, rows(p.positions), rows(p.velocities), fmt::join(p.diameters, ", "),
-                     p.masses.empty() ? "" : fmt::format("masses = [{}]", fmt::join(p.masses, ", ")), particle_keys);
+                     p.masses.empty() ? "" : fmt::format("masses = [{}]", fmt::join(p.masses, ", ")), particle_keys,
+                     box_keys);
 }
 
 inline std::string listed_scene(int dimension, const ListedParticles& p, const ContactUnderTest& c) {

@@ -217,31 +217,17 @@ std::string barostat_lattice(int dimension, const Modules& m, double pressure, d
     for (auto& c : spin) c = 1e-2 * noise();
     w.push_back(spin);
   }
-  return fmt::format(R"(
-[scene]
-dimension = {}
-[particles]
-layout = "list"
-positions = {}
-velocity = "list"
-velocities = {}
-angular_velocities = {}
-diameters = [{}]
-masses = [{}]
-[box]
-periodic = true
-lengths = [{}]
+  const std::string box = fmt::format("periodic = true\nlengths = [{}]",
+                                      fmt::join(std::vector<double>(std::size_t(dimension), n * s), ", "));
+  return listed_particles_toml(dimension, unit_grains(x, v), "angular_velocities = " + rows(w), box) +
+         fmt::format(R"(
 [cell]
 enabled = true
 pressure = {}
 inertia_number = 100
 rtol = 1e-13
 atol = 1e-13
-[run]
-threads = 1
-)", dimension, rows(x), rows(v), rows(w), fmt::join(std::vector<double>(x.size(), 1.0), ", "),
-                     fmt::join(std::vector<double>(x.size(), 1.0), ", "),
-                     fmt::join(std::vector<double>(std::size_t(dimension), n * s), ", "), pressure) + module_keys(m);
+)", pressure) + module_keys(m);
 }
 
 // Five self-gravitating unit spheres (physics.md section 7) under the non-adhesive linear law: a
