@@ -36,7 +36,8 @@ template <bool Dense>
   if (!steady) return 0;
 
   const V d = _mm256_sqrt_pd(d2);
-  const V nx = div(rx, d), ny = div(ry, d);
+  const V inv_d = div(all(1.0), d);   // one division serves n and the spring's turn
+  const V nx = mul(rx, inv_d), ny = mul(ry, inv_d);
   const bool full = c.full;
   const V cn = per_entry<Dense>(in.damping, k, k0, live, full);
   V vxi, vyi, vxj, vyj;
@@ -84,7 +85,7 @@ template <bool Dense>
   const V uy = in.affine ? add(hvy, mul(all(in.flow_factor_y), ry)) : add(hvy, zero());
   const V ut = add(mul(ux, tx), mul(uy, ty)), un = add(mul(ux, nx), mul(uy, ny));
   const V half_step = all(0.5 * in.dt);
-  const V eps = div(mul(half_step, ut), d), d_mid = sub(d, mul(half_step, un));
+  const V eps = mul(mul(half_step, ut), inv_d), d_mid = sub(d, mul(half_step, un));
   const V half_mid = mul(all(0.5), sub(Rsum, d_mid));
   const V arm_i_mid = sub(Ri, half_mid), arm_j_mid = sub(Rj, half_mid);
   const V vt = sub(sub(add(ut, mul(eps, un)), mul(wj, arm_j_mid)), mul(wi, arm_i_mid));

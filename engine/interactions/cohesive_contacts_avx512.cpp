@@ -39,7 +39,8 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
   const __mmask8 tail = __mmask8(interacting & ~c.touching), quiet = __mmask8(live & ~interacting);
 
   const V d = _mm512_sqrt_pd(d2);
-  const V nx = div(rx, d), ny = div(ry, d);
+  const V inv_d = div(all(1.0), d);   // one division serves n, the spring's turn and the tail
+  const V nx = mul(rx, inv_d), ny = mul(ry, inv_d);
   const V cn = per_entry<Dense>(in.damping, k, k0, live);
   const V dvx = sub(gather(in.velocity_predicted, j2, live), gather(in.velocity_predicted, i2, live));
   const V dvy = sub(gather(in.velocity_predicted + 1, j2, live), gather(in.velocity_predicted + 1, i2, live));
@@ -84,7 +85,7 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
   const V uy = in.affine ? add(hvy, mul(all(in.flow_factor_y), ry)) : add(hvy, _mm512_setzero_pd());
   const V ut = add(mul(ux, tx), mul(uy, ty)), un = add(mul(ux, nx), mul(uy, ny));
   const V half_step = all(0.5 * in.dt);
-  const V eps = div(mul(half_step, ut), d), d_mid = sub(d, mul(half_step, un));
+  const V eps = mul(mul(half_step, ut), inv_d), d_mid = sub(d, mul(half_step, un));
   const V half_mid = mul(all(0.5), sub(Rsum, d_mid));
   const V arm_i_mid = sub(Ri, half_mid), arm_j_mid = sub(Rj, half_mid);
   const V vt = sub(sub(add(ut, mul(eps, un)), mul(wj, arm_j_mid)), mul(wi, arm_i_mid));
@@ -98,14 +99,14 @@ GRAINS_AVX512_PAIRS long evaluate8(const Input& in, const ImageShifts<2>& shifts
     xi = _mm512_mask_div_pd(xi, shortened, copysign(bound, xi), kt);
   }
   set_per_entry<Dense>(in.tangential, k, k0, m, xi);
-  // The forces on j: a steady contact's, a tail's (AdhesiveContactLaw::tail(d - Rsum) / d * r, as the pair
+  // The forces on j: a steady contact's, a tail's (AdhesiveContactLaw::tail(d - Rsum) * (1 / d) * r, as the pair
   // loop computes it), zero elsewhere. Zero torques and forces leave the sums they are added to as they were
   // (none of them is ever -0: they start at +0, and a sum is -0 only if both terms are).
   V fx = _mm512_maskz_mov_pd(m, add(mul(fn, nx), mul(ft, tx))), fy = _mm512_maskz_mov_pd(m, add(mul(fn, ny), mul(ft, ty)));
   if (tail) {
     const V gap = sub(d, Rsum);
     const V pull = mul(all(-in.attraction), sub(all(1.0), div(gap, all(in.range))));
-    const V pull_d = div(pull, d);
+    const V pull_d = mul(pull, inv_d);
     fx = _mm512_mask_mul_pd(fx, tail, pull_d, rx), fy = _mm512_mask_mul_pd(fy, tail, pull_d, ry);
   }
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(b.partner), j);
