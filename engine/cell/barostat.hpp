@@ -22,7 +22,11 @@
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "analysis/stress.hpp"
 #include "cell/cell_length_ode.hpp"
@@ -121,6 +125,7 @@ class Barostat {
     const auto statistics = r.get<CellLengthStatistics>();
     previous_ = r.get<Previous>();
     if (since_restart_.size() > replay_limit) throw std::runtime_error("saved barostat history is longer than this build keeps");
+    check_loaded(statistics);   // before the replay: a negative cap or length reached std::clamp with its bounds reversed
     // Replayed with the forcing each advance had; the last advance's damping and cap stay, as they did.
     const Vec<D> damping = contact_damping();
     const double cap = ode_.parameters().rate_cap;
@@ -152,6 +157,48 @@ class Barostat {
     std::uint64_t valid;   // a word, not a bool: no padding bytes in a saved state
   };
   static constexpr std::size_t replay_limit = 500;
+  // What a run can have saved (found by fuzzing: a negative strain-rate cap in the history was replayed as it was).
+  void check_loaded(const CellLengthStatistics& statistics) const {
+    const auto refuse = [](const std::string& field, double value, const char* allowed) {
+      throw std::runtime_error(fmt::format("the saved barostat's {} is {}: {}", field, value, allowed));
+    };
+    const auto length = [&](const std::string& field, double v) {
+      if (!(std::isfinite(v) && v > 0)) refuse(field, v, "a finite number > 0");
+    };
+    const auto finite = [&](const std::string& field, double v) {
+      if (!std::isfinite(v)) refuse(field, v, "a finite number");
+    };
+    const auto cap = [&](const std::string& field, double v) {
+      if (!(v >= 0)) refuse(field, v, "a number >= 0");
+    };
+    for (int a = 0; a < D; ++a) {
+      length(fmt::format("cell length on axis {}", a), length_[a]);
+      finite(fmt::format("rate on axis {}", a), rate_[a]);
+      length(fmt::format("restart's cell length on axis {}", a), restart_.length[a]);
+      finite(fmt::format("restart's rate on axis {}", a), restart_.rate[a]);
+      finite(fmt::format("last stress on axis {}", a), previous_.stress[a]);
+    }
+    finite("target pressure", target_), finite("last advance's target pressure", advanced_target_);
+    cap("last advance's strain-rate cap", advanced_cap_);
+    finite("restart's time", restart_.t), finite("last advance's end", previous_.t_end);
+    finite("last advance's step", previous_.step);
+    if (previous_.valid > 1) refuse("last stress's flag", double(previous_.valid), "0 or 1");
+    for (std::size_t k = 0; k < since_restart_.size(); ++k) {
+      const Advance& x = since_restart_[k];
+      finite(fmt::format("end of advance {}", k), x.t_end);
+      cap(fmt::format("strain-rate cap of advance {}", k), x.rate_cap);
+      for (int a = 0; a < D; ++a) {
+        finite(fmt::format("stress excess of advance {} on axis {}", k, a), x.excess[a]);
+        if (!(std::isfinite(x.extra_damping[a]) && x.extra_damping[a] >= 0))
+          refuse(fmt::format("contact damping of advance {} on axis {}", k, a), x.extra_damping[a], "a finite number >= 0");
+      }
+    }
+    // CVODE's counters are added to these: a count far beyond any run's would overflow the sums.
+    for (const auto& [name, n] : {std::pair{"CVODE step count", statistics.internal_steps},
+                                  std::pair{"CVODE right-hand-side count", statistics.rhs_evaluations},
+                                  std::pair{"CVODE restart count", statistics.reinitialisations}})
+      if (n < 0 || n > (1L << 62)) refuse(name, double(n), "a count from 0 to 2^62");
+  }
   static bool within_rounding(double a, double b) {
     return std::abs(a - b) <= 4 * std::numeric_limits<double>::epsilon() * std::max(std::abs(a), std::abs(b));
   }

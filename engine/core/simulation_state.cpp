@@ -146,6 +146,10 @@ void SimulationImpl<D>::load_state(std::span<const std::byte> all) {
   if (barostat_) {
     barostat_->load(r);
     contact_stress_ = r.get<Tensor<D>>();
+    for (int a = 0; a < D; ++a)   // the next step's forcing of the cell
+      for (int b = 0; b < D; ++b)
+        if (!std::isfinite(contact_stress_(a, b)))
+          throw SimulationError(fmt::format("the saved contact stress is {} at ({}, {}): a finite number", contact_stress_(a, b), a, b));
     pressure_clamp_warned_ = r.get<std::uint8_t>() != 0;
     sys_.box.length = barostat_->length();
   }
@@ -159,7 +163,13 @@ void SimulationImpl<D>::load_state(std::span<const std::byte> all) {
   }
   loading_controls_ = false;
   if (has_ramp_) ramp_.on = r.get<bool>();
-  if (barostat_ && contact_damping_ > 0) barostat_->set_contact_damping(r.get<Vec<D>>());
+  if (barostat_ && contact_damping_ > 0) {
+    const Vec<D> eta = r.get<Vec<D>>();
+    for (int a = 0; a < D; ++a)
+      if (!(std::isfinite(eta[a]) && eta[a] >= 0))
+        throw SimulationError(fmt::format("the saved contact damping of the cell is {} on axis {}: a finite number >= 0", eta[a], a));
+    barostat_->set_contact_damping(eta);
+  }
   if (!r.done()) throw SimulationError("the saved state has trailing bytes (another scene?)");
   check_loaded();
   for (auto& stamp : refreshed_) stamp = {};

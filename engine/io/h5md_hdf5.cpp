@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "io/output_error.hpp"
 
@@ -252,6 +253,67 @@ Handle open_dataset(hid_t parent, const std::string& name, const std::string& fi
 
 bool exists(hid_t parent, const std::string& name, const std::string& file) {
   return check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up " + name) > 0;
+}
+
+namespace {
+std::string describe_type(hid_t type) {
+  switch (H5Tget_class(type)) {
+    case H5T_INTEGER:
+    case H5T_FLOAT:
+      return fmt::format("{} of {} bytes, {} bits of precision at bit {}", H5Tget_class(type) == H5T_FLOAT ? "a float" : "an integer",
+                         H5Tget_size(type), H5Tget_precision(type), H5Tget_offset(type));
+    case H5T_STRING: return H5Tis_variable_str(type) > 0 ? "a variable-length string" : "a fixed-length string";
+    default: return fmt::format("a type of class {} and {} bytes", int(H5Tget_class(type)), H5Tget_size(type));
+  }
+}
+}  // namespace
+
+// Found by tests/fuzz/corrupt_resume.py: one flipped bit made a chunk 1024 rows long 67,109,888 in the layout (the
+// stored chunks stayed 1024 rows), and H5Dset_extent's pruning wrote past its buffer; one made a float's precision
+// 2112 bits of its 64, or an integer's offset lie past its 8 bytes, and the conversion of a read or write wrote past
+// its buffer. What the API reports of both is compared with what grains writes before the dataset is touched.
+void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what) {
+  const auto damaged = [&](const std::string& defect) {
+    char name[512] = "";   // the dataset's path in the file, where HDF5 knows it
+    const bool named = H5Iget_name(dataset, name, sizeof name) > 0;
+    throw std::runtime_error(fmt::format("H5MD output '{}': {} {}: the file is damaged and cannot be continued", file,
+                                         named ? name : what, defect));
+  };
+  Handle stored(check(H5Dget_type(dataset), file, "reading the type of " + what), H5Tclose);
+  const bool vlen_string = H5Tget_class(type) == H5T_STRING && H5Tis_variable_str(type) > 0;
+  if (vlen_string ? !(H5Tget_class(stored.get()) == H5T_STRING && H5Tis_variable_str(stored.get()) > 0)
+                  : check(H5Tequal(stored.get(), type), file, "comparing the type of " + what) <= 0)
+    damaged(fmt::format("has {}, where grains writes {}", describe_type(stored.get()), describe_type(type)));
+  Handle dcpl(check(H5Dget_create_plist(dataset), file, "reading the layout of " + what), H5Pclose);
+  const std::vector<hsize_t> dims = shape(dataset, file, what);
+  std::vector<hsize_t> chunk(H5S_MAX_RANK);
+  const int rank = H5Pget_layout(dcpl.get()) == H5D_CHUNKED ? H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()) : -1;
+  if (rank != int(dims.size()) || dims.empty())
+    damaged(fmt::format("is not chunked as a dataset of rank {} (its chunks' rank: {}), where grains writes chunked rows",
+                        dims.size(), rank));
+  chunk.resize(std::size_t(rank));
+  if (chunk[0] > max_chunk_rows) damaged(fmt::format("has chunks of {} rows, where grains writes at most {}", chunk[0], max_chunk_rows));
+#if H5_VERSION_GE(1, 10, 5)
+  // Unfiltered chunks are stored whole: the first one's bytes are its dimensions' (the layout's chunk, if intact).
+  if (!vlen_string && H5Pget_nfilters(dcpl.get()) == 0) {
+    Handle space(check(H5Dget_space(dataset), file, "reading the shape of " + what), H5Sclose);
+    hsize_t chunks = 0;
+    check(H5Dget_num_chunks(dataset, space.get(), &chunks), file, "counting the chunks of " + what);
+    if (chunks > 0) {
+      std::vector<hsize_t> offset(chunk.size());
+      unsigned filters = 0;
+      haddr_t address = 0;
+      hsize_t bytes = 0;
+      check(H5Dget_chunk_info(dataset, space.get(), 0, offset.data(), &filters, &address, &bytes), file,
+            "reading the chunks of " + what);
+      hsize_t expected = H5Tget_size(stored.get());
+      for (hsize_t n : chunk) expected *= n;
+      if (bytes != expected)
+        damaged(fmt::format("has chunks of {} values ({} bytes) in its layout, but its first stored chunk holds {} bytes",
+                            fmt::join(chunk, " x "), expected, bytes));
+    }
+  }
+#endif
 }
 
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what) {

@@ -31,6 +31,7 @@ namespace grains {
 namespace {
 
 constexpr hsize_t kObservableChunk = 1024;      // rows per chunk of observables and step/time
+constexpr hsize_t kWarningChunk = 64;            // rows per chunk of /grains/warnings
 constexpr hsize_t kFrameChunkBytes = 64 * 1024;  // small frames are batched to about this size
 constexpr hsize_t kMaxChunkBytes = 4 * 1024 * 1024;
 constexpr std::chrono::seconds kObservableFlushInterval{1};   // the most a killed run loses of them
@@ -154,6 +155,9 @@ struct H5mdWriter::Impl {
     s.step = h5::open_extendable(s.group.get(), "step", path);
     s.time = h5::open_extendable(s.group.get(), "time", path);
     s.value = h5::open_extendable(s.group.get(), "value", path);
+    h5::check_as_written(s.step.get(), H5T_STD_I64LE, kObservableChunk, path, name + "/step");
+    h5::check_as_written(s.time.get(), H5T_IEEE_F64LE, kObservableChunk, path, name + "/time");
+    h5::check_as_written(s.value.get(), name == "image" ? H5T_STD_I64LE : H5T_IEEE_F64LE, kObservableChunk, path, name + "/value");
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
     const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
                                           : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
@@ -303,7 +307,7 @@ void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic,
 
   m.grains = h5::create_group(root, "grains", path);
   h5::Handle vstr = h5::vlen_string_type(path);
-  m.warnings = h5::create_extendable(m.grains.get(), "warnings", vstr.get(), {}, {}, 64, path);
+  m.warnings = h5::create_extendable(m.grains.get(), "warnings", vstr.get(), {}, {}, kWarningChunk, path);
 
   if (write_xdmf) {
     m.xdmf_path = xdmf_path_beside(path);
@@ -332,6 +336,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
+  h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
   auto members = [&](hid_t group, const std::string& what) {
     std::vector<std::string> names;

@@ -2,11 +2,16 @@
 // driven to their target pressure in 2D and 3D, bad parameters, and save/restore.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <span>
 
 #include <fmt/format.h>
 
 #include "cell/cell_length_ode.hpp"
+#include "core/byte_stream.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "packed_cell_scene.hpp"
@@ -256,6 +261,84 @@ TEST_CASE("barostat: a state saved between two updates of the contacts' damping 
   CHECK(other->particles().position == s->particles().position);
   CHECK(other->get("cell_length_x") == s->get("cell_length_x"));
   CHECK(other->save_state() == s->save_state());
+}
+
+namespace {
+// A saved 2D state's barostat fields, found by the bytes of the cell lengths the barostat saves first. Its layout
+// (engine/cell/barostat.hpp): lengths, rates, target, two flags, the last advance's target and cap, the restart's
+// lengths, rates and time, the advances since (a count, then end, cap, two excesses and two dampings each), CVODE's
+// three counts, the last stress (two), end, step and flag.
+struct SavedBarostat {
+  std::vector<std::byte> bytes;
+  std::size_t at = 0;   // the first length
+  std::size_t restart() const { return at + 16 + 16 + 8 + 2 + 8 + 8; }
+  std::size_t advances() const { return restart() + 40; }
+  std::uint64_t advance_count() const {
+    std::uint64_t n;
+    std::memcpy(&n, bytes.data() + advances(), 8);
+    return n;
+  }
+  std::size_t advance(std::size_t k) const { return advances() + 8 + 48 * k; }
+  std::size_t statistics() const { return advance(advance_count()); }
+  std::size_t previous() const { return statistics() + 24; }
+  template <class T> std::vector<std::byte> with(std::size_t where, T value) const {
+    auto changed = bytes;
+    std::memcpy(changed.data() + where, &value, sizeof value);
+    const auto body = std::span(changed).first(changed.size() - 8);   // a new check sum over the changed bytes
+    const std::uint64_t sum = check_sum(body);
+    std::memcpy(changed.data() + body.size(), &sum, 8);
+    return changed;
+  }
+};
+
+SavedBarostat saved_barostat(const Simulation& s) {
+  SavedBarostat b{s.save_state()};
+  // The last match: a square cell's lengths are one number twice, which may also follow another field's copy of it.
+  const std::vector<double> length = s.box().length;
+  const auto* first = reinterpret_cast<const std::byte*>(length.data());
+  const auto found = std::find_end(b.bytes.begin(), b.bytes.end(), first, first + 16);
+  REQUIRE(found != b.bytes.end());
+  b.at = std::size_t(found - b.bytes.begin());
+  REQUIRE(b.advance_count() >= 2);
+  REQUIRE(b.advance_count() <= 500);
+  double last_end;   // the layout is right: the last advance ended at the state's time
+  std::memcpy(&last_end, b.bytes.data() + b.advance(b.advance_count() - 1), 8);
+  REQUIRE(last_end == s.time());
+  return b;
+}
+}  // namespace
+
+// Found by fuzzing (tests/fuzz/fuzz_state): a saved history's negative strain-rate cap was replayed through CVODE, whose
+// right-hand side clamps the rate to [-cap L, cap L] (std::clamp with its bounds reversed: undefined behaviour), and
+// counts or flags no run can have were taken as they were.
+TEST_CASE("barostat: a saved history a run cannot have made is refused, naming the field, before it is replayed",
+          "[barostat][state]") {
+  auto s = Simulation::create(Scene::from_string(packed_cell_scene(2, 16, 0.01), "cell2d"));
+  s->step_n(30);
+  const SavedBarostat b = saved_barostat(*s);
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const auto refused = [&](const std::vector<std::byte>& state, const std::string& field, const std::string& allowed) {
+    CAPTURE(field);
+    CHECK_THROWS_WITH(s->restore_state(state), Catch::Contains("the saved barostat's " + field) && Catch::Contains(allowed) &&
+                                                   Catch::Contains("the simulation is unchanged"));
+  };
+  refused(b.with(b.advance(0) + 8, -0.5), "strain-rate cap of advance 0 is -0.5", "a number >= 0");
+  refused(b.with(b.advance(0) + 8, nan), "strain-rate cap of advance 0 is nan", "a number >= 0");
+  refused(b.with(b.advance(1) + 16 + 8, inf), "stress excess of advance 1 on axis 1 is inf", "a finite number");
+  refused(b.with(b.advance(0) + 32, -1.0), "contact damping of advance 0 on axis 0 is -1", "a finite number >= 0");
+  refused(b.with(b.restart() + 8, -2.0), "restart's cell length on axis 1 is -2", "a finite number > 0");
+  refused(b.with(b.restart() + 16, nan), "restart's rate on axis 0 is nan", "a finite number");
+  refused(b.with(b.at, 0.0), "cell length on axis 0 is 0", "a finite number > 0");
+  refused(b.with(b.at + 16 + 16 + 8 + 2 + 8, -1.0), "last advance's strain-rate cap is -1", "a number >= 0");
+  refused(b.with(b.statistics(), std::int64_t{-1}), "CVODE step count is -1", "a count from 0 to 2^62");
+  refused(b.with(b.previous() + 8, nan), "last stress on axis 1 is nan", "a finite number");
+  refused(b.with(b.previous() + 32, std::uint64_t{2}), "last stress's flag is 2", "0 or 1");
+  CHECK(s->step_count() == 30);
+  s->restore_state(b.bytes);   // the state as saved is taken, and continues as the run that saved it
+  auto t = Simulation::create(Scene::from_string(packed_cell_scene(2, 16, 0.01), "cell2d"));
+  t->step_n(30);
+  s->step_n(20), t->step_n(20);
+  CHECK(s->save_state() == t->save_state());
 }
 
 TEST_CASE("barostat: bad pressure and cell parameters get errors naming the field", "[barostat]") {

@@ -4,6 +4,7 @@ import fcntl
 import os
 import shutil
 import signal
+import struct
 import subprocess
 import time
 
@@ -117,6 +118,50 @@ def test_a_file_whose_series_lost_rows_is_refused_not_resumed_out_of_step(grains
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode != 0
     assert "kinetic_energy/value holds 3 rows" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
+
+
+def patch_header(path, dataset, pattern, at, value):
+    """Sets byte `at` of `pattern`, found once in `dataset`'s object header, to `value`: a flipped bit in its metadata."""
+    with h5py.File(path, "r") as f:
+        header = h5py.h5o.get_info(f[dataset].id).addr
+    data = bytearray(path.read_bytes())
+    window = bytes(data[header : header + 1024])
+    assert window.count(pattern) == 1, dataset
+    data[header + window.index(pattern) + at] = value
+    path.write_bytes(bytes(data))
+
+
+# Found by tests/fuzz/corrupt_resume.py (one flipped bit each): HDF5 1.10.8 took the damaged layout or type as it
+# read and `grains resume` died of SIGSEGV: in H5Dset_extent (a chunk 1024 rows long made 67,109,888 in the layout,
+# its stored chunks still 1024; one of 42 made 554), or in the type conversion of a write (a float of 2112 bits of precision in its 64)
+# or of a read (an integer whose bits start past its 8 bytes).
+@pytest.mark.parametrize("dataset, pattern, at, value, defect", [
+    ("particles/all/box/offset/value", struct.pack("<III", 1024, 3, 8), 3, 0x04,
+     "/particles/all/box/offset/value has chunks of 67109888 rows, where grains writes at most 1024"),
+    # within the rows grains writes, 42 made 554: the stored chunks' bytes are not the layout's
+    ("particles/all/position/value", struct.pack("<IIII", 42, 64, 3, 8), 1, 0x02,
+     "/particles/all/position/value has chunks of 554 x 64 x 3 values (850944 bytes) in its layout, but its first "
+     "stored chunk holds 64512 bytes"),
+    ("observables/momentum_y/value", struct.pack("<HHBBBBI", 0, 64, 52, 11, 0, 52, 1023), 3, 0x08,
+     "/observables/momentum_y/value has a float of 8 bytes, 2112 bits of precision at bit 0, where grains writes a "
+     "float of 8 bytes, 64 bits of precision at bit 0"),
+    ("observables/rotational_energy/step", struct.pack("<B3sIHH", 0x10, b"\x08\0\0", 8, 0, 64), 8, 0x20,
+     "/observables/rotational_energy/step has an integer of 8 bytes, 64 bits of precision at bit 32"),
+])
+def test_a_file_whose_layout_or_type_is_damaged_is_refused_not_crashed_on(grains_bin, root, tmp_path, dataset, pattern, at,
+                                                                          value, defect):
+    whole = tmp_path / "whole.h5"
+    made = run(grains_bin, "run", root / "models/gas-friction.toml", "--out", whole, "--set", "particles.count=64",
+               "--set", "time.steps=450", "--set", "output.checkpoint_every=100", "--set", "run.threads=1", "--quiet")
+    assert made.returncode == 0, made.stderr
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    resumed = run(grains_bin, "resume", killed, "--quiet")   # undamaged, it resumes
+    assert resumed.returncode == 0, resumed.stderr
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    patch_header(killed, dataset, pattern, at, value)
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert f"'{killed}': {defect}" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
 
 
 def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tmp_path):
