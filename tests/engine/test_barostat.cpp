@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <span>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -15,6 +16,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "packed_cell_scene.hpp"
+#include "polydisperse_particles.hpp"
 
 using namespace grains;
 
@@ -339,6 +341,63 @@ TEST_CASE("barostat: a saved history a run cannot have made is refused, naming t
   t->step_n(30);
   s->step_n(20), t->step_n(20);
   CHECK(s->save_state() == t->save_state());
+}
+
+// The checks of a restored history (check_loaded) must take every state a run can save: before any advance, a cell
+// held from the start, a new target not yet advanced with, a ramp, a strain-rate cap near 0 or far out of
+// reach (I_a = 1e-300, 1e300), the contacts' damping on, cohesion at P* = 0, 3D.
+TEST_CASE("barostat: every state a run saves is restored and continues as the run that saved it", "[barostat][state]") {
+  const auto cohesive = polydisperse_particles(2, 40, 0.4, 3) + R"(
+[adhesion]
+enabled = true
+force = 1.0
+range = 0.01
+stiffness = 1e4
+restitution = 0.1
+[friction]
+coefficient = 0.3
+[cell]
+enabled = true
+force_unit = 1.0
+pressure = 0.0
+[run]
+threads = 1
+)";
+  const std::vector<std::tuple<std::string, std::string, long>> cases = {
+      {"before any step", packed_cell_scene(2, 40, 1e-3), 0},
+      {"one step", packed_cell_scene(2, 40, 1e-3), 1},
+      {"held from the start", packed_cell_scene(2, 40, 1e-3, "active = false"), 50},
+      {"a ramp", packed_cell_scene(2, 40, 1e-3, "pressure_final = 2e-3\nramp_duration = 1.0"), 700},
+      {"I_a = 1e-300", packed_cell_scene(2, 40, 1e-3, "inertia_number = 1e-300"), 300},
+      {"I_a = 1e300", packed_cell_scene(2, 40, 1e-3, "inertia_number = 1e300"), 300},
+      {"contact damping", packed_cell_scene(2, 40, 1e-3, "contact_damping = 1.0"), 305},
+      {"cohesive at P = 0", cohesive, 300},
+      {"3D", packed_cell_scene(3, 40, 1e-3), 300},
+  };
+  for (const auto& [what, text, steps] : cases) {
+    CAPTURE(what);
+    const auto scene = Scene::from_string(text, "cell");
+    auto s = Simulation::create(scene), other = Simulation::create(scene);
+    s->step_n(steps);
+    REQUIRE_NOTHROW(other->restore_state(s->save_state()));
+    s->step_n(20), other->step_n(20);
+    CHECK(other->save_state() == s->save_state());
+    // A new target set, not yet advanced with (a programme's next stage), then saved.
+    s->set("cell.pressure", 2e-3);
+    auto third = Simulation::create(scene);
+    REQUIRE_NOTHROW(third->restore_state(s->save_state()));
+    s->step_n(20), third->step_n(20);
+    CHECK(third->save_state() == s->save_state());
+    // Held after it moved (the rate zeroed, CVODE's history kept until the release), then saved; then released.
+    s->set("cell.active", 0);
+    auto fourth = Simulation::create(scene);
+    REQUIRE_NOTHROW(fourth->restore_state(s->save_state()));
+    s->step_n(20), fourth->step_n(20);
+    CHECK(fourth->save_state() == s->save_state());
+    s->set("cell.active", 1), fourth->set("cell.active", 1);
+    s->step_n(20), fourth->step_n(20);
+    CHECK(fourth->save_state() == s->save_state());
+  }
 }
 
 TEST_CASE("barostat: bad pressure and cell parameters get errors naming the field", "[barostat]") {
