@@ -98,24 +98,32 @@ def gravity_table(path, eps, r_lo, cutoff, points=TABLE_FILE_POINTS, mass=1.0, r
             f.write(f"{k} {rk:.17g} {ek:.17g} {fk:.17g}\n")
 
 
-def bitmap_table(work, path, eps, r_lo, cutoff, bits, mass):
-    """A table for `pair_style table bitmap BITS`: its 2^bits points sit where LAMMPS' bit pattern of d^2 puts
-    them (evenly spaced in log d^2, so the relative error is the same at every d, far inside the softening
-    too). LAMMPS' pair_write lays them out (from any table); the values written are then the formula's."""
-    gravity_table(work / "layout.table", eps, r_lo, cutoff, mass=mass)
-    (work / "layout.txt").unlink(missing_ok=True)   # pair_write appends
-    (work / "layout.lmp").write_text(f"""units lj
+def pair_write(work, style, table, cutoff, points, out):
+    """What LAMMPS interpolates: `pair_write` of one atom type under `pair_style` style with the GRAVITY entry of
+    the file `table` in `work` up to `cutoff`, at `points` (pair_write's count, spacing and range), into the
+    file `out` in `work`; returns its text."""
+    (work / out).unlink(missing_ok=True)   # pair_write appends
+    (work / "pair_write.lmp").write_text(f"""units lj
 atom_style atomic
 boundary f f f
 region b block -1 1 -1 1 -1 1
 create_box 1 b
 mass 1 1.0
-pair_style table linear 1000
-pair_coeff 1 1 layout.table GRAVITY {cutoff!r}
-pair_write 1 1 {bits} bitmap {r_lo!r} {cutoff!r} layout.txt GRAVITY
+pair_style {style}
+pair_coeff 1 1 {table} GRAVITY {cutoff!r}
+pair_write 1 1 {points} {out} GRAVITY
 """)
-    run(["lmp", "-in", "layout.lmp", "-log", "none"], work)
-    lines = (work / "layout.txt").read_text().splitlines()
+    run(["lmp", "-in", "pair_write.lmp", "-log", "none"], work)
+    return (work / out).read_text()
+
+
+def bitmap_table(work, path, eps, r_lo, cutoff, bits, mass):
+    """A table for `pair_style table bitmap BITS`: its 2^bits points sit where LAMMPS' bit pattern of d^2 puts
+    them (evenly spaced in log d^2, so the relative error is the same at every d, far inside the softening
+    too). LAMMPS' pair_write lays them out (from any table); the values written are then the formula's."""
+    gravity_table(work / "layout.table", eps, r_lo, cutoff, mass=mass)
+    lines = pair_write(work, "table linear 1000", "layout.table", cutoff, f"{bits} bitmap {r_lo!r} {cutoff!r}",
+                       "layout.txt").splitlines()
     at = next(k for k, l in enumerate(lines) if l.startswith("N "))
     r = np.array([float(l.split()[1]) for l in lines[at + 1:] if l.strip()])
     gravity_table(path, eps, r_lo, cutoff, mass=mass, r=r, header=lines[at])
@@ -125,19 +133,8 @@ def table_error(work, table, eps, cutoff, bands, style=None, mass=1.0):
     """The table LAMMPS interpolates (`pair_style` style, by default the aggregation's), against the formula:
     the largest relative errors of F and E in each band of separations (pair_write at 200,000 points evenly
     spaced in r)."""
-    style = style or f"table spline {TABLE_POINTS}"
-    (work / "write.lmp").write_text(f"""units lj
-atom_style atomic
-boundary f f f
-region b block -1 1 -1 1 -1 1
-create_box 1 b
-mass 1 1.0
-pair_style {style}
-pair_coeff 1 1 {table.name} GRAVITY {cutoff!r}
-pair_write 1 1 200000 r {bands[0][0] * 1.001!r} {cutoff * (1 - 1e-9)!r} written.txt WRITTEN
-""")
-    (work / "written.txt").unlink(missing_ok=True)   # pair_write appends
-    run(["lmp", "-in", "write.lmp", "-log", "none"], work)
+    pair_write(work, style or f"table spline {TABLE_POINTS}", table.name, cutoff,
+               f"200000 r {bands[0][0] * 1.001!r} {cutoff * (1 - 1e-9)!r}", "written.txt")
     d = np.loadtxt(work / "written.txt", skiprows=5)
     r, e, f = d[:, 1], d[:, 2], d[:, 3]
     s = r * r + eps * eps
