@@ -30,6 +30,11 @@ struct Box {
       }
     return x;
   }
+  // How far a position may lie from the cell on a periodic axis, in cell lengths: wrap adds the cells taken off
+  // to an integer image count, which a particle 1e19 cells off overflowed (found by fuzzing).
+  static constexpr double max_cells_off = 1e6;
+  // How many cell lengths x lies from the cell's lower corner on axis a (0 on an open axis).
+  double cells_off(const Vec<D>& x, int a) const { return periodic[a] ? std::abs(x[a] - lower[a]) / length[a] : 0.0; }
   // Shortest periodic image of a separation vector.
   Vec<D> minimum_image(Vec<D> r) const {
     for (int a = 0; a < D; ++a)

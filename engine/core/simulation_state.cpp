@@ -75,7 +75,7 @@ void SimulationImpl<D>::check_loaded() const {
   for (std::size_t i = 0; i < N; ++i)
     for (int a = 0; a < D; ++a) {
       const double x = P.position[i][a];
-      if (!std::isfinite(x) || (box.periodic[a] && std::abs(x - box.lower[a]) > 1e6 * box.length[a]))
+      if (!std::isfinite(x) || box.cells_off(P.position[i], a) > Box<D>::max_cells_off)
         throw SimulationError(fmt::format("the saved position of particle {} is {} on axis {}: a finite number, within "
                                           "1e6 cell lengths of the periodic cell", i, x, a));
     }

@@ -375,9 +375,8 @@ void SimulationImpl<D>::check_within_reach_of_cell() const {
   const auto& box = sys_.box;
   for (std::size_t i = 0; i < P.size(); ++i)
     for (int a = 0; a < D; ++a) {
-      if (!box.periodic[a]) continue;
-      const double cells = std::abs(P.position[i][a] - box.lower[a]) / box.length[a];
-      if (cells > 1e6)
+      const double cells = box.cells_off(P.position[i], a);
+      if (cells > Box<D>::max_cells_off)
         throw SimulationError(fmt::format(
             "particle {} is {:.3g} cell lengths from the periodic cell on axis {} at step {} (t = {:.9g}), moved "
             "there since the neighbour list's last build: its velocity is ({}), which no stable step reaches; {}",
