@@ -22,6 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import reuse  # noqa: E402
+
 MAX_PANELS = 6
 # The default panels by the kind of scene: the first entry whose marker observable the file has gives the panels it
 # has and the horizontal axis (None: time). A cell scene plotted as its energies said nothing of its pressure or
@@ -59,21 +62,13 @@ def fail(message):
     sys.exit(2)
 
 
-def read_run(path, read, tries=20):
-    """read(file) on the file opened without HDF5's lock, which the run writing it holds, so a run still going can be
-    drawn. Read while that run writes, the file may not open ("truncated file") or may fail a read for a moment:
-    tried again, 0.1 s apart; a file that never opens is reported."""
-    import time
-    import h5py  # imported late so --help works without it
-
-    for attempt in range(tries):
-        try:
-            with h5py.File(path, "r", locking=False) as f:
-                return read(f)
-        except OSError as e:
-            if attempt == tries - 1:
-                fail(f"cannot open '{path}' as HDF5: {e}")
-            time.sleep(0.1)
+def read_run(path, read):
+    """read(file) on the file, also while a run still writes it (reuse.read_unlocked); a file that never opens is
+    reported."""
+    try:
+        return reuse.read_unlocked(path, read)
+    except OSError as e:
+        fail(f"cannot open '{path}' as HDF5: {e}")
 
 
 def default_panels(available):

@@ -7,7 +7,9 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 import tomllib
+from pathlib import Path
 
 # How many threads ran a run is not what it ran: a campaign resumed with other --jobs or --threads reuses it.
 IGNORED = {"run.threads"}
@@ -128,12 +130,29 @@ def resolve(grains, scene_file, overrides):
     return tomllib.loads(done.stdout)   # the derived values after the scene are comments
 
 
+def read_unlocked(h5, read, tries=20):
+    """read(file) on h5 opened without HDF5's lock, which the run writing it holds, so that a run still going can be
+    read (its scene, written when the file is made; what it has flushed since). Read while that run writes, the
+    file may not open ("truncated file") or a read may fail for a moment: tried again, 0.1 s apart; the last
+    OSError is raised."""
+    import h5py  # imported late so the tools' --help works without it
+    for attempt in range(tries):
+        try:
+            with h5py.File(h5, "r", locking=False) as f:
+                return read(f)
+        except OSError:
+            if attempt == tries - 1:
+                raise
+            time.sleep(0.1)
+
+
 def stored(h5):
-    """The scene the run in h5 ran, as a dict; None when the file is missing, unreadable or holds none."""
-    import h5py
+    """The scene the run in h5 ran, as a dict, also while that run still writes the file (a campaign's --report
+    beside the campaign); None when the file is missing, unreadable or holds none."""
+    if not Path(h5).is_file():
+        return None
     try:
-        with h5py.File(h5, "r") as f:
-            text = f["parameters/scene.toml"][()]
+        text = read_unlocked(h5, lambda f: f["parameters/scene.toml"][()])
         return tomllib.loads(text.decode() if isinstance(text, bytes) else str(text))
     except (OSError, KeyError, tomllib.TOMLDecodeError):
         return None

@@ -383,3 +383,31 @@ def test_plot_draws_the_papers_fitted_curve_and_no_mean_where_there_is_none(tmp_
     assert "paper consolidation-rr: its fit, λ = 0.194, Φmax = 0.7745" in lines
     assert "consolidation: mean over the samples" in lines
     assert "consolidation-rr: mean over the samples" not in lines   # no stage of it in equilibrium
+
+
+def test_report_beside_a_running_campaign_reads_the_sample_it_is_writing(grains_bin, tmp_path):
+    """--report while the campaign still runs: HDF5 locks the file a grains run writes, and the check of the
+    sample's settings (its file's scene) took the locked file for one that holds no scene, so the report refused
+    the running sample as "run with other settings". The scene, written when the file is made, is now read without
+    the lock, and the report summarises the samples as they stand."""
+    args = ["--samples", "1", "--count", "80", "--scene", "consolidation", "--jobs", "1", "--threads", "1",
+            "--set", "programme.stage_budget=50000000", "--set", "programme.aggregation_budget=300000",
+            "--grains", str(grains_bin), "--out", str(tmp_path)]
+    script = str(ROOT / "runner" / "consolidation_campaign.py")
+    tool_run = subprocess.Popen([sys.executable, script, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        h5 = tmp_path / "consolidation-seed1.h5"
+        deadline = time.monotonic() + 60
+        while not h5.exists() and time.monotonic() < deadline and tool_run.poll() is None:
+            time.sleep(0.05)
+        assert tool_run.poll() is None and grains_processes_writing_in(tmp_path), tool_run.communicate()
+        with pytest.raises(OSError):   # the run holds HDF5's lock
+            h5py.File(h5, "r").close()
+        assert reuse.stored(h5)["particles"]["count"] == 80
+        report = subprocess.run([sys.executable, script, *args, "--report"], capture_output=True, text=True)
+        assert report.returncode == 0 and "other settings" not in report.stderr, report.stderr
+        assert "consolidation: seeds 1–1, 80 disks;" in (tmp_path / "summary.md").read_text()
+        assert tool_run.poll() is None   # the campaign still runs
+    finally:
+        tool_run.terminate()
+        tool_run.communicate(timeout=60)
