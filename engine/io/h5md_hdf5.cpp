@@ -76,6 +76,40 @@ void write_attribute(hid_t obj, const std::string& name, hid_t type, const Handl
   check(H5Awrite(a.get(), type, data), file, "writing attribute " + name);
 }
 
+std::string describe_type(hid_t type) {
+  switch (H5Tget_class(type)) {
+    case H5T_INTEGER:
+    case H5T_FLOAT:
+      return fmt::format("{} of {} bytes, {} bits of precision at bit {}", H5Tget_class(type) == H5T_FLOAT ? "a float" : "an integer",
+                         H5Tget_size(type), H5Tget_precision(type), H5Tget_offset(type));
+    case H5T_STRING: return H5Tis_variable_str(type) > 0 ? "a variable-length string" : "a fixed-length string";
+    default: return fmt::format("a type of class {} and {} bytes", int(H5Tget_class(type)), H5Tget_size(type));
+  }
+}
+
+// The value of a scalar string of the stored `type`, which `read(memory type, buffer)` reads. Fixed length: read as
+// stored, up to its first null. Variable length: a reference into the file's global heap, which HDF5 1.10.8 follows as
+// it stands (one flipped bit of its object index crashed H5HG_read); grains writes none that it reads back since its
+// twenty-fifth session, and reads those of older files as before.
+template <class Read>
+std::string read_string(hid_t type, hid_t space, Read read, const std::string& file, const std::string& what) {
+  if (H5Tget_class(type) != H5T_STRING || H5Sget_simple_extent_npoints(space) != 1)
+    throw std::runtime_error(fmt::format("H5MD output '{}': {} holds {} in {} place(s), where grains writes one string",
+                                         file, what, describe_type(type), H5Sget_simple_extent_npoints(space)));
+  if (H5Tis_variable_str(type) > 0) {
+    Handle vlen = vlen_string_type(file);
+    char* p = nullptr;
+    check(read(vlen.get(), &p), file, "reading " + what);
+    std::string value = p ? p : "";
+    H5free_memory(p);
+    return value;
+  }
+  std::string value(H5Tget_size(type), '\0');
+  check(read(type, value.data()), file, "reading " + what);
+  value.resize(std::strlen(value.c_str()));
+  return value;
+}
+
 Handle fixed_string_type(std::size_t size, const std::string& file) {
   Handle t(check(H5Tcopy(H5T_C_S1), file, "creating a string type"), H5Tclose);
   check(H5Tset_size(t.get(), size == 0 ? 1 : size), file, "sizing a string type");
@@ -255,19 +289,6 @@ bool exists(hid_t parent, const std::string& name, const std::string& file) {
   return check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up " + name) > 0;
 }
 
-namespace {
-std::string describe_type(hid_t type) {
-  switch (H5Tget_class(type)) {
-    case H5T_INTEGER:
-    case H5T_FLOAT:
-      return fmt::format("{} of {} bytes, {} bits of precision at bit {}", H5Tget_class(type) == H5T_FLOAT ? "a float" : "an integer",
-                         H5Tget_size(type), H5Tget_precision(type), H5Tget_offset(type));
-    case H5T_STRING: return H5Tis_variable_str(type) > 0 ? "a variable-length string" : "a fixed-length string";
-    default: return fmt::format("a type of class {} and {} bytes", int(H5Tget_class(type)), H5Tget_size(type));
-  }
-}
-}  // namespace
-
 // Found by tests/fuzz/corrupt_resume.py: one flipped bit made a chunk 1024 rows long 67,109,888 in the layout (the
 // stored chunks stayed 1024 rows), and H5Dset_extent's pruning wrote past its buffer; one made a float's precision
 // 2112 bits of its 64, or an integer's offset lie past its 8 bytes, and the conversion of a read or write wrote past
@@ -359,12 +380,11 @@ std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file
 
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file) {
   Handle d = open_dataset(parent, name, file);
-  Handle type = vlen_string_type(file);
-  char* p = nullptr;
-  check(H5Dread(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), file, "reading dataset " + name);
-  std::string value = p ? p : "";
-  H5free_memory(p);
-  return value;
+  Handle type(check(H5Dget_type(d.get()), file, "reading the type of dataset " + name), H5Tclose);
+  Handle space(check(H5Dget_space(d.get()), file, "reading the shape of dataset " + name), H5Sclose);
+  return read_string(type.get(), space.get(),
+                     [&](hid_t memory, void* buffer) { return H5Dread(d.get(), memory, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer); },
+                     file, "dataset " + name);
 }
 
 double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file) {
@@ -378,12 +398,10 @@ double read_attr_double(hid_t obj, const std::string& name, double fallback, con
 std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file) {
   if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
   Handle a(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), file, "opening attribute " + name), H5Aclose);
-  Handle type = vlen_string_type(file);
-  char* p = nullptr;
-  check(H5Aread(a.get(), type.get(), &p), file, "reading attribute " + name);
-  std::string value = p ? p : "";
-  H5free_memory(p);
-  return value;
+  Handle type(check(H5Aget_type(a.get()), file, "reading the type of attribute " + name), H5Tclose);
+  Handle space(check(H5Aget_space(a.get()), file, "reading the shape of attribute " + name), H5Sclose);
+  return read_string(type.get(), space.get(), [&](hid_t memory, void* buffer) { return H5Aread(a.get(), memory, buffer); },
+                     file, "attribute " + name);
 }
 
 void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::string& file, const std::string& what) {
@@ -392,7 +410,11 @@ void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::s
 }
 
 void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file) {
-  // Variable length: scene files and summaries can exceed the 64 KiB limit of compact attributes.
+  // Fixed length, in the object header: a variable-length string is a reference into the file's global heap, which
+  // HDF5 1.10.8 follows as it reads it (see read_string). The object header holds an attribute of at most 64 KiB
+  // (65,450 bytes of value went in, 65,480 did not): a longer value, a large scene, is variable length.
+  constexpr std::size_t kMaxFixedBytes = 63 * 1024;
+  if (value.size() < kMaxFixedBytes) return attr_fixed_string(obj, name, value, file);
   Handle type = vlen_string_type(file);
   const char* p = value.c_str();
   write_attribute(obj, name, type.get(), scalar_space(file), &p, file);
@@ -447,13 +469,13 @@ Handle vlen_string_type(const std::string& file) {
 }
 
 void dataset_string(hid_t parent, const std::string& name, const std::string& value, const std::string& file) {
-  Handle type = vlen_string_type(file);
+  // Fixed length: no reference into the global heap for a damaged file to crash HDF5's read with (see read_string).
+  Handle type = fixed_string_type(value.size() + 1, file);
   Handle space = scalar_space(file);
   Handle d(check(H5Dcreate2(parent, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                  file, "creating dataset " + name),
            H5Dclose);
-  const char* p = value.c_str();
-  check(H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), file, "writing dataset " + name);
+  check(H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, value.c_str()), file, "writing dataset " + name);
 }
 
 }  // namespace grains::h5
