@@ -293,7 +293,8 @@ bool exists(hid_t parent, const std::string& name, const std::string& file) {
 // stored chunks stayed 1024 rows), and H5Dset_extent's pruning wrote past its buffer; one made a float's precision
 // 2112 bits of its 64, or an integer's offset lie past its 8 bytes, and the conversion of a read or write wrote past
 // its buffer. What the API reports of both is compared with what grains writes before the dataset is touched.
-void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what) {
+void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what,
+                      bool checksum) {
   const auto damaged = [&](const std::string& defect) {
     char name[512] = "";   // the dataset's path in the file, where HDF5 knows it
     const bool named = H5Iget_name(dataset, name, sizeof name) > 0;
@@ -315,8 +316,12 @@ void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const s
   chunk.resize(std::size_t(rank));
   if (chunk[0] > max_chunk_rows) damaged(fmt::format("has chunks of {} rows, where grains writes at most {}", chunk[0], max_chunk_rows));
 #if H5_VERSION_GE(1, 10, 5)
-  // Unfiltered chunks are stored whole: the first one's bytes are its dimensions' (the layout's chunk, if intact).
-  if (!vlen_string && H5Pget_nfilters(dcpl.get()) == 0) {
+  // Chunks are stored whole, with Fletcher-32's 4 bytes when checksummed: the first one's bytes are its dimensions'
+  // (the layout's chunk, if intact). Other filters (a file repacked since) change them.
+  const int filters = H5Pget_nfilters(dcpl.get());
+  const bool fletcher32 =
+      filters == 1 && H5Pget_filter2(dcpl.get(), 0, nullptr, nullptr, nullptr, 0, nullptr, nullptr) == H5Z_FILTER_FLETCHER32;
+  if (!vlen_string && (checksum ? fletcher32 : filters == 0)) {
     Handle space(check(H5Dget_space(dataset), file, "reading the shape of " + what), H5Sclose);
     hsize_t chunks = 0;
     check(H5Dget_num_chunks(dataset, space.get(), &chunks), file, "counting the chunks of " + what);
@@ -329,6 +334,7 @@ void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const s
             "reading the chunks of " + what);
       hsize_t expected = H5Tget_size(stored.get());
       for (hsize_t n : chunk) expected *= n;
+      if (checksum) expected += 4;
       if (bytes != expected)
         damaged(fmt::format("has chunks of {} values ({} bytes) in its layout, but its first stored chunk holds {} bytes",
                             fmt::join(chunk, " x "), expected, bytes));

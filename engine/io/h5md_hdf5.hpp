@@ -90,8 +90,10 @@ Handle open_extendable(hid_t parent, const std::string& name, const std::string&
 // The access list of such a dataset: a chunk cache of two chunks of `chunk` (dimensions) values of `type`.
 Handle append_access(hid_t type, const std::vector<hsize_t>& chunk, const std::string& file);
 // Refuses a resumed dataset whose type or chunks are not what create_extendable made of `type` with at most
-// `max_chunk_rows` rows a chunk: HDF5 1.10.8 takes a damaged file's layout and type as they read and crashed on them.
-void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what);
+// `max_chunk_rows` rows a chunk (and `checksum`): HDF5 1.10.8 takes a damaged file's layout and type as they read and
+// crashed on them.
+void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what,
+                      bool checksum = false);
 bool exists(hid_t parent, const std::string& name, const std::string& file);
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);
 std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what);

@@ -335,6 +335,8 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
+  for (int slot : {0, 1})   // the resumed run writes its checkpoints over them
+    if (h5::exists(m.grains.get(), checkpoint_slot_name(slot), path)) check_checkpoint_slot(m.grains.get(), slot, path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
@@ -509,8 +511,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   const auto valid = valid_checkpoint_slots(g, m.path);
   const int slot = valid.empty() ? 0 : 1 - valid.front().first;   // not the slot holding the newest
   const std::string name = checkpoint_slot_name(slot), what = "/grains/" + name;
-  h5::Handle d = h5::exists(g, name, m.path) ? h5::open_dataset(g, name, m.path)
-                                              : h5::create_extendable(g, name, H5T_STD_U8LE, {}, {}, 1 << 16, m.path, true);
+  h5::Handle d = h5::exists(g, name, m.path) ? h5::open_dataset(g, name, m.path) : create_checkpoint_slot(g, slot, m.path);
   h5::attr_double(d.get(), "valid", 0, m.path);
   h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
   h5::overwrite_bytes(d.get(), cp.state.data(), cp.state.size(), m.path, what);

@@ -169,6 +169,22 @@ def test_a_file_whose_layout_or_type_is_damaged_is_refused_not_crashed_on(grains
     assert f"'{killed}': {defect}" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
 
 
+def test_a_checkpoint_slot_whose_layout_is_damaged_is_refused_before_it_is_written(grains_bin, root, tmp_path):
+    """A resumed run writes its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
+    which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
+    series above), H5Dwrite's Fletcher-32 summed that many and the resume died of SIGSEGV. The slots are checked as the
+    series are before the run goes on."""
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:   # killed while writing step 400's checkpoint: the resume writes it again
+        f["grains/checkpoint_1"].attrs["valid"] = 0.0
+    patch_header(killed, "grains/checkpoint_1", struct.pack("<II", 65536, 1), 3, 0x04)
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"'{killed}': /grains/checkpoint_1 has chunks of 67174400 rows, where grains writes at most 65536: the file "
+            "is damaged" in resumed.stderr), resumed.stderr
+
+
 # The strings a resume reads back: grains wrote them as variable-length strings, each stored as a reference into HDF5's
 # global heap, which HDF5 1.10.8 follows as it stands. A flipped bit of a reference's object index (found by
 # tests/fuzz/corrupt_resume.py in the scene's) made `grains resume` die of SIGSEGV in H5HG_read, for the scene, the
