@@ -66,10 +66,16 @@ struct H5mdWriter::Impl {
   std::unique_ptr<XdmfWriter> xdmf;
   std::vector<XdmfView> xdmf_views;         // what each frame shows, named with the first frame
 
-  // `clock`: the element whose step and time this one's are (hard links), else it gets its own. `value_type`:
-  // the values' type in the file.
+  // The type of the values of the element `name` of `parent` in the file: integers for the periodic images, doubles
+  // for the rest. The one place that says so: make_series creates each element with it, reopen_series checks it.
+  hid_t value_type(hid_t parent, const std::string& name) const {
+    return parent == particles.get() && name == "image" ? H5T_STD_I64LE : H5T_IEEE_F64LE;
+  }
+
+  // `clock`: the element whose step and time this one's are (hard links), else it gets its own.
   Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components,
-                     const Series* clock = nullptr, hid_t value_type = H5T_IEEE_F64LE) {
+                     const Series* clock = nullptr) {
+    const hid_t type = value_type(parent, name);
     Series s;
     s.components = components;
     s.group = h5::create_group(parent, name, path);
@@ -85,12 +91,12 @@ struct H5mdWriter::Impl {
     // Chunk: whole frames, several per chunk when frames are small, the particle axis cut when huge.
     hsize_t row_values = 1;
     for (hsize_t n : inner) row_values *= std::max<hsize_t>(n, 1);
-    const hsize_t row_bytes = row_values * H5Tget_size(value_type);
+    const hsize_t row_bytes = row_values * H5Tget_size(type);
     std::vector<hsize_t> chunk_inner = inner;
     if (!chunk_inner.empty() && row_bytes > kMaxChunkBytes)
       chunk_inner[0] = std::max<hsize_t>(1, chunk_inner[0] * kMaxChunkBytes / row_bytes);
     const hsize_t rows = std::clamp<hsize_t>(kFrameChunkBytes / row_bytes, 1, kObservableChunk);
-    s.value = h5::create_extendable(s.group.get(), "value", value_type, inner, chunk_inner, rows, path);
+    s.value = h5::create_extendable(s.group.get(), "value", type, inner, chunk_inner, rows, path);
     return s;
   }
 
@@ -122,8 +128,7 @@ struct H5mdWriter::Impl {
     auto it = series.find("image");
     const std::vector<hsize_t> count{f.count, hsize_t(dim)};
     if (it == series.end())
-      it = series.emplace("image", make_series(particles.get(), "image", count, dim, &series.at("position"),
-                                               H5T_STD_I64LE)).first;
+      it = series.emplace("image", make_series(particles.get(), "image", count, dim, &series.at("position"))).first;
     append(it->second, "/particles/all/image", f.step, f.time, f.image, count, H5T_NATIVE_INT64);
   }
 
@@ -157,7 +162,7 @@ struct H5mdWriter::Impl {
     s.value = h5::open_extendable(s.group.get(), "value", path);
     h5::check_as_written(s.step.get(), H5T_STD_I64LE, kObservableChunk, path, name + "/step");
     h5::check_as_written(s.time.get(), H5T_IEEE_F64LE, kObservableChunk, path, name + "/time");
-    h5::check_as_written(s.value.get(), name == "image" ? H5T_STD_I64LE : H5T_IEEE_F64LE, kObservableChunk, path, name + "/value");
+    h5::check_as_written(s.value.get(), value_type(parent, name), kObservableChunk, path, name + "/value");
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
     const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
                                           : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
