@@ -1,6 +1,7 @@
 // HDF5 C API helpers for the H5MD writer (see h5md_hdf5.hpp).
 #include "io/h5md_hdf5.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -315,6 +316,16 @@ void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const s
                         dims.size(), rank));
   chunk.resize(std::size_t(rank));
   if (chunk[0] > max_chunk_rows) damaged(fmt::format("has chunks of {} rows, where grains writes at most {}", chunk[0], max_chunk_rows));
+  // Every row grains writes takes bytes of the file (a frame's step and time at least), and so does a row's widest
+  // value: a time's 6 rows made 1,152,921,504,606,846,982 by one flipped bit, or a box's 3 values 2,251,799,813,685,251,
+  // had H5Dset_extent visit each of their chunks, a resume without end.
+  hsize_t file_bytes = 0;
+  {
+    const Handle owner(check(H5Iget_file_id(dataset), file, "finding the file of " + what), H5Fclose);
+    check(H5Fget_filesize(owner.get(), &file_bytes), file, "sizing the file");
+  }
+  if (*std::max_element(dims.begin(), dims.end()) > file_bytes)
+    damaged(fmt::format("has a shape of {}, more than the file's {} bytes hold", fmt::join(dims, " x "), file_bytes));
 #if H5_VERSION_GE(1, 10, 5)
   // Chunks are stored whole, with Fletcher-32's 4 bytes when checksummed: the first one's bytes are its dimensions'
   // (the layout's chunk, if intact). Other filters (a file repacked since) change them.

@@ -128,12 +128,13 @@ def checkpointed_gas(grains_bin, root, whole):
     return whole
 
 
-def patch_header(path, dataset, pattern, at, value):
-    """Sets byte `at` of `pattern`, found once in `dataset`'s object header, to `value`: a flipped bit in its metadata."""
+def patch_header(path, dataset, pattern, at, value, length=1024):
+    """Sets byte `at` of `pattern`, found once in `dataset`'s object header (its first `length` bytes), to `value`: a
+    flipped bit in its metadata."""
     with h5py.File(path, "r") as f:
         header = h5py.h5o.get_info(f[dataset].id).addr
     data = bytearray(path.read_bytes())
-    window = bytes(data[header : header + 1024])
+    window = bytes(data[header : header + length])
     assert window.count(pattern) == 1, dataset
     data[header + window.index(pattern) + at] = value
     path.write_bytes(bytes(data))
@@ -167,6 +168,24 @@ def test_a_file_whose_layout_or_type_is_damaged_is_refused_not_crashed_on(grains
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
     assert f"'{killed}': {defect}" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
+
+
+# Found by tests/fuzz/corrupt_resume.py (seeds 6 and 18): one flipped bit made a series' extent far larger than its
+# chunks, and cutting it back (H5Dset_extent) visited each chunk of it: the resume never ended, nor stopped at SIGTERM.
+@pytest.mark.parametrize("dataset, pattern, at, value, shape", [
+    ("observables/momentum_y/time", struct.pack("<QQ", 6, 2**64 - 1), 7, 0x10, "1152921504606846982"),
+    ("particles/all/box/offset/value", struct.pack("<QQQQ", 2, 3, 2**64 - 1, 2**64 - 1), 14, 0x08, "2 x 2251799813685251"),
+])
+def test_a_series_whose_extent_is_damaged_past_the_file_is_refused_not_cut_back_without_end(grains_bin, root, tmp_path,
+                                                                                           dataset, pattern, at, value,
+                                                                                           shape):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    patch_header(killed, dataset, pattern, at, value, length=256)
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"'{killed}': /{dataset} has a shape of {shape}, more than the file's " in resumed.stderr
+            and "damaged" in resumed.stderr), resumed.stderr
 
 
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_refused_before_it_is_written(grains_bin, root, tmp_path):
