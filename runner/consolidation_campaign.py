@@ -108,7 +108,7 @@ def finish(partial, table, h5):
     import h5py
     partial.rename(table)
     with h5py.File(h5, "r+") as f:
-        f["grains"].attrs["stage_table"] = table.name
+        f["grains"].attrs["stage_table"] = np.bytes_(table.name.encode())   # fixed length, as grains writes it
 
 
 def check_samples(ap, grains, samples, report=False):

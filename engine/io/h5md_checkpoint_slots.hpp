@@ -11,6 +11,20 @@ namespace grains {
 
 inline const char* checkpoint_slot_name(int slot) { return slot == 0 ? "checkpoint_0" : "checkpoint_1"; }
 
+// A slot as the writer makes it: one axis of bytes, in chunks of 64 KiB, each with a Fletcher-32 checksum.
+constexpr hsize_t kCheckpointChunkBytes = 1 << 16;
+inline h5::Handle create_checkpoint_slot(hid_t grains, int slot, const std::string& file) {
+  return h5::create_extendable(grains, checkpoint_slot_name(slot), H5T_STD_U8LE, {}, {}, kCheckpointChunkBytes, file, true);
+}
+// Refuses a slot of a resumed file that is not laid out as create_checkpoint_slot makes it: the resumed run writes its
+// checkpoints over the slots (H5Dset_extent, H5Dwrite), and with chunks of 65,536 bytes made 67,174,400 in the layout
+// by one flipped bit, HDF5 1.10.8's Fletcher-32 in H5Dwrite summed that many and crashed.
+inline void check_checkpoint_slot(hid_t grains, int slot, const std::string& file) {
+  const h5::Handle d = h5::open_dataset(grains, checkpoint_slot_name(slot), file);
+  h5::check_as_written(d.get(), H5T_STD_U8LE, kCheckpointChunkBytes, file, std::string("/grains/") + checkpoint_slot_name(slot),
+                       true);
+}
+
 // (slot, step) of the slots marked valid in the /grains group `grains`, newest first.
 inline std::vector<std::pair<int, double>> valid_checkpoint_slots(hid_t grains, const std::string& file) {
   std::vector<std::pair<int, double>> slots;

@@ -1,6 +1,7 @@
 // HDF5 C API helpers for the H5MD writer (see h5md_hdf5.hpp).
 #include "io/h5md_hdf5.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -74,6 +75,40 @@ void write_attribute(hid_t obj, const std::string& name, hid_t type, const Handl
                  "creating attribute " + name),
            H5Aclose);
   check(H5Awrite(a.get(), type, data), file, "writing attribute " + name);
+}
+
+std::string describe_type(hid_t type) {
+  switch (H5Tget_class(type)) {
+    case H5T_INTEGER:
+    case H5T_FLOAT:
+      return fmt::format("{} of {} bytes, {} bits of precision at bit {}", H5Tget_class(type) == H5T_FLOAT ? "a float" : "an integer",
+                         H5Tget_size(type), H5Tget_precision(type), H5Tget_offset(type));
+    case H5T_STRING: return H5Tis_variable_str(type) > 0 ? "a variable-length string" : "a fixed-length string";
+    default: return fmt::format("a type of class {} and {} bytes", int(H5Tget_class(type)), H5Tget_size(type));
+  }
+}
+
+// The value of a scalar string of the stored `type`, which `read(memory type, buffer)` reads. Fixed length: read as
+// stored, up to its first null. Variable length: a reference into the file's global heap, which HDF5 1.10.8 follows as
+// it stands (one flipped bit of its object index crashed H5HG_read); grains writes none that it reads back since its
+// twenty-fifth session, and reads those of older files as before.
+template <class Read>
+std::string read_string(hid_t type, hid_t space, Read read, const std::string& file, const std::string& what) {
+  if (H5Tget_class(type) != H5T_STRING || H5Sget_simple_extent_npoints(space) != 1)
+    throw std::runtime_error(fmt::format("H5MD output '{}': {} holds {} in {} place(s), where grains writes one string",
+                                         file, what, describe_type(type), H5Sget_simple_extent_npoints(space)));
+  if (H5Tis_variable_str(type) > 0) {
+    Handle vlen = vlen_string_type(file);
+    char* p = nullptr;
+    check(read(vlen.get(), &p), file, "reading " + what);
+    std::string value = p ? p : "";
+    H5free_memory(p);
+    return value;
+  }
+  std::string value(H5Tget_size(type), '\0');
+  check(read(type, value.data()), file, "reading " + what);
+  value.resize(std::strlen(value.c_str()));
+  return value;
 }
 
 Handle fixed_string_type(std::size_t size, const std::string& file) {
@@ -255,24 +290,12 @@ bool exists(hid_t parent, const std::string& name, const std::string& file) {
   return check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up " + name) > 0;
 }
 
-namespace {
-std::string describe_type(hid_t type) {
-  switch (H5Tget_class(type)) {
-    case H5T_INTEGER:
-    case H5T_FLOAT:
-      return fmt::format("{} of {} bytes, {} bits of precision at bit {}", H5Tget_class(type) == H5T_FLOAT ? "a float" : "an integer",
-                         H5Tget_size(type), H5Tget_precision(type), H5Tget_offset(type));
-    case H5T_STRING: return H5Tis_variable_str(type) > 0 ? "a variable-length string" : "a fixed-length string";
-    default: return fmt::format("a type of class {} and {} bytes", int(H5Tget_class(type)), H5Tget_size(type));
-  }
-}
-}  // namespace
-
 // Found by tests/fuzz/corrupt_resume.py: one flipped bit made a chunk 1024 rows long 67,109,888 in the layout (the
 // stored chunks stayed 1024 rows), and H5Dset_extent's pruning wrote past its buffer; one made a float's precision
 // 2112 bits of its 64, or an integer's offset lie past its 8 bytes, and the conversion of a read or write wrote past
 // its buffer. What the API reports of both is compared with what grains writes before the dataset is touched.
-void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what) {
+void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what,
+                      bool checksum) {
   const auto damaged = [&](const std::string& defect) {
     char name[512] = "";   // the dataset's path in the file, where HDF5 knows it
     const bool named = H5Iget_name(dataset, name, sizeof name) > 0;
@@ -293,9 +316,23 @@ void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const s
                         dims.size(), rank));
   chunk.resize(std::size_t(rank));
   if (chunk[0] > max_chunk_rows) damaged(fmt::format("has chunks of {} rows, where grains writes at most {}", chunk[0], max_chunk_rows));
+  // Every row grains writes takes bytes of the file (a frame's step and time at least), and so does a row's widest
+  // value: a time's 6 rows made 1,152,921,504,606,846,982 by one flipped bit, or a box's 3 values 2,251,799,813,685,251,
+  // had H5Dset_extent visit each of their chunks, a resume without end.
+  hsize_t file_bytes = 0;
+  {
+    const Handle owner(check(H5Iget_file_id(dataset), file, "finding the file of " + what), H5Fclose);
+    check(H5Fget_filesize(owner.get(), &file_bytes), file, "sizing the file");
+  }
+  if (*std::max_element(dims.begin(), dims.end()) > file_bytes)
+    damaged(fmt::format("has a shape of {}, more than the file's {} bytes hold", fmt::join(dims, " x "), file_bytes));
 #if H5_VERSION_GE(1, 10, 5)
-  // Unfiltered chunks are stored whole: the first one's bytes are its dimensions' (the layout's chunk, if intact).
-  if (!vlen_string && H5Pget_nfilters(dcpl.get()) == 0) {
+  // Chunks are stored whole, with Fletcher-32's 4 bytes when checksummed: the first one's bytes are its dimensions'
+  // (the layout's chunk, if intact). Other filters (a file repacked since) change them.
+  const int filters = H5Pget_nfilters(dcpl.get());
+  const bool fletcher32 =
+      filters == 1 && H5Pget_filter2(dcpl.get(), 0, nullptr, nullptr, nullptr, 0, nullptr, nullptr) == H5Z_FILTER_FLETCHER32;
+  if (!vlen_string && (checksum ? fletcher32 : filters == 0)) {
     Handle space(check(H5Dget_space(dataset), file, "reading the shape of " + what), H5Sclose);
     hsize_t chunks = 0;
     check(H5Dget_num_chunks(dataset, space.get(), &chunks), file, "counting the chunks of " + what);
@@ -308,6 +345,7 @@ void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const s
             "reading the chunks of " + what);
       hsize_t expected = H5Tget_size(stored.get());
       for (hsize_t n : chunk) expected *= n;
+      if (checksum) expected += 4;
       if (bytes != expected)
         damaged(fmt::format("has chunks of {} values ({} bytes) in its layout, but its first stored chunk holds {} bytes",
                             fmt::join(chunk, " x "), expected, bytes));
@@ -359,12 +397,11 @@ std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file
 
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file) {
   Handle d = open_dataset(parent, name, file);
-  Handle type = vlen_string_type(file);
-  char* p = nullptr;
-  check(H5Dread(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), file, "reading dataset " + name);
-  std::string value = p ? p : "";
-  H5free_memory(p);
-  return value;
+  Handle type(check(H5Dget_type(d.get()), file, "reading the type of dataset " + name), H5Tclose);
+  Handle space(check(H5Dget_space(d.get()), file, "reading the shape of dataset " + name), H5Sclose);
+  return read_string(type.get(), space.get(),
+                     [&](hid_t memory, void* buffer) { return H5Dread(d.get(), memory, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer); },
+                     file, "dataset " + name);
 }
 
 double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file) {
@@ -378,12 +415,10 @@ double read_attr_double(hid_t obj, const std::string& name, double fallback, con
 std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file) {
   if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
   Handle a(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), file, "opening attribute " + name), H5Aclose);
-  Handle type = vlen_string_type(file);
-  char* p = nullptr;
-  check(H5Aread(a.get(), type.get(), &p), file, "reading attribute " + name);
-  std::string value = p ? p : "";
-  H5free_memory(p);
-  return value;
+  Handle type(check(H5Aget_type(a.get()), file, "reading the type of attribute " + name), H5Tclose);
+  Handle space(check(H5Aget_space(a.get()), file, "reading the shape of attribute " + name), H5Sclose);
+  return read_string(type.get(), space.get(), [&](hid_t memory, void* buffer) { return H5Aread(a.get(), memory, buffer); },
+                     file, "attribute " + name);
 }
 
 void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::string& file, const std::string& what) {
@@ -392,7 +427,11 @@ void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::s
 }
 
 void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file) {
-  // Variable length: scene files and summaries can exceed the 64 KiB limit of compact attributes.
+  // Fixed length, in the object header: a variable-length string is a reference into the file's global heap, which
+  // HDF5 1.10.8 follows as it reads it (see read_string). The object header holds an attribute of at most 64 KiB
+  // (65,450 bytes of value went in, 65,480 did not): a longer value, a large scene, is variable length.
+  constexpr std::size_t kMaxFixedBytes = 63 * 1024;
+  if (value.size() < kMaxFixedBytes) return attr_fixed_string(obj, name, value, file);
   Handle type = vlen_string_type(file);
   const char* p = value.c_str();
   write_attribute(obj, name, type.get(), scalar_space(file), &p, file);
@@ -447,13 +486,13 @@ Handle vlen_string_type(const std::string& file) {
 }
 
 void dataset_string(hid_t parent, const std::string& name, const std::string& value, const std::string& file) {
-  Handle type = vlen_string_type(file);
+  // Fixed length: no reference into the global heap for a damaged file to crash HDF5's read with (see read_string).
+  Handle type = fixed_string_type(value.size() + 1, file);
   Handle space = scalar_space(file);
   Handle d(check(H5Dcreate2(parent, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                  file, "creating dataset " + name),
            H5Dclose);
-  const char* p = value.c_str();
-  check(H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), file, "writing dataset " + name);
+  check(H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, value.c_str()), file, "writing dataset " + name);
 }
 
 }  // namespace grains::h5

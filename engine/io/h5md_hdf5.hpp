@@ -90,14 +90,18 @@ Handle open_extendable(hid_t parent, const std::string& name, const std::string&
 // The access list of such a dataset: a chunk cache of two chunks of `chunk` (dimensions) values of `type`.
 Handle append_access(hid_t type, const std::vector<hsize_t>& chunk, const std::string& file);
 // Refuses a resumed dataset whose type or chunks are not what create_extendable made of `type` with at most
-// `max_chunk_rows` rows a chunk: HDF5 1.10.8 takes a damaged file's layout and type as they read and crashed on them.
-void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what);
+// `max_chunk_rows` rows a chunk (and `checksum`): HDF5 1.10.8 takes a damaged file's layout and type as they read and
+// crashed on them.
+void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what,
+                      bool checksum = false);
 bool exists(hid_t parent, const std::string& name, const std::string& file);
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);
 std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what);
 std::vector<double> read_doubles(hid_t dataset, const std::string& file, const std::string& what);
 // Row `row` (first axis) of a dataset of doubles, flattened.
 std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file, const std::string& what);
+// A scalar string dataset's or attribute's value, fixed length (dataset_string's, attr_string's) or variable length
+// (as grains wrote them until its twenty-fifth session, and h5py writes a str).
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file);
 // An attribute's value, or `fallback` when the object has no such attribute.
 double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file);
@@ -106,6 +110,7 @@ std::string read_attr_string(hid_t obj, const std::string& name, const std::stri
 void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::string& file, const std::string& what);
 
 // Attributes; an existing attribute of the same name is replaced.
+// A scalar string: fixed length, but for a value longer than an attribute in the object header holds (a large scene).
 void attr_string(hid_t obj, const std::string& name, const std::string& value, const std::string& file);
 void attr_strings(hid_t obj, const std::string& name, const std::vector<std::string>& values,
                   const std::string& file);
@@ -117,7 +122,7 @@ void attr_double(hid_t obj, const std::string& name, double value, const std::st
 void attr_doubles(hid_t obj, const std::string& name, const std::vector<double>& values, const std::string& file);
 std::vector<double> read_attr_doubles(hid_t obj, const std::string& name, const std::string& file);
 
-// A scalar variable-length UTF-8 string dataset.
+// A scalar fixed-length UTF-8 string dataset.
 void dataset_string(hid_t parent, const std::string& name, const std::string& value, const std::string& file);
 // Variable-length UTF-8 string type (caller owns the handle).
 Handle vlen_string_type(const std::string& file);

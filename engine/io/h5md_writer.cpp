@@ -66,10 +66,16 @@ struct H5mdWriter::Impl {
   std::unique_ptr<XdmfWriter> xdmf;
   std::vector<XdmfView> xdmf_views;         // what each frame shows, named with the first frame
 
-  // `clock`: the element whose step and time this one's are (hard links), else it gets its own. `value_type`:
-  // the values' type in the file.
+  // The type of the values of the element `name` of `parent` in the file: integers for the periodic images, doubles
+  // for the rest. The one place that says so: make_series creates each element with it, reopen_series checks it.
+  hid_t value_type(hid_t parent, const std::string& name) const {
+    return parent == particles.get() && name == "image" ? H5T_STD_I64LE : H5T_IEEE_F64LE;
+  }
+
+  // `clock`: the element whose step and time this one's are (hard links), else it gets its own.
   Series make_series(hid_t parent, const std::string& name, const std::vector<hsize_t>& inner, int components,
-                     const Series* clock = nullptr, hid_t value_type = H5T_IEEE_F64LE) {
+                     const Series* clock = nullptr) {
+    const hid_t type = value_type(parent, name);
     Series s;
     s.components = components;
     s.group = h5::create_group(parent, name, path);
@@ -85,12 +91,12 @@ struct H5mdWriter::Impl {
     // Chunk: whole frames, several per chunk when frames are small, the particle axis cut when huge.
     hsize_t row_values = 1;
     for (hsize_t n : inner) row_values *= std::max<hsize_t>(n, 1);
-    const hsize_t row_bytes = row_values * H5Tget_size(value_type);
+    const hsize_t row_bytes = row_values * H5Tget_size(type);
     std::vector<hsize_t> chunk_inner = inner;
     if (!chunk_inner.empty() && row_bytes > kMaxChunkBytes)
       chunk_inner[0] = std::max<hsize_t>(1, chunk_inner[0] * kMaxChunkBytes / row_bytes);
     const hsize_t rows = std::clamp<hsize_t>(kFrameChunkBytes / row_bytes, 1, kObservableChunk);
-    s.value = h5::create_extendable(s.group.get(), "value", value_type, inner, chunk_inner, rows, path);
+    s.value = h5::create_extendable(s.group.get(), "value", type, inner, chunk_inner, rows, path);
     return s;
   }
 
@@ -122,8 +128,7 @@ struct H5mdWriter::Impl {
     auto it = series.find("image");
     const std::vector<hsize_t> count{f.count, hsize_t(dim)};
     if (it == series.end())
-      it = series.emplace("image", make_series(particles.get(), "image", count, dim, &series.at("position"),
-                                               H5T_STD_I64LE)).first;
+      it = series.emplace("image", make_series(particles.get(), "image", count, dim, &series.at("position"))).first;
     append(it->second, "/particles/all/image", f.step, f.time, f.image, count, H5T_NATIVE_INT64);
   }
 
@@ -157,7 +162,7 @@ struct H5mdWriter::Impl {
     s.value = h5::open_extendable(s.group.get(), "value", path);
     h5::check_as_written(s.step.get(), H5T_STD_I64LE, kObservableChunk, path, name + "/step");
     h5::check_as_written(s.time.get(), H5T_IEEE_F64LE, kObservableChunk, path, name + "/time");
-    h5::check_as_written(s.value.get(), name == "image" ? H5T_STD_I64LE : H5T_IEEE_F64LE, kObservableChunk, path, name + "/value");
+    h5::check_as_written(s.value.get(), value_type(parent, name), kObservableChunk, path, name + "/value");
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
     const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
                                           : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
@@ -335,6 +340,8 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
+  for (int slot : {0, 1})   // the resumed run writes its checkpoints over them
+    if (h5::exists(m.grains.get(), checkpoint_slot_name(slot), path)) check_checkpoint_slot(m.grains.get(), slot, path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
@@ -509,8 +516,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   const auto valid = valid_checkpoint_slots(g, m.path);
   const int slot = valid.empty() ? 0 : 1 - valid.front().first;   // not the slot holding the newest
   const std::string name = checkpoint_slot_name(slot), what = "/grains/" + name;
-  h5::Handle d = h5::exists(g, name, m.path) ? h5::open_dataset(g, name, m.path)
-                                              : h5::create_extendable(g, name, H5T_STD_U8LE, {}, {}, 1 << 16, m.path, true);
+  h5::Handle d = h5::exists(g, name, m.path) ? h5::open_dataset(g, name, m.path) : create_checkpoint_slot(g, slot, m.path);
   h5::attr_double(d.get(), "valid", 0, m.path);
   h5::check(H5Fflush(m.file.get(), H5F_SCOPE_GLOBAL), m.path, "flushing the file");
   h5::overwrite_bytes(d.get(), cp.state.data(), cp.state.size(), m.path, what);

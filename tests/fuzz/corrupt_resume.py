@@ -30,7 +30,7 @@ def base_file(grains, folder):
                     "--set", "time.steps=450", "--set", "output.checkpoint_every=100", "--set", "run.threads=1",
                     "--quiet"], check=True, env=environment())
     with h5py.File(whole, "r+") as f:
-        f["grains"].attrs["status"] = "running"
+        f["grains"].attrs.modify("status", "running")   # in the type grains wrote it (a str would be variable length)
         # where the checkpoints' bytes lie in the file, for flips aimed at them
         spans = []
         for name in ("grains/checkpoint_0", "grains/checkpoint_1"):

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from fmu_host import fmu_path
+from h5text import text
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -117,7 +118,7 @@ def run_grains(grains_bin, scene, out, processor, emulated):
                  if f"particles/all/{k}" in f}
         observables = {k: f[f"observables/{k}/value"][-1] for k in f["observables"]
                        if f[f"observables/{k}/value"].ndim == 1 and k != "cvode_seconds"}
-        return state, observables, f["grains"].attrs["pair_loop_build"]
+        return state, observables, text(f["grains"].attrs["pair_loop_build"])
 
 
 def this_machine_has(*flags):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
+from h5text import text
 from interrupt import interrupted
 
 sys.path.insert(0, str(ROOT / "runner"))
@@ -276,7 +277,7 @@ def test_sigterm_to_a_tool_alone_stops_its_runs_as_ctrl_c_does(grains_bin, tmp_p
     assert tool_run.returncode == 130 and "interrupted; run the same command again" in err and "Traceback" not in err, err
     assert not grains_processes_writing_in(tmp_path)
     with h5py.File(next(tmp_path.glob("*.h5"))) as f:
-        assert f["grains"].attrs["status"].startswith("interrupted")
+        assert text(f["grains"].attrs["status"]).startswith("interrupted")
 
 
 def test_initial_states_refuse_runs_of_other_settings(grains_bin, tmp_path):

@@ -12,15 +12,10 @@ import pytest
 
 h5py = pytest.importorskip("h5py")
 
+from h5text import text  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[2]
 SCENE = REPO / "models" / "collision.toml"
-
-
-def text(v):
-    """h5py gives strings as bytes, str or 0-d/1-element arrays depending on how they were stored."""
-    if isinstance(v, np.ndarray):
-        v = v.reshape(-1)[0]
-    return v.decode() if isinstance(v, bytes) else str(v)
 
 
 @pytest.fixture(scope="module")

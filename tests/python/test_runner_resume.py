@@ -12,6 +12,7 @@ import h5py
 import numpy as np
 import pytest
 
+from h5text import text
 from interrupt import interrupted
 
 
@@ -33,8 +34,7 @@ def records(path):
 
 def status(path):
     with h5py.File(path) as f:
-        s = f["grains"].attrs.get("status", "")
-        return s.decode() if isinstance(s, bytes) else s
+        return text(f["grains"].attrs.get("status", ""))
 
 
 def killed_copy(whole, killed):
@@ -120,12 +120,21 @@ def test_a_file_whose_series_lost_rows_is_refused_not_resumed_out_of_step(grains
     assert "kinetic_energy/value holds 3 rows" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
 
 
-def patch_header(path, dataset, pattern, at, value):
-    """Sets byte `at` of `pattern`, found once in `dataset`'s object header, to `value`: a flipped bit in its metadata."""
+def checkpointed_gas(grains_bin, root, whole):
+    """64 frictional grains, 450 steps, a checkpoint every 100: step 300's in checkpoint_0, step 400's in checkpoint_1."""
+    made = run(grains_bin, "run", root / "models/gas-friction.toml", "--out", whole, "--set", "particles.count=64",
+               "--set", "time.steps=450", "--set", "output.checkpoint_every=100", "--set", "run.threads=1", "--quiet")
+    assert made.returncode == 0, made.stderr
+    return whole
+
+
+def patch_header(path, dataset, pattern, at, value, length=1024):
+    """Sets byte `at` of `pattern`, found once in `dataset`'s object header (its first `length` bytes), to `value`: a
+    flipped bit in its metadata."""
     with h5py.File(path, "r") as f:
         header = h5py.h5o.get_info(f[dataset].id).addr
     data = bytearray(path.read_bytes())
-    window = bytes(data[header : header + 1024])
+    window = bytes(data[header : header + length])
     assert window.count(pattern) == 1, dataset
     data[header + window.index(pattern) + at] = value
     path.write_bytes(bytes(data))
@@ -150,10 +159,7 @@ def patch_header(path, dataset, pattern, at, value):
 ])
 def test_a_file_whose_layout_or_type_is_damaged_is_refused_not_crashed_on(grains_bin, root, tmp_path, dataset, pattern, at,
                                                                           value, defect):
-    whole = tmp_path / "whole.h5"
-    made = run(grains_bin, "run", root / "models/gas-friction.toml", "--out", whole, "--set", "particles.count=64",
-               "--set", "time.steps=450", "--set", "output.checkpoint_every=100", "--set", "run.threads=1", "--quiet")
-    assert made.returncode == 0, made.stderr
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
     resumed = run(grains_bin, "resume", killed, "--quiet")   # undamaged, it resumes
     assert resumed.returncode == 0, resumed.stderr
@@ -162,6 +168,89 @@ def test_a_file_whose_layout_or_type_is_damaged_is_refused_not_crashed_on(grains
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
     assert f"'{killed}': {defect}" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
+
+
+# Found by tests/fuzz/corrupt_resume.py (seeds 6 and 18): one flipped bit made a series' extent far larger than its
+# chunks, and cutting it back (H5Dset_extent) visited each chunk of it: the resume never ended, nor stopped at SIGTERM.
+@pytest.mark.parametrize("dataset, pattern, at, value, shape", [
+    ("observables/momentum_y/time", struct.pack("<QQ", 6, 2**64 - 1), 7, 0x10, "1152921504606846982"),
+    ("particles/all/box/offset/value", struct.pack("<QQQQ", 2, 3, 2**64 - 1, 2**64 - 1), 14, 0x08, "2 x 2251799813685251"),
+])
+def test_a_series_whose_extent_is_damaged_past_the_file_is_refused_not_cut_back_without_end(grains_bin, root, tmp_path,
+                                                                                           dataset, pattern, at, value,
+                                                                                           shape):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    patch_header(killed, dataset, pattern, at, value, length=256)
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"'{killed}': /{dataset} has a shape of {shape}, more than the file's " in resumed.stderr
+            and "damaged" in resumed.stderr), resumed.stderr
+
+
+def test_a_checkpoint_slot_whose_layout_is_damaged_is_refused_before_it_is_written(grains_bin, root, tmp_path):
+    """A resumed run writes its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
+    which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
+    series above), H5Dwrite's Fletcher-32 summed that many and the resume died of SIGSEGV. The slots are checked as the
+    series are before the run goes on."""
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:   # killed while writing step 400's checkpoint: the resume writes it again
+        f["grains/checkpoint_1"].attrs["valid"] = 0.0
+    patch_header(killed, "grains/checkpoint_1", struct.pack("<II", 65536, 1), 3, 0x04)
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"'{killed}': /grains/checkpoint_1 has chunks of 67174400 rows, where grains writes at most 65536: the file "
+            "is damaged" in resumed.stderr), resumed.stderr
+
+
+# The strings a resume reads back: grains wrote them as variable-length strings, each stored as a reference into HDF5's
+# global heap, which HDF5 1.10.8 follows as it stands. A flipped bit of a reference's object index (found by
+# tests/fuzz/corrupt_resume.py in the scene's) made `grains resume` die of SIGSEGV in H5HG_read, for the scene, the
+# status, the scene's folder and the newest checkpoint's check sum of the scene alike.
+RESUMED_STRINGS = [("parameters/scene.toml", None), ("grains", "status"), ("grains", "scene_directory"),
+                   ("grains/checkpoint_0", "scene_check_sum"), ("grains/checkpoint_1", "scene_check_sum")]
+
+
+def test_the_strings_a_resume_reads_are_stored_in_place_not_in_the_global_heap(grains_bin, root, tmp_path):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    with h5py.File(whole) as f:
+        for path, attribute in RESUMED_STRINGS:
+            kind = f[path].attrs.get_id(attribute).get_type() if attribute else f[path].id.get_type()
+            assert isinstance(kind, h5py.h5t.TypeStringID) and not kind.is_variable_str(), (path, attribute)
+
+
+def test_a_flipped_byte_in_the_stored_scene_is_refused_not_crashed_on(grains_bin, root, tmp_path):
+    """The byte that held the scene's heap reference's object index, flipped (+256: past the heap's objects), now a
+    character of the scene's text: the checkpoints' check sum of the scene refuses it."""
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed) as f:
+        at = f["parameters/scene.toml"].id.get_offset()
+    data = bytearray(killed.read_bytes())
+    data[at + 13] ^= 0x01
+    killed.write_bytes(bytes(data))
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert "its stored scene (parameters/scene.toml) is not the one its checkpoints were written with" in resumed.stderr
+
+
+def test_a_file_whose_strings_an_older_grains_wrote_variable_length_resumes(grains_bin, root, tmp_path):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        for path, attribute in RESUMED_STRINGS:
+            if attribute:
+                f[path].attrs[attribute] = text(f[path].attrs[attribute])   # a str: variable length
+            else:
+                scene = text(f[path][()])
+                del f[path]
+                f.create_dataset(path, data=scene, dtype=h5py.string_dtype())
+            kind = f[path].attrs.get_id(attribute).get_type() if attribute else f[path].id.get_type()
+            assert kind.is_variable_str()
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert_same_records(whole, killed)
 
 
 def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tmp_path):
@@ -443,9 +532,7 @@ def test_a_run_that_fails_says_so_in_its_file_and_is_not_resumed(grains_bin, roo
     # It blows up: a particle flung ~1e8 cell lengths in step 3 (the run stopped at the non-finite value of step 4
     # until the twenty-fourth session, whose check of the wrapped positions stops it a step before).
     assert failed.returncode == 1 and "cell lengths from the periodic cell on axis 0 at step 3" in failed.stderr
-    with h5py.File(out) as f:
-        status = f["grains"].attrs["status"]
-    assert status.startswith("failed after step 2: particle 1 is"), status
+    assert status(out).startswith("failed after step 2: particle 1 is"), status(out)
     again = run(grains_bin, "resume", out)
     assert again.returncode == 1 and "ended with an error" in again.stderr and "resuming would repeat it" in again.stderr
 
