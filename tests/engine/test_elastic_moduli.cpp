@@ -450,6 +450,9 @@ TEST_CASE("unit stress increments applied through the engine's 3D pair loop give
   REQUIRE(e.mechanisms == 0);
   REQUIRE(e.unstable_modes == 0);
   CHECK(e.shear < 0.95 * e.shear_voigt);
+  double branches = 0;   // B_V = K_N sum d^2 / (D^2 V): the tangential springs do not change the volume
+  for (const auto& s : springs) branches += s.branch.squaredNorm();
+  CHECK(e.bulk_voigt == Approx(kn * branches / (9 * V)).epsilon(1e-12));
 
   const double increment = 1e-3 * f0;
   for (int a = 0; a < 3; ++a) {
