@@ -210,7 +210,10 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
       out(fmt::format("stress_{}{}", xyz[a], xyz[b]), stress_unit<D>, "stress tensor, contact + kinetic, compressive positive");
   out("pressure", stress_unit<D>, "trace(stress) / D, contact + kinetic");
   out("pressure_kinetic", stress_unit<D>, "kinetic part of the pressure (velocities relative to the affine flow)");
-  out("pressure_reduced", "", "P* of the current stress: a P / F0 (2D), a^2 P / F0 (3D)");
+  // This scene's P*: a cohesionless cell (F0 = 0) reduces by k_n (setup_cell's pressure_scale_).
+  const std::string reduced = force_unit_ > 0 ? (D == 3 ? "a^2 P / F0" : "a P / F0")
+                                              : (D == 3 ? "a P / k_n (cohesionless, F0 = 0)" : "P / k_n (cohesionless, F0 = 0)");
+  out("pressure_reduced", "", "P* of the current stress: " + reduced);
   out("pressure_target", "", "P* the barostat drives the stress to: cell.pressure, or with a ramp (cell.pressure_final) its value at "
       "the start of the last step");
   out("solid_fraction", "", "Phi: grain area (2D) or volume (3D) over the cell's");
@@ -226,7 +229,7 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
   out("cvode_reinitialisations", "", "CVODE restarts (a new target pressure, a released cell, and one every 500 particle steps: a saved state carries the steps since the last)");
   out("cvode_seconds", "s", "wall time spent in CVODE (this process)");
   add_control({"cell.pressure", scene_key_unit("cell.pressure", D), Causality::input, Variability::continuous,
-               "target reduced pressure P* (a P / F0 in 2D, a^2 P / F0 in 3D)", 0, 1e6},
+               "target reduced pressure P* = " + reduced, 0, 1e6},
               [this] { return target_reduced_; },
               [this](double v) {
                 if (force_unit_ == 0 && v == 0)

@@ -80,3 +80,31 @@ TEST_CASE("a variable named after a scene key has the key's unit, the schema's",
   }
   CHECK(seen >= 10);
 }
+
+TEST_CASE("the reduced pressure's description gives this scene's P*, the cohesionless one too", "[observables]") {
+  // Every scene's P* read "a P / F0 (2D), a^2 P / F0 (3D)", also where F0 = 0 (cell.force_unit = 0) and P* is
+  // P a^(D-2) / k_n, which the descriptions did not name: a P* of 1e-5 read as a P / F0 with F0 = 0.
+  struct Case {
+    const char* scene;
+    std::vector<std::string> overrides;
+    const char* reduced;
+  };
+  const std::vector<std::string> cohesionless = {"adhesion.force=0", "cell.force_unit=0", "cell.pressure=1e-5"};
+  for (const Case& c : {Case{"consolidation", {}, "a P / F0"}, Case{"consolidation-3d", {}, "a^2 P / F0"},
+                        Case{"cohesionless", {}, "P / k_n"}, Case{"consolidation-3d", cohesionless, "a P / k_n"}}) {
+    std::vector<std::string> overrides = c.overrides;
+    overrides.push_back("run.threads=1");
+    auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/" + c.scene + ".toml", overrides));
+    int seen = 0;
+    for (const auto& v : s->variables()) {
+      if (v.name != "pressure_reduced" && v.name != "cell.pressure") continue;
+      INFO(c.scene << " with " << c.overrides.size() << " overrides: " << v.name << ": '" << v.description << "'");
+      CHECK(v.description.find(c.reduced) != std::string::npos);
+      for (const char* other : {"a P / F0", "a^2 P / F0", "P / k_n", "a P / k_n"})
+        if (std::string_view(other) != c.reduced && std::string_view(c.reduced).find(other) == std::string_view::npos)
+          CHECK(v.description.find(other) == std::string::npos);
+      ++seen;
+    }
+    CHECK(seen == 2);
+  }
+}
