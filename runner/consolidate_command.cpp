@@ -47,6 +47,17 @@ std::vector<std::string> table_up_to(const std::string& table, int last) {
   return kept;
 }
 
+// The outputs `grains consolidate` traces within stages (programme.trace_every): what shows a stage's course, each
+// cheap to evaluate (no elastic moduli, no histograms).
+std::vector<std::string> traced_outputs(const Simulation& sim) {
+  std::vector<std::string> names;
+  for (const char* n : {"pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy",
+                        "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic", "bonded_clusters"})
+    for (const auto& v : sim.variables())
+      if (v.name == n) names.emplace_back(n);
+  return names;
+}
+
 // The programme from `from` on, its table rows, records, checkpoints and summary: shared by a fresh
 // programme and a resumed one (which comes in with the stages that missed their budget and the wall time
 // before it).
@@ -156,7 +167,17 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   // Ctrl-C or SIGTERM stops the programme; then what the stage waits for (one bonded cluster, or the four
   // equilibrium ratios falling below 1).
   bool stopped = false;   // the signals are caught since the output file's creation
+  const long trace_every = scene.integer("programme.trace_every");
+  const std::vector<std::string> traced = traced_outputs(sim);
   auto on_check = [&](const StageRecord& r, long budget, const StageProgress& at) {
+    // The trace, before a checkpoint at the same step, which then holds it. Only at the checks proper (every
+    // check_every steps into a stage; a stop request also calls here in between), and decided by the step alone,
+    // so that a resumed programme writes the records the unbroken one does.
+    const long step = sim.step_count();
+    if (trace_every > 0 && r.steps % settings.check_every == 0 && step / trace_every != (step - settings.check_every) / trace_every) {
+      for (const auto& n : traced) out.write_observable("trace/" + n, step, sim.time(), sim.get(n));
+      out.write_observable("trace/stage", step, sim.time(), double(r.index));
+    }
     stopped = stop_requested();
     if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) checkpoint(at.stage - 1, at.values());
     if (stopped) {

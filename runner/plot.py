@@ -6,8 +6,9 @@ Reads observables/<name>/{time,value} from an H5MD file and draws each observabl
 subplot over a shared time axis, or over another observable recorded at the same times
 (`--x time_over_free_fall`: against t / t_ff). Without --observables it draws the scene's main ones,
 chosen by what the file holds: a gravity scene f_max, N_c / N and Q against t / t_ff; a
-pressure-controlled cell P* (with its target), Phi, z and K; a collision log K, contacts, collisions and
-the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap. The
+pressure-controlled cell P* (with its target), Phi, z and K (for `grains consolidate`'s output, its trace within
+the stages, observables/trace/*, with the one record per stage drawn as dots); a collision log K, contacts, collisions
+and the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap. The
 figure is titled with the scene's name and description; a quantity that is nowhere negative and whose
 positive values span more than three decades is drawn on a log axis (its zeros, when at most a tenth of
 the records, left out and said so), a panel without finite values says so, and the aggregation time,
@@ -36,7 +37,8 @@ KINDS = [
     (None, ["kinetic_energy", "elastic_energy", "contacts", "max_overlap_ratio"], None),
 ]
 # A panel's reference series, drawn dashed in it when the file has it.
-COMPANIONS = {"pressure_reduced": ("pressure_target", "target")}
+COMPANIONS = {"pressure_reduced": ("pressure_target", "target"), "trace/pressure_reduced": ("trace/pressure_target", "target")}
+TRACE = "trace/"   # grains consolidate's records within the stages (programme.trace_every)
 TIME_LABEL = "time t (the scene's units)"
 LABELS = {
     "largest_cluster_fraction": "f_max: mass fraction of the largest cluster",
@@ -88,12 +90,18 @@ def read_observables(path, wanted, x_name=None):
 def observables_of(f, path, wanted, x_name):
     import h5py
     group = f.get("observables")
-    available = list(group.keys()) if isinstance(group, h5py.Group) else []
+    available = []
+    if isinstance(group, h5py.Group):
+        for k, v in group.items():   # observables/<name>, and the series of a group such as observables/trace/<name>
+            available += [k] if "step" in v else [f"{k}/{leaf}" for leaf in v]
     if not available:
         fail(f"'{path}' has no observables")
     names = wanted
     if not wanted:
-        names, default_x = default_panels(available)
+        traced = [n[len(TRACE):] for n in available if n.startswith(TRACE)]
+        names, default_x = default_panels(traced or available)
+        if traced:   # a stage's course rather than one point per stage
+            names = [TRACE + n for n in names]
         x_name = default_x if x_name is None else x_name
     x_name = None if x_name == "time" else x_name   # --x time: the records' own time
     companions = [COMPANIONS[n][0] for n in names if n in COMPANIONS and COMPANIONS[n][0] in available]
@@ -107,8 +115,20 @@ def observables_of(f, path, wanted, x_name):
         step, t, v = (group[n][part][()] for part in ("step", "time", "value"))
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
-    last = min([group.attrs.get("complete_to_step", float("inf"))] + [step[-1] for step, _, _ in rows.values() if len(step)])
+    # Up to the step grains says every series is whole at; a file without that mark, up to the step every series holds
+    # (a trace, observables/trace/*, ends before the programme's last stage record and is not asked to reach it).
+    last = group.attrs.get("complete_to_step")
+    if last is None:
+        last = min([step[-1] for step, _, _ in rows.values() if len(step)], default=float("inf"))
     series = {n: (t[step <= last], v[step <= last]) for n, (step, t, v) in rows.items()}
+    # The stage records beside a trace, drawn as dots in its panels.
+    for n in names:
+        if n.startswith(TRACE) and n[len(TRACE):] in available:
+            step, t, v = (group[n[len(TRACE):]][part][()] for part in ("step", "time", "value"))
+            whole = min(len(step), len(t), len(v))
+            keep = step[:whole] <= last
+            companions.append(n[len(TRACE):])
+            series[n[len(TRACE):]] = (t[:whole][keep], v[:whole][keep])
     return {n: series[n] for n in names}, x_name, series.get(x_name), {n: series[n] for n in companions}
 
 
@@ -180,9 +200,13 @@ def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), comp
     for ax, (name, (t, v)) in zip(axes[:, 0], series.items()):
         # Vector observables ([frames, k]) get one line per component.
         reference = COMPANIONS.get(name, (None, None))
+        stage_points = companions.get(name[len(TRACE):]) if name.startswith(TRACE) and x_values is None else None
         drawn_with = reference[0] in companions and (x_values is None or len(companions[reference[0]][1]) == len(v))
         ax.plot(t if x_values is None else x_values, v, lw=1, label="measured" if drawn_with else "_nolegend_")
-        title_text = labels.get(name, name)
+        title_text = labels.get(name, labels.get(name.removeprefix(TRACE), name))
+        if stage_points is not None:
+            ax.plot(*stage_points, "o", ms=3, color="C3", label="end of a stage")
+            ax.legend(fontsize=8, loc="best")
         if drawn_with:
             rt, rv = companions[reference[0]]
             ax.plot(rt if x_values is None else x_values, rv, "--", color="0.3", lw=1, label=reference[1])
@@ -242,7 +266,7 @@ def main(argv=None):
         # the aggregation time where the axis is at it (an axis that grows with time, as t / t_ff does)
         mark = float(np.interp(mark, x_time, x_values)) if (np.diff(x_values) > 0).all() else float("nan")
     out = Path(args.out) if args.out else path.with_suffix(".png")
-    plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure})
+    plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure, TRACE + "pressure_reduced": pressure})
     print(out)
     return 0
 

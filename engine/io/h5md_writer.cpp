@@ -55,7 +55,7 @@ struct H5mdWriter::Impl {
   h5::WriterLock lock;   // released after the file is closed
   h5::Handle file, particles, box, observables, grains, parameters, warnings;  // `file` first: closed last
   std::map<std::string, Series> series;       // particles/all/<name> and box/<name>
-  std::map<std::string, Series> observable;   // observables/<name>
+  std::map<std::string, Series> observable;   // observables/<name>, or observables/<group>/<name> (a series kept apart)
   std::size_t frames = 0, max_count = 0, xdmf_frames_on_disk = 0;
   bool has_angular = false, has_orientation = false;
   // Whether frames carry particles/all/image: from the first frame, or the resumed file (one without the element,
@@ -365,8 +365,16 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     s.components = m.dim;
     s.shares_clock = h5::link_count(s.group.get(), "step", path) > 1;   // files before H5MD's links have their own
   }
-  for (const auto& name : members(m.observables.get(), "/observables"))
-    m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
+  for (const auto& name : members(m.observables.get(), "/observables")) {
+    h5::Handle group = h5::open_group(m.observables.get(), name, path);
+    if (h5::exists(group.get(), "step", path)) {
+      m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
+      continue;
+    }
+    // A group of series kept apart (observables/<group>/<name>).
+    for (const auto& leaf : members(group.get(), "/observables/" + name))
+      m.observable.emplace(name + "/" + leaf, m.reopen_series(group.get(), leaf, resume_step, observables_at_step));
+  }
 
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
   m.has_image = m.series.count("image") > 0;
@@ -459,9 +467,18 @@ void H5mdWriter::write_observable(const std::string& name, long step, double tim
   Impl& m = *impl_;
   auto it = m.observable.find(name);
   if (it == m.observable.end()) {
-    if (name.empty() || name == "." || name.find('/') != std::string::npos)
+    // "name", or "group/name" for a series kept apart from the main records (grains consolidate's trace).
+    const auto slash = name.find('/');
+    const std::string group = slash == std::string::npos ? "" : name.substr(0, slash);
+    const std::string leaf = slash == std::string::npos ? name : name.substr(slash + 1);
+    const auto valid = [](const std::string& n) { return !n.empty() && n != "." && n != ".." && n.find('/') == std::string::npos; };
+    if (!valid(leaf) || (slash != std::string::npos && !valid(group)))
       throw std::invalid_argument(fmt::format("H5MD output '{}': invalid observable name '{}'", m.path, name));
-    it = m.observable.emplace(name, m.make_series(m.observables.get(), name, {}, 0)).first;
+    h5::Handle sub;
+    if (!group.empty())
+      sub = h5::exists(m.observables.get(), group, m.path) ? h5::open_group(m.observables.get(), group, m.path)
+                                                           : h5::create_group(m.observables.get(), group, m.path);
+    it = m.observable.emplace(name, m.make_series(group.empty() ? m.observables.get() : sub.get(), leaf, {}, 0)).first;
   }
   Series& s = it->second;
   if (step != m.record_step) {   // a new record: everything pending is whole records

@@ -262,6 +262,12 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"programme.load", K::boolean, not_a_quantity, "true", 0, 0, false, false, "", "Run the loading stages."},
       {"programme.unload", K::boolean, not_a_quantity, "true", 0, 0, false, false, "", "Run the unloading stages after loading."},
       {"programme.check_every", K::integer, pure, "100", 1, 9.2e18, false, false, "", "Steps between equilibrium checks."},
+      {"programme.trace_every", K::integer, pure, "10000", 0, 9.2e18, false, false, "",
+       "Steps between the records of `grains consolidate`'s trace: within every stage, at the first equilibrium check "
+       "at or past each multiple of this many steps (counted from the programme's start), P*, its target, Phi, z, the "
+       "kinetic energy, the four equilibrium ratios, the bonded clusters and the stage's index go to "
+       "observables/trace/<name> in the HDF5 output, beside the one full record per stage in observables/<name>; "
+       "runner/plot.py draws it. 0: no trace."},
       {"programme.first_compression_time", K::real, duration, "0.0", 0, inf, false, false, "",
        "Simulated time over which the first stage under pressure (type 1 or type 2, at `cell.pressure`) raises its "
        "target linearly from 0, in steps of `check_every`, before it waits for equilibrium (its budget counts from the "

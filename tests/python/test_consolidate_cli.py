@@ -4,6 +4,7 @@ import csv
 import subprocess
 
 import h5py
+import numpy as np
 import pytest
 
 from h5text import text
@@ -152,3 +153,50 @@ def test_a_programme_that_fails_says_so_in_its_file(grains_bin, root, tmp_path):
     assert r.returncode == 1 and "CVODE integration" in r.stderr
     with h5py.File(out) as f:
         assert text(f["grains"].attrs["status"]).startswith("failed after step 1: barostat: CVODE integration")
+
+
+def test_consolidate_traces_every_stage_at_its_checks_and_changes_nothing(grains_bin, root, tmp_path):
+    """programme.trace_every: within the stages, at the first equilibrium check (every programme.check_every = 100
+    steps into a stage) at or past each multiple of it, the stage's course goes to observables/trace/*; the stage
+    records, one per stage, and the table are the programme's without a trace, which writes none."""
+    programme = [root / "models" / "consolidation-type1.toml", "--set", "particles.count=100", "--set",
+                 "programme.top_pressure=0.02", "--set", "programme.stage_budget=12000", "--set", "run.threads=1"]
+    plain, traced = tmp_path / "plain", tmp_path / "traced"
+    for out, every in ((plain, 0), (traced, 2550)):
+        r = run(grains_bin, "consolidate", *programme, "--set", f"programme.trace_every={every}", "--table",
+                out.with_suffix(".csv"), "--out", out.with_suffix(".h5"), "--quiet")
+        assert r.returncode == 0, r.stderr
+    assert traced.with_suffix(".csv").read_text() == plain.with_suffix(".csv").read_text()
+    rows = list(csv.DictReader(traced.with_suffix(".csv").open()))
+    # The checks each stage made that did not end it, and of those the ones the trace is due at (a multiple of 2550
+    # since the previous check).
+    expected_steps, expected_stages, start = [], [], 0
+    for row in rows:
+        for step in range(start + 100, start + int(row["steps"]), 100):
+            if step // 2550 != (step - 100) // 2550:
+                expected_steps.append(step)
+                expected_stages.append(int(row["stage"]))
+        start += int(row["steps"])
+    assert len(expected_steps) > 10 and len(set(expected_stages)) == len(rows) > 1
+    with h5py.File(plain.with_suffix(".h5")) as p, h5py.File(traced.with_suffix(".h5")) as f:
+        assert "trace" not in p["observables"]
+        assert sorted(k for k in f["observables"] if k != "trace") == sorted(p["observables"])
+        for k in p["observables"]:
+            if not k.startswith("cvode"):
+                for part in ("step", "value"):
+                    assert np.array_equal(f[f"observables/{k}/{part}"][()], p[f"observables/{k}/{part}"][()], equal_nan=True), k
+        trace = f["observables/trace"]
+        assert {"stage", "pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy",
+                "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic"} <= set(trace)
+        for name in trace:
+            assert list(trace[f"{name}/step"][()]) == expected_steps, name
+        assert list(trace["stage/value"][()]) == expected_stages
+        # Each stage's target, as its table row gives it.
+        target = {int(row["stage"]): float(row["target_pressure"]) for row in rows}
+        assert np.allclose(trace["pressure_target/value"][()], [target[s] for s in expected_stages], rtol=1e-8)
+        # The trace's last Phi of each stage lies between the stage's start and end values (type 1 compacts).
+        phi = trace["solid_fraction/value"][()]
+        ends = [0.36] + [float(row["phi"]) for row in rows]
+        for s in set(expected_stages):
+            last = phi[[k for k, e in enumerate(expected_stages) if e == s][-1]]
+            assert min(ends[s], ends[s + 1]) - 1e-9 <= last <= max(ends[s], ends[s + 1]) + 1e-9

@@ -158,3 +158,35 @@ def test_the_pressure_panel_says_what_p_star_is_in_the_scene(tmp_path, monkeypat
     cell.pressure): every scene's panel read a P / F0."""
     path = run_file(tmp_path / "cell.h5", {"pressure_reduced": [1e-5, 1e-5], "solid_fraction": [0.36, 0.4]}, scene=scene)
     assert drawn(path, monkeypatch).axes[0].get_title() == label
+
+
+def test_a_programme_is_drawn_as_its_trace_with_the_stage_records_as_dots(tmp_path, monkeypatch):
+    """grains consolidate records one full record per stage (observables/NAME) and its trace within the stages
+    (observables/trace/NAME, programme.trace_every): the default panels draw the trace, the stages' course, with the
+    stage records as dots, the last one too (it comes after the trace's last row)."""
+    path = tmp_path / "stages.h5"
+    with h5py.File(path, "w") as f:
+        f.create_group("parameters").attrs["scene.toml"] = '[scene]\nname = "programme"\n[cell]\nenabled = true\n'
+        group = f.create_group("observables")
+        group.attrs["complete_to_step"] = 300
+        stage_steps, trace_steps = np.array([0, 100, 300]), np.arange(10, 300, 10)
+        for name, ends, course in (("pressure_reduced", [0.0, 0.01, 0.0133], 0.01 + 0 * trace_steps),
+                                   ("pressure_target", [0.01, 0.01, 0.0133], 0.01 + 0 * trace_steps),
+                                   ("solid_fraction", [0.36, 0.45, 0.47], 0.36 + trace_steps / 3000),
+                                   ("coordination", [0.0, 3.0, 3.1], 0 * trace_steps + 3.0),
+                                   ("kinetic_energy", [1.0, 0.1, 0.01], 1 / trace_steps),
+                                   ("B", [0.0, 1.0, 2.0], None)):
+            for where, steps, values in (("", stage_steps, ends), ("trace/", trace_steps, course)):
+                if values is not None:
+                    g = group.create_group(f"{where}{name}")
+                    g["step"], g["time"], g["value"] = steps, steps * 0.5, np.asarray(values, float)
+    fig = drawn(path, monkeypatch)
+    assert [ax.get_title() for ax in fig.axes] == ["P* = a P / F0", "solid fraction Phi", "coordination number z",
+                                                   "kinetic energy K"]
+    phi = fig.axes[1]
+    course, dots = phi.lines[0], phi.lines[1]
+    assert np.array_equal(course.get_xdata(), trace_steps * 0.5)
+    assert np.allclose(course.get_ydata(), 0.36 + trace_steps / 3000)
+    assert dots.get_label() == "end of a stage" and dots.get_marker() == "o"
+    assert np.array_equal(dots.get_xdata(), stage_steps * 0.5) and np.array_equal(dots.get_ydata(), [0.36, 0.45, 0.47])
+    assert [line.get_label() for line in fig.axes[0].lines] == ["measured", "end of a stage", "target"]
