@@ -175,7 +175,10 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // so that a resumed programme writes the records the unbroken one does.
     const long step = sim.step_count();
     if (trace_every > 0 && r.steps % settings.check_every == 0 && step / trace_every != (step - settings.check_every) / trace_every) {
-      for (const auto& n : traced) out.write_observable("trace/" + n, step, sim.time(), sim.get(n));
+      // The aggregation's cell is fixed: no target (NaN, as in the stage table), whatever cell.pressure holds.
+      for (const auto& n : traced)
+        out.write_observable("trace/" + n, step, sim.time(),
+                             n == "pressure_target" && r.phase == "aggregation" ? std::nan("") : sim.get(n));
       out.write_observable("trace/stage", step, sim.time(), double(r.index));
     }
     stopped = stop_requested();

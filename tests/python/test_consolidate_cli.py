@@ -191,7 +191,7 @@ def test_consolidate_traces_every_stage_at_its_checks_and_changes_nothing(grains
         for name in trace:
             assert list(trace[f"{name}/step"][()]) == expected_steps, name
         assert list(trace["stage/value"][()]) == expected_stages
-        # Each stage's target, as its table row gives it.
+        # Each stage's target, as its table row gives it (NaN for a type-2 aggregation in its fixed cell: see below).
         target = {int(row["stage"]): float(row["target_pressure"]) for row in rows}
         assert np.allclose(trace["pressure_target/value"][()], [target[s] for s in expected_stages], rtol=1e-8)
         # The trace's last Phi of each stage lies between the stage's start and end values (type 1 compacts).
@@ -200,3 +200,19 @@ def test_consolidate_traces_every_stage_at_its_checks_and_changes_nothing(grains
         for s in set(expected_stages):
             last = phi[[k for k, e in enumerate(expected_stages) if e == s][-1]]
             assert min(ends[s], ends[s + 1]) - 1e-9 <= last <= max(ends[s], ends[s + 1]) + 1e-9
+
+
+def test_the_trace_of_an_aggregation_in_its_fixed_cell_has_no_target(grains_bin, root, tmp_path):
+    """The type-2 aggregation holds the cell fixed: its trace's target is NaN, as in the stage table, not the
+    cell.pressure the scene gives for later."""
+    out = tmp_path / "agg.h5"
+    r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--set", "particles.count=100", "--set",
+            "programme.aggregation_budget=3000", "--set", "programme.stage_budget=2000", "--set", "programme.load=false",
+            "--set", "programme.trace_every=1000", "--set", "run.threads=1", "--table", tmp_path / "agg.csv", "--out", out,
+            "--quiet")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out) as f:
+        stage = f["observables/trace/stage/value"][()]
+        target = f["observables/trace/pressure_target/value"][()]
+    assert list(stage) == [0, 0, 1, 2]   # steps 1000, 2000; 4000; 6000 (each stage's last check is its end)
+    assert np.isnan(target[:2]).all() and list(target[2:]) == [0.0, 0.01]
