@@ -1,6 +1,6 @@
 """Plot the observables of a grains run.
 
-    python runner/plot.py RUN.h5 [-o OUT.png] [--observables a,b,c] [--x NAME]
+    python runner/plot.py RUN.h5 [-o OUT.png] [--observables a,b,c] [--x NAME] [--stage N]
 
 Reads observables/<name>/{time,value} from an H5MD file and draws each observable in its own
 subplot over a shared time axis, or over another observable recorded at the same times
@@ -8,8 +8,8 @@ subplot over a shared time axis, or over another observable recorded at the same
 chosen by what the file holds: a gravity scene f_max, N_c / N and Q against t / t_ff; a
 pressure-controlled cell P* (with its target), Phi, z and K (for `grains consolidate`'s output, its trace within
 the stages, observables/trace/*, with the one record per stage drawn as dots); a collision log K, contacts, collisions
-and the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap. The
-figure is titled with the scene's name and description; a quantity that is nowhere negative and whose
+and the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap (`--stage N`: of a
+programme's output, stage N only, from the previous stage's end to its own). The figure is titled with the scene's name and description; a quantity that is nowhere negative and whose
 positive values span more than three decades is drawn on a log axis (its zeros, when at most a tenth of
 the records, left out and said so), a panel without finite values says so, and the aggregation time,
 when the run reached it, is marked. Prints the image's path
@@ -80,14 +80,27 @@ def default_panels(available):
             return ([n for n in names if n in available] or available)[:MAX_PANELS], x_name
 
 
-def read_observables(path, wanted, x_name=None):
+def read_observables(path, wanted, x_name=None, stage=None):
     """Returns {name: (time, value)} in file order, or the requested order when names are given, the (time, value)
     of `x_name` (None without it) and {name: (time, value)} of the panels' companions, all from one reading and cut
-    at one step. Without `wanted`, the panels and (without `x_name`) the axis are the scene kind's default_panels."""
-    return read_run(path, lambda f: observables_of(f, path, wanted, x_name))
+    at one step. Without `wanted`, the panels and (without `x_name`) the axis are the scene kind's default_panels.
+    `stage`: only the records from that programme stage's start (the previous stage's end) to its end."""
+    return read_run(path, lambda f: observables_of(f, path, wanted, x_name, stage))
 
 
-def observables_of(f, path, wanted, x_name):
+def stage_window(group, path, stage):
+    """The steps a programme's stage spans, from the stage records (observables/solid_fraction: the initial state,
+    then one per finished stage); the stage under way runs to the file's end."""
+    if "solid_fraction" not in group or TRACE.rstrip("/") not in group:
+        fail(f"'{path}' is not the output of grains consolidate with a trace (observables/trace, programme.trace_every): "
+             "--stage needs one")
+    ends = group["solid_fraction/step"][()]
+    if not 0 <= stage < len(ends):
+        fail(f"--stage {stage}: '{path}' has stages 0 to {len(ends) - 1} ({len(ends) - 1} finished)")
+    return ends[stage], ends[stage + 1] if stage + 1 < len(ends) else float("inf")
+
+
+def observables_of(f, path, wanted, x_name, stage=None):
     import h5py
     group = f.get("observables")
     available = []
@@ -120,13 +133,15 @@ def observables_of(f, path, wanted, x_name):
     last = group.attrs.get("complete_to_step")
     if last is None:
         last = min([step[-1] for step, _, _ in rows.values() if len(step)], default=float("inf"))
-    series = {n: (t[step <= last], v[step <= last]) for n, (step, t, v) in rows.items()}
+    first, end = stage_window(group, path, stage) if stage is not None else (-1, float("inf"))
+    last = min(last, end)
+    series = {n: (t[(step <= last) & (step >= first)], v[(step <= last) & (step >= first)]) for n, (step, t, v) in rows.items()}
     # The stage records beside a trace, drawn as dots in its panels.
     for n in names:
         if n.startswith(TRACE) and n[len(TRACE):] in available:
             step, t, v = (group[n[len(TRACE):]][part][()] for part in ("step", "time", "value"))
             whole = min(len(step), len(t), len(v))
-            keep = step[:whole] <= last
+            keep = (step[:whole] <= last) & (step[:whole] >= first)
             companions.append(n[len(TRACE):])
             series[n[len(TRACE):]] = (t[:whole][keep], v[:whole][keep])
     return {n: series[n] for n in names}, x_name, series.get(x_name), {n: series[n] for n in companions}
@@ -247,6 +262,8 @@ def main(argv=None):
     parser.add_argument("-o", "--out", help="image to write: .png, .pdf, .svg, ... (default: RUN with .png)")
     parser.add_argument("--observables", help="comma-separated names (default: the scene's main ones, up to 6)")
     parser.add_argument("--x", help="observable for the horizontal axis (default: time)")
+    parser.add_argument("--stage", type=int, help="grains consolidate's output: only this stage, from the previous "
+                        "stage's end to its own (its trace and the two stage records)")
     args = parser.parse_args(argv)
 
     path = Path(args.run)
@@ -255,8 +272,10 @@ def main(argv=None):
     if args.out and (problem := image_name_problem("-o/--out", args.out)):
         fail(problem)
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
-    series, x_name, x_series, companions = read_observables(path, wanted, args.x)
+    series, x_name, x_series, companions = read_observables(path, wanted, args.x, args.stage)
     title, mark, pressure = read_context(path)
+    if args.stage is not None:
+        title += f"\nstage {args.stage}"
     x_values = None
     if x_name:
         x_time, x_values = x_series

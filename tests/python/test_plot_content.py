@@ -190,3 +190,33 @@ def test_a_programme_is_drawn_as_its_trace_with_the_stage_records_as_dots(tmp_pa
     assert dots.get_label() == "end of a stage" and dots.get_marker() == "o"
     assert np.array_equal(dots.get_xdata(), stage_steps * 0.5) and np.array_equal(dots.get_ydata(), [0.36, 0.45, 0.47])
     assert [line.get_label() for line in fig.axes[0].lines] == ["measured", "end of a stage", "target"]
+
+
+def test_one_stage_of_a_programme(tmp_path, monkeypatch):
+    """--stage N: the trace of stage N and the stage records at its start and end; a stage the file does not hold,
+    or a file without a trace, is refused naming the option."""
+    path = tmp_path / "stages.h5"
+    with h5py.File(path, "w") as f:
+        f.create_group("parameters").attrs["scene.toml"] = '[scene]\nname = "programme"\n[cell]\nenabled = true\n'
+        group = f.create_group("observables")
+        group.attrs["complete_to_step"] = 300
+        course = np.setdiff1d(np.arange(10, 300, 10), [100])   # no trace at a stage's end: its record is there
+        for where, steps in (("", np.array([0, 100, 300])), ("trace/", course)):
+            for name in ("pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy"):
+                g = group.create_group(f"{where}{name}")
+                g["step"], g["time"], g["value"] = steps, steps * 0.5, 0.3 + steps / 1000
+        g = group.create_group("trace/stage")
+        g["step"], g["time"], g["value"] = course, course * 0.5, (course > 100) * 1.0
+    fig = drawn(path, monkeypatch, "--stage", "1")
+    phi = panel(fig, "solid fraction Phi")
+    assert np.array_equal(phi.lines[0].get_xdata(), np.arange(100, 301, 10)[1:-1] * 0.5)   # steps 110 .. 290
+    assert np.array_equal(phi.lines[1].get_xdata(), [50.0, 150.0])   # the stage records at steps 100 and 300
+    assert fig.get_suptitle().endswith("stage 1")
+    for args, message in ((["--stage", "3"], "--stage 3: "), (["--stage", "-1"], "--stage -1: ")):
+        r = subprocess.run([sys.executable, ROOT / "runner/plot.py", path, "-o", tmp_path / "x.png", *args],
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and message in r.stderr and "stages 0 to 2" in r.stderr, r.stderr
+    plain = run_file(tmp_path / "plain.h5", {"solid_fraction": [0.3, 0.4]})
+    r = subprocess.run([sys.executable, ROOT / "runner/plot.py", plain, "-o", tmp_path / "y.png", "--stage", "0"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "--stage needs one" in r.stderr, r.stderr
