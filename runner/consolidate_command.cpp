@@ -177,9 +177,8 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     if (trace_every > 0 && r.steps % settings.check_every == 0 && step / trace_every != (step - settings.check_every) / trace_every) {
       // The aggregation's cell is fixed: no target (NaN, as in the stage table), whatever cell.pressure holds.
       for (const auto& n : traced)
-        out.write_observable("trace/" + n, step, sim.time(),
-                             n == "pressure_target" && r.phase == "aggregation" ? std::nan("") : sim.get(n));
-      out.write_observable("trace/stage", step, sim.time(), double(r.index));
+        out.write_trace(n, step, sim.time(), n == "pressure_target" && r.phase == "aggregation" ? std::nan("") : sim.get(n));
+      out.write_trace("stage", step, sim.time(), double(r.index));
     }
     stopped = stop_requested();
     if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) checkpoint(at.stage - 1, at.values());
@@ -285,6 +284,9 @@ int consolidate_scene(const ConsolidateOptions& opt) {
       warnings.push_back(fmt::format("{} is not used by grains consolidate: each stage runs until equilibrium or its budget "
                                      "(programme.stage_budget, programme.aggregation_budget)", key));
   begin_output(out, scene, *sim, warnings);
+  // The stage records' own two, for the initial state too: every stage record then has the frames' steps (readers
+  // such as MDAnalysis take the observables' rows by the frame's index; one of these a row short made it fail).
+  for (const char* name : {"quench_start", "quench_drag"}) out.write_observable(name, 0, sim->time(), std::nan(""));
   std::ofstream csv(table);
   if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
   return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0, 0.0);

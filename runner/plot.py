@@ -7,7 +7,7 @@ subplot over a shared time axis, or over another observable recorded at the same
 (`--x time_over_free_fall`: against t / t_ff). Without --observables it draws the scene's main ones,
 chosen by what the file holds: a gravity scene f_max, N_c / N and Q against t / t_ff; a
 pressure-controlled cell P* (with its target), Phi, z and K (for `grains consolidate`'s output, its trace within
-the stages, observables/trace/*, with the one record per stage drawn as dots); a collision log K, contacts, collisions
+the stages, grains/trace/*, with the one record per stage drawn as dots); a collision log K, contacts, collisions
 and the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap (`--stage N`: of a
 programme's output, stage N only, from the previous stage's end to its own). The figure is titled with the scene's name and description; a quantity that is nowhere negative and whose
 positive values span more than three decades is drawn on a log axis (its zeros, when at most a tenth of
@@ -38,7 +38,7 @@ KINDS = [
 ]
 # A panel's reference series, drawn dashed in it when the file has it.
 COMPANIONS = {"pressure_reduced": ("pressure_target", "target"), "trace/pressure_reduced": ("trace/pressure_target", "target")}
-TRACE = "trace/"   # grains consolidate's records within the stages (programme.trace_every)
+TRACE = "trace/"   # names of grains consolidate's records within the stages, grains/trace/* (programme.trace_every)
 TIME_LABEL = "time t (the scene's units)"
 LABELS = {
     "largest_cluster_fraction": "f_max: mass fraction of the largest cluster",
@@ -88,11 +88,11 @@ def read_observables(path, wanted, x_name=None, stage=None):
     return read_run(path, lambda f: observables_of(f, path, wanted, x_name, stage))
 
 
-def stage_window(group, path, stage):
+def stage_window(f, group, path, stage):
     """The steps a programme's stage spans, from the stage records (observables/solid_fraction: the initial state,
     then one per finished stage); the stage under way runs to the file's end."""
-    if "solid_fraction" not in group or TRACE.rstrip("/") not in group:
-        fail(f"'{path}' is not the output of grains consolidate with a trace (observables/trace, programme.trace_every): "
+    if "solid_fraction" not in group or "grains/trace" not in f:
+        fail(f"'{path}' is not the output of grains consolidate with a trace (grains/trace, programme.trace_every): "
              "--stage needs one")
     ends = group["solid_fraction/step"][()]
     if not 0 <= stage < len(ends):
@@ -103,10 +103,13 @@ def stage_window(group, path, stage):
 def observables_of(f, path, wanted, x_name, stage=None):
     import h5py
     group = f.get("observables")
-    available = []
-    if isinstance(group, h5py.Group):
-        for k, v in group.items():   # observables/<name>, and the series of a group such as observables/trace/<name>
-            available += [k] if "step" in v else [f"{k}/{leaf}" for leaf in v]
+    available = list(group.keys()) if isinstance(group, h5py.Group) else []
+    traces = f.get("grains/trace")
+    available += [TRACE + k for k in traces] if isinstance(traces, h5py.Group) else []
+
+    def element(name):   # observables/<name>, or grains/trace/<name> for trace/<name>
+        return f["grains/" + name] if name.startswith(TRACE) else group[name]
+
     if not available:
         fail(f"'{path}' has no observables")
     names = wanted
@@ -125,15 +128,15 @@ def observables_of(f, path, wanted, x_name, stage=None):
     # series' steps, times and values of different lengths: keep the records every series holds whole.
     rows = {}
     for n in dict.fromkeys(names + companions + ([x_name] if x_name else [])):
-        step, t, v = (group[n][part][()] for part in ("step", "time", "value"))
+        step, t, v = (element(n)[part][()] for part in ("step", "time", "value"))
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
     # Up to the step grains says every series is whole at; a file without that mark, up to the step every series holds
-    # (a trace, observables/trace/*, ends before the programme's last stage record and is not asked to reach it).
-    last = group.attrs.get("complete_to_step")
+    # (a trace, grains/trace/*, ends before the programme's last stage record and is not asked to reach it).
+    last = group.attrs.get("complete_to_step") if group is not None else None
     if last is None:
         last = min([step[-1] for step, _, _ in rows.values() if len(step)], default=float("inf"))
-    first, end = stage_window(group, path, stage) if stage is not None else (-1, float("inf"))
+    first, end = stage_window(f, group, path, stage) if stage is not None else (-1, float("inf"))
     last = min(last, end)
     series = {n: (t[(step <= last) & (step >= first)], v[(step <= last) & (step >= first)]) for n, (step, t, v) in rows.items()}
     # The stage records beside a trace, drawn as dots in its panels.

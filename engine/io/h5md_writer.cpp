@@ -53,9 +53,10 @@ struct H5mdWriter::Impl {
   std::string scene_check;   // scene_check_sum of the stored scene, recorded with every checkpoint
   int dim = 3;
   h5::WriterLock lock;   // released after the file is closed
-  h5::Handle file, particles, box, observables, grains, parameters, warnings;  // `file` first: closed last
+  h5::Handle file, particles, box, observables, grains, parameters, warnings, trace;  // `file` first: closed last
   std::map<std::string, Series> series;       // particles/all/<name> and box/<name>
-  std::map<std::string, Series> observable;   // observables/<name>, or observables/<group>/<name> (a series kept apart)
+  // By their path below the root: observables/<name>, and grains/trace/<name> (write_trace).
+  std::map<std::string, Series> observable;
   std::size_t frames = 0, max_count = 0, xdmf_frames_on_disk = 0;
   bool has_angular = false, has_orientation = false;
   // Whether frames carry particles/all/image: from the first frame, or the resumed file (one without the element,
@@ -187,14 +188,17 @@ struct H5mdWriter::Impl {
     xdmf_frames_on_disk = frames;
   }
 
+  // Holds one row of the series `where` + `name` (created under `parent` on first use) for the next flush.
+  void record(hid_t parent, const std::string& where, const std::string& name, long step, double time, double value);
+
   // Writes the observables' pending rows, in order of name, then flushes.
-  // The observables' pending rows go to the file, and then /observables@complete_to_step says up to which step
+  // The observables' pending rows go to the file (the trace's too), and then /observables@complete_to_step says up to which step
   // every series is whole. HDF5 writes the series one by one (and evicts metadata when it likes): a run killed
   // inside a flush left one series a flush ahead of the others. Readers keep the rows up to that step.
   void flush() {
     std::int64_t newest = -1;
     for (auto& [name, s] : observable) {
-      const std::string what = "/observables/" + name;
+      const std::string what = "/" + name;
       const hsize_t rows = s.pending_step.size();
       h5::append_rows(s.step.get(), H5T_NATIVE_INT64, s.pending_step.data(), rows, {}, path, what + "/step");
       h5::append_rows(s.time.get(), H5T_NATIVE_DOUBLE, s.pending_time.data(), rows, {}, path, what + "/time");
@@ -365,15 +369,12 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     s.components = m.dim;
     s.shares_clock = h5::link_count(s.group.get(), "step", path) > 1;   // files before H5MD's links have their own
   }
-  for (const auto& name : members(m.observables.get(), "/observables")) {
-    h5::Handle group = h5::open_group(m.observables.get(), name, path);
-    if (h5::exists(group.get(), "step", path)) {
-      m.observable.emplace(name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
-      continue;
-    }
-    // A group of series kept apart (observables/<group>/<name>).
-    for (const auto& leaf : members(group.get(), "/observables/" + name))
-      m.observable.emplace(name + "/" + leaf, m.reopen_series(group.get(), leaf, resume_step, observables_at_step));
+  for (const auto& name : members(m.observables.get(), "/observables"))
+    m.observable.emplace("observables/" + name, m.reopen_series(m.observables.get(), name, resume_step, observables_at_step));
+  if (h5::exists(m.grains.get(), "trace", path)) {
+    m.trace = h5::open_group(m.grains.get(), "trace", path);
+    for (const auto& name : members(m.trace.get(), "/grains/trace"))
+      m.observable.emplace("grains/trace/" + name, m.reopen_series(m.trace.get(), name, resume_step, observables_at_step));
   }
 
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
@@ -464,21 +465,23 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
 }
 
 void H5mdWriter::write_observable(const std::string& name, long step, double time, double value) {
+  impl_->record(impl_->observables.get(), "observables/", name, step, time, value);
+}
+
+void H5mdWriter::write_trace(const std::string& name, long step, double time, double value) {
   Impl& m = *impl_;
-  auto it = m.observable.find(name);
+  if (!m.trace) m.trace = h5::create_group(m.grains.get(), "trace", m.path);
+  m.record(m.trace.get(), "grains/trace/", name, step, time, value);
+}
+
+void H5mdWriter::Impl::record(hid_t parent, const std::string& where, const std::string& name, long step, double time,
+                              double value) {
+  Impl& m = *this;
+  auto it = m.observable.find(where + name);
   if (it == m.observable.end()) {
-    // "name", or "group/name" for a series kept apart from the main records (grains consolidate's trace).
-    const auto slash = name.find('/');
-    const std::string group = slash == std::string::npos ? "" : name.substr(0, slash);
-    const std::string leaf = slash == std::string::npos ? name : name.substr(slash + 1);
-    const auto valid = [](const std::string& n) { return !n.empty() && n != "." && n != ".." && n.find('/') == std::string::npos; };
-    if (!valid(leaf) || (slash != std::string::npos && !valid(group)))
+    if (name.empty() || name == "." || name.find('/') != std::string::npos)
       throw std::invalid_argument(fmt::format("H5MD output '{}': invalid observable name '{}'", m.path, name));
-    h5::Handle sub;
-    if (!group.empty())
-      sub = h5::exists(m.observables.get(), group, m.path) ? h5::open_group(m.observables.get(), group, m.path)
-                                                           : h5::create_group(m.observables.get(), group, m.path);
-    it = m.observable.emplace(name, m.make_series(group.empty() ? m.observables.get() : sub.get(), leaf, {}, 0)).first;
+    it = m.observable.emplace(where + name, m.make_series(parent, name, {}, 0)).first;
   }
   Series& s = it->second;
   if (step != m.record_step) {   // a new record: everything pending is whole records

@@ -162,7 +162,7 @@ def test_the_pressure_panel_says_what_p_star_is_in_the_scene(tmp_path, monkeypat
 
 def test_a_programme_is_drawn_as_its_trace_with_the_stage_records_as_dots(tmp_path, monkeypatch):
     """grains consolidate records one full record per stage (observables/NAME) and its trace within the stages
-    (observables/trace/NAME, programme.trace_every): the default panels draw the trace, the stages' course, with the
+    (grains/trace/NAME, programme.trace_every): the default panels draw the trace, the stages' course, with the
     stage records as dots, the last one too (it comes after the trace's last row)."""
     path = tmp_path / "stages.h5"
     with h5py.File(path, "w") as f:
@@ -176,9 +176,9 @@ def test_a_programme_is_drawn_as_its_trace_with_the_stage_records_as_dots(tmp_pa
                                    ("coordination", [0.0, 3.0, 3.1], 0 * trace_steps + 3.0),
                                    ("kinetic_energy", [1.0, 0.1, 0.01], 1 / trace_steps),
                                    ("B", [0.0, 1.0, 2.0], None)):
-            for where, steps, values in (("", stage_steps, ends), ("trace/", trace_steps, course)):
+            for where, steps, values in ((group, stage_steps, ends), (f.require_group("grains/trace"), trace_steps, course)):
                 if values is not None:
-                    g = group.create_group(f"{where}{name}")
+                    g = where.create_group(name)
                     g["step"], g["time"], g["value"] = steps, steps * 0.5, np.asarray(values, float)
     fig = drawn(path, monkeypatch)
     assert [ax.get_title() for ax in fig.axes] == ["P* = a P / F0", "solid fraction Phi", "coordination number z",
@@ -201,11 +201,11 @@ def test_one_stage_of_a_programme(tmp_path, monkeypatch):
         group = f.create_group("observables")
         group.attrs["complete_to_step"] = 300
         course = np.setdiff1d(np.arange(10, 300, 10), [100])   # no trace at a stage's end: its record is there
-        for where, steps in (("", np.array([0, 100, 300])), ("trace/", course)):
+        for where, steps in ((group, np.array([0, 100, 300])), (f.require_group("grains/trace"), course)):
             for name in ("pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy"):
-                g = group.create_group(f"{where}{name}")
+                g = where.create_group(name)
                 g["step"], g["time"], g["value"] = steps, steps * 0.5, 0.3 + steps / 1000
-        g = group.create_group("trace/stage")
+        g = f.create_group("grains/trace/stage")
         g["step"], g["time"], g["value"] = course, course * 0.5, (course > 100) * 1.0
     fig = drawn(path, monkeypatch, "--stage", "1")
     phi = panel(fig, "solid fraction Phi")

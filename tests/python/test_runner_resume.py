@@ -21,13 +21,12 @@ def run(grains_bin, *args):
 
 
 def records(path):
-    """Every observable's (step, value) rows (grains consolidate's trace, observables/trace/*, too), every frame's
+    """Every observable's (step, value) rows (grains consolidate's trace, grains/trace/*, too), every frame's
     (step, value) rows, and the collision table."""
     with h5py.File(path) as f:
-        out = {}
-        for k, s in f["observables"].items():
-            for name, series in ([(k, s)] if "step" in s else [(f"{k}/{leaf}", s[leaf]) for leaf in s]):
-                out[f"observables/{name}"] = (series["step"][()], series["value"][()])
+        out = {f"observables/{k}": (s["step"][()], s["value"][()]) for k, s in f["observables"].items()}
+        for k, s in f["grains"].get("trace", {}).items():
+            out[f"trace/{k}"] = (s["step"][()], s["value"][()])
         for name, s in f["particles/all"].items():
             if name != "box":
                 out[f"particles/{name}"] = (s["step"][()], s["value"][()])
