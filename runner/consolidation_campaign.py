@@ -19,7 +19,8 @@ standard errors, as the paper averages its data over the samples and fits the me
 and their spread over --resamples resamplings of the samples (the mean curve rebuilt and refitted from samples
 drawn with replacement), the uncertainty the fit's error leaves out. A value passes when the mean lies within twice the paper's error bar (where the paper gives
 none, within 2 % for Phi and 5 % for z, lambda and d_F). The
-table goes to OUT/summary.md, a plot of every sample's Phi(P*), the mean curve and its fit to OUT/campaign.png, and the finished
+table goes to OUT/summary.md, a plot of every sample's Phi(P*), the mean curve and its fit to OUT/campaign.png, every
+sample's first compression (Phi against time in the P* = 0.01 stage, from its trace) to OUT/first-compression.png, and the finished
 samples' scattering intensity I(k) at P* = 0, 0.01, 0.178 and 1, pooled per scene, to
 OUT/SCENE-intensity.png and .csv.
 
@@ -42,6 +43,7 @@ from consolidation_fit import fit_crossover, fit_regime_two, inverse_phi_crossov
 import density_correlations  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
 import reuse  # noqa: E402
+from stage_traces import first_compressions, plot_first_compressions  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # value, error bar (None: the paper gives only "about" or no bar)
@@ -439,6 +441,12 @@ def main():
     (out / "summary.md").write_text(provenance(args, scenes) + text + "\n")
     plot(summaries, out / "campaign.png")
     print(f"wrote {out / 'summary.md'} and {out / 'campaign.png'}")
+    # Every sample's first compression, from the traces of its file (finished or not): Phi against time.
+    courses = {scene: first_compressions([out / f"{scene}-seed{seed}.h5" for seed in seeds if (scene, seed) in tables])
+               for scene in scenes}
+    if any(courses.values()):
+        plot_first_compressions(courses, out / "first-compression.png", {s: PAPER[s]["phi_0.01"] for s in scenes})
+        print(f"wrote {out / 'first-compression.png'}")
     for scene in scenes:   # the samples' density correlations, pooled: OUT/SCENE-intensity.{csv,png}
         samples = []
         for seed in seeds:

@@ -232,6 +232,7 @@ def test_a_campaign_stopped_by_ctrl_c_resumes_and_refuses_samples_of_other_setti
     assert again.returncode == 0 and "finished consolidation seed 1 (resumed)" in again.stdout, again.stderr
     summary = (tmp_path / "summary.md").read_text()
     assert summary.startswith("consolidation: seeds 1–1, 80 disks;")
+    assert f"wrote {tmp_path / 'first-compression.png'}" in again.stdout   # from the resumed sample's trace
     for other, named in ((["--count", "60"], "particles.count = 80 there, 60 now"),
                          (["--count", "60", "--report"], "particles.count = 80 there, 60 now"),
                          (["--set", "programme.check_every=1234", "--report"], ", 1234 now")):
