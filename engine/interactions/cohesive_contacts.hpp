@@ -73,8 +73,9 @@ struct Output {
 // Evaluates the steady contacts among the n gathered pairs (rows[q], list entries pairs[q], images[q]): their forces
 // into `out`, their springs and touched stamps updated. Returns how many had their overlap clamped.
 // `results` holds n / 8 rounded up.
-// Two builds: cohesive_contacts_avx512.cpp (eight pairs a vector) and cohesive_contacts_avx2.cpp (four, each
-// filling half a Results8); only where pair_filter::isa() names them.
+// Two builds of one kernel (cohesive_contacts_kernel.hpp): cohesive_contacts_avx512.cpp (eight pairs a
+// vector) and cohesive_contacts_avx2.cpp (four, each filling half a Results8); only where pair_filter::isa()
+// names them.
 long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
                      std::size_t n, const Output& out);
 long evaluate_avx2(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,

@@ -1,10 +1,11 @@
-// AVX2 pieces of the pair loop's batched kernels (cohesive_contacts_avx2.cpp, pair_filter_avx2.cpp): four
-// doubles per vector, one lane per gathered pair, for processors without AVX-512 (pair_avx512.hpp is the
-// eight-lane build). AVX2 has gathers but no mask registers, scatters or compression: a mask is a vector
-// of all-ones or all-zero lanes, and its bits (movemask) decide the rare branches. Compiled for AVX2
-// whatever the build flags (the binary stays portable x86-64): call these only from GRAINS_AVX2_PAIRS
-// functions, and those only where pair_filter::isa() is Isa::avx2. Include this header only in files
-// compiled without multiply-add contraction (engine/CMakeLists.txt); the target has no FMA either.
+// AVX2 pieces of the pair loop's kernels (pair_filter_avx2.cpp; cohesive_contacts_kernel.hpp and
+// linear_contacts_kernel.hpp at four lanes): four doubles per vector, one lane per gathered pair, for
+// processors without AVX-512 (pair_avx512.hpp is the eight-lane build). AVX2 has gathers but no mask
+// registers, scatters or compression: a mask is a vector of all-ones or all-zero lanes, and its bits
+// (movemask) decide the rare branches. Compiled for AVX2 whatever the build flags (the binary stays portable
+// x86-64): call these only from GRAINS_AVX2_PAIRS functions, and those only where pair_filter::isa() is
+// Isa::avx2. Include this header only in files compiled without multiply-add contraction
+// (engine/CMakeLists.txt); the target has no FMA either.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -18,28 +19,57 @@
 
 namespace grains::pair_avx2 {
 
-using V = __m256d;
+template <int D, bool Dense>
+struct Contacts4;
+template <int D>
+struct ImageShifts;
 
-GRAINS_AVX2_PAIRS inline V add(V a, V b) { return _mm256_add_pd(a, b); }
-GRAINS_AVX2_PAIRS inline V sub(V a, V b) { return _mm256_sub_pd(a, b); }
-GRAINS_AVX2_PAIRS inline V mul(V a, V b) { return _mm256_mul_pd(a, b); }
-GRAINS_AVX2_PAIRS inline V div(V a, V b) { return _mm256_div_pd(a, b); }
-GRAINS_AVX2_PAIRS inline V all(double a) { return _mm256_set1_pd(a); }
-GRAINS_AVX2_PAIRS inline V zero() { return _mm256_setzero_pd(); }
-GRAINS_AVX2_PAIRS inline V sign_bit() { return _mm256_set1_pd(-0.0); }
-// |a|, -a and std::copysign(magnitude, sign): sign-bit operations, exactly as the scalar ones.
-GRAINS_AVX2_PAIRS inline V abs(V a) { return _mm256_andnot_pd(sign_bit(), a); }
-GRAINS_AVX2_PAIRS inline V neg(V a) { return _mm256_xor_pd(a, sign_bit()); }
-GRAINS_AVX2_PAIRS inline V copysign(V magnitude, V sign) {
-  return _mm256_or_pd(_mm256_andnot_pd(sign_bit(), magnitude), _mm256_and_pd(sign, sign_bit()));
-}
+// The operations of the kernels written once for both widths (cohesive_contacts_kernel.hpp,
+// linear_contacts_kernel.hpp), at four lanes; pair_avx512.hpp's Width8 has the same ones at eight. A mask is
+// a vector of all-ones or all-zero lanes; blend(m, a, op(...)) computes op on every lane.
+struct Width4 {
+  static constexpr int lanes = 4;
+  using V = __m256d;
+  using Mask = __m256d;
+  template <int D, bool Dense = false>
+  using Contacts = Contacts4<D, Dense>;
+  template <int D>
+  using Shifts = ImageShifts<D>;
 
-// Masks: all-ones lanes. blend(m, a, b) takes b where m is set; bits(m) has bit l set for lane l.
-GRAINS_AVX2_PAIRS inline V blend(V m, V a, V b) { return _mm256_blendv_pd(a, b, m); }
-GRAINS_AVX2_PAIRS inline unsigned bits(V m) { return unsigned(_mm256_movemask_pd(m)); }
-GRAINS_AVX2_PAIRS inline V both(V m, V n) { return _mm256_and_pd(m, n); }
-GRAINS_AVX2_PAIRS inline V less(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
-GRAINS_AVX2_PAIRS inline V greater(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+  GRAINS_AVX2_PAIRS static V add(V a, V b) { return _mm256_add_pd(a, b); }
+  GRAINS_AVX2_PAIRS static V sub(V a, V b) { return _mm256_sub_pd(a, b); }
+  GRAINS_AVX2_PAIRS static V mul(V a, V b) { return _mm256_mul_pd(a, b); }
+  GRAINS_AVX2_PAIRS static V div(V a, V b) { return _mm256_div_pd(a, b); }
+  GRAINS_AVX2_PAIRS static V sqrt(V a) { return _mm256_sqrt_pd(a); }
+  GRAINS_AVX2_PAIRS static V min(V a, V b) { return _mm256_min_pd(a, b); }
+  GRAINS_AVX2_PAIRS static V max(V a, V b) { return _mm256_max_pd(a, b); }
+  GRAINS_AVX2_PAIRS static V all(double a) { return _mm256_set1_pd(a); }
+  GRAINS_AVX2_PAIRS static V zero() { return _mm256_setzero_pd(); }
+  // |a|, -a and std::copysign(magnitude, sign): sign-bit operations, exactly as the scalar ones.
+  GRAINS_AVX2_PAIRS static V abs(V a) { return _mm256_andnot_pd(sign_bit(), a); }
+  GRAINS_AVX2_PAIRS static V neg(V a) { return _mm256_xor_pd(a, sign_bit()); }
+  GRAINS_AVX2_PAIRS static V copysign(V magnitude, V sign) {
+    return _mm256_or_pd(_mm256_andnot_pd(sign_bit(), magnitude), _mm256_and_pd(sign, sign_bit()));
+  }
+
+  // Masks. blend(m, a, b) takes b where m is set; bits(m) has bit l set for lane l.
+  GRAINS_AVX2_PAIRS static V blend(Mask m, V a, V b) { return _mm256_blendv_pd(a, b, m); }
+  GRAINS_AVX2_PAIRS static Mask less(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+  GRAINS_AVX2_PAIRS static Mask less_equal(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_LE_OQ); }
+  GRAINS_AVX2_PAIRS static Mask greater(V a, V b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+  GRAINS_AVX2_PAIRS static Mask both(Mask m, Mask n) { return _mm256_and_pd(m, n); }
+  GRAINS_AVX2_PAIRS static Mask either(Mask m, Mask n) { return _mm256_or_pd(m, n); }
+  GRAINS_AVX2_PAIRS static Mask but_not(Mask m, Mask n) { return _mm256_andnot_pd(n, m); }
+  GRAINS_AVX2_PAIRS static unsigned bits(Mask m) { return unsigned(_mm256_movemask_pd(m)); }
+  GRAINS_AVX2_PAIRS static bool any(Mask m) { return bits(m) != 0; }
+  GRAINS_AVX2_PAIRS static int count(Mask m) { return __builtin_popcount(bits(m)); }
+
+ private:
+  GRAINS_AVX2_PAIRS static V sign_bit() { return _mm256_set1_pd(-0.0); }
+};
+
+using V = Width4::V;
+
 // The four 32-bit lanes of an index mask widened to a mask of doubles, and back.
 GRAINS_AVX2_PAIRS inline V widen(__m128i m) { return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(m)); }
 GRAINS_AVX2_PAIRS inline __m128i narrow(V m) {
@@ -119,28 +149,6 @@ GRAINS_AVX2_PAIRS inline __m128i steady_contacts(__m128i touching, const Lanes4&
   return steady;
 }
 
-// The lanes' a[k] for per-entry data: gathered, or loaded from a + k0 where the lanes' k are consecutive
-// (all four lanes where `full`, else those of m).
-template <bool Dense>
-GRAINS_AVX2_PAIRS inline V per_entry(const double* a, const Lanes4& k, std::uint32_t k0, V m, bool full) {
-  if constexpr (Dense) return full ? _mm256_loadu_pd(a + k0) : _mm256_maskload_pd(a + k0, _mm256_castpd_si256(m));
-  else return gather(a, k);
-}
-// a[k] = v on the lanes of m: stored to a + k0, or lane by lane. A whole batch (`full`, its entries the
-// batch's own) stores `old` (what per_entry read) on the other lanes with a plain store: AMD's Zen cores
-// run a masked store as a long microcoded sequence.
-template <bool Dense>
-GRAINS_AVX2_PAIRS inline void set_per_entry(double* a, const Lanes4& k, std::uint32_t k0, V m, V v, V old, bool full) {
-  if constexpr (Dense) {
-    if (full) _mm256_storeu_pd(a + k0, blend(m, old, v));
-    else _mm256_maskstore_pd(a + k0, _mm256_castpd_si256(m), v);
-  } else {
-    alignas(32) double value[4];
-    _mm256_store_pd(value, v);
-    for (unsigned b = bits(m); b; b &= b - 1) a[k.at[__builtin_ctz(b)]] = value[__builtin_ctz(b)];
-  }
-}
-
 // The lanes' indices times `scale` (the D-vectors of the particle arrays).
 inline Lanes4 times(const Lanes4& idx, std::uint32_t scale) {
   Lanes4 out = idx;
@@ -148,45 +156,122 @@ inline Lanes4 times(const Lanes4& idx, std::uint32_t scale) {
   return out;
 }
 
-// The geometry of four gathered pairs q .. q + 3, as pair_avx512::Contacts8 (the same operations in the
-// same order): r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2, touching when d2 < (R_i + R_j)^2, and
-// which touched at the last evaluation too (restamped). The lanes' rows i, partners j and entries k are
-// kept as integers too, for the kernels' loads; Dense as in per_entry (2D only).
+// The periodic image shifts of the neighbour list, gathered component by component (shift[s][a] at
+// s D + a).
+template <int D>
+struct ImageShifts {
+  const double* first;   // shift[0][0]
+  explicit ImageShifts(const Vec<D>* shift) : first(shift[0].data()) {}
+};
+
+// The geometry of four gathered pairs q .. q + 3 (the first `left` of them live), as pair_avx512::Contacts8
+// (the same operations in the same order): r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2,
+// touching when d2 < (R_i + R_j)^2, and which touched at the last evaluation too (restamped). The lanes'
+// rows i, partners j and entries k are kept as integers, for the kernels' loads; Dense as in per_entry (2D
+// only). Its methods are Contacts8's, for four lanes filling half of a block of eight.
 template <int D, bool Dense = false>
 struct Contacts4 {
-  Lanes4 il, kl, jl;
+  using Mask = Width4::Mask;
+  Lanes4 il, kl, jl, iD, jD;   // iD, jD: i D and j D (3D only)
   std::uint32_t k0;
   bool full;   // all four lanes live
-  V live, r[D], d2, Ri, Rj, Rsum;
-  __m128i steady;
-  GRAINS_AVX2_PAIRS Contacts4(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
-                              std::size_t left, const std::uint32_t* partner, const Vec<D>* shift, const double* position,
-                              const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
-                              const double* const* slot_radius = nullptr)
-      : il(rows + q, left), kl(pairs + q, left), jl(kl), k0(pairs[q]), full(left >= 4) {
+  unsigned half;   // 0 or 4: the block's first or second half
+  Mask live;
+  V r[D], d2, Ri, Rj, Rsum;
+  Mask touching, steady;
+  [[gnu::always_inline]] GRAINS_AVX2_PAIRS Contacts4(const std::uint32_t* rows, const std::uint32_t* pairs,
+                                                     const std::uint8_t* images, std::size_t q, std::size_t left,
+                                                     const std::uint32_t* partner, const ImageShifts<D>& shifts,
+                                                     const double* position, const double* radius, std::uint32_t* touched,
+                                                     std::uint32_t evaluation, const double* const* slot_radius = nullptr)
+      : il(rows + q, left), kl(pairs + q, left), jl(kl), iD(il), jD(kl), k0(pairs[q]), full(left >= 4), half(q & 7) {
     static_assert(D == 2 || !Dense);
+    using W = Width4;
     if constexpr (Dense) jl = Lanes4(partner + k0, left);
     else
       for (int l = 0; l < 4; ++l) jl.at[l] = partner[kl.at[l]];   // a dead lane's k is lane 0's
     live = widen(first_lanes(left));
     const Lanes4 sl(_mm_mullo_epi32(load_bytes(images + q, left), _mm_set1_epi32(D)));   // the shifts' first components
-    const double* s = shift[0].data();
+    const double* s = shifts.first;
     if constexpr (D == 2) {
       V xi, yi, xj, yj;
       gather_pairs(position, il, xi, yi), gather_pairs(position, jl, xj, yj);
-      r[0] = sub(add(xj, gather(s, sl)), xi);
-      r[1] = sub(add(yj, gather(s + 1, sl)), yi);
+      r[0] = W::sub(W::add(xj, gather(s, sl)), xi);
+      r[1] = W::sub(W::add(yj, gather(s + 1, sl)), yi);
     } else {
-      const Lanes4 iD = times(il, D), jD = times(jl, D);
-      for (int a = 0; a < D; ++a) r[a] = sub(add(gather(position + a, jD), gather(s + a, sl)), gather(position + a, iD));
+      iD = times(il, D), jD = times(jl, D);
+      for (int a = 0; a < D; ++a) r[a] = W::sub(W::add(gather(position + a, jD), gather(s + a, sl)), gather(position + a, iD));
     }
-    for (int a = 0; a < D; ++a) d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
-    if constexpr (Dense)
-      Ri = per_entry<true>(slot_radius[0], kl, k0, live, full), Rj = per_entry<true>(slot_radius[1], kl, k0, live, full);
+    for (int a = 0; a < D; ++a) d2 = a == 0 ? W::mul(r[a], r[a]) : W::add(d2, W::mul(r[a], r[a]));
+    if constexpr (Dense) Ri = per_entry(slot_radius[0]), Rj = per_entry(slot_radius[1]);
     else Ri = gather(radius, il), Rj = gather(radius, jl);
-    Rsum = add(Ri, Rj);
-    const V touching = both(live, less(d2, mul(Rsum, Rsum)));
-    steady = steady_contacts<Dense>(narrow(touching), kl, k0, left, touched, evaluation);
+    Rsum = W::add(Ri, Rj);
+    touching = W::both(live, W::less(d2, W::mul(Rsum, Rsum)));
+    steady = widen(steady_contacts<Dense>(narrow(touching), kl, k0, left, touched, evaluation));
+  }
+
+  // Particle data: the lanes' a[i] or a[j], their D-vectors a[D i + 0 .. D - 1] (a 2D one as one 16-byte
+  // load). Every lane reads (a dead lane lane 0's): m is the AVX-512 build's.
+  GRAINS_AVX2_PAIRS V at_i(const double* a, Mask /*m*/) const { return gather(a, il); }
+  GRAINS_AVX2_PAIRS V at_j(const double* a, Mask /*m*/) const { return gather(a, jl); }
+  GRAINS_AVX2_PAIRS void vector_at_i(const double* a, V out[D]) const { vector_at(a, il, iD, out); }
+  GRAINS_AVX2_PAIRS void vector_at_j(const double* a, V out[D]) const { vector_at(a, jl, jD, out); }
+
+  // Per-entry data, a[k]: gathered, or loaded from a + k0 where the lanes' k are consecutive (all four
+  // lanes where `full`, else the live ones).
+  GRAINS_AVX2_PAIRS V per_entry(const double* a) const {
+    if constexpr (Dense) return full ? _mm256_loadu_pd(a + k0) : _mm256_maskload_pd(a + k0, _mm256_castpd_si256(live));
+    else return gather(a, kl);
+  }
+  // a[k] = v on the lanes of m: stored to a + k0, or lane by lane. A whole batch (`full`, its entries the
+  // batch's own) stores `old` (what per_entry read) on the other lanes with a plain store: AMD's Zen cores
+  // run a masked store as a long microcoded sequence.
+  GRAINS_AVX2_PAIRS void set_per_entry(double* a, Mask m, V v, V old) const {
+    if constexpr (Dense) {
+      if (full) _mm256_storeu_pd(a + k0, Width4::blend(m, old, v));
+      else _mm256_maskstore_pd(a + k0, _mm256_castpd_si256(m), v);
+    } else {
+      alignas(32) double value[4];
+      _mm256_store_pd(value, v);
+      for (unsigned b = Width4::bits(m); b; b &= b - 1) a[kl.at[__builtin_ctz(b)]] = value[__builtin_ctz(b)];
+    }
+  }
+  // The 3-vectors a[3 k + 0 .. 2] (the springs of spheres), and their stores on the lanes of m.
+  GRAINS_AVX2_PAIRS void vector_per_entry(const double* a, V out[3]) const {
+    static_assert(!Dense);
+    const Lanes4 k3 = times(kl, 3);
+    for (int c = 0; c < 3; ++c) out[c] = gather(a + c, k3);
+  }
+  GRAINS_AVX2_PAIRS void set_vector_per_entry(double* a, Mask m, const V v[3]) const {
+    const Lanes4 k3 = times(kl, 3);
+    alignas(32) double value[3][4];
+    for (int c = 0; c < 3; ++c) _mm256_store_pd(value[c], v[c]);
+    for (unsigned lanes = Width4::bits(m); lanes; lanes &= lanes - 1) {
+      const unsigned l = unsigned(__builtin_ctz(lanes));
+      for (int c = 0; c < 3; ++c) a[k3.at[l] + c] = value[c][l];
+    }
+  }
+  // a[k] = value on the lanes of m, one by one.
+  GRAINS_AVX2_PAIRS void set_entries(std::uint32_t* a, Mask m, std::uint32_t value) const {
+    for (unsigned l = Width4::bits(m); l; l &= l - 1) a[Dense ? k0 + __builtin_ctz(l) : kl.at[__builtin_ctz(l)]] = value;
+  }
+
+  // The batch's results, into its half of a block of eight (Results8), with plain stores: store(block, m, v)
+  // stores the other lanes too (they are never read). A block's masks get the lanes' bits in their half,
+  // the first half's clearing the second's.
+  GRAINS_AVX2_PAIRS void store(double* block, V v) const { _mm256_store_pd(block + half, v); }
+  GRAINS_AVX2_PAIRS void store(double* block, Mask /*m*/, V v) const { _mm256_store_pd(block + half, v); }
+  void store_partners(std::uint32_t* block) const { std::memcpy(block + half, jl.at, sizeof jl.at); }
+  GRAINS_AVX2_PAIRS void set_bits(std::uint8_t& block_mask, Mask m) const {
+    const unsigned b = Width4::bits(m);
+    block_mask = std::uint8_t(half ? (block_mask & 0x0F) | b << 4 : b);
+  }
+
+ private:
+  GRAINS_AVX2_PAIRS static void vector_at(const double* a, const Lanes4& idx, const Lanes4& idxD, V out[D]) {
+    if constexpr (D == 2) gather_pairs(a, idx, out[0], out[1]);
+    else
+      for (int c = 0; c < D; ++c) out[c] = gather(a + c, idxD);
   }
 };
 

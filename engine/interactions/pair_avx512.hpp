@@ -1,5 +1,5 @@
-// AVX-512 pieces shared by the pair loop's kernels (pair_filter_avx512.cpp, cohesive_contacts_avx512.cpp,
-// linear_contacts_avx512.cpp) and the neighbour build's candidate test (candidate_test_avx512.cpp): eight
+// AVX-512 pieces shared by the pair loop's kernels (pair_filter_avx512.cpp; cohesive_contacts_kernel.hpp and
+// linear_contacts_kernel.hpp at eight lanes) and the neighbour build's candidate test (candidate_test_avx512.cpp): eight
 // doubles per vector, one lane per list entry or grid slot. They are compiled for AVX-512 whatever the
 // build flags (the binary stays portable x86-64): call them only from GRAINS_AVX512_PAIRS functions, and
 // those only where pair_filter::avx512() is true. Include this header only in files compiled without
@@ -21,28 +21,64 @@
 
 namespace grains::pair_avx512 {
 
-using V = __m512d;
+template <int D, bool Dense>
+struct Contacts8;
+template <int D>
+struct ImageShifts;
 
-GRAINS_AVX512_PAIRS inline V add(V a, V b) { return _mm512_add_pd(a, b); }
-GRAINS_AVX512_PAIRS inline V sub(V a, V b) { return _mm512_sub_pd(a, b); }
-GRAINS_AVX512_PAIRS inline V mul(V a, V b) { return _mm512_mul_pd(a, b); }
-GRAINS_AVX512_PAIRS inline V div(V a, V b) { return _mm512_div_pd(a, b); }
-GRAINS_AVX512_PAIRS inline V all(double a) { return _mm512_set1_pd(a); }
-GRAINS_AVX512_PAIRS inline V abs(V a) { return _mm512_abs_pd(a); }
+// The operations of the kernels written once for both widths (cohesive_contacts_kernel.hpp,
+// linear_contacts_kernel.hpp), at eight lanes; pair_avx2.hpp's Width4 has the same ones at four. A mask is a
+// mask register; blend(m, a, op(...)) compiles to one masked instruction (op on the lanes of m only).
+struct Width8 {
+  static constexpr int lanes = 8;
+  using V = __m512d;
+  using Mask = __mmask8;
+  template <int D, bool Dense = false>
+  using Contacts = Contacts8<D, Dense>;
+  template <int D>
+  using Shifts = ImageShifts<D>;
 
-// The lanes' a[idx] (zero where m is clear).
-GRAINS_AVX512_PAIRS inline V gather(const double* a, __m256i idx, __mmask8 m) {
-  return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, idx, a, 8);
-}
+  GRAINS_AVX512_PAIRS static V add(V a, V b) { return _mm512_add_pd(a, b); }
+  GRAINS_AVX512_PAIRS static V sub(V a, V b) { return _mm512_sub_pd(a, b); }
+  GRAINS_AVX512_PAIRS static V mul(V a, V b) { return _mm512_mul_pd(a, b); }
+  GRAINS_AVX512_PAIRS static V div(V a, V b) { return _mm512_div_pd(a, b); }
+  GRAINS_AVX512_PAIRS static V sqrt(V a) { return _mm512_sqrt_pd(a); }
+  GRAINS_AVX512_PAIRS static V min(V a, V b) { return _mm512_min_pd(a, b); }
+  GRAINS_AVX512_PAIRS static V max(V a, V b) { return _mm512_max_pd(a, b); }
+  GRAINS_AVX512_PAIRS static V all(double a) { return _mm512_set1_pd(a); }
+  GRAINS_AVX512_PAIRS static V zero() { return _mm512_setzero_pd(); }
+  GRAINS_AVX512_PAIRS static V abs(V a) { return _mm512_abs_pd(a); }
+  // -a, exactly (a sign flip, as unary minus).
+  GRAINS_AVX512_PAIRS static V neg(V a) { return _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(a), sign_bit())); }
+  // std::copysign(magnitude, sign).
+  GRAINS_AVX512_PAIRS static V copysign(V magnitude, V sign) {
+    return _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign_bit(), _mm512_castpd_si512(magnitude)),
+                                               _mm512_and_si512(_mm512_castpd_si512(sign), sign_bit())));
+  }
 
-GRAINS_AVX512_PAIRS inline __m512i sign_bit() { return _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL)); }
-// -a, exactly (a sign flip, as unary minus).
-GRAINS_AVX512_PAIRS inline V neg(V a) { return _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(a), sign_bit())); }
-// std::copysign(magnitude, sign).
-GRAINS_AVX512_PAIRS inline V copysign(V magnitude, V sign) {
-  return _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign_bit(), _mm512_castpd_si512(magnitude)),
-                                             _mm512_and_si512(_mm512_castpd_si512(sign), sign_bit())));
-}
+  // Masks. blend(m, a, b) takes b where m is set.
+  GRAINS_AVX512_PAIRS static V blend(Mask m, V a, V b) { return _mm512_mask_blend_pd(m, a, b); }
+  GRAINS_AVX512_PAIRS static Mask less(V a, V b) { return _mm512_cmp_pd_mask(a, b, _CMP_LT_OQ); }
+  GRAINS_AVX512_PAIRS static Mask less_equal(V a, V b) { return _mm512_cmp_pd_mask(a, b, _CMP_LE_OQ); }
+  GRAINS_AVX512_PAIRS static Mask greater(V a, V b) { return _mm512_cmp_pd_mask(a, b, _CMP_GT_OQ); }
+  static Mask both(Mask m, Mask n) { return Mask(m & n); }
+  static Mask either(Mask m, Mask n) { return Mask(m | n); }
+  static Mask but_not(Mask m, Mask n) { return Mask(m & ~n); }
+  static bool any(Mask m) { return m != 0; }
+  GRAINS_AVX512_PAIRS static int count(Mask m) { return __builtin_popcount(m); }
+
+  // The lanes' a[idx] (zero where m is clear).
+  GRAINS_AVX512_PAIRS static V gather(const double* a, __m256i idx, Mask m) {
+    return _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, idx, a, 8);
+  }
+  // The lanes' mask: all eight, or the first `left` of them.
+  static Mask first_lanes(std::size_t left) { return left >= 8 ? Mask(0xFF) : Mask((1u << left) - 1); }
+
+ private:
+  GRAINS_AVX512_PAIRS static __m512i sign_bit() { return _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ULL)); }
+};
+
+using V = Width8::V;
 
 // The 2D vectors of eight particles, a[2 idx[l]] and a[2 idx[l] + 1] for l = 0 .. 7, as x and y components:
 // eight 16-byte loads, transposed, where two gathers would load every lane's line twice. Used for the positions
@@ -58,9 +94,6 @@ GRAINS_AVX512_PAIRS inline void load_2d(const double* a, const std::uint32_t* id
   y = _mm512_permutex2var_pd(low, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), high);
 }
 
-// The lanes' mask: all eight, or the first `left` of them.
-inline __mmask8 first_lanes(std::size_t left) { return left >= 8 ? __mmask8(0xFF) : __mmask8((1u << left) - 1); }
-
 // Of the touching lanes (list entries k), those that touched at the last evaluation too (stamp + 1 ==
 // evaluation; the contact's first step otherwise), restamped with this evaluation. Dense: the lanes' k
 // are consecutive, from k0 (the shell's slots, contact_forces.hpp): loads and stores instead of a gather
@@ -75,27 +108,6 @@ GRAINS_AVX512_PAIRS inline __mmask8 steady_contacts(__mmask8 touching, __m256i k
   if constexpr (Dense) _mm256_mask_storeu_epi32(touched + k0, steady, now);
   else _mm256_mask_i32scatter_epi32(touched, steady, k, now, 4);
   return steady;
-}
-
-// The lanes' a[k] for per-entry data: gathered, or loaded from a + k0 where the lanes' k are consecutive.
-template <bool Dense>
-GRAINS_AVX512_PAIRS inline V per_entry(const double* a, __m256i k, std::uint32_t k0, __mmask8 m) {
-  if constexpr (Dense) return _mm512_maskz_loadu_pd(m, a + k0);
-  else return gather(a, k, m);
-}
-// a[k] = v on the lanes of m: scattered, or stored to a + k0.
-template <bool Dense>
-GRAINS_AVX512_PAIRS inline void set_per_entry(double* a, __m256i k, std::uint32_t k0, __mmask8 m, V v) {
-  if constexpr (Dense) _mm512_mask_storeu_pd(a + k0, m, v);
-  else _mm512_mask_i32scatter_pd(a, m, k, v, 8);
-}
-
-// Runs batch(q, lanes) over the n gathered pairs eight at a time; sums what it returns.
-template <class Batch>
-long in_batches(std::size_t n, Batch batch) {
-  long sum = 0;
-  for (std::size_t q = 0; q < n; q += 8) sum += batch(q, first_lanes(n - q));
-  return sum;
 }
 
 // The periodic image shifts of the neighbour list (shift[s], s = sum (k_a + 1) 3^a), component by component,
@@ -143,23 +155,29 @@ GRAINS_AVX512_PAIRS inline __m256i times_dim(__m256i i) {
   return D == 2 ? twice : _mm256_add_epi32(twice, i);
 }
 
-// The geometry of eight gathered pairs q .. q + 7 (rows[q], list entries pairs[q], images[q]) and which of
-// them touch and which are steady contacts (touching, and at the last evaluation too; restamped). Mirrors the pair loop:
-// r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2 (as Eigen sums it), touching when d2 < (R_i + R_j)^2.
-// Lanes of indices i D and j D address the D-vectors of the particle arrays. Dense: the pairs' entries k
-// are consecutive from k0 = pairs[q] (the shell's slots), so the per-entry data (partner, stamps, and the
-// radii, slot_radius[0][k] = R_i and slot_radius[1][k] = R_j) are loaded, and in 2D a whole batch's positions
-// too (load_2d).
+// The geometry of eight gathered pairs q .. q + 7 (rows[q], list entries pairs[q], images[q]; the first
+// `left` of them live) and which of them touch and which are steady contacts (touching, and at the last
+// evaluation too; restamped). Mirrors the pair loop: r = (x_j + shift) - x_i, d2 = (r_x^2 + r_y^2) + r_z^2
+// (as Eigen sums it), touching when d2 < (R_i + R_j)^2. Lanes of indices i D and j D address the D-vectors
+// of the particle arrays. Dense: the pairs' entries k are consecutive from k0 = pairs[q] (the shell's
+// slots), so the per-entry data (partner, stamps, and the radii, slot_radius[0][k] = R_i and
+// slot_radius[1][k] = R_j) are loaded, and in 2D a whole batch's positions too (load_2d). Its methods
+// are the kernels' loads and stores for these lanes (pair_avx2.hpp's Contacts4 has the same ones).
 template <int D, bool Dense = false>
 struct Contacts8 {
+  using Mask = Width8::Mask;
   __m256i i, k, j, iD, jD;
   std::uint32_t k0;
+  Mask live;
   V r[D], d2, Ri, Rj, Rsum;
-  __mmask8 touching, steady;
-  GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
-                                __mmask8 live, const std::uint32_t* partner, const ImageShifts<D>& shifts, const double* position,
-                                const double* radius, std::uint32_t* touched, std::uint32_t evaluation,
-                                const double* const* slot_radius = nullptr) {
+  Mask touching, steady;
+  [[gnu::always_inline]] GRAINS_AVX512_PAIRS Contacts8(const std::uint32_t* rows, const std::uint32_t* pairs,
+                                                       const std::uint8_t* images, std::size_t q, std::size_t left,
+                                                       const std::uint32_t* partner, const ImageShifts<D>& shifts,
+                                                       const double* position, const double* radius, std::uint32_t* touched,
+                                                       std::uint32_t evaluation, const double* const* slot_radius = nullptr) {
+    using W = Width8;
+    live = W::first_lanes(left);
     i = _mm256_maskz_loadu_epi32(live, rows + q);
     k = _mm256_maskz_loadu_epi32(live, pairs + q);
     k0 = pairs[q];
@@ -172,18 +190,62 @@ struct Contacts8 {
     if (D == 2 && Dense && live == 0xFF) {   // every lane's row and partner read as plain integers
       load_2d(position, partner + k0, xj[0], xj[1]), load_2d(position, rows + q, xi[0], xi[1]);
     } else {
-      for (int a = 0; a < D; ++a) xj[a] = gather(position + a, jD, live), xi[a] = gather(position + a, iD, live);
+      for (int a = 0; a < D; ++a) xj[a] = W::gather(position + a, jD, live), xi[a] = W::gather(position + a, iD, live);
     }
     for (int a = 0; a < D; ++a) {
-      r[a] = sub(add(xj[a], s[a]), xi[a]);
-      d2 = a == 0 ? mul(r[a], r[a]) : add(d2, mul(r[a], r[a]));
+      r[a] = W::sub(W::add(xj[a], s[a]), xi[a]);
+      d2 = a == 0 ? W::mul(r[a], r[a]) : W::add(d2, W::mul(r[a], r[a]));
     }
     if constexpr (Dense) Ri = _mm512_maskz_loadu_pd(live, slot_radius[0] + k0), Rj = _mm512_maskz_loadu_pd(live, slot_radius[1] + k0);
-    else Ri = gather(radius, i, live), Rj = gather(radius, j, live);
-    Rsum = add(Ri, Rj);
-    touching = _mm512_mask_cmp_pd_mask(live, d2, mul(Rsum, Rsum), _CMP_LT_OQ);
+    else Ri = W::gather(radius, i, live), Rj = W::gather(radius, j, live);
+    Rsum = W::add(Ri, Rj);
+    touching = _mm512_mask_cmp_pd_mask(live, d2, W::mul(Rsum, Rsum), _CMP_LT_OQ);
     steady = steady_contacts<Dense>(touching, k, k0, touched, evaluation);
   }
+
+  // Particle data: the lanes' a[i] or a[j] (read on the lanes of m), their D-vectors a[D i + 0 .. D - 1].
+  GRAINS_AVX512_PAIRS V at_i(const double* a, Mask m) const { return Width8::gather(a, i, m); }
+  GRAINS_AVX512_PAIRS V at_j(const double* a, Mask m) const { return Width8::gather(a, j, m); }
+  GRAINS_AVX512_PAIRS void vector_at_i(const double* a, V out[D]) const {
+    for (int c = 0; c < D; ++c) out[c] = Width8::gather(a + c, iD, live);
+  }
+  GRAINS_AVX512_PAIRS void vector_at_j(const double* a, V out[D]) const {
+    for (int c = 0; c < D; ++c) out[c] = Width8::gather(a + c, jD, live);
+  }
+
+  // Per-entry data, a[k]: gathered, or loaded from a + k0 where the lanes' k are consecutive.
+  GRAINS_AVX512_PAIRS V per_entry(const double* a) const {
+    if constexpr (Dense) return _mm512_maskz_loadu_pd(live, a + k0);
+    else return Width8::gather(a, k, live);
+  }
+  // a[k] = v on the lanes of m: scattered, or stored to a + k0. (`old`, what per_entry read, serves the AVX2 build.)
+  GRAINS_AVX512_PAIRS void set_per_entry(double* a, Mask m, V v, V /*old*/) const {
+    if constexpr (Dense) _mm512_mask_storeu_pd(a + k0, m, v);
+    else _mm512_mask_i32scatter_pd(a, m, k, v, 8);
+  }
+  // The 3-vectors a[3 k + 0 .. 2] (the springs of spheres), and their stores on the lanes of m.
+  GRAINS_AVX512_PAIRS void vector_per_entry(const double* a, V out[3]) const {
+    static_assert(!Dense);
+    const __m256i k3 = _mm256_mullo_epi32(k, _mm256_set1_epi32(3));
+    for (int c = 0; c < 3; ++c) out[c] = Width8::gather(a + c, k3, live);
+  }
+  GRAINS_AVX512_PAIRS void set_vector_per_entry(double* a, Mask m, const V v[3]) const {
+    const __m256i k3 = _mm256_mullo_epi32(k, _mm256_set1_epi32(3));
+    for (int c = 0; c < 3; ++c) _mm512_mask_i32scatter_pd(a + c, m, k3, v[c], 8);
+  }
+  // a[k] = value on the lanes of m, one by one.
+  GRAINS_AVX512_PAIRS void set_entries(std::uint32_t* a, Mask m, std::uint32_t value) const {
+    alignas(32) std::uint32_t entry[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(entry), k);
+    for (unsigned l = m; l; l &= l - 1) a[Dense ? k0 + __builtin_ctz(l) : entry[__builtin_ctz(l)]] = value;
+  }
+
+  // The batch's results, into its block of eight (Results8: q is a multiple of 8). store(block, m, v)
+  // stores the lanes of m only; the bits of a block's masks are the lanes'.
+  GRAINS_AVX512_PAIRS void store(double* block, V v) const { _mm512_store_pd(block, v); }
+  GRAINS_AVX512_PAIRS void store(double* block, Mask m, V v) const { _mm512_mask_store_pd(block, m, v); }
+  GRAINS_AVX512_PAIRS void store_partners(std::uint32_t* block) const { _mm256_storeu_si256(reinterpret_cast<__m256i*>(block), j); }
+  void set_bits(std::uint8_t& block_mask, Mask m) const { block_mask = m; }
 };
 
 }  // namespace grains::pair_avx512
