@@ -12,11 +12,14 @@
 #include "consolidate_command.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "resume_probe.hpp"
 #include "run_command.hpp"
 
 namespace grains {
 
 int resume_run(const std::string& path, bool quiet) {
+  // First, while no OpenMP thread runs: a child reads the file, and a file HDF5 dies reading is refused.
+  refuse_a_file_hdf5_dies_reading(path);
   RunCheckpoint cp = read_checkpoint(path);
   // A programme's file names its stage table.
   return cp.stage_table.empty() ? resume_plain_run(path, cp, quiet) : resume_consolidation(path, cp, quiet);
