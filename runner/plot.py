@@ -95,8 +95,12 @@ def stage_window(f, group, path, stage):
         fail(f"'{path}' is not the output of grains consolidate with a trace (grains/trace, programme.trace_every): "
              "--stage needs one")
     ends = group["solid_fraction/step"][()]
-    if not 0 <= stage < len(ends):
-        fail(f"--stage {stage}: '{path}' has stages 0 to {len(ends) - 1} ({len(ends) - 1} finished)")
+    # A finished programme has no stage under way after its last record.
+    status = f["grains"].attrs.get("status", b"") if "grains" in f else b""
+    finished = (status.decode() if isinstance(status, bytes) else str(status)).startswith("complete")
+    stages = len(ends) - 1 if finished else len(ends)
+    if not 0 <= stage < stages:
+        fail(f"--stage {stage}: '{path}' has stages 0 to {stages - 1} ({len(ends) - 1} finished)")
     return ends[stage], ends[stage + 1] if stage + 1 < len(ends) else float("inf")
 
 
@@ -131,20 +135,23 @@ def observables_of(f, path, wanted, x_name, stage=None):
         step, t, v = (element(n)[part][()] for part in ("step", "time", "value"))
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
-    # Up to the step grains says every series is whole at; a file without that mark, up to the step every series holds
-    # (a trace, grains/trace/*, ends before the programme's last stage record and is not asked to reach it).
-    last = group.attrs.get("complete_to_step") if group is not None else None
-    if last is None:
-        last = min([step[-1] for step, _, _ in rows.values() if len(step)], default=float("inf"))
+    # Up to the step grains says every series is whole at, and the step every series read holds (a run still writing:
+    # a flush may come between the reading of the rows and of that mark). The observables and a trace (grains/trace/*)
+    # each on their own: a trace ends before the programme's last stage record and is not asked to reach it.
     first, end = stage_window(f, group, path, stage) if stage is not None else (-1, float("inf"))
-    last = min(last, end)
-    series = {n: (t[(step <= last) & (step >= first)], v[(step <= last) & (step >= first)]) for n, (step, t, v) in rows.items()}
+    mark = group.attrs.get("complete_to_step", float("inf")) if group is not None else float("inf")
+    last = {traced: min([mark, end] + [step[-1] for n, (step, _, _) in rows.items() if len(step) and n.startswith(TRACE) == traced])
+            for traced in (False, True)}
+    series = {}
+    for n, (step, t, v) in rows.items():
+        keep = (step <= last[n.startswith(TRACE)]) & (step >= first)
+        series[n] = (t[keep], v[keep])
     # The stage records beside a trace, drawn as dots in its panels.
     for n in names:
         if n.startswith(TRACE) and n[len(TRACE):] in available:
             step, t, v = (group[n[len(TRACE):]][part][()] for part in ("step", "time", "value"))
             whole = min(len(step), len(t), len(v))
-            keep = (step[:whole] <= last) & (step[:whole] >= first)
+            keep = (step[:whole] <= last[False]) & (step[:whole] >= first)
             companions.append(n[len(TRACE):])
             series[n[len(TRACE):]] = (t[:whole][keep], v[:whole][keep])
     return {n: series[n] for n in names}, x_name, series.get(x_name), {n: series[n] for n in companions}

@@ -220,3 +220,36 @@ def test_one_stage_of_a_programme(tmp_path, monkeypatch):
     r = subprocess.run([sys.executable, ROOT / "runner/plot.py", plain, "-o", tmp_path / "y.png", "--stage", "0"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "--stage needs one" in r.stderr, r.stderr
+
+
+def test_a_run_read_as_a_flush_comes_is_cut_where_every_series_is_whole(tmp_path, monkeypatch):
+    """A run still writing its file may flush between plot.py's reading of the rows and of /observables@complete_to_step:
+    the mark is then past a series' last row read. Every observable is cut at the step all of them hold (as before the
+    trace came), so that one drawn against another (--x) has its rows; the trace of a programme is cut on its own."""
+    path = run_file(tmp_path / "live.h5", {"time_over_free_fall": [0.0, 0.1, 0.2, 0.3], "largest_cluster_fraction": [0.1, 0.2, 0.3]})
+    with h5py.File(path, "r+") as f:
+        f["observables"].attrs["complete_to_step"] = 30   # the fourth row's step, which one series does not hold
+    fig = drawn(path, monkeypatch, "--observables", "largest_cluster_fraction", "--x", "time_over_free_fall")
+    assert np.array_equal(fig.axes[0].lines[0].get_xdata(), [0.0, 0.1, 0.2])
+
+
+def test_a_finished_programme_has_no_stage_under_way(tmp_path, monkeypatch):
+    """--stage N of a complete programme: its stages are those of its records after the initial state's; the one
+    after the last is refused (it drew the last stage record alone), while a file still written has it under way."""
+    path = tmp_path / "stages.h5"
+    with h5py.File(path, "w") as f:
+        f.create_group("parameters").attrs["scene.toml"] = '[scene]\nname = "programme"\n[cell]\nenabled = true\n'
+        f.create_group("grains").attrs["status"] = np.bytes_("complete")
+        f.create_group("observables").attrs["complete_to_step"] = 300
+        for where, steps in ((f["observables"], np.array([0, 100, 300])),
+                             (f.require_group("grains/trace"), np.setdiff1d(np.arange(10, 300, 10), [100]))):
+            for name in ("pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy"):
+                g = where.create_group(name)
+                g["step"], g["time"], g["value"] = steps, steps * 0.5, 0.3 + steps / 1000
+    assert panel(drawn(path, monkeypatch, "--stage", "1"), "solid fraction").lines[1].get_xdata().tolist() == [50.0, 150.0]
+    r = subprocess.run([sys.executable, ROOT / "runner/plot.py", path, "-o", tmp_path / "x.png", "--stage", "2"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "--stage 2: " in r.stderr and "stages 0 to 1 (2 finished)" in r.stderr, r.stderr
+    with h5py.File(path, "r+") as f:
+        f["grains"].attrs["status"] = np.bytes_("running")
+    assert panel(drawn(path, monkeypatch, "--stage", "2"), "solid fraction").lines[1].get_xdata().tolist() == [150.0]
