@@ -96,9 +96,7 @@ def stage_window(f, group, path, stage):
              "--stage needs one")
     ends = group["solid_fraction/step"][()]
     # A finished programme has no stage under way after its last record.
-    status = f["grains"].attrs.get("status", b"") if "grains" in f else b""
-    finished = (status.decode() if isinstance(status, bytes) else str(status)).startswith("complete")
-    stages = len(ends) - 1 if finished else len(ends)
+    stages = len(ends) - 1 if reuse.ended_in(f) else len(ends)
     if not 0 <= stage < stages:
         fail(f"--stage {stage}: '{path}' has stages 0 to {stages - 1} ({len(ends) - 1} finished)")
     return ends[stage], ends[stage + 1] if stage + 1 < len(ends) else float("inf")

@@ -105,9 +105,14 @@ def ended(h5):
     import h5py
     try:
         with h5py.File(h5, "r") as f:
-            status = f["grains"].attrs.get("status", b"")
+            return ended_in(f)
     except (OSError, KeyError):
         return False
+
+
+def ended_in(f):
+    """ended() of a file already open (h5py.File)."""
+    status = f["grains"].attrs.get("status", b"") if "grains" in f else b""
     return (status.decode() if isinstance(status, bytes) else str(status)).startswith("complete")
 
 
