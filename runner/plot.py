@@ -123,6 +123,8 @@ def observables_of(f, path, wanted, x_name, stage=None):
         x_name = default_x if x_name is None else x_name
     x_name = None if x_name == "time" else x_name   # --x time: the records' own time
     companions = [COMPANIONS[n][0] for n in names if n in COMPANIONS and COMPANIONS[n][0] in available]
+    # The stage records beside a trace, drawn as dots in its panels: read and cut as the observables are.
+    companions += [n[len(TRACE):] for n in names if n.startswith(TRACE) and n[len(TRACE):] in available]
     missing = [n for n in names + ([x_name] if x_name else []) if n not in available]
     if missing:
         fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
@@ -144,14 +146,6 @@ def observables_of(f, path, wanted, x_name, stage=None):
     for n, (step, t, v) in rows.items():
         keep = (step <= last[n.startswith(TRACE)]) & (step >= first)
         series[n] = (t[keep], v[keep])
-    # The stage records beside a trace, drawn as dots in its panels.
-    for n in names:
-        if n.startswith(TRACE) and n[len(TRACE):] in available:
-            step, t, v = (group[n[len(TRACE):]][part][()] for part in ("step", "time", "value"))
-            whole = min(len(step), len(t), len(v))
-            keep = (step[:whole] <= last[False]) & (step[:whole] >= first)
-            companions.append(n[len(TRACE):])
-            series[n[len(TRACE):]] = (t[:whole][keep], v[:whole][keep])
     return {n: series[n] for n in names}, x_name, series.get(x_name), {n: series[n] for n in companions}
 
 
