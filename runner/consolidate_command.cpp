@@ -53,8 +53,7 @@ std::vector<std::string> traced_outputs(const Simulation& sim) {
   std::vector<std::string> names;
   for (const char* n : {"pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy",
                         "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic", "bonded_clusters"})
-    for (const auto& v : sim.variables())
-      if (v.name == n) names.emplace_back(n);
+    if (sim.has(n)) names.emplace_back(n);
   return names;
 }
 
