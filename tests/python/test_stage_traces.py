@@ -41,7 +41,12 @@ def test_the_first_compression_is_the_first_loading_stage_from_its_start(program
         here = f["grains/trace/stage/value"][()] == 2
         assert np.array_equal(phi, f["grains/trace/solid_fraction/value"][()][here])
         assert np.allclose(t, f["grains/trace/stage/time"][()][here] - start, rtol=0, atol=1e-9)
-    assert len(t) >= 5 and (t > 0).all() and (t < end_time).all() and (np.diff(t) > 0).all()
+        # The stage's last trace row is its end, its stage record (the initial state's, then stage k's at k + 1): the
+        # line reaches the dot of its table row (which rounds Phi and the time to 9 digits).
+        record = f["observables/solid_fraction"]
+        assert t[-1] == record["time"][3] - start and phi[-1] == record["value"][3]
+    assert len(t) >= 5 and (t > 0).all() and (t[:-1] < end_time).all() and (np.diff(t) > 0).all()
+    assert phi[-1] == pytest.approx(end_phi, rel=1e-8, abs=0)
 
 
 def test_the_picture_and_its_refusals(programme, tmp_path):
