@@ -53,8 +53,7 @@ std::vector<std::string> traced_outputs(const Simulation& sim) {
   std::vector<std::string> names;
   for (const char* n : {"pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy",
                         "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic", "bonded_clusters"})
-    for (const auto& v : sim.variables())
-      if (v.name == n) names.emplace_back(n);
+    if (sim.has(n)) names.emplace_back(n);
   return names;
 }
 
@@ -93,6 +92,16 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                           .stage_progress = std::move(progress)});
     next_checkpoint = next_multiple();
   };
+  // The trace (programme.trace_every): a row at the current step of stage r, `value` giving each traced output.
+  const long trace_every = scene.integer("programme.trace_every");
+  const std::vector<std::string> traced = traced_outputs(sim);
+  const auto write_trace_row = [&](const StageRecord& r, const auto& value) {
+    const long step = sim.step_count();
+    // The aggregation's cell is fixed: no target (NaN, as in the stage table), whatever cell.pressure holds.
+    for (const auto& n : traced)
+      out.write_trace(n, step, sim.time(), n == "pressure_target" && r.phase == "aggregation" ? std::nan("") : value(n));
+    out.write_trace("stage", step, sim.time(), double(r.index));
+  };
   auto on_stage = [&](const StageRecord& r) {
     if (r.index == 0) {
       // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
@@ -123,6 +132,14 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     write_observables(out, sim, r.values);   // the row's values: the network's mark has moved on since
     out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
+    // The trace's row at the stage's end, the record's state, so that a stage's course reaches it: on_check is not
+    // called at the check that ends a stage, so the step has no row yet. Before the checkpoint below, which holds it.
+    if (trace_every > 0)
+      write_trace_row(r, [&](const std::string& n) {
+        for (const auto& [k, v] : r.values)
+          if (k == n) return v;
+        return sim.get(n);   // the target, which the record does not hold
+      });
     write_frame(out, sim);
     status.finish();
     write_new_warnings(out, sim, warnings_written);
@@ -167,19 +184,14 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   // Ctrl-C or SIGTERM stops the programme; then what the stage waits for (one bonded cluster, or the four
   // equilibrium ratios falling below 1).
   bool stopped = false;   // the signals are caught since the output file's creation
-  const long trace_every = scene.integer("programme.trace_every");
-  const std::vector<std::string> traced = traced_outputs(sim);
   auto on_check = [&](const StageRecord& r, long budget, const StageProgress& at) {
     // The trace, before a checkpoint at the same step, which then holds it. Only at the checks proper (every
-    // check_every steps into a stage; a stop request also calls here in between), and decided by the step alone,
-    // so that a resumed programme writes the records the unbroken one does.
+    // check_every steps into a stage; a stop request also calls here in between; the check that ends a stage comes
+    // not here but to on_stage, which writes its row), and decided by the step alone, so that a resumed programme
+    // writes the records the unbroken one does.
     const long step = sim.step_count();
-    if (trace_every > 0 && r.steps % settings.check_every == 0 && step / trace_every != (step - settings.check_every) / trace_every) {
-      // The aggregation's cell is fixed: no target (NaN, as in the stage table), whatever cell.pressure holds.
-      for (const auto& n : traced)
-        out.write_trace(n, step, sim.time(), n == "pressure_target" && r.phase == "aggregation" ? std::nan("") : sim.get(n));
-      out.write_trace("stage", step, sim.time(), double(r.index));
-    }
+    if (trace_every > 0 && r.steps % settings.check_every == 0 && step / trace_every != (step - settings.check_every) / trace_every)
+      write_trace_row(r, [&](const std::string& n) { return sim.get(n); });
     stopped = stop_requested();
     if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) checkpoint(at.stage - 1, at.values());
     if (stopped) {

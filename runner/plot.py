@@ -7,8 +7,8 @@ subplot over a shared time axis, or over another observable recorded at the same
 (`--x time_over_free_fall`: against t / t_ff). Without --observables it draws the scene's main ones,
 chosen by what the file holds: a gravity scene f_max, N_c / N and Q against t / t_ff; a
 pressure-controlled cell P* (with its target), Phi, z and K (for `grains consolidate`'s output, its trace within
-the stages, grains/trace/*, with the one record per stage drawn as dots); a collision log K, contacts, collisions
-and the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap (`--stage N`: of a
+the stages, grains/trace/*, with the one record per stage drawn as dots, the initial state's apart); a collision
+log K, contacts, collisions and the adhesive fraction; any other scene K, the elastic energy, contacts and the largest overlap (`--stage N`: of a
 programme's output, stage N only, from the previous stage's end to its own). The figure is titled with the scene's name and description; a quantity that is nowhere negative and whose
 positive values span more than three decades is drawn on a log axis (its zeros, when at most a tenth of
 the records, left out and said so), a panel without finite values says so, and the aggregation time,
@@ -137,7 +137,8 @@ def observables_of(f, path, wanted, x_name, stage=None):
         rows[n] = (step[:whole], t[:whole], v[:whole])
     # Up to the step grains says every series is whole at, and the step every series read holds (a run still writing:
     # a flush may come between the reading of the rows and of that mark). The observables and a trace (grains/trace/*)
-    # each on their own: a trace ends before the programme's last stage record and is not asked to reach it.
+    # each on their own: a stage under way has trace rows past the last stage record, and an older grains wrote none
+    # at a stage's end (the trace ended before the last record).
     first, end = stage_window(f, group, path, stage) if stage is not None else (-1, float("inf"))
     mark = group.attrs.get("complete_to_step", float("inf")) if group is not None else float("inf")
     last = {traced: min([mark, end] + [step[-1] for n, (step, _, _) in rows.items() if len(step) and n.startswith(TRACE) == traced])
@@ -201,10 +202,13 @@ def log_axis(values):
                 and (v == 0).sum() <= 0.1 * v.size)
 
 
-def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None):
+def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None,
+           starts_initial=True):
     """The figure of the panels in `series` ({name: (time, value)}); `companions`: {name: (time, value)} of the
-    reference series drawn dashed in their panels (COMPANIONS); `mark`: the aggregation time on the plot's horizontal
-    axis (NaN: none); `labels`: panel titles in place of LABELS'."""
+    reference series drawn dashed in their panels (COMPANIONS), and of the stage records drawn as dots in a trace's;
+    `mark`: the aggregation time on the plot's horizontal axis (NaN: none); `labels`: panel titles in place of
+    LABELS'; `starts_initial`: the stage records begin with the programme's initial state (all of them, or --stage 0),
+    drawn apart from the stages' ends."""
     import matplotlib
 
     matplotlib.use("Agg")  # no display needed
@@ -222,7 +226,12 @@ def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), comp
         ax.plot(t if x_values is None else x_values, v, lw=1, label="measured" if drawn_with else "_nolegend_")
         title_text = labels.get(name, labels.get(name.removeprefix(TRACE), name))
         if stage_points is not None:
-            ax.plot(*stage_points, "o", ms=3, color="C3", label="end of a stage")
+            st, sv = stage_points
+            ends = 1 if starts_initial and len(st) else 0   # the stage records after the initial state
+            if ends:
+                ax.plot(st[:1], sv[:1], "s", ms=5, mfc="none", color="C3", label="initial state")
+            if len(st) > ends:
+                ax.plot(st[ends:], sv[ends:], "o", ms=3, color="C3", label="end of a stage")
             ax.legend(fontsize=8, loc="best")
         if drawn_with:
             rt, rv = companions[reference[0]]
@@ -249,11 +258,12 @@ def figure(series, x_name=None, x_values=None, title="", mark=float("nan"), comp
     return fig
 
 
-def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None):
+def plot(series, out, x_name=None, x_values=None, title="", mark=float("nan"), companions=None, labels=None,
+         starts_initial=True):
     """Writes figure(...) to `out`."""
     import matplotlib.pyplot as plt
 
-    fig = figure(series, x_name, x_values, title, mark, companions, labels)
+    fig = figure(series, x_name, x_values, title, mark, companions, labels, starts_initial)
     fig.savefig(out, dpi=120)
     plt.close(fig)
 
@@ -287,7 +297,9 @@ def main(argv=None):
         # the aggregation time where the axis is at it (an axis that grows with time, as t / t_ff does)
         mark = float(np.interp(mark, x_time, x_values)) if (np.diff(x_values) > 0).all() else float("nan")
     out = Path(args.out) if args.out else path.with_suffix(".png")
-    plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure, TRACE + "pressure_reduced": pressure})
+    # Stage N's records are the ends of stages N - 1 and N: only stage 0's first is the initial state.
+    plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure, TRACE + "pressure_reduced": pressure},
+         args.stage in (None, 0))
     print(out)
     return 0
 

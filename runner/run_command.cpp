@@ -156,7 +156,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   for (const auto& [name, shown] : {std::pair{"contact.k_n", "contact.k_n"}, {"contact.c_n", "contact.c_n"},
                                      {"normalised_stiffness", "k* = k_n / k_g (normalised_stiffness)"},
                                      {"free_fall_time", "t_ff (free_fall_time)"}})
-    if (std::ranges::any_of(r.sim->variables(), [&](const VariableInfo& v) { return v.name == name; }))
+    if (r.sim->has(name))
       aims.push_back(fmt::format("{} = {:.6g}", shown, r.sim->get(name)));
   if (!aims.empty()) fmt::print("# derived: {}\n", fmt::join(aims, ", "));
   return 0;

@@ -5,17 +5,37 @@ solid fraction the paper's Table II compares.
     python runner/stage_traces.py STAGES.h5 [STAGES.h5 ...] -o first-compression.png
 
 (the stage tables beside the files, as grains consolidate writes them: STEM.h5 and its table named in the file).
+A sample still in its first compression (a campaign running, or a programme stopped there) is drawn dashed as far
+as its trace goes, its legend saying "still running" or "stopped".
 """
 import argparse
 import csv
+import math
 import sys
 from pathlib import Path
+from typing import NamedTuple, Optional
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reuse  # noqa: E402
 from consolidation_fit import stage_table_of  # noqa: E402
+
+
+# The stages a programme runs before its first compression, by programme.preparation: type 2's aggregation and its
+# relaxation at P* = 0 (programme_stages in engine/protocols/consolidation_programme.cpp); type 1 and none start there.
+PREPARATION_STAGES = {"type2": 2}
+
+
+class Course(NamedTuple):
+    """A sample's first compression: its trace within the stage, and where the stage ended (NaN: it has not)."""
+    label: str
+    t: np.ndarray           # time since the stage began
+    phi: np.ndarray
+    end_phi: float          # its table row's Phi
+    reached: bool           # equilibrium
+    end_time: float
+    unfinished: Optional[str] = None   # None: the stage ended; "still running" or "stopped": under way in the file
 
 
 def first_loading_stage(rows):
@@ -40,9 +60,24 @@ def stage_course(h5, stage, start_time):
     return reuse.read_unlocked(h5, read)
 
 
+def first_compression_under_way(h5, rows):
+    """(stage index, the time it began at, "still running" or "stopped") when the programme in h5, whose stage table
+    has `rows` (its finished stages), is inside its first compression; None when it is not (still preparing, or its
+    file says it ended). Its status says which: 'running' or 'resumed ...' while a process writes it (a killed one's
+    reads the same), 'interrupted ...' (Ctrl-C) or 'failed ...' once it stopped."""
+    def read(f):
+        status = f["grains"].attrs.get("status", b"") if "grains" in f else b""
+        return status.decode() if isinstance(status, bytes) else str(status), reuse.ended_in(f)
+    status, ended = reuse.read_unlocked(h5, read)
+    preparation = (reuse.stored(h5) or {}).get("programme", {}).get("preparation", "none")
+    if ended or len(rows) != PREPARATION_STAGES.get(preparation, 0):
+        return None
+    state = "still running" if status == "running" or status.startswith("resumed") else "stopped"
+    return len(rows), float(rows[-1]["time"]) if rows else 0.0, state
+
+
 def first_compressions(files):
-    """For each stages file: (label, time since the stage began, Phi, its table's end Phi, whether it reached
-    equilibrium), the files without a table or a loading stage left out."""
+    """For each stages file: its Course, the files without a table or a first compression begun left out."""
     courses = []
     for h5 in map(Path, files):
         table = stage_table_of(h5) if h5.is_file() else None
@@ -52,24 +87,33 @@ def first_compressions(files):
             rows = list(csv.DictReader(f))
         first = first_loading_stage(rows)
         if first is None:
+            under_way = first_compression_under_way(h5, rows)
+            if under_way is not None:
+                stage, start, state = under_way
+                t, phi, _ = stage_course(h5, stage, start)
+                courses.append(Course(h5.stem, t, phi, math.nan, False, math.nan, state))
             continue
         stage, start = first
         t, phi, _ = stage_course(h5, stage, start)
         row = rows[[int(r["stage"]) for r in rows].index(stage)]
-        courses.append((h5.stem, t, phi, float(row["phi"]), row["reached"] == "1", float(row["time"]) - start))
+        courses.append(Course(h5.stem, t, phi, float(row["phi"]), row["reached"] == "1", float(row["time"]) - start))
     return courses
 
 
-def plot_first_compressions(panels, path, reference=None):
-    """panels: {title: first_compressions(...)}; reference: {title: (Phi, bar)} drawn as a band of twice the bar."""
+def first_compression_figure(panels, reference=None):
+    """panels: {title: first_compressions(...)}; reference: {title: (Phi, bar)} drawn as a band of twice the bar. A
+    course still under way is dashed, without an end."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4), squeeze=False, sharey=True)
     for ax, (title, courses) in zip(axes[0], panels.items()):
-        for k, (label, t, phi, end_phi, reached, end_time) in enumerate(courses):
-            line, = ax.plot(t, phi, lw=1, label=label)
-            ax.plot([end_time], [end_phi], "o", color=line.get_color(), mfc=None if reached else "none", ms=5)
+        for c in courses:
+            if c.unfinished:
+                ax.plot(c.t, c.phi, "--", lw=1, label=f"{c.label} ({c.unfinished})")
+                continue
+            line, = ax.plot(c.t, c.phi, lw=1, label=c.label)
+            ax.plot([c.end_time], [c.end_phi], "o", color=line.get_color(), mfc=None if c.reached else "none", ms=5)
         if reference and title in reference:
             value, bar = reference[title]
             ax.axhspan(value - 2 * bar, value + 2 * bar, color="0.85", zorder=0, label="paper, ±2 bars")
@@ -77,9 +121,17 @@ def plot_first_compressions(panels, path, reference=None):
         ax.set_xlabel("time in the stage (the scene's units: T0 in the consolidation scenes)")
         ax.grid(alpha=0.3)
         if courses:
-            ax.legend(fontsize=6.5, title="open: not in equilibrium", title_fontsize=6.5)
+            note = "open: not in equilibrium" + ("; dashed: unfinished" if any(c.unfinished for c in courses) else "")
+            ax.legend(fontsize=6.5, title=note, title_fontsize=6.5)
     axes[0, 0].set_ylabel("solid fraction Φ")
     fig.tight_layout()
+    return fig
+
+
+def plot_first_compressions(panels, path, reference=None):
+    """Writes first_compression_figure(panels, reference) to `path`."""
+    import matplotlib.pyplot as plt
+    fig = first_compression_figure(panels, reference)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
@@ -94,7 +146,7 @@ def main(argv=None):
             ap.error(f"'{f}' does not exist")
     courses = first_compressions(args.files)
     if not courses:
-        ap.error("no file has a stage table with a loading stage beside it")
+        ap.error("no file has a stage table with a loading stage beside it, or a first compression under way")
     plot_first_compressions({"samples": courses}, args.out)
     print(args.out)
     return 0

@@ -8,6 +8,12 @@
 
 namespace grains {
 
+bool Simulation::has(const std::string& name) const {
+  for (const auto& v : variables())
+    if (v.name == name) return true;
+  return false;
+}
+
 std::size_t Simulation::index_of(const std::string& name) const {
   const auto& v = variables();
   for (std::size_t i = 0; i < v.size(); ++i)

@@ -75,6 +75,7 @@ class Simulation {
   double get(const std::string& name) const { return get(index_of(name)); }
   void set(const std::string& name, double value) { set(index_of(name), value); }
   std::size_t index_of(const std::string& name) const;
+  bool has(const std::string& name) const;   // a variable of that name (one a scene's options add, say)
 
   // Complete state as bytes; restore_state(save_state()) continues bit-identically.
   virtual std::vector<std::byte> save_state() const = 0;

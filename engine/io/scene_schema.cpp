@@ -264,11 +264,11 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"programme.check_every", K::integer, pure, "100", 1, 9.2e18, false, false, "", "Steps between equilibrium checks."},
       {"programme.trace_every", K::integer, pure, "10000", 0, 9.2e18, false, false, "",
        "Steps between the records of `grains consolidate`'s trace: within every stage, at the first equilibrium check "
-       "at or past each multiple of this many steps (counted from the programme's start), P*, its target, Phi, z, the "
-       "kinetic energy, the four equilibrium ratios, the bonded clusters and the stage's index go to "
-       "grains/trace/<name> in the HDF5 output (the one full record per stage is in observables/<name>, and the check "
-       "that ends a stage writes that, not a trace row; the target is NaN in a type-2 aggregation's fixed cell); "
-       "runner/plot.py draws it. 0: no trace."},
+       "at or past each multiple of this many steps (counted from the programme's start), and at every stage's end (the "
+       "state its stage record holds), P*, its target, Phi, z, the kinetic energy, the four equilibrium ratios, the "
+       "bonded clusters and the stage's index go to grains/trace/<name> in the HDF5 output (the one full record per "
+       "stage is in observables/<name>; the target is NaN in a type-2 aggregation's fixed cell); runner/plot.py draws "
+       "it. 0: no trace."},
       {"programme.first_compression_time", K::real, duration, "0.0", 0, inf, false, false, "",
        "Simulated time over which the first stage under pressure (type 1 or type 2, at `cell.pressure`) raises its "
        "target linearly from 0, in steps of `check_every`, before it waits for equilibrium (its budget counts from the "

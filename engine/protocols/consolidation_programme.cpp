@@ -133,20 +133,14 @@ const char* const recorded[] = {
     "B", "G", "C11", "C22", "C33", "C12", "C13", "C23", "B_Voigt", "G_Voigt", "B_Reuss", "Z2", "moduli_mechanisms",
     "moduli_unstable_modes", "moduli_floppy_modes"};
 
-bool has(const Simulation& s, const std::string& name) {
-  for (const auto& v : s.variables())
-    if (v.name == name) return true;
-  return false;
-}
-
 class Runner {
  public:
   Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage,
          const StageCheck& on_check, const StageProgress& from, const StopPoll& poll)
-      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), poll_(poll), network_(has(s, "network.mark")),
+      : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), poll_(poll), network_(s.has("network.mark")),
         from_(from) {
     for (const char* name : recorded)
-      if (has(s, name)) names_.emplace_back(name);
+      if (s.has(name)) names_.emplace_back(name);
     for (const auto& v : s.variables())
       if (v.name.rfind("force_histogram_", 0) == 0) names_.push_back(v.name);
   }

@@ -297,3 +297,12 @@ TEST_CASE("step(k dt) takes exactly the k steps of step_n(k), also late in a run
   CHECK(a->particles().position == b->particles().position);
   CHECK(a->get("kinetic_energy") == b->get("kinetic_energy"));
 }
+
+TEST_CASE("has(name) says whether index_of finds a variable of that name", "[seam]") {
+  auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
+  for (const auto& v : s->variables()) CHECK(s->has(v.name));
+  CHECK(s->has("contacts"));
+  CHECK_FALSE(s->has("pressure_reduced"));   // a cell's output: this scene has no cell
+  CHECK_THROWS_AS(s->index_of("pressure_reduced"), SimulationError);
+  CHECK_FALSE(s->has(""));
+}

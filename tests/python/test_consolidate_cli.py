@@ -155,10 +155,11 @@ def test_a_programme_that_fails_says_so_in_its_file(grains_bin, root, tmp_path):
         assert text(f["grains"].attrs["status"]).startswith("failed after step 1: barostat: CVODE integration")
 
 
-def test_consolidate_traces_every_stage_at_its_checks_and_changes_nothing(grains_bin, root, tmp_path):
+def test_consolidate_traces_every_stage_at_its_checks_and_its_end_and_changes_nothing(grains_bin, root, tmp_path):
     """programme.trace_every: within the stages, at the first equilibrium check (every programme.check_every = 100
-    steps into a stage) at or past each multiple of it, the stage's course goes to grains/trace/*; the stage
-    records, one per stage, and the table are the programme's without a trace, which writes none."""
+    steps into a stage) at or past each multiple of it, and at each stage's end (its stage record's state), the
+    stage's course goes to grains/trace/*; the stage records, one per stage, and the table are the programme's
+    without a trace, which writes none."""
     programme = [root / "models" / "consolidation-type1.toml", "--set", "particles.count=100", "--set",
                  "programme.top_pressure=0.02", "--set", "programme.stage_budget=12000", "--set", "run.threads=1"]
     plain, traced = tmp_path / "plain", tmp_path / "traced"
@@ -169,15 +170,20 @@ def test_consolidate_traces_every_stage_at_its_checks_and_changes_nothing(grains
     assert traced.with_suffix(".csv").read_text() == plain.with_suffix(".csv").read_text()
     rows = list(csv.DictReader(traced.with_suffix(".csv").open()))
     # The checks each stage made that did not end it, and of those the ones the trace is due at (a multiple of 2550
-    # since the previous check).
-    expected_steps, expected_stages, start = [], [], 0
+    # since the previous check); then the stage's end.
+    expected_steps, expected_stages, ends, start = [], [], [], 0
     for row in rows:
-        for step in range(start + 100, start + int(row["steps"]), 100):
+        end = start + int(row["steps"])
+        for step in range(start + 100, end, 100):
             if step // 2550 != (step - 100) // 2550:
                 expected_steps.append(step)
                 expected_stages.append(int(row["stage"]))
-        start += int(row["steps"])
-    assert len(expected_steps) > 10 and len(set(expected_stages)) == len(rows) > 1
+        expected_steps.append(end)
+        expected_stages.append(int(row["stage"]))
+        ends.append(end)
+        start = end
+    assert len(expected_steps) > 10 + len(rows) and len(rows) > 1
+    assert any(end % 2550 for end in ends)   # a stage end off the multiples: there by the new rule alone
     with h5py.File(plain.with_suffix(".h5")) as p, h5py.File(traced.with_suffix(".h5")) as f:
         assert "trace" not in p["grains"] and "trace" in f["grains"]
         assert sorted(f["observables"]) == sorted(p["observables"])
@@ -200,12 +206,22 @@ def test_consolidate_traces_every_stage_at_its_checks_and_changes_nothing(grains
         # Each stage's target, as its table row gives it (NaN for a type-2 aggregation in its fixed cell: see below).
         target = {int(row["stage"]): float(row["target_pressure"]) for row in rows}
         assert np.allclose(trace["pressure_target/value"][()], [target[s] for s in expected_stages], rtol=1e-8)
-        # The trace's last Phi of each stage lies between the stage's start and end values (type 1 compacts).
+        # A stage's end row is its stage record: the observables' values at that step, bit for bit (the line of a
+        # stage's course ends at its record's dot).
+        at_end = np.isin(trace["stage/step"][()], ends)
+        assert list(trace["stage/step"][()][at_end]) == ends
+        for name in trace:
+            if name in f["observables"]:
+                record = f[f"observables/{name}"]
+                assert np.array_equal(trace[f"{name}/value"][()][at_end], record["value"][1:], equal_nan=True), name
+                assert np.array_equal(trace[f"{name}/time"][()][at_end], record["time"][1:]), name
+        # The last Phi within each stage lies between the stage's start and end values (type 1 compacts).
         phi = trace["solid_fraction/value"][()]
-        ends = [0.36] + [float(row["phi"]) for row in rows]
+        phi_ends = [0.36] + [float(row["phi"]) for row in rows]
         for s in set(expected_stages):
-            last = phi[[k for k, e in enumerate(expected_stages) if e == s][-1]]
-            assert min(ends[s], ends[s + 1]) - 1e-9 <= last <= max(ends[s], ends[s + 1]) + 1e-9
+            within = [k for k, e in enumerate(expected_stages) if e == s and expected_steps[k] not in ends]
+            if within:
+                assert min(phi_ends[s], phi_ends[s + 1]) - 1e-9 <= phi[within[-1]] <= max(phi_ends[s], phi_ends[s + 1]) + 1e-9
 
 
 def test_the_trace_of_an_aggregation_in_its_fixed_cell_has_no_target(grains_bin, root, tmp_path):
@@ -217,8 +233,18 @@ def test_the_trace_of_an_aggregation_in_its_fixed_cell_has_no_target(grains_bin,
             "--set", "programme.trace_every=1000", "--set", "run.threads=1", "--table", tmp_path / "agg.csv", "--out", out,
             "--quiet")
     assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader((tmp_path / "agg.csv").open()))
+    assert [row["phase"] for row in rows] == ["aggregation", "equilibrate", "equilibrate"]
+    ends = np.cumsum([int(row["steps"]) for row in rows])
     with h5py.File(out) as f:
+        steps = f["grains/trace/stage/step"][()]
         stage = f["grains/trace/stage/value"][()]
         target = f["grains/trace/pressure_target/value"][()]
-    assert list(stage) == [0, 0, 1, 2]   # steps 1000, 2000; 4000; 6000 (each stage's last check is its end)
-    assert np.isnan(target[:2]).all() and list(target[2:]) == [0.0, 0.01]
+        clusters = f["grains/trace/bonded_clusters/value"][()]
+        recorded_clusters = f["observables/bonded_clusters/value"][1:]
+    # Every stage ends with a row, the aggregation's too (with its record's clusters, its target NaN as in the table).
+    at_end = np.isin(steps, ends)
+    assert list(steps[at_end]) == list(ends) and list(stage[at_end]) == [0, 1, 2]
+    assert np.array_equal(clusters[at_end], recorded_clusters)
+    assert np.isnan(target[stage == 0]).all() and (stage == 0).sum() >= 2
+    assert list(target[stage > 0]) == [float(rows[int(s)]["target_pressure"]) for s in stage[stage > 0]]

@@ -163,13 +163,14 @@ def test_the_pressure_panel_says_what_p_star_is_in_the_scene(tmp_path, monkeypat
 def test_a_programme_is_drawn_as_its_trace_with_the_stage_records_as_dots(tmp_path, monkeypatch):
     """grains consolidate records one full record per stage (observables/NAME) and its trace within the stages
     (grains/trace/NAME, programme.trace_every): the default panels draw the trace, the stages' course, with the
-    stage records as dots, the last one too (it comes after the trace's last row)."""
+    stage records as dots, the last one too. The first record is the initial state, not a stage's end: drawn and
+    labelled apart (all were "end of a stage")."""
     path = tmp_path / "stages.h5"
     with h5py.File(path, "w") as f:
         f.create_group("parameters").attrs["scene.toml"] = '[scene]\nname = "programme"\n[cell]\nenabled = true\n'
         group = f.create_group("observables")
         group.attrs["complete_to_step"] = 300
-        stage_steps, trace_steps = np.array([0, 100, 300]), np.arange(10, 300, 10)
+        stage_steps, trace_steps = np.array([0, 100, 300]), np.arange(10, 301, 10)
         for name, ends, course in (("pressure_reduced", [0.0, 0.01, 0.0133], 0.01 + 0 * trace_steps),
                                    ("pressure_target", [0.01, 0.01, 0.0133], 0.01 + 0 * trace_steps),
                                    ("solid_fraction", [0.36, 0.45, 0.47], 0.36 + trace_steps / 3000),
@@ -184,23 +185,27 @@ def test_a_programme_is_drawn_as_its_trace_with_the_stage_records_as_dots(tmp_pa
     assert [ax.get_title() for ax in fig.axes] == ["P* = a P / F0", "solid fraction Phi", "coordination number z",
                                                    "kinetic energy K"]
     phi = fig.axes[1]
-    course, dots = phi.lines[0], phi.lines[1]
+    course, initial, ends = phi.lines[:3]
     assert np.array_equal(course.get_xdata(), trace_steps * 0.5)
     assert np.allclose(course.get_ydata(), 0.36 + trace_steps / 3000)
-    assert dots.get_label() == "end of a stage" and dots.get_marker() == "o"
-    assert np.array_equal(dots.get_xdata(), stage_steps * 0.5) and np.array_equal(dots.get_ydata(), [0.36, 0.45, 0.47])
-    assert [line.get_label() for line in fig.axes[0].lines] == ["measured", "end of a stage", "target"]
+    assert initial.get_label() == "initial state" and initial.get_marker() == "s"
+    assert list(initial.get_xdata()) == [0.0] and list(initial.get_ydata()) == [0.36]
+    assert ends.get_label() == "end of a stage" and ends.get_marker() == "o"
+    assert np.array_equal(ends.get_xdata(), [50.0, 150.0]) and np.array_equal(ends.get_ydata(), [0.45, 0.47])
+    assert [line.get_label() for line in fig.axes[0].lines] == ["measured", "initial state", "end of a stage", "target"]
+    assert [t.get_text() for t in phi.get_legend().get_texts()] == ["initial state", "end of a stage"]
 
 
 def test_one_stage_of_a_programme(tmp_path, monkeypatch):
-    """--stage N: the trace of stage N and the stage records at its start and end; a stage the file does not hold,
-    or a file without a trace, is refused naming the option."""
+    """--stage N: the trace of stage N, from the previous stage's end row to its own, and the stage records at its
+    start and end (stage 0's start the initial state); a stage the file does not hold, or a file without a trace, is
+    refused naming the option."""
     path = tmp_path / "stages.h5"
     with h5py.File(path, "w") as f:
         f.create_group("parameters").attrs["scene.toml"] = '[scene]\nname = "programme"\n[cell]\nenabled = true\n'
         group = f.create_group("observables")
         group.attrs["complete_to_step"] = 300
-        course = np.setdiff1d(np.arange(10, 300, 10), [100])   # no trace at a stage's end: its record is there
+        course = np.arange(10, 301, 10)   # a row at each stage's end (steps 100 and 300) too
         for where, steps in ((group, np.array([0, 100, 300])), (f.require_group("grains/trace"), course)):
             for name in ("pressure_reduced", "pressure_target", "solid_fraction", "coordination", "kinetic_energy"):
                 g = where.create_group(name)
@@ -209,9 +214,13 @@ def test_one_stage_of_a_programme(tmp_path, monkeypatch):
         g["step"], g["time"], g["value"] = course, course * 0.5, (course > 100) * 1.0
     fig = drawn(path, monkeypatch, "--stage", "1")
     phi = panel(fig, "solid fraction Phi")
-    assert np.array_equal(phi.lines[0].get_xdata(), np.arange(100, 301, 10)[1:-1] * 0.5)   # steps 110 .. 290
+    assert np.array_equal(phi.lines[0].get_xdata(), np.arange(100, 301, 10) * 0.5)   # steps 100 .. 300
+    assert [line.get_label() for line in phi.lines] == ["_nolegend_", "end of a stage"]   # no initial state in stage 1
     assert np.array_equal(phi.lines[1].get_xdata(), [50.0, 150.0])   # the stage records at steps 100 and 300
     assert fig.get_suptitle().endswith("stage 1")
+    phi = panel(drawn(path, monkeypatch, "--stage", "0"), "solid fraction Phi")
+    assert [(line.get_label(), list(line.get_xdata())) for line in phi.lines[1:]] == [("initial state", [0.0]),
+                                                                                       ("end of a stage", [50.0])]
     for args, message in ((["--stage", "3"], "--stage 3: "), (["--stage", "-1"], "--stage -1: ")):
         r = subprocess.run([sys.executable, ROOT / "runner/plot.py", path, "-o", tmp_path / "x.png", *args],
                            capture_output=True, text=True)

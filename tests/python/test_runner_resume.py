@@ -585,6 +585,29 @@ def test_a_programme_resumed_from_a_stage_end_past_a_checkpoint_multiple_ends_as
     assert_same_records(whole, killed)
 
 
+@pytest.mark.parametrize("checkpoint_every", [2100, 2900])
+def test_a_programme_resumed_right_after_or_before_a_stage_end_writes_the_unbroken_trace(grains_bin, root, tmp_path,
+                                                                                         checkpoint_every):
+    """Every stage's end has a trace row (its stage record's state), written by the stage structure alone: resumed
+    from the first check after stage 1's end (step 2100) or from the last check before the last stage's end (2900),
+    the programme writes the unbroken one's trace, each stage end's row once."""
+    programme = cohesionless_programme(root, 1.8e-5, 1000)
+    programme[programme.index("output.checkpoint_every=1000")] = f"output.checkpoint_every={checkpoint_every}"
+    programme += ["--set", "programme.trace_every=100"]
+    whole, whole_table, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, programme, lambda rows: rows[:3])
+    assert len(rows) == 4   # three stages of 1000 steps, none in equilibrium
+    with h5py.File(killed) as f:
+        steps = sorted(int(f["grains"][k].attrs["step"]) for k in ("checkpoint_0", "checkpoint_1"))
+        assert list(f["grains/trace/stage/step"][()]) == list(range(100, 3001, 100))   # a row at every check, ends too
+        assert list(f["grains/trace/stage/value"][()]) == [0] * 10 + [1] * 10 + [2] * 10
+    assert steps == [2000, checkpoint_every]   # stage 1's end, then the one inside stage 2
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resumed      at step {checkpoint_every}, {checkpoint_every - 2000} steps into stage 2" in resumed.stdout
+    assert killed_table.read_text() == whole_table.read_text()
+    assert_same_records(whole, killed)
+
+
 def test_a_run_that_fails_says_so_in_its_file_and_is_not_resumed(grains_bin, root, tmp_path):
     """Found by a review (2026-12-05): a run stopped by an error kept the status "running" of a killed run, and
     resume then blamed a missing checkpoint. With checkpoints it would have repeated the error."""

@@ -2,8 +2,12 @@
 picture of the first compressions."""
 import csv
 import importlib.util
+import math
+import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import h5py
 import numpy as np
@@ -33,15 +37,21 @@ def programme(grains_bin, tmp_path_factory):
 def test_the_first_compression_is_the_first_loading_stage_from_its_start(programme):
     rows = list(csv.DictReader(programme.with_suffix(".csv").open()))
     assert [r["branch"] for r in rows] == ["preparation", "preparation", "loading", "loading"]
-    (label, t, phi, end_phi, reached, end_time), = stage_traces.first_compressions([programme])
+    (label, t, phi, end_phi, reached, end_time, unfinished), = stage_traces.first_compressions([programme])
     assert label == "small" and end_phi == float(rows[2]["phi"]) and reached == (rows[2]["reached"] == "1")
+    assert unfinished is None
     start = float(rows[1]["time"])
     assert end_time == pytest.approx(float(rows[2]["time"]) - start, rel=1e-9)
     with h5py.File(programme) as f:
         here = f["grains/trace/stage/value"][()] == 2
         assert np.array_equal(phi, f["grains/trace/solid_fraction/value"][()][here])
         assert np.allclose(t, f["grains/trace/stage/time"][()][here] - start, rtol=0, atol=1e-9)
-    assert len(t) >= 5 and (t > 0).all() and (t < end_time).all() and (np.diff(t) > 0).all()
+        # The stage's last trace row is its end, its stage record (the initial state's, then stage k's at k + 1): the
+        # line reaches the dot of its table row (which rounds Phi and the time to 9 digits).
+        record = f["observables/solid_fraction"]
+        assert t[-1] == record["time"][3] - start and phi[-1] == record["value"][3]
+    assert len(t) >= 5 and (t > 0).all() and (t[:-1] < end_time).all() and (np.diff(t) > 0).all()
+    assert phi[-1] == pytest.approx(end_phi, rel=1e-8, abs=0)
 
 
 def test_the_picture_and_its_refusals(programme, tmp_path):
@@ -58,3 +68,66 @@ def test_the_picture_and_its_refusals(programme, tmp_path):
         f["grains"].attrs["stage_table"] = np.bytes_("missing.csv")
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", lone], capture_output=True, text=True)
     assert r.returncode == 2 and "no file has a stage table" in r.stderr, r.stderr
+
+
+@pytest.fixture(scope="module")
+def stopped(grains_bin, tmp_path_factory):
+    """The small type-2 programme stopped by Ctrl-C inside its first compression: the signal goes once the table has
+    the two preparation stages' rows, and that stage's ramp (programme.first_compression_time) makes it long enough
+    for the signal to land in it."""
+    folder = tmp_path_factory.mktemp("stopped")
+    out, table = folder / "sample.h5", folder / "sample.csv"
+    cmd = [grains_bin, "consolidate", ROOT / "models" / "consolidation.toml", "--set", "particles.count=100", "--set",
+           "programme.aggregation_budget=4000", "--set", "programme.stage_budget=2000", "--set",
+           "programme.first_compression_time=1e6", "--set", "programme.trace_every=500", "--set", "run.threads=1",
+           "--out", out, "--table", table, "--quiet"]
+    p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while p.poll() is None and time.monotonic() < deadline and (
+            not table.exists() or len(table.read_text().splitlines()) < 3):
+        time.sleep(0.05)
+    time.sleep(0.5)   # some of the stage's trace rows
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=60)
+    assert p.returncode == 130 and "INTERRUPTED in stage 2" in stdout, stdout + stderr
+    return out
+
+
+def test_a_programme_stopped_in_its_first_compression_is_drawn_dashed_as_far_as_it_got(stopped, programme, tmp_path):
+    """A sample still in its first compression (a campaign running, or a programme stopped there) has no table row
+    for it: it was left out of the picture. Its trace so far is drawn dashed, without an end, and the legend says
+    whether its file is still being written or stopped."""
+    rows = list(csv.DictReader(stopped.with_suffix(".csv").open()))
+    assert [r["branch"] for r in rows] == ["preparation", "preparation"]
+    course, = stage_traces.first_compressions([stopped])
+    assert course.label == "sample" and course.unfinished == "stopped" and not course.reached
+    assert math.isnan(course.end_phi) and math.isnan(course.end_time)
+    start = float(rows[1]["time"])
+    with h5py.File(stopped) as f:
+        here = f["grains/trace/stage/value"][()] == 2
+        assert here.sum() >= 2
+        assert np.array_equal(course.phi, f["grains/trace/solid_fraction/value"][()][here])
+        assert np.allclose(course.t, f["grains/trace/stage/time"][()][here] - start, rtol=0, atol=1e-9)
+    # A campaign's sample still running reads as one: its file's status 'running'.
+    running = tmp_path / "running.h5"
+    shutil.copy(stopped, running)
+    shutil.copy(stopped.with_suffix(".csv"), tmp_path / "running.csv")
+    with h5py.File(running, "r+") as f:
+        f["grains"].attrs["stage_table"] = np.bytes_("running.csv")
+        f["grains"].attrs["status"] = np.bytes_("running")
+    finished, under_way, still = stage_traces.first_compressions([programme, stopped, running])
+    assert finished.unfinished is None and (under_way.label, under_way.unfinished) == ("sample", "stopped")
+    assert (still.label, still.unfinished) == ("running", "still running")
+    import matplotlib.pyplot as plt
+    fig = stage_traces.first_compression_figure({"samples": [finished, under_way, still]})
+    ax = fig.axes[0]
+    drawn = [(None if line.get_label().startswith("_") else line.get_label(), line.get_linestyle()) for line in ax.lines]
+    # The finished one solid with its end's dot (no legend entry); the unfinished ones dashed, no dot.
+    assert drawn == [("small", "-"), (None, "None"), ("sample (stopped)", "--"), ("running (still running)", "--")]
+    assert np.array_equal(ax.lines[2].get_ydata(), course.phi)
+    assert ax.get_legend().get_title().get_text() == "open: not in equilibrium; dashed: unfinished"
+    plt.close(fig)
+    out = tmp_path / "first.png"
+    r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", stopped, "-o", out], capture_output=True,
+                       text=True)
+    assert r.returncode == 0 and out.stat().st_size > 0, r.stderr
