@@ -237,22 +237,24 @@ def flip_view_mapping(path, view, at, mask):
 # its own decoding of a header, before any call returned: SIGFPE in H5Dopen2 at a series' layout message read in the
 # wrong version (its chunk dimensions then held a 0), and, where the resume drops the XDMF views of the frames after its
 # checkpoint (H5Ldelete decodes the header of what it deletes), SIGSEGV at a view's mapping whose count of entries was
-# 2^62 + 1, or a fortified abort (buffer overflow) at a selection in it. A child process reads the file first.
-@pytest.mark.parametrize("damage, signal_name", [
-    (lambda path: patch_header(path, "observables/angular_momentum_z/time", struct.pack("<HH4xBBB", 8, 24, 3, 2, 2), 8,
-                               2, length=256), "SIGFPE"),
-    (lambda path: flip_view_mapping(path, "grains/xdmf/mass/1", 8, 0x40), "SIGSEGV"),
-    (lambda path: flip_view_mapping(path, "grains/xdmf/velocity/1", 107, 0x80), "SIGABRT"),
+# 2^62 + 1, or a fortified abort (buffer overflow) at a selection in it. A child process reads the file first, and
+# tells the refusal which object it was reading: the damaged one.
+@pytest.mark.parametrize("damaged_object, damage, signal_name", [
+    ("observables/angular_momentum_z/time",
+     lambda path, name: patch_header(path, name, struct.pack("<HH4xBBB", 8, 24, 3, 2, 2), 8, 2, length=256), "SIGFPE"),
+    ("grains/xdmf/mass/1", lambda path, name: flip_view_mapping(path, name, 8, 0x40), "SIGSEGV"),
+    ("grains/xdmf/velocity/1", lambda path, name: flip_view_mapping(path, name, 107, 0x80), "SIGABRT"),
 ], ids=["chunk layout", "view mapping count", "view selection"])
-def test_a_file_hdf5_dies_reading_is_refused_not_crashed_on(grains_bin, root, tmp_path, damage, signal_name):
+def test_a_file_hdf5_dies_reading_is_refused_not_crashed_on(grains_bin, root, tmp_path, damaged_object, damage,
+                                                            signal_name):
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
-    damage(killed)
+    damage(killed, damaged_object)
     damaged = killed.read_bytes()
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
-    assert resumed.stderr == (f"error: '{killed}': HDF5 crashed reading it ({signal_name}): the file is damaged; not "
-                              "resumed\n"), resumed.stderr
+    assert resumed.stderr == (f"error: '{killed}': HDF5 crashed ({signal_name}) reading /{damaged_object}: the file is "
+                              "damaged; not resumed\n"), resumed.stderr
     assert killed.read_bytes() == damaged   # refused before it was opened to be written
 
 
