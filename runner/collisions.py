@@ -8,10 +8,13 @@ the completed and open events, the adhesive count and fraction, and the realised
 when the file or the table is missing.
 """
 import argparse
-import os
 import sys
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import reuse  # noqa: E402
 
 
 def fail(message):
@@ -40,8 +43,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     import h5py
 
-    if not os.path.isfile(args.run):
-        fail(f"run file '{args.run}' does not exist")
+    if problem := reuse.not_a_run_file(args.run):
+        fail(f"run file '{args.run}' {problem}")
     try:
         f = h5py.File(args.run, "r")
     except OSError as e:

@@ -13,6 +13,7 @@
 
 #include "core/simulation.hpp"
 #include "interactions/pair_filter.hpp"
+#include "io/file_kind.hpp"
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_writer.hpp"
 #include "io/output_error.hpp"
@@ -319,6 +320,9 @@ int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet)
       throw std::runtime_error(fmt::format("'{}': its checkpoint's stage_progress does not fit the stored programme ({})", path, e.what()));
     }
   const std::string table = (std::filesystem::absolute(path).parent_path() / cp.stage_table).lexically_normal().string();
+  if (const auto kind = not_a_regular_file(table))
+    throw std::runtime_error(fmt::format("'{}': its stage table '{}' is {}, not the file the programme wrote; resuming "
+                                         "needs that file", path, table, *kind));
   if (!std::filesystem::is_regular_file(table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
   const std::vector<std::string> kept = table_up_to(table, cp.stage);

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.optimize import OptimizeWarning, curve_fit
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
 from consolidation_fit import stage_table_of  # noqa: E402
 
 
@@ -250,8 +251,8 @@ def main(argv=None):
     samples = []
     for name in args.h5:
         path = pathlib.Path(name)
-        if not path.is_file():
-            ap.error(f"h5: no file {path}")
+        if problem := reuse.not_a_run_file(path):
+            ap.error(f"h5: '{path}' {problem}")
         try:
             samples.append((path, *read_frames(path)))
         except (OSError, KeyError, ValueError) as err:

@@ -52,7 +52,8 @@ int main(int argc, char** argv) {
   bool resume_quiet = false;
   auto* cmd_resume = app.add_subcommand("resume", "Continue a run that was stopped (Ctrl-C, SIGTERM) or killed, from the "
                                                   "newest checkpoint in its output file (output.checkpoint_every)");
-  cmd_resume->add_option("output", resume_file, "The run's HDF5 output file")->required()->check(CLI::ExistingFile);
+  // Any existing path: resume_run says what is there when it is not a regular file (a folder, a FIFO, a device).
+  cmd_resume->add_option("output", resume_file, "The run's HDF5 output file")->required()->check(CLI::ExistingPath);
   cmd_resume->add_flag("--quiet", resume_quiet, "No progress line");
 
   std::string check_scene;

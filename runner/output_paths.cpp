@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "io/file_kind.hpp"
 #include "io/scene.hpp"
 #include "io/xdmf_writer.hpp"
 #include "protocols/initial_state.hpp"
@@ -34,11 +35,13 @@ void check_name_and_folder(const std::string& output, const std::string& source)
     throw SceneError(fmt::format("{}: output directory '{}' {} (output file '{}')", source, dir.string(),
                                  fs::exists(dir, ec) ? "is a file, not a folder" : "does not exist", output));
   }
-  const auto status = fs::status(output, ec);
+  static_cast<void>(fs::status(output, ec));   // whether the system can look at it: what it is, below
   if (ec && ec != std::errc::no_such_file_or_directory)
     throw SceneError(fmt::format("{}: cannot use the output file '{}': {}", source, output, ec.message()));
-  if (fs::is_directory(status))   // found only when writing to it, after other outputs were begun
-    throw SceneError(fmt::format("{}: output file '{}' is a folder: name a file", source, output));
+  // A folder was found only when writing to it, after other outputs were begun; a FIFO or a device is no file to keep.
+  if (const auto kind = not_a_regular_file(output))
+    throw SceneError(fmt::format("{}: output file '{}' is {}: name a file (a regular file, or a new name)", source,
+                                 output, *kind));
 }
 
 }  // namespace
@@ -78,10 +81,9 @@ void check_hdf5_output_path(const std::string& hdf5, const std::string& scene_fi
     if (same_file(*xdmf, input))
       throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', {} itself: name "
                                    "another output file (or set output.xdmf = false)", source, hdf5, *xdmf, what));
-  std::error_code ec;
-  if (std::filesystem::is_directory(*xdmf, ec))
-    throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', which is a folder: "
-                                 "name another output file (or set output.xdmf = false)", source, hdf5, *xdmf));
+  if (const auto kind = not_a_regular_file(*xdmf))
+    throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', which is {}: name "
+                                 "another output file (or set output.xdmf = false)", source, hdf5, *xdmf, *kind));
 }
 
 }  // namespace grains

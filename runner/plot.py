@@ -279,8 +279,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     path = Path(args.run)
-    if not path.is_file():
-        fail(f"run file '{path}' does not exist")
+    if problem := reuse.not_a_run_file(path):
+        fail(f"run file '{path}' {problem}")
     if args.out and (problem := image_name_problem("-o/--out", args.out)):
         fail(problem)
     wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None

@@ -11,6 +11,7 @@
 
 #include "consolidate_command.hpp"
 #include "core/simulation.hpp"
+#include "io/file_kind.hpp"
 #include "io/scene.hpp"
 #include "resume_probe.hpp"
 #include "run_command.hpp"
@@ -18,7 +19,11 @@
 namespace grains {
 
 int resume_run(const std::string& path, bool quiet) {
-  // First, while no OpenMP thread runs: a child reads the file, and a file HDF5 dies reading is refused.
+  // Before the child reads it: a FIFO would hold the child until its time runs out, and HDF5 reads a device as it is.
+  if (const auto kind = not_a_regular_file(path))
+    throw std::runtime_error(fmt::format("'{}' is {}: grains resume reads a regular file, the H5MD output that grains run "
+                                         "or grains consolidate wrote; not resumed", path, *kind));
+  // Then, while no OpenMP thread runs: a child reads the file, and a file HDF5 dies reading is refused.
   refuse_a_file_hdf5_dies_reading(path);
   RunCheckpoint cp = read_checkpoint(path);
   // A programme's file names its stage table.

@@ -2,8 +2,10 @@
 run ran (its HDF5 file's parameters/scene.toml) against the scene and overrides as `grains check` resolves
 them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py;
 the benchmarks take from it the words for a missing LAMMPS peer."""
+import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import threading
@@ -99,10 +101,31 @@ def run_grains(prog, command):
     return done.stdout
 
 
+def not_a_run_file(path):
+    """Why `path` is no file to read a grains run from, said after its name, or None for a regular file: "does not
+    exist", or what it names, its links followed, when that is not a regular file ("is a FIFO (named pipe): ..."), in
+    the words of grains' own check (engine/io/file_kind.hpp). h5py waits on a FIFO until something writes into it."""
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return "does not exist"
+    except OSError as err:
+        return f"cannot be looked at ({err.strerror})"
+    if stat.S_ISREG(mode):
+        return None
+    kind = ("a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
+            else "a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode)
+            else "a socket" if stat.S_ISSOCK(mode) else "something other than a file")
+    return f"is {kind}: name a regular file, the HDF5 file grains wrote"
+
+
 def ended(h5):
     """Whether grains wrote the file to its end: status 'complete' (a run), or 'complete; ...' (a programme with
-    stages short of equilibrium); False for a file that is missing, unreadable, running or interrupted."""
+    stages short of equilibrium); False for a file that is missing, not a regular file, unreadable, running or
+    interrupted."""
     import h5py
+    if not_a_run_file(h5):
+        return False
     try:
         with h5py.File(h5, "r") as f:
             return ended_in(f)

@@ -142,8 +142,8 @@ def main(argv=None):
     ap.add_argument("-o", "--out", default="first-compression.png", help="image to write")
     args = ap.parse_args(argv)
     for f in args.files:
-        if not Path(f).is_file():
-            ap.error(f"'{f}' does not exist")
+        if problem := reuse.not_a_run_file(f):
+            ap.error(f"'{f}' {problem}")
     courses = first_compressions(args.files)
     if not courses:
         ap.error("no file has a stage table with a loading stage beside it, or a first compression under way")

@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include "io/file_kind.hpp"
 #include "io/h5md_checkpoint.hpp"
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
@@ -250,9 +251,9 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
     followed = to.is_absolute() ? to : followed.parent_path() / to;
   }
   const std::string target = followed.string();
-  if (std::filesystem::exists(target, ec) && !std::filesystem::is_regular_file(target, ec))
-    throw std::runtime_error(fmt::format("cannot create output file '{}': the name holds something other than a file "
-                                         "(a folder, a device or a pipe); name a file", path));
+  if (const auto kind = not_a_regular_file(target))
+    throw std::runtime_error(fmt::format("cannot create output file '{}': the name holds {}, not a file; name a file (a "
+                                         "regular file, or a new name)", path, *kind));
   const std::string creating = target + ".part";
   for (const std::string& p : {target, creating})
     if (h5::locked_by_another_process(p))

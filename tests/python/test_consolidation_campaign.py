@@ -1,6 +1,7 @@
 """The campaign's reading of stage tables and its verdicts against the paper (runner/consolidation_campaign.py)."""
 import csv
 import math
+import os
 import pathlib
 import subprocess
 import sys
@@ -413,3 +414,12 @@ def test_report_beside_a_running_campaign_reads_the_sample_it_is_writing(grains_
     finally:
         tool_run.terminate()
         tool_run.communicate(timeout=60)
+
+
+def test_a_fifo_at_a_runs_path_is_taken_as_not_ended_without_waiting(tmp_path):
+    """reuse.ended opened whatever the path held with h5py, which waits on a FIFO until something writes into it."""
+    fifo = tmp_path / "run.h5"
+    os.mkfifo(fifo)
+    code = f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse; print(reuse.ended({str(fifo)!r}))"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
+    assert (r.returncode, r.stdout) == (0, "False\n"), r.stderr

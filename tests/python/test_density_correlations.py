@@ -143,7 +143,7 @@ def test_command_writes_its_table_and_plot_and_names_bad_input(tmp_path):
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
     missing = subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), str(tmp_path / "none.h5")],
                              capture_output=True, text=True)
-    assert missing.returncode == 2 and "no file" in missing.stderr
+    assert missing.returncode == 2 and f"h5: '{tmp_path / 'none.h5'}' does not exist" in missing.stderr, missing.stderr
 
 
 def test_stage_targets_come_from_a_running_samples_partial_table(tmp_path):

@@ -85,6 +85,27 @@ def test_an_output_path_that_is_a_folder_is_refused_before_anything_is_written(g
     assert [p.name for p in tmp_path.iterdir()] == ["x.xdmf" if case == "xdmf" else "taken"]
 
 
+@pytest.mark.parametrize("case", ["--out", "--table", "xdmf", "check"])
+def test_an_output_path_that_is_a_fifo_is_refused_naming_it_before_anything_is_written(grains_bin, root, tmp_path, case):
+    """A FIFO at an output's path: the stage table's opening waited for a reader without end, the XDMF file's rename
+    replaced it, `grains check` passed it, and the HDF5 output's refusal said only "something other than a file"."""
+    pipe = tmp_path / ("x.xdmf" if case == "xdmf" else "pipe")
+    os.mkfifo(pipe)
+    if case == "check":
+        r = subprocess.run([grains_bin, "check", root / "models/gas.toml", "--set", f"output.file={pipe}"],
+                           capture_output=True, text=True, timeout=30)
+        message = f"output.file: output file '{pipe}' is a FIFO (named pipe): name a file (a regular file, or a new name)"
+    else:
+        out, table = (pipe if case == "--out" else tmp_path / "x.h5"), (pipe if case == "--table" else tmp_path / "x.csv")
+        r = subprocess.run([grains_bin, "consolidate", root / "models/cohesionless.toml", "--out", out, "--table", table,
+                            "--quiet"], capture_output=True, text=True, timeout=30)
+        message = (f"the XDMF file written beside output file '{out}' would be '{pipe}', which is a FIFO (named pipe)"
+                   if case == "xdmf" else
+                   f"{case}: output file '{pipe}' is a FIFO (named pipe): name a file (a regular file, or a new name)")
+    assert r.returncode == 1 and message in r.stderr, (r.returncode, r.stderr)
+    assert [p.name for p in tmp_path.iterdir()] == [pipe.name] and stat.S_ISFIFO(os.lstat(pipe).st_mode)
+
+
 def test_output_onto_the_scene_file_is_refused(grains_bin, root, tmp_path):
     scene = tmp_path / "scene.toml"
     text = (root / "models" / "collision.toml").read_text()
@@ -574,7 +595,7 @@ def test_the_output_name_is_followed_through_a_link_and_never_replaces_what_is_n
     pipe = tmp_path / "pipe.h5"
     os.mkfifo(pipe)
     r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", pipe, "--quiet", "--set", "time.steps=10")
-    assert r.returncode == 1 and "holds something other than a file" in r.stderr, r.stderr
+    assert r.returncode == 1 and f"--out: output file '{pipe}' is a FIFO (named pipe)" in r.stderr, r.stderr
     assert stat.S_ISFIFO(os.lstat(pipe).st_mode) and not (tmp_path / "pipe.h5.part").exists()
 
 

@@ -4,6 +4,7 @@ import fcntl
 import os
 import shutil
 import signal
+import socket
 import struct
 import subprocess
 import time
@@ -236,22 +237,24 @@ def flip_view_mapping(path, view, at, mask):
 # its own decoding of a header, before any call returned: SIGFPE in H5Dopen2 at a series' layout message read in the
 # wrong version (its chunk dimensions then held a 0), and, where the resume drops the XDMF views of the frames after its
 # checkpoint (H5Ldelete decodes the header of what it deletes), SIGSEGV at a view's mapping whose count of entries was
-# 2^62 + 1, or a fortified abort (buffer overflow) at a selection in it. A child process reads the file first.
-@pytest.mark.parametrize("damage, signal_name", [
-    (lambda path: patch_header(path, "observables/angular_momentum_z/time", struct.pack("<HH4xBBB", 8, 24, 3, 2, 2), 8,
-                               2, length=256), "SIGFPE"),
-    (lambda path: flip_view_mapping(path, "grains/xdmf/mass/1", 8, 0x40), "SIGSEGV"),
-    (lambda path: flip_view_mapping(path, "grains/xdmf/velocity/1", 107, 0x80), "SIGABRT"),
+# 2^62 + 1, or a fortified abort (buffer overflow) at a selection in it. A child process reads the file first, and
+# tells the refusal which object it was reading: the damaged one.
+@pytest.mark.parametrize("damaged_object, damage, signal_name", [
+    ("observables/angular_momentum_z/time",
+     lambda path, name: patch_header(path, name, struct.pack("<HH4xBBB", 8, 24, 3, 2, 2), 8, 2, length=256), "SIGFPE"),
+    ("grains/xdmf/mass/1", lambda path, name: flip_view_mapping(path, name, 8, 0x40), "SIGSEGV"),
+    ("grains/xdmf/velocity/1", lambda path, name: flip_view_mapping(path, name, 107, 0x80), "SIGABRT"),
 ], ids=["chunk layout", "view mapping count", "view selection"])
-def test_a_file_hdf5_dies_reading_is_refused_not_crashed_on(grains_bin, root, tmp_path, damage, signal_name):
+def test_a_file_hdf5_dies_reading_is_refused_not_crashed_on(grains_bin, root, tmp_path, damaged_object, damage,
+                                                            signal_name):
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
-    damage(killed)
+    damage(killed, damaged_object)
     damaged = killed.read_bytes()
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
-    assert resumed.stderr == (f"error: '{killed}': HDF5 crashed reading it ({signal_name}): the file is damaged; not "
-                              "resumed\n"), resumed.stderr
+    assert resumed.stderr == (f"error: '{killed}': HDF5 crashed ({signal_name}) reading /{damaged_object}: the file is "
+                              "damaged; not resumed\n"), resumed.stderr
     assert killed.read_bytes() == damaged   # refused before it was opened to be written
 
 
@@ -389,6 +392,54 @@ def test_what_cannot_be_resumed_is_refused_with_the_reason(grains_bin, root, tmp
                 "not a run": "file signature not found",
                 "programme in its first stage": "the programme was killed before its first"}[case]
     assert str(out) in done.stderr and expected in done.stderr, done.stderr
+
+
+def not_a_file(kind, at):
+    """Makes `kind` at the path `at` (a link to the kind's thing, for "link to a FIFO" and "character device")."""
+    if kind == "folder":
+        at.mkdir()
+    elif kind == "FIFO (named pipe)":
+        os.mkfifo(at)
+    elif kind == "link to a FIFO":
+        os.mkfifo(at.with_name("pipe"))
+        at.symlink_to("pipe")
+    elif kind == "character device":
+        at.symlink_to("/dev/zero")
+    elif kind == "socket":
+        listener = socket.socket(socket.AF_UNIX)
+        listener.bind(str(at))
+        return listener
+    return None
+
+
+@pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)", "link to a FIFO", "character device", "socket"])
+def test_a_path_that_is_not_a_regular_file_is_refused_naming_what_it_is(grains_bin, tmp_path, kind):
+    """A FIFO held the child that reads the file first for its minute's limit, /dev/zero was read as HDF5, and a folder
+    was refused by the command line's check with no word of what is resumed: each is refused before any reading."""
+    at = tmp_path / "run.h5"
+    held = not_a_file(kind, at)
+    try:
+        resumed = subprocess.run([grains_bin, "resume", str(at), "--quiet"], capture_output=True, text=True, timeout=30)
+    finally:
+        if held:
+            held.close()
+    what = {"link to a FIFO": "FIFO (named pipe)"}.get(kind, kind)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert resumed.stderr == (f"error: '{at}' is a {what}: grains resume reads a regular file, the H5MD output that "
+                              "grains run or grains consolidate wrote; not resumed\n"), resumed.stderr
+
+
+@pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
+def test_a_programme_whose_stage_table_is_not_a_file_is_refused_naming_what_it_is(grains_bin, root, tmp_path, kind):
+    """The resume reads the stage table back and rewrites it: one that is no longer a file was said to be "gone"."""
+    _, _, killed, killed_table, _ = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
+                                                     lambda rows: rows[:3])
+    killed_table.unlink()
+    not_a_file(kind, killed_table)
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"'{killed}': its stage table '{killed_table}' is a {kind}, not the file the programme wrote; resuming "
+            "needs that file" in resumed.stderr), resumed.stderr
 
 
 def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(grains_bin, root, tmp_path):

@@ -1,5 +1,6 @@
 """The Python tools name an output path in a missing folder, or an unreadable input, in one line instead
 of a traceback after their work (plot.py, consolidation_fit.py, density_correlations.py)."""
+import os
 import subprocess
 import sys
 
@@ -122,3 +123,21 @@ def test_bad_arguments_end_in_one_line_naming_the_option(tmp_path, stage_table, 
     r = tool(name, *map(fill, args))
     assert r.returncode in (1, 2) and "Traceback" not in r.stderr, r.stderr
     assert all(fill(w) in r.stderr for w in words), r.stderr
+
+
+@pytest.mark.parametrize("name, args, lead", [
+    ("plot.py", ["{run}"], "run file '{run}'"),
+    ("collisions.py", ["{run}"], "run file '{run}'"),
+    ("stage_traces.py", ["{run}", "-o", "{tmp}/f.png"], "'{run}'"),
+    ("density_correlations.py", ["{run}", "-o", "{tmp}/d.png"], "h5: '{run}'"),
+])
+@pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
+def test_a_run_file_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, name, args, lead, kind):
+    """A folder or a FIFO given as the run's file was said not to exist (runner/reuse.py's not_a_run_file, in the words
+    of `grains resume`)."""
+    run = tmp_path / "run.h5"
+    run.mkdir() if kind == "folder" else os.mkfifo(run)
+    fill = lambda text: text.format(run=run, tmp=tmp_path)
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / name), *map(fill, args)], capture_output=True, text=True,
+                       timeout=60)
+    refused(r, f"{fill(lead)} is a {kind}: name a regular file, the HDF5 file grains wrote")
