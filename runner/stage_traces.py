@@ -76,10 +76,18 @@ def first_compression_under_way(h5, rows):
     return len(rows), float(rows[-1]["time"]) if rows else 0.0, state
 
 
+def labels_of(paths):
+    """Each file's name without its suffix, or, where two files share it (every campaign names its samples alike),
+    its folder's name and its own."""
+    stems = [p.stem for p in paths]
+    return [f"{p.parent.name}/{p.stem}" if stems.count(p.stem) > 1 else p.stem for p in paths]
+
+
 def first_compressions(files):
     """For each stages file: its Course, the files without a table or a first compression begun left out."""
     courses = []
-    for h5 in map(Path, files):
+    paths = list(map(Path, files))
+    for h5, label in zip(paths, labels_of(paths)):
         table = stage_table_of(h5) if h5.is_file() else None
         if table is None:
             continue
@@ -91,12 +99,12 @@ def first_compressions(files):
             if under_way is not None:
                 stage, start, state = under_way
                 t, phi, _ = stage_course(h5, stage, start)
-                courses.append(Course(h5.stem, t, phi, math.nan, False, math.nan, state))
+                courses.append(Course(label, t, phi, math.nan, False, math.nan, state))
             continue
         stage, start = first
         t, phi, _ = stage_course(h5, stage, start)
         row = rows[[int(r["stage"]) for r in rows].index(stage)]
-        courses.append(Course(h5.stem, t, phi, float(row["phi"]), row["reached"] == "1", float(row["time"]) - start))
+        courses.append(Course(label, t, phi, float(row["phi"]), row["reached"] == "1", float(row["time"]) - start))
     return courses
 
 

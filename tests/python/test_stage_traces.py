@@ -70,6 +70,19 @@ def test_the_picture_and_its_refusals(programme, tmp_path):
     assert r.returncode == 2 and "no file has a stage table" in r.stderr, r.stderr
 
 
+def test_samples_of_the_same_name_in_two_folders_are_told_apart(programme, tmp_path):
+    """Campaigns name their samples alike (consolidation-seed4.h5 in each): such files are labelled with their folder."""
+    copies = []
+    for folder in ("slow", "fast"):
+        (tmp_path / folder).mkdir()
+        for suffix in (".h5", ".csv"):
+            shutil.copy(programme.with_suffix(suffix), tmp_path / folder / programme.with_suffix(suffix).name)
+        copies.append(tmp_path / folder / programme.name)
+    labels = [c.label for c in stage_traces.first_compressions(copies + [programme])]
+    assert labels == ["slow/small", "fast/small", f"{programme.parent.name}/small"]
+    assert [c.label for c in stage_traces.first_compressions([copies[0]])] == ["small"]
+
+
 @pytest.fixture(scope="module")
 def stopped(grains_bin, tmp_path_factory):
     """The small type-2 programme stopped by Ctrl-C inside its first compression: the signal goes once the table has
