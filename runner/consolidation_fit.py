@@ -27,6 +27,9 @@ import sys
 import numpy as np
 from scipy.optimize import curve_fit, minimize_scalar
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import reuse  # noqa: E402
+
 
 def inverse_phi_regime_two(p, inv_phi0, lam, p0):
     return inv_phi0 - lam * np.log(p / p0)
@@ -149,8 +152,10 @@ COLUMNS = {"P_star": ("P_star", "pressure_reduced"), "phi": ("phi", "solid_fract
 
 def recorded_table(h5):
     """The stage table a `grains consolidate` HDF5 file names (its grains group's stage_table attribute, a path
-    relative to the file's folder), or None when the file is unreadable or names none."""
+    relative to the file's folder), or None when the file is unreadable, not a regular file or names none."""
     import h5py
+    if reuse.not_a_regular_file(h5):   # h5py would wait on a FIFO until something writes into it
+        return None
     try:
         with h5py.File(h5, "r") as f:
             name = f["grains"].attrs.get("stage_table") if "grains" in f else None
@@ -179,6 +184,9 @@ def read_stages(path):
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
+    if kind := reuse.not_a_regular_file(path):   # a FIFO: open and h5py would wait for a writer
+        raise ValueError(f"stage table '{path}' is {kind}: name the stage table (CSV) or the HDF5 file grains "
+                         "consolidate wrote with it")
     if path.suffix in (".h5", ".hdf5"):   # the stage table grains consolidate wrote with it
         table = stage_table_of(path)
         if table is None:

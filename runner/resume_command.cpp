@@ -13,6 +13,7 @@
 #include "core/simulation.hpp"
 #include "io/file_kind.hpp"
 #include "io/scene.hpp"
+#include "output_paths.hpp"
 #include "resume_probe.hpp"
 #include "run_command.hpp"
 
@@ -26,6 +27,13 @@ int resume_run(const std::string& path, bool quiet) {
   // Then, while no OpenMP thread runs: a child reads the file, and a file HDF5 dies reading is refused.
   refuse_a_file_hdf5_dies_reading(path);
   RunCheckpoint cp = read_checkpoint(path);
+  // The XDMF file beside it is rewritten by a rename, which replaced a FIFO there and failed on a folder only after
+  // the file and the stage table had been cut back to the checkpoint (the status left 'running'): refused first.
+  if (const auto xdmf = xdmf_beside(path, stored_scene(path, cp)))
+    if (const auto kind = not_a_regular_file(*xdmf))
+      throw std::runtime_error(fmt::format("'{}': the XDMF file the resume rewrites beside it, '{}', is {}: move that "
+                                           "away (a regular file or nothing may be there); not resumed", path, *xdmf,
+                                           *kind));
   // A programme's file names its stage table.
   return cp.stage_table.empty() ? resume_plain_run(path, cp, quiet) : resume_consolidation(path, cp, quiet);
 }

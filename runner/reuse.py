@@ -101,22 +101,33 @@ def run_grains(prog, command):
     return done.stdout
 
 
-def not_a_run_file(path):
-    """Why `path` is no file to read a grains run from, said after its name, or None for a regular file: "does not
-    exist", or what it names, its links followed, when that is not a regular file ("is a FIFO (named pipe): ..."), in
-    the words of grains' own check (engine/io/file_kind.hpp). h5py waits on a FIFO until something writes into it."""
+def not_a_regular_file(path):
+    """What `path` names, its links followed, when that is something other than a regular file ("a folder", "a FIFO
+    (named pipe)", "a character device", ...), in the words of grains' own check (engine/io/file_kind.hpp); None for
+    a regular file, and for a name that holds nothing or cannot be looked at (opening it then says why)."""
     try:
         mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    return ("a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
+            else "a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode)
+            else "a socket" if stat.S_ISSOCK(mode) else "something other than a file")
+
+
+def not_a_run_file(path):
+    """Why `path` is no file to read a grains run from, said after its name, or None for a regular file: "does not
+    exist", or what it names when that is not a regular file ("is a FIFO (named pipe): ..."). h5py waits on a FIFO
+    until something writes into it."""
+    try:
+        os.stat(path)
     except (FileNotFoundError, NotADirectoryError):
         return "does not exist"
     except OSError as err:
         return f"cannot be looked at ({err.strerror})"
-    if stat.S_ISREG(mode):
-        return None
-    kind = ("a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
-            else "a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode)
-            else "a socket" if stat.S_ISSOCK(mode) else "something other than a file")
-    return f"is {kind}: name a regular file, the HDF5 file grains wrote"
+    kind = not_a_regular_file(path)
+    return f"is {kind}: name a regular file, the HDF5 file grains wrote" if kind else None
 
 
 def ended(h5):
@@ -162,8 +173,10 @@ def read_unlocked(h5, read, tries=20):
     """read(file) on h5 opened without HDF5's lock, which the run writing it holds, so that a run still going can be
     read (its scene, written when the file is made; what it has flushed since). Read while that run writes, the
     file may not open ("truncated file") or a read may fail for a moment: tried again, 0.1 s apart; the last
-    OSError is raised."""
+    OSError is raised, at once for a path that is not a regular file."""
     import h5py  # imported late so the tools' --help works without it
+    if kind := not_a_regular_file(h5):   # h5py would wait on a FIFO until something writes into it
+        raise OSError(f"'{h5}' is {kind}, not an HDF5 file grains wrote")
     for attempt in range(tries):
         try:
             with h5py.File(h5, "r", locking=False) as f:
@@ -195,7 +208,9 @@ def difference(now, h5):
     "particles.count = 80 there, 200 now"."""
     then = stored(h5)
     if then is None:
-        return f"{h5} is missing or holds no scene (parameters/scene.toml)"
+        kind = not_a_regular_file(h5)
+        return (f"{h5} is {kind}, not an HDF5 file grains wrote" if kind
+                else f"{h5} is missing or holds no scene (parameters/scene.toml)")
     then, now = flat(then), flat(now)
     shown = lambda scene, key: repr(scene[key]) if key in scene else "unset"
     differs = [f"{key} = {shown(then, key)} there, {shown(now, key)} now" for key in sorted(then.keys() | now.keys())

@@ -423,3 +423,17 @@ def test_a_fifo_at_a_runs_path_is_taken_as_not_ended_without_waiting(tmp_path):
     code = f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse; print(reuse.ended({str(fifo)!r}))"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert (r.returncode, r.stdout) == (0, "False\n"), r.stderr
+
+
+def test_reading_or_comparing_a_fifo_at_a_runs_path_neither_waits_nor_calls_it_missing(tmp_path):
+    """reuse.read_unlocked opened a FIFO with h5py, which waits until something writes into it; reuse.difference
+    then said a FIFO at a sample's path was "missing"."""
+    fifo = tmp_path / "run.h5"
+    os.mkfifo(fifo)
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse\n"
+            f"try:\n    reuse.read_unlocked({str(fifo)!r}, lambda f: 1)\n"
+            f"except OSError as e:\n    print(e)\n"
+            f"print(reuse.difference({{}}, {str(fifo)!r}))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
+    assert (r.returncode, r.stdout) == (0, f"'{fifo}' is a FIFO (named pipe), not an HDF5 file grains wrote\n"
+                                           f"{fifo} is a FIFO (named pipe), not an HDF5 file grains wrote\n"), r.stderr

@@ -1,6 +1,7 @@
 """The consolidation-curve fits (physics.md section 9) recover the parameters of synthetic curves
 made from the formulas, and the command writes its plot and names bad input."""
 import math
+import os
 import subprocess
 import sys
 
@@ -216,3 +217,16 @@ def test_plot_draws_each_fit_over_its_stages_with_its_parameters(tmp_path):
     assert any(label.startswith(f"regimes II-III fit: λ = {crossover['lambda']:.3f}, Φmax = {crossover['phi_max']:.4f}")
                for label in labels)
     assert top.get_title() == "stages.csv"
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".h5"])
+@pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
+def test_a_table_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, suffix, kind):
+    """A FIFO given as the stage table, or as the HDF5 file whose table is read, held the fit without end (open and
+    h5py wait for a writer); a folder was reported as a bare IsADirectoryError, or as an HDF5 file without a table."""
+    table = tmp_path / f"stages{suffix}"
+    table.mkdir() if kind == "folder" else os.mkfifo(table)
+    r = subprocess.run([sys.executable, ROOT / "runner" / "consolidation_fit.py", table], capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode == 2 and r.stderr == (f"consolidation_fit: stage table '{table}' is a {kind}: name the stage "
+                                              "table (CSV) or the HDF5 file grains consolidate wrote with it\n"), r.stderr

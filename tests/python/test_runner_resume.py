@@ -5,6 +5,7 @@ import os
 import shutil
 import signal
 import socket
+import stat
 import struct
 import subprocess
 import time
@@ -440,6 +441,26 @@ def test_a_programme_whose_stage_table_is_not_a_file_is_refused_naming_what_it_i
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
     assert (f"'{killed}': its stage table '{killed_table}' is a {kind}, not the file the programme wrote; resuming "
             "needs that file" in resumed.stderr), resumed.stderr
+
+
+@pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
+def test_an_xdmf_beside_that_is_not_a_file_is_refused_before_anything_is_rewritten(grains_bin, root, tmp_path, kind):
+    """The resume rewrites the XDMF file beside the output by a rename: a FIFO there was replaced, and a folder failed
+    the rename only after the file and the stage table had been cut back to the checkpoint, its status left 'running'."""
+    _, _, killed, killed_table, _ = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
+                                                     lambda rows: rows[:3])
+    xdmf = killed.with_suffix(".xdmf")
+    xdmf.unlink(missing_ok=True)
+    not_a_file(kind, xdmf)
+    file_before, table_before = killed.read_bytes(), killed_table.read_text()
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert resumed.stderr == (f"error: '{killed}': the XDMF file the resume rewrites beside it, '{xdmf}', is a {kind}: "
+                              "move that away (a regular file or nothing may be there); not resumed\n"), resumed.stderr
+    assert killed.read_bytes() == file_before and killed_table.read_text() == table_before
+    assert (xdmf.is_dir() if kind == "folder" else stat.S_ISFIFO(os.lstat(xdmf).st_mode))
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["whole.h5", "whole.xdmf", "whole.csv", "killed.h5",
+                                                                  "killed.csv", "killed.xdmf"])
 
 
 def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(grains_bin, root, tmp_path):
