@@ -110,10 +110,11 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
       for (const auto& [n, v] : r.values) csv << ',' << n;
       csv << '\n';
     }
-    auto value = [&](const std::string& n) {
+    // The record's value of n; `otherwise` for a name it does not hold.
+    auto value = [&](const std::string& n, double otherwise = std::nan("")) {
       for (const auto& [k, v] : r.values)
         if (k == n) return v;
-      return std::nan("");
+      return otherwise;
     };
     const std::string branch = r.phase == "unloading"                      ? "unloading"
                                : r.phase == "loading" || (r.phase == "equilibrate" && r.target == settings.start_pressure)
@@ -136,11 +137,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // The trace's row at the stage's end, the record's state, so that a stage's course reaches it: on_check is not
     // called at the check that ends a stage, so the step has no row yet. Before the checkpoint below, which holds it.
     if (trace_every > 0)
-      write_trace_row(r, [&](const std::string& n) {
-        for (const auto& [k, v] : r.values)
-          if (k == n) return v;
-        return sim.get(n);   // the target, which the record does not hold
-      });
+      write_trace_row(r, [&](const std::string& n) { return value(n, sim.get(n)); });   // the target: not in the record
     write_frame(out, sim);
     status.finish();
     write_new_warnings(out, sim, warnings_written);
