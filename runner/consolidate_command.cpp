@@ -302,8 +302,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0, 0.0);
 }
 
-int resume_consolidation(const std::string& path, RunCheckpoint& cp, bool quiet) {
-  const Scene scene = stored_scene(path, cp);
+int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpoint& cp, bool quiet) {
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   auto sim = Simulation::create(scene);

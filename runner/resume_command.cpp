@@ -29,13 +29,14 @@ int resume_run(const std::string& path, bool quiet) {
   RunCheckpoint cp = read_checkpoint(path);
   // The XDMF file beside it is rewritten by a rename, which replaced a FIFO there and failed on a folder only after
   // the file and the stage table had been cut back to the checkpoint (the status left 'running'): refused first.
-  if (const auto xdmf = xdmf_beside(path, stored_scene(path, cp)))
+  const Scene scene = stored_scene(path, cp);
+  if (const auto xdmf = xdmf_beside(path, scene))
     if (const auto kind = not_a_regular_file(*xdmf))
       throw std::runtime_error(fmt::format("'{}': the XDMF file the resume rewrites beside it, '{}', is {}: move that "
                                            "away (a regular file or nothing may be there); not resumed", path, *xdmf,
                                            *kind));
   // A programme's file names its stage table.
-  return cp.stage_table.empty() ? resume_plain_run(path, cp, quiet) : resume_consolidation(path, cp, quiet);
+  return cp.stage_table.empty() ? resume_plain_run(path, scene, cp, quiet) : resume_consolidation(path, scene, cp, quiet);
 }
 
 Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {

@@ -303,8 +303,7 @@ int run_scene(const RunOptions& opt) {
   return continue_run(scene, *sim, out, *prepared.steps, prepared.stop_at_aggregation, opt.quiet, 0.0);
 }
 
-int resume_plain_run(const std::string& path, RunCheckpoint& cp, bool quiet) {
-  const Scene scene = stored_scene(path, cp);
+int resume_plain_run(const std::string& path, const Scene& scene, RunCheckpoint& cp, bool quiet) {
   PreparedRun prepared = prepare_run(scene);
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
   restore_checkpoint(*prepared.sim, path, cp);

@@ -34,9 +34,10 @@ struct RunOptions {
 // Validates the scene completely before touching the output file; returns the process exit code.
 int run_scene(const RunOptions& options);
 
-// `grains resume` of a `grains run` output (resume_command.hpp), at its checkpoint `cp`.
+// `grains resume` of a `grains run` output (resume_command.hpp), at its checkpoint `cp`, with its stored `scene`.
+class Scene;
 struct RunCheckpoint;
-int resume_plain_run(const std::string& path, RunCheckpoint& cp, bool quiet);
+int resume_plain_run(const std::string& path, const Scene& scene, RunCheckpoint& cp, bool quiet);
 
 // `grains check`: the same checks as `run` without running (the simulation is built, the run length
 // resolved, warnings printed); prints the resolved scene and the derived time step and length.
