@@ -93,14 +93,18 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
                           .stage_progress = std::move(progress)});
     next_checkpoint = next_multiple();
   };
+  // The target pressure in stage r now: none in the aggregation's fixed cell (r.target NaN, as in the stage table),
+  // whatever cell.pressure holds; else the barostat's (below r.target while a first compression ramps). For the
+  // trace, the stage records and the status line alike.
+  const auto target_now = [&](const StageRecord& r) {
+    return r.phase == "aggregation" ? r.target : sim.get("pressure_target");
+  };
   // The trace (programme.trace_every): a row at the current step of stage r, `value` giving each traced output.
   const long trace_every = scene.integer("programme.trace_every");
   const std::vector<std::string> traced = traced_outputs(sim);
   const auto write_trace_row = [&](const StageRecord& r, const auto& value) {
     const long step = sim.step_count();
-    // The aggregation's cell is fixed: no target (NaN, as in the stage table), whatever cell.pressure holds.
-    for (const auto& n : traced)
-      out.write_trace(n, step, sim.time(), n == "pressure_target" && r.phase == "aggregation" ? std::nan("") : value(n));
+    for (const auto& n : traced) out.write_trace(n, step, sim.time(), value(n));
     out.write_trace("stage", step, sim.time(), double(r.index));
   };
   auto on_stage = [&](const StageRecord& r) {
@@ -110,9 +114,12 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
       for (const auto& [n, v] : r.values) csv << ',' << n;
       csv << '\n';
     }
+    // The stage record: the programme's values, and the stage's target (not a table column: target_pressure is).
+    auto recorded = r.values;
+    recorded.emplace_back("pressure_target", target_now(r));
     // The record's value of n; `otherwise` for a name it does not hold.
     auto value = [&](const std::string& n, double otherwise = std::nan("")) {
-      for (const auto& [k, v] : r.values)
+      for (const auto& [k, v] : recorded)
         if (k == n) return v;
       return otherwise;
     };
@@ -131,13 +138,13 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     if (!csv)
       throw OutputError(
           fmt::format("cannot write stage {}'s row to the stage table '{}' ({})", r.index, table, std::strerror(errno)));
-    write_observables(out, sim, r.values);   // the row's values: the network's mark has moved on since
+    write_observables(out, sim, recorded);   // the row's values: the network's mark has moved on since
     out.write_observable("quench_start", sim.step_count(), sim.time(), quenched ? double(r.quench_start) : std::nan(""));
     out.write_observable("quench_drag", sim.step_count(), sim.time(), quenched ? r.quench_drag : std::nan(""));
     // The trace's row at the stage's end, the record's state, so that a stage's course reaches it: on_check is not
     // called at the check that ends a stage, so the step has no row yet. Before the checkpoint below, which holds it.
     if (trace_every > 0)
-      write_trace_row(r, [&](const std::string& n) { return value(n, sim.get(n)); });   // the target: not in the record
+      write_trace_row(r, [&](const std::string& n) { return value(n, sim.get(n)); });
     write_frame(out, sim);
     status.finish();
     write_new_warnings(out, sim, warnings_written);
@@ -189,7 +196,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     // writes the records the unbroken one does.
     const long step = sim.step_count();
     if (trace_every > 0 && r.steps % settings.check_every == 0 && step / trace_every != (step - settings.check_every) / trace_every)
-      write_trace_row(r, [&](const std::string& n) { return sim.get(n); });
+      write_trace_row(r, [&](const std::string& n) { return n == "pressure_target" ? target_now(r) : sim.get(n); });
     stopped = stop_requested();
     if (stopped || (next_checkpoint > 0 && sim.step_count() >= next_checkpoint)) checkpoint(at.stage - 1, at.values());
     if (stopped) {
@@ -200,7 +207,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     if (stopped || quiet || !status.due()) return stopped;
     const double rate = double(sim.step_count() - first_step) * double(sim.particle_count()) / status.elapsed_seconds();
     // While a first compression ramps (programme.first_compression_time), the target it has reached.
-    const double target = r.phase == "aggregation" ? r.target : sim.get("pressure_target");
+    const double target = target_now(r);
     const std::string ramp = target < r.target ? fmt::format(" (ramping: target {:.4g})", target) : "";
     const std::string waiting =
         r.phase == "aggregation"

@@ -42,8 +42,12 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   for (const auto& [slot, step] : slots) {
     const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
     cp.state.resize(h5::shape(d.get(), path, checkpoint_slot_name(slot)).at(0));
-    // A slot whose checksum fails (damaged on disk) is passed over like an invalid one.
-    if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0) continue;
+    // A slot whose checksum fails (damaged on disk) is passed over like an invalid one, and named to the caller.
+    if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0) {
+      cp.damaged_newer_step = long(step);
+      cp.damaged_newer_stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
+      continue;
+    }
     if (readable++ < skip) continue;
     cp.step = long(step);
     cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));

@@ -31,6 +31,10 @@ struct RunCheckpoint {
   std::string scene_directory;            // where the scene's relative file paths lie (particles.file)
   std::string stage_table;                // `grains consolidate`: the stage table, relative to the file's folder
   std::vector<double> radius, mass, position;   // the run's first frame: what a rebuilt simulation must have
+  // A newer checkpoint whose bytes did not read back (their checksum failed), passed over for this one: its step and
+  // stage (-1: none passed over).
+  long damaged_newer_step = -1;
+  int damaged_newer_stage = -1;
 };
 
 // The check sum of a stored scene's text, in hex: each checkpoint records that of the scene it continues, so that

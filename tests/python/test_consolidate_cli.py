@@ -224,9 +224,9 @@ def test_consolidate_traces_every_stage_at_its_checks_and_its_end_and_changes_no
                 assert min(phi_ends[s], phi_ends[s + 1]) - 1e-9 <= phi[within[-1]] <= max(phi_ends[s], phi_ends[s + 1]) + 1e-9
 
 
-def test_the_trace_of_an_aggregation_in_its_fixed_cell_has_no_target(grains_bin, root, tmp_path):
-    """The type-2 aggregation holds the cell fixed: its trace's target is NaN, as in the stage table, not the
-    cell.pressure the scene gives for later."""
+def test_the_trace_and_record_of_an_aggregation_in_its_fixed_cell_have_no_target(grains_bin, root, tmp_path):
+    """The type-2 aggregation holds the cell fixed: its trace's target and its stage record's are NaN, as in the stage
+    table, not the cell.pressure the scene gives for later (the record held that until 2026-12-06)."""
     out = tmp_path / "agg.h5"
     r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--set", "particles.count=100", "--set",
             "programme.aggregation_budget=3000", "--set", "programme.stage_budget=2000", "--set", "programme.load=false",
@@ -242,9 +242,15 @@ def test_the_trace_of_an_aggregation_in_its_fixed_cell_has_no_target(grains_bin,
         target = f["grains/trace/pressure_target/value"][()]
         clusters = f["grains/trace/bonded_clusters/value"][()]
         recorded_clusters = f["observables/bonded_clusters/value"][1:]
+        recorded_target = f["observables/pressure_target/value"][1:]
     # Every stage ends with a row, the aggregation's too (with its record's clusters, its target NaN as in the table).
     at_end = np.isin(steps, ends)
     assert list(steps[at_end]) == list(ends) and list(stage[at_end]) == [0, 1, 2]
     assert np.array_equal(clusters[at_end], recorded_clusters)
     assert np.isnan(target[stage == 0]).all() and (stage == 0).sum() >= 2
     assert list(target[stage > 0]) == [float(rows[int(s)]["target_pressure"]) for s in stage[stage > 0]]
+    # The stage records say the same: the aggregation's NaN, the later stages' targets as their rows give them.
+    table_target = np.array([float(row["target_pressure"]) for row in rows])
+    assert np.isnan(recorded_target[0]) and np.isnan(table_target[0])
+    assert np.array_equal(recorded_target, table_target, equal_nan=True)
+    assert np.array_equal(target[at_end], recorded_target, equal_nan=True)

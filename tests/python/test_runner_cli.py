@@ -599,6 +599,18 @@ def test_the_output_name_is_followed_through_a_link_and_never_replaces_what_is_n
     assert stat.S_ISFIFO(os.lstat(pipe).st_mode) and not (tmp_path / "pipe.h5.part").exists()
 
 
+def test_an_output_name_linked_into_a_missing_folder_is_refused_in_grains_words(grains_bin, root, tmp_path):
+    """A link whose target's folder is not there: the message says so (it was HDF5's 'unable to open file' about
+    'missing_dir/x.h5.part'), and nothing is made."""
+    link = tmp_path / "link.h5"
+    link.symlink_to("missing_dir/x.h5")
+    r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", link, "--quiet", "--set", "time.steps=10")
+    assert r.returncode == 1, r.stderr
+    assert r.stderr == (f"error: cannot create output file '{link}': the name is a link to 'missing_dir/x.h5', whose "
+                        "folder 'missing_dir' does not exist; make that folder, or name another file\n"), r.stderr
+    assert link.is_symlink() and not (tmp_path / "missing_dir").exists()
+
+
 def test_run_and_check_say_that_the_programme_keys_are_not_used(grains_bin, root, tmp_path):
     """`grains consolidate` warns about a run length it does not use; `grains run` stepped a scene's [programme]
     (a type-1 preparation, say) without a word, as if it had been prepared."""

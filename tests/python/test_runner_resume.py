@@ -573,24 +573,56 @@ def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_t
     assert moved.returncode == 1 and "another position than the run's first frame" in moved.stderr, moved.stderr
 
 
-def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root, tmp_path):
-    """Each checkpoint carries a checksum: bytes damaged on disk are detected, and the resume starts from the
-    other slot, still ending with the unbroken run's records."""
-    whole = tmp_path / "whole.h5"
-    assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
-    killed = killed_copy(whole, tmp_path / "killed.h5")
-    with h5py.File(killed, "r+") as f:
+def damage_the_newest_checkpoint(path):
+    """Flips a byte of the newest checkpoint's first chunk on disk (its checksum then fails); returns the (step, stage)
+    of the older checkpoint and of the newest."""
+    with h5py.File(path, "r+") as f:
         slots = sorted(("checkpoint_0", "checkpoint_1"), key=lambda k: f["grains"][k].attrs["step"])
-        older, newest = (int(f["grains"][k].attrs["step"]) for k in slots)
+        older, newest = ((int(f["grains"][k].attrs["step"]), int(f["grains"][k].attrs["stage"])) for k in slots)
         chunk = f["grains"][slots[1]].id.get_chunk_info(0)   # where its first chunk lies in the file
-    with open(killed, "r+b") as raw:   # flip a byte of the newest checkpoint's first chunk on disk
+    with open(path, "r+b") as raw:
         raw.seek(chunk.byte_offset + 100)
         byte = raw.read(1)
         raw.seek(chunk.byte_offset + 100)
         raw.write(bytes([byte[0] ^ 0xFF]))
-    resumed = run(grains_bin, "resume", killed, "--quiet")
+    return older, newest
+
+
+def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root, tmp_path):
+    """Each checkpoint carries a checksum: bytes damaged on disk are detected, and the resume starts from the
+    other slot, still ending with the unbroken run's records. It says so: the damaged one passed over, and the one it
+    resumes from (it said nothing of the damage until 2026-12-06)."""
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    (older, _), (newest, _) = damage_the_newest_checkpoint(killed)
+    resumed = run(grains_bin, "resume", killed)
     assert resumed.returncode == 0, resumed.stderr
     assert (older, newest) == (12000, 15000) and f"resumed      at step {older}" in resumed.stdout
+    assert (f"warning: '{killed}': the newest checkpoint (step {newest}) is damaged (its checksum fails) and is passed "
+            f"over; resuming from the one before it (step {older})\n" in resumed.stderr), resumed.stderr
+    assert f"resuming '{killed}' at step {older} of" in resumed.stderr and f"at step {newest}" not in resumed.stderr
+    assert_same_records(whole, killed)
+
+
+def test_a_programme_whose_newest_checkpoint_is_damaged_says_which_stage_it_resumes_from(grains_bin, root, tmp_path):
+    """A programme's checkpoints are named by step and stage: the damaged one passed over, and the stage end the
+    resume goes on from."""
+    programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
+                 "programme.top_pressure=0.02", "--set", "programme.stage_budget=2000", "--quiet"]
+    whole, table = tmp_path / "whole.h5", tmp_path / "t.csv"
+    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", table, *programme[1:]).returncode == 0
+    whole_table = table.read_text()
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    (older, older_stage), (newest, newest_stage) = damage_the_newest_checkpoint(killed)
+    assert older_stage >= 0 and newest_stage == older_stage + 1
+    resumed = run(grains_bin, "resume", killed)
+    assert resumed.returncode == 0, resumed.stderr
+    assert (f"warning: '{killed}': the newest checkpoint (step {newest}, after stage {newest_stage}) is damaged (its "
+            f"checksum fails) and is passed over; resuming from the one before it (step {older}, after stage "
+            f"{older_stage})\n" in resumed.stderr), resumed.stderr
+    assert f"resuming '{killed}' 0 steps into stage {older_stage + 1} (step {older}," in resumed.stderr, resumed.stderr
+    assert table.read_text() == whole_table
     assert_same_records(whole, killed)
 
 
