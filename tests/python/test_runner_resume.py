@@ -193,20 +193,25 @@ def test_a_series_whose_extent_is_damaged_past_the_file_is_refused_not_cut_back_
             and "damaged" in resumed.stderr), resumed.stderr
 
 
-def test_a_checkpoint_slot_whose_layout_is_damaged_is_refused_before_it_is_written(grains_bin, root, tmp_path):
-    """A resumed run writes its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
+def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
+    """A resumed run wrote its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
     which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
-    series above), H5Dwrite's Fletcher-32 summed that many and the resume died of SIGSEGV. The slots are checked as the
-    series are before the run goes on."""
+    series above), H5Dwrite's Fletcher-32 summed that many and the resume died of SIGSEGV; from 2026-12-05 it was
+    refused. Since 2026-12-06 the resume keeps only the slot it resumed from and makes the other anew, so such a slot is
+    never written: the resume ends as the unbroken run, its slots laid out as grains writes them."""
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:   # killed while writing step 400's checkpoint: the resume writes it again
         f["grains/checkpoint_1"].attrs["valid"] = 0.0
     patch_header(killed, "grains/checkpoint_1", struct.pack("<II", 65536, 1), 3, 0x04)
     resumed = run(grains_bin, "resume", killed, "--quiet")
-    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
-    assert (f"'{killed}': /grains/checkpoint_1 has chunks of 67174400 rows, where grains writes at most 65536: the file "
-            "is damaged" in resumed.stderr), resumed.stderr
+    assert resumed.returncode == 0, (resumed.returncode, resumed.stderr)
+    assert_same_records(whole, killed)
+    with h5py.File(killed) as f:
+        for k in ("checkpoint_0", "checkpoint_1"):
+            if k in f["grains"]:
+                assert f["grains"][k].chunks == (65536,), k
+                f["grains"][k][()]   # reads back: its checksum holds
 
 
 def flip_view_mapping(path, view, at, mask):
@@ -602,6 +607,24 @@ def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root
     assert (f"warning: '{killed}': the newest checkpoint (step {newest}) is damaged (its checksum fails) and is passed "
             f"over; resuming from the one before it (step {older})\n" in resumed.stderr), resumed.stderr
     assert f"resuming '{killed}' at step {older} of" in resumed.stderr and f"at step {newest}" not in resumed.stderr
+    assert_same_records(whole, killed)
+
+
+def test_the_resume_past_a_damaged_checkpoint_keeps_the_good_slot_and_makes_the_other_anew(grains_bin, root, tmp_path):
+    """The resumed run's next checkpoint goes into a slot made anew where the damaged one was: the one resumed from
+    stays whole meanwhile, so a kill while that checkpoint is written leaves something to resume from. Until 2026-12-06 the damaged slot stayed
+    marked valid and newest, the next checkpoint went over the good one, and the file ended with a damaged slot
+    marked valid."""
+    whole = tmp_path / "whole.h5"
+    assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    (older, _), (newest, _) = damage_the_newest_checkpoint(killed)
+    assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
+    with h5py.File(killed) as f:
+        slots = {k: f["grains"][k] for k in ("checkpoint_0", "checkpoint_1") if f["grains"][k].attrs["valid"] == 1}
+        assert sorted(int(d.attrs["step"]) for d in slots.values()) == [older, newest]
+        for d in slots.values():
+            d[()]   # reads back: its checksum holds
     assert_same_records(whole, killed)
 
 
