@@ -77,10 +77,20 @@ def first_compression_under_way(h5, rows):
 
 
 def labels_of(paths):
-    """Each file's name without its suffix, or, where two files share it (every campaign names its samples alike),
-    its folder's name and its own."""
-    stems = [p.stem for p in paths]
-    return [f"{p.parent.name}/{p.stem}" if stems.count(p.stem) > 1 else p.stem for p in paths]
+    """Each file's name without its suffix, or, where files share it (every campaign names its samples alike), the
+    shortest end of its path that tells it from the others: a/x/s.h5 and b/x/s.h5 are a/x/s and b/x/s."""
+    parts = [(*p.absolute().parent.parts[1:], p.stem) for p in paths]   # [1:]: not the root
+    lengths = [1] * len(paths)
+    while True:
+        labels = ["/".join(whole[-n:]) for whole, n in zip(parts, lengths)]
+        files = {}   # label -> the files it names (a file given twice is one)
+        for whole, label in zip(parts, labels):
+            files.setdefault(label, set()).add(whole)
+        shared = [k for k, label in enumerate(labels) if len(files[label]) > 1 and lengths[k] < len(parts[k])]
+        if not shared:
+            return labels
+        for k in shared:
+            lengths[k] += 1
 
 
 def first_compressions(files):

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -144,3 +145,13 @@ def test_a_programme_stopped_in_its_first_compression_is_drawn_dashed_as_far_as_
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", stopped, "-o", out], capture_output=True,
                        text=True)
     assert r.returncode == 0 and out.stat().st_size > 0, r.stderr
+
+
+def test_labels_are_the_shortest_path_ends_that_tell_the_files_apart(tmp_path):
+    """Labelled folder/stem, a/x/s.h5 and b/x/s.h5 were both x/s: each takes as much of its path as tells it from the
+    others, a stem of its own stays alone, and a file given twice is one file."""
+    paths = [tmp_path / "a/x/s.h5", tmp_path / "b/x/s.h5", tmp_path / "c/y/s.h5", tmp_path / "c/t.h5"]
+    assert stage_traces.labels_of(paths) == ["a/x/s", "b/x/s", "y/s", "t"]
+    assert stage_traces.labels_of([tmp_path / "a/x/s.h5", tmp_path / "a/x/s.h5"]) == ["s", "s"]
+    relative = [Path("a/x/s.h5"), Path("b/x/s.h5")]
+    assert stage_traces.labels_of(relative) == ["a/x/s", "b/x/s"]
