@@ -25,6 +25,9 @@ from consolidation_fit import stage_table_of  # noqa: E402
 
 # The stages a programme runs before its first compression, by programme.preparation: type 2's aggregation and its
 # relaxation at P* = 0 (programme_stages in engine/protocols/consolidation_programme.cpp); type 1 and none start there.
+# Not read from the output: its table rows (phase, branch) and stage records are those of the stages that ended, and
+# nothing in it says whether the stage under way is still preparation or the first compression (a ramped one's first
+# trace rows have target 0, as the relaxation's do; and a file may have no trace).
 PREPARATION_STAGES = {"type2": 2}
 
 
