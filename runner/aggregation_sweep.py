@@ -130,13 +130,24 @@ def run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own=None):
             "output.snapshots_every=0", *overrides]
 
 
+def not_a_run_name(h5):
+    """Why the sweep cannot write a run at `h5`, or None: the name holds a folder, a FIFO, a device or a socket,
+    which clearing an unfinished run's file there would delete (a FIFO) or fail on (a folder)."""
+    kind = reuse.not_a_regular_file(h5)
+    return (f"{h5} is {kind}, not a run's HDF5 file: move it out of the way (or give another --out) to run "
+            "that point" if kind else None)
+
+
 def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, own=None):
     """One run unless its complete output exists (main has checked that such a run ran the settings asked for
-    now); returns the path of its HDF5 file."""
+    now); returns the path of its HDF5 file. Raises reuse.RunFailed when the run's name holds something other
+    than a file (not_a_run_name)."""
     stem = out / run_name(zeta, k_star, seed, own)
     h5 = out / f"{stem.name}.h5"
     if h5.exists() and reuse.ended(h5):
         return h5
+    if problem := not_a_run_name(h5):   # checked by main before any run; here too, as this is where it would go
+        raise reuse.RunFailed(problem)
     h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
     cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
     for s in run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own):
@@ -580,6 +591,9 @@ def main(argv=None):
         except reuse.SceneError as error:
             ap.exit(2, f"{ap.prog}: {error}\n")
         files = {(z, k, s): out / f"{run_name(z, k, s, own[(z, k)])}.h5" for z, k in pairs for s in seeds}
+        occupied = [problem for problem in map(not_a_run_name, files.values()) if problem]
+        if occupied:   # before any run: the sweep would stop at the first of them, its other runs under way
+            ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
         if args.report:
             missing = [str(f) for f in files.values() if not reuse.ended(f)]
             if missing:

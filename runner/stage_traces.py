@@ -6,7 +6,8 @@ solid fraction the paper's Table II compares.
 
 (the stage tables beside the files, as grains consolidate writes them: STEM.h5 and its table named in the file).
 A sample still in its first compression (a campaign running, or a programme stopped there) is drawn dashed as far
-as its trace goes, its legend saying "still running" or "stopped".
+as its trace goes, its legend saying "still running" or "stopped"; one without a trace row of that stage yet (or
+run without programme.trace_every) is left out, with a note saying so.
 """
 import argparse
 import csv
@@ -24,6 +25,9 @@ from consolidation_fit import stage_table_of  # noqa: E402
 
 # The stages a programme runs before its first compression, by programme.preparation: type 2's aggregation and its
 # relaxation at P* = 0 (programme_stages in engine/protocols/consolidation_programme.cpp); type 1 and none start there.
+# Not read from the output: its table rows (phase, branch) and stage records are those of the stages that ended, and
+# nothing in it says whether the stage under way is still preparation or the first compression (a ramped one's first
+# trace rows have target 0, as the relaxation's do; and a file may have no trace).
 PREPARATION_STAGES = {"type2": 2}
 
 
@@ -77,14 +81,35 @@ def first_compression_under_way(h5, rows):
 
 
 def labels_of(paths):
-    """Each file's name without its suffix, or, where two files share it (every campaign names its samples alike),
-    its folder's name and its own."""
-    stems = [p.stem for p in paths]
-    return [f"{p.parent.name}/{p.stem}" if stems.count(p.stem) > 1 else p.stem for p in paths]
+    """Each file's name without its suffix, or, where files share it (every campaign names its samples alike), the
+    shortest end of its path that tells it from the others: a/x/s.h5 and b/x/s.h5 are a/x/s and b/x/s."""
+    parts = [(*p.absolute().parent.parts[1:], p.stem) for p in paths]   # [1:]: not the root
+    lengths = [1] * len(paths)
+    while True:
+        labels = ["/".join(whole[-n:]) for whole, n in zip(parts, lengths)]
+        files = {}   # label -> the files it names (a file given twice is one)
+        for whole, label in zip(parts, labels):
+            files.setdefault(label, set()).add(whole)
+        shared = [k for k, label in enumerate(labels) if len(files[label]) > 1 and lengths[k] < len(parts[k])]
+        if not shared:
+            return labels
+        for k in shared:
+            lengths[k] += 1
+
+
+def untraced(h5, stage):
+    """Why the first compression under way in h5 (stage `stage`) has no trace rows to draw."""
+    scene = reuse.stored(h5) or {}
+    target = scene.get("cell", {}).get("pressure")
+    what = f"stage {stage}, to P* = {target:g}" if isinstance(target, (int, float)) else f"stage {stage}"
+    if scene.get("programme", {}).get("trace_every") == 0:
+        return f"its programme runs without a trace (programme.trace_every = 0), so its first compression ({what}) has none"
+    return f"no trace rows for its first compression ({what}) yet"
 
 
 def first_compressions(files):
-    """For each stages file: its Course, the files without a table or a first compression begun left out."""
+    """For each stages file: its Course, the files without a table or a first compression begun left out, and so
+    are those inside it without a trace row of it yet (saying so on stderr)."""
     courses = []
     paths = list(map(Path, files))
     for h5, label in zip(paths, labels_of(paths)):
@@ -99,7 +124,11 @@ def first_compressions(files):
             if under_way is not None:
                 stage, start, state = under_way
                 t, phi, _ = stage_course(h5, stage, start)
-                courses.append(Course(label, t, phi, math.nan, False, math.nan, state))
+                if len(t):
+                    courses.append(Course(label, t, phi, math.nan, False, math.nan, state))
+                else:   # nothing to draw: it had an empty legend entry
+                    print(f"note: {h5}: left out of the first-compression figure: {untraced(h5, stage)}",
+                          file=sys.stderr)
             continue
         stage, start = first
         t, phi, _ = stage_course(h5, stage, start)
@@ -154,7 +183,8 @@ def main(argv=None):
             ap.error(f"'{f}' {problem}")
     courses = first_compressions(args.files)
     if not courses:
-        ap.error("no file has a stage table with a loading stage beside it, or a first compression under way")
+        ap.error("nothing to draw: no file has a stage table with a loading stage beside it, or a first compression "
+                 "under way with trace rows")
     plot_first_compressions({"samples": courses}, args.out)
     print(args.out)
     return 0

@@ -3,6 +3,8 @@ restitution and contact duration, its reading of the virial ratio, its verdicts,
 end to end through grains."""
 import csv
 import math
+import os
+import re
 import subprocess
 import sys
 
@@ -260,6 +262,29 @@ def test_runs_are_reused_only_with_the_settings_asked_for_now(grains_bin, tmp_pa
         assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
         assert "particles.count = 40 there, 30 now" in bad.stderr and "give another --out" in bad.stderr
     assert (tmp_path / "sweep.csv").read_text() == table
+
+
+def test_a_folder_or_fifo_at_a_run_name_is_refused_not_deleted(grains_bin, tmp_path):
+    """A run's file that is not complete is deleted before the run (grains never overwrites): a FIFO at its name was
+    deleted silently, and a folder ended the sweep in a traceback. The sweep refuses before any run, naming each path
+    and what it holds; a sweep that meets one later (run_point) ends with the same message."""
+    os.mkfifo(tmp_path / "z0p3-k6469-s1.h5")
+    (tmp_path / "z0p5-k6469-s1.h5").mkdir()
+    small = ["--set", "particles.count=30", "--set", "time.duration=0.5", "--set", "analysis.every=20",
+             "--set", "output.observables_every=50"]
+    cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(tmp_path),
+           "--damping", "0.3", "0.5", "--stiffness", "--jobs", "1", "--threads", "1", *small]
+    for report in ([], ["--report"]):
+        bad = subprocess.run(cmd + report, capture_output=True, text=True, timeout=60)
+        assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
+        assert f"{tmp_path / 'z0p3-k6469-s1.h5'} is a FIFO (named pipe), not a run's HDF5 file: move it" in bad.stderr
+        assert f"{tmp_path / 'z0p5-k6469-s1.h5'} is a folder, not a run's HDF5 file" in bad.stderr, bad.stderr
+    assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["z0p3-k6469-s1.h5", "z0p5-k6469-s1.h5"]   # nothing ran
+    for zeta, kind in ((0.3, "a FIFO (named pipe)"), (0.5, "a folder")):   # no grains to run: it must not get there
+        with pytest.raises(sweep.reuse.RunFailed, match=re.escape(f"{sweep.run_name(zeta, 6469, 1)}.h5 is {kind}, ")):
+            sweep.run_point(tmp_path / "no-grains", zeta, 6469.0, 1, 0.5, 1.0, 1, [], tmp_path)
+    assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
 
 
 def test_rank_correlation_gives_ties_their_mean_rank():

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -144,3 +145,50 @@ def test_a_programme_stopped_in_its_first_compression_is_drawn_dashed_as_far_as_
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", stopped, "-o", out], capture_output=True,
                        text=True)
     assert r.returncode == 0 and out.stat().st_size > 0, r.stderr
+
+
+def test_labels_are_the_shortest_path_ends_that_tell_the_files_apart(tmp_path):
+    """Labelled folder/stem, a/x/s.h5 and b/x/s.h5 were both x/s: each takes as much of its path as tells it from the
+    others, a stem of its own stays alone, and a file given twice is one file."""
+    paths = [tmp_path / "a/x/s.h5", tmp_path / "b/x/s.h5", tmp_path / "c/y/s.h5", tmp_path / "c/t.h5"]
+    assert stage_traces.labels_of(paths) == ["a/x/s", "b/x/s", "y/s", "t"]
+    assert stage_traces.labels_of([tmp_path / "a/x/s.h5", tmp_path / "a/x/s.h5"]) == ["s", "s"]
+    relative = [Path("a/x/s.h5"), Path("b/x/s.h5")]
+    assert stage_traces.labels_of(relative) == ["a/x/s", "b/x/s"]
+
+
+def without_trace(stopped, h5, trace_every):
+    """A copy of the stopped programme at h5, with its table, as a file inside its first compression without a trace
+    row of it: its trace gone, and its scene's programme.trace_every set to `trace_every`."""
+    shutil.copy(stopped, h5)
+    shutil.copy(stopped.with_suffix(".csv"), h5.with_suffix(".csv"))
+    with h5py.File(h5, "r+") as f:
+        f["grains"].attrs["stage_table"] = np.bytes_(h5.with_suffix(".csv").name)
+        del f["grains/trace"]
+        scene = f["parameters/scene.toml"][()].decode()
+        assert "trace_every = 500\n" in scene
+        del f["parameters/scene.toml"]
+        f["parameters/scene.toml"] = scene.replace("trace_every = 500\n", f"trace_every = {trace_every}\n")
+    return h5
+
+
+def test_a_sample_in_its_first_compression_without_a_trace_row_is_left_out_with_a_note(stopped, programme, tmp_path,
+                                                                                        capsys):
+    """A sample stopped (or still running) before the first trace row of its first compression, or run without
+    programme.trace_every, had an empty legend entry: it is left out, a note naming its file and why; with nothing left
+    to draw, the tool says so."""
+    quiet = without_trace(stopped, tmp_path / "quiet.h5", 500)
+    untraced = without_trace(stopped, tmp_path / "untraced.h5", 0)
+    courses = stage_traces.first_compressions([programme, quiet, untraced])
+    assert [c.label for c in courses] == ["small"]
+    notes = capsys.readouterr().err.splitlines()
+    assert notes == [f"note: {quiet}: left out of the first-compression figure: no trace rows for its first compression "
+                     "(stage 2, to P* = 0.01) yet",
+                     f"note: {untraced}: left out of the first-compression figure: its programme runs without a trace "
+                     "(programme.trace_every = 0), so its first compression (stage 2, to P* = 0.01) has none"]
+    out = tmp_path / "first.png"
+    r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", quiet, untraced, "-o", out],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and not out.exists(), r.stderr
+    assert f"note: {quiet}: left out" in r.stderr and f"note: {untraced}: left out" in r.stderr
+    assert "error: nothing to draw: " in r.stderr and "under way with trace rows" in r.stderr
