@@ -3,6 +3,7 @@ import csv
 import math
 import os
 import pathlib
+import re
 import subprocess
 import sys
 import time
@@ -437,3 +438,16 @@ def test_reading_or_comparing_a_fifo_at_a_runs_path_neither_waits_nor_calls_it_m
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert (r.returncode, r.stdout) == (0, f"'{fifo}' is a FIFO (named pipe), not an HDF5 file grains wrote\n"
                                            f"{fifo} is a FIFO (named pipe), not an HDF5 file grains wrote\n"), r.stderr
+
+
+def test_a_folder_or_fifo_at_a_samples_name_is_refused_not_deleted(tmp_path):
+    """An unfinished sample's file is deleted before its programme runs again (grains never overwrites): a FIFO at
+    its name was deleted silently, and a folder ended the campaign in a traceback. Refused, naming the path and what
+    it holds, before anything runs (no grains is needed to get there)."""
+    os.mkfifo(tmp_path / "consolidation-seed4.h5")
+    (tmp_path / "consolidation-seed5.h5").mkdir()
+    for seed, kind in ((4, "a FIFO (named pipe)"), (5, "a folder")):
+        stem = tmp_path / f"consolidation-seed{seed}"
+        with pytest.raises(reuse.RunFailed, match=re.escape(f"seed{seed}.h5 is {kind}, not a sample's HDF5 file")):
+            campaign.consolidate(tmp_path / "no-grains", ROOT / "models/consolidation.toml", [], stem, f"seed {seed}")
+    assert (tmp_path / "consolidation-seed4.h5").is_fifo() and (tmp_path / "consolidation-seed5.h5").is_dir()
