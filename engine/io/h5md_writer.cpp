@@ -245,17 +245,21 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   // The rename replaces what the name holds: a link is followed to its file, and a name that holds anything but a
   // file (a device such as /dev/full, a pipe) is refused, not replaced.
   std::error_code ec;
-  std::filesystem::path followed = fs_path, link_text;
-  for (int links = 0; links < 40 && std::filesystem::is_symlink(followed, ec); ++links) {
-    link_text = std::filesystem::read_symlink(followed, ec);
-    followed = link_text.is_absolute() ? link_text : followed.parent_path() / link_text;
+  std::filesystem::path followed = fs_path, first_link;
+  int links = 0;
+  for (; links < 40 && std::filesystem::is_symlink(followed, ec); ++links) {
+    const std::filesystem::path to = std::filesystem::read_symlink(followed, ec);
+    if (links == 0) first_link = to;
+    followed = to.is_absolute() ? to : followed.parent_path() / to;
   }
-  // A link into a folder that is not there: said as such, not as HDF5's failure to create the file.
-  if (!link_text.empty() && followed.has_parent_path() &&
+  // A link into a folder that is not there: said as such, not as HDF5's failure to create the file. The folder as a
+  // path from where grains runs (a link's text is relative to the link's own folder), through every link.
+  if (links > 0 && followed.has_parent_path() &&
       std::filesystem::status(followed.parent_path(), ec).type() == std::filesystem::file_type::not_found)
-    throw std::runtime_error(fmt::format("cannot create output file '{}': the name is a link to '{}', whose folder '{}' "
-                                         "does not exist; make that folder, or name another file", path, link_text.string(),
-                                         link_text.parent_path().string()));
+    throw std::runtime_error(fmt::format(
+        "cannot create output file '{}': the name is a link to '{}'{}, whose folder '{}' does not exist; make that "
+        "folder, or name another file", path, first_link.string(),
+        links > 1 ? fmt::format(", which leads on to '{}'", followed.string()) : "", followed.parent_path().string()));
   const std::string target = followed.string();
   if (const auto kind = not_a_regular_file(target))
     throw std::runtime_error(fmt::format("cannot create output file '{}': the name holds {}, not a file; name a file (a "

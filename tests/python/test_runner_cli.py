@@ -607,8 +607,30 @@ def test_an_output_name_linked_into_a_missing_folder_is_refused_in_grains_words(
     r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", link, "--quiet", "--set", "time.steps=10")
     assert r.returncode == 1, r.stderr
     assert r.stderr == (f"error: cannot create output file '{link}': the name is a link to 'missing_dir/x.h5', whose "
-                        "folder 'missing_dir' does not exist; make that folder, or name another file\n"), r.stderr
+                        f"folder '{tmp_path / 'missing_dir'}' does not exist; make that folder, or name another file\n"), \
+        r.stderr
     assert link.is_symlink() and not (tmp_path / "missing_dir").exists()
+
+
+@pytest.mark.parametrize("out, links, said", [
+    ("sub/link.h5", {"sub/link.h5": "missing_dir/x.h5"}, "the name is a link to 'missing_dir/x.h5', whose folder "
+                                                         "'sub/missing_dir' does not exist"),
+    ("a.h5", {"a.h5": "other/b.h5", "other/b.h5": "missing/x.h5"},
+     "the name is a link to 'other/b.h5', which leads on to 'other/missing/x.h5', whose folder 'other/missing' does not "
+     "exist")])
+def test_the_missing_folder_of_a_linked_output_name_is_named_where_it_is(grains_bin, root, tmp_path, out, links, said):
+    """The folder was named as the last link's text has it, relative to that link's own folder: 'missing_dir' for a
+    link in sub/, and for a.h5 -> other/b.h5 -> missing/x.h5 'missing', a.h5 called a link to 'missing/x.h5'. Making
+    that folder where the run was started changed nothing. Named now as a path from there, through every link."""
+    for name, to in links.items():
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).symlink_to(to)
+    r = run(grains_bin, "run", root / "models" / "gas.toml", "--out", out, "--quiet", "--set", "time.steps=10",
+            cwd=tmp_path)
+    assert r.returncode == 1, r.stderr
+    assert r.stderr == (f"error: cannot create output file '{out}': {said}; make that folder, or name another file\n"), \
+        r.stderr
+    assert not [p for p in tmp_path.rglob("*") if p.name.startswith("missing") or p.suffix == ".part"]   # none made
 
 
 def test_run_and_check_say_that_the_programme_keys_are_not_used(grains_bin, root, tmp_path):

@@ -628,14 +628,20 @@ def test_the_resume_past_a_damaged_checkpoint_keeps_the_good_slot_and_makes_the_
     assert_same_records(whole, killed)
 
 
-def test_a_programme_whose_newest_checkpoint_is_damaged_says_which_stage_it_resumes_from(grains_bin, root, tmp_path):
-    """A programme's checkpoints are named by step and stage: the damaged one passed over, and the stage end the
-    resume goes on from."""
+def short_type1_programme(grains_bin, root, tmp_path):
+    """`grains consolidate` of 100 type-1 disks to P* = 0.02, its stages stopped short of equilibrium by their budget
+    of 2000 steps, to its end as whole.h5 and t.csv; returns (whole, the table's path, the table's text)."""
     programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
                  "programme.top_pressure=0.02", "--set", "programme.stage_budget=2000", "--quiet"]
     whole, table = tmp_path / "whole.h5", tmp_path / "t.csv"
     assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", table, *programme[1:]).returncode == 0
-    whole_table = table.read_text()
+    return whole, table, table.read_text()
+
+
+def test_a_programme_whose_newest_checkpoint_is_damaged_says_which_stage_it_resumes_from(grains_bin, root, tmp_path):
+    """A programme's checkpoints are named by step and stage: the damaged one passed over, and the stage end the
+    resume goes on from."""
+    whole, table, whole_table = short_type1_programme(grains_bin, root, tmp_path)
     killed = killed_copy(whole, tmp_path / "killed.h5")
     (older, older_stage), (newest, newest_stage) = damage_the_newest_checkpoint(killed)
     assert older_stage >= 0 and newest_stage == older_stage + 1
@@ -652,11 +658,7 @@ def test_a_programme_whose_newest_checkpoint_is_damaged_says_which_stage_it_resu
 def test_a_programme_killed_while_writing_a_checkpoint_repeats_no_warning(grains_bin, root, tmp_path):
     """Killed while writing a stage's checkpoint (that slot left invalid, the stage's warning already in the
     file): the resume goes back to the stage before and rewrites the stage, its warning once."""
-    programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
-                 "programme.top_pressure=0.02", "--set", "programme.stage_budget=2000", "--quiet"]
-    whole, table = tmp_path / "whole.h5", tmp_path / "t.csv"
-    assert run(grains_bin, "consolidate", *programme[:1], "--out", whole, "--table", table, *programme[1:]).returncode == 0
-    whole_table = table.read_text()
+    whole, table, whole_table = short_type1_programme(grains_bin, root, tmp_path)
     killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:
         warnings = [w.decode() for w in f["grains/warnings"][()]]
