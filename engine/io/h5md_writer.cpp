@@ -355,19 +355,20 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
-  // The slot resumed from is kept as it is; the other one is removed, to be made anew by the next checkpoint. A slot
-  // newer than the resume was passed over (damaged, or its state would not restore), an invalid one may hold a chunk
-  // torn by a kill, and an older one is no better a fallback than the slot just read. Written over, such a slot stayed "the newest", so that the next
-  // checkpoint went over the one resumed from (the only good one: a kill then left nothing to resume from); and HDF5
-  // reads a chunk it writes only in part, which failed on a damaged one ("data error detected by Fletcher32").
+  // Only the slot resumed from is kept (its layout checked first: the resumed run writes its checkpoints over it); the
+  // other is removed, to be made anew by the next checkpoint. A slot newer than the resume was passed over (damaged, or
+  // its state would not restore) and an invalid one may hold a chunk torn by a kill: written over, a damaged newest one
+  // stayed "the newest", so the next checkpoint went over the only good one; and HDF5 reads a chunk it writes only in
+  // part, which failed on a damaged one ("data error detected by Fletcher32"). An older valid slot is no better a
+  // fallback than the one just read.
   const auto valid = valid_checkpoint_slots(m.grains.get(), path);
-  for (int slot : {0, 1}) {
-    const std::string name = checkpoint_slot_name(slot);
-    if (!h5::exists(m.grains.get(), name, path)) continue;
-    const bool kept = std::any_of(valid.begin(), valid.end(), [&](const auto& v) { return v.first == slot && v.second == double(resume_step); });
-    if (kept) check_checkpoint_slot(m.grains.get(), slot, path);   // the resumed run writes its checkpoints over it
-    else h5::check(H5Ldelete(m.grains.get(), name.c_str(), H5P_DEFAULT), path, "removing /grains/" + name);
-  }
+  const auto from = std::find_if(valid.begin(), valid.end(), [&](const auto& v) { return v.second == double(resume_step); });
+  const int kept = from == valid.end() ? -1 : from->first;
+  if (kept >= 0) check_checkpoint_slot(m.grains.get(), kept, path);
+  for (int slot : {0, 1})
+    if (slot != kept && h5::exists(m.grains.get(), checkpoint_slot_name(slot), path))
+      h5::check(H5Ldelete(m.grains.get(), checkpoint_slot_name(slot), H5P_DEFAULT), path,
+                std::string("removing /grains/") + checkpoint_slot_name(slot));
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
