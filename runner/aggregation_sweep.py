@@ -131,11 +131,8 @@ def run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own=None):
 
 
 def not_a_run_name(h5):
-    """Why the sweep cannot write a run at `h5`, or None: the name holds a folder, a FIFO, a device or a socket,
-    which clearing an unfinished run's file there would delete (a FIFO) or fail on (a folder)."""
-    kind = reuse.not_a_regular_file(h5)
-    return (f"{h5} is {kind}, not a run's HDF5 file: move it out of the way (or give another --out) to run "
-            "that point" if kind else None)
+    """Why the sweep cannot write a run at `h5`, or None (reuse.not_a_file_to_write)."""
+    return reuse.not_a_file_to_write(h5, "a run's", "that point")
 
 
 def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, own=None):

@@ -71,9 +71,8 @@ def consolidate(grains, scene_file, overrides, stem, label):
     it was not or cannot. Raises reuse.Interrupted when Ctrl-C stops the run. Returns the path of the table."""
     table = stem.with_suffix(".csv")
     partial, h5 = stem.with_suffix(".partial.csv"), stem.with_suffix(".h5")
-    if kind := reuse.not_a_regular_file(h5):   # below, an unfinished sample's file is deleted: not a FIFO or a folder
-        raise reuse.RunFailed(f"{h5} is {kind}, not a sample's HDF5 file: move it out of the way (or give another --out) "
-                              f"to run {label}")
+    if problem := reuse.not_a_file_to_write(h5, "a sample's", label):   # below, an unfinished sample's file is deleted
+        raise reuse.RunFailed(problem)
     now = reuse.resolve(grains, scene_file, overrides)
     if table.exists():
         differs = reuse.difference(now, h5) if h5.exists() else None   # no HDF5 file: an archived table (docs/)

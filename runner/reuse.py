@@ -116,6 +116,15 @@ def not_a_regular_file(path):
             else "a socket" if stat.S_ISSOCK(mode) else "something other than a file")
 
 
+def not_a_file_to_write(path, whose, to_run):
+    """Why a tool cannot write a run's output at `path`, or None: the name holds a folder, a FIFO, a device or a
+    socket, which clearing an unfinished run's file there would delete (a FIFO) or fail on (a folder). `whose`
+    ("a run's", "a sample's") names the file, `to_run` what would run there."""
+    kind = not_a_regular_file(path)
+    return (f"{path} is {kind}, not {whose} HDF5 file: move it out of the way (or give another --out) to run {to_run}"
+            if kind else None)
+
+
 def not_a_run_file(path):
     """Why `path` is no file to read a grains run from, said after its name, or None for a regular file: "does not
     exist", or what it names when that is not a regular file ("is a FIFO (named pipe): ..."). h5py waits on a FIFO
