@@ -118,7 +118,13 @@ def finish(partial, table, h5):
 def check_samples(ap, grains, samples, report=False):
     """Before anything runs: exits with status 2 when the engine refuses a sample's scene and overrides (its
     message), or when a finished sample in --out (with --report, an unfinished one too) ran other settings
-    than those given now. `samples`: (scene file, overrides, stem) of each."""
+    than those given now, or when a sample's file name holds a folder or FIFO (reuse.not_a_file_to_write; checked
+    again where each sample starts). `samples`: (scene file, overrides, stem) of each."""
+    if not report:   # before any run: the campaign would stop at the first of them, other samples under way
+        occupied = [problem for _, _, stem in samples
+                    if (problem := reuse.not_a_file_to_write(stem.with_suffix(".h5"), "a sample's", stem.name))]
+        if occupied:
+            ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
     stale = []
     for scene_file, overrides, stem in samples:
         try:

@@ -451,3 +451,15 @@ def test_a_folder_or_fifo_at_a_samples_name_is_refused_not_deleted(tmp_path):
         with pytest.raises(reuse.RunFailed, match=re.escape(f"seed{seed}.h5 is {kind}, not a sample's HDF5 file")):
             campaign.consolidate(tmp_path / "no-grains", ROOT / "models/consolidation.toml", [], stem, f"seed {seed}")
     assert (tmp_path / "consolidation-seed4.h5").is_fifo() and (tmp_path / "consolidation-seed5.h5").is_dir()
+
+
+def test_a_folder_at_a_later_samples_name_is_refused_before_any_sample_runs(grains_bin, tmp_path):
+    """The campaign refused a folder or FIFO at a sample's name only when it reached that sample, with the samples
+    before it run (or under way beside it) and the campaign then ended there. Now every name is checked first."""
+    (tmp_path / "consolidation-seed5.h5").mkdir()
+    r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--samples", "2", "--first-seed", "4",
+                        "--count", "8", "--scene", "consolidation", "--jobs", "1", "--grains", str(grains_bin),
+                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert f"{tmp_path / 'consolidation-seed5.h5'} is a folder, not a sample's HDF5 file" in r.stderr, r.stderr
+    assert not list(tmp_path.glob("consolidation-seed4*")), "seed 4 ran before the folder at seed 5's name was refused"
