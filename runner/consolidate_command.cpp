@@ -300,7 +300,10 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     if (scene.has(key))
       warnings.push_back(fmt::format("{} is not used by grains consolidate: each stage runs until equilibrium or its budget "
                                      "(programme.stage_budget, programme.aggregation_budget)", key));
-  begin_output(out, scene, *sim, warnings);
+  // A type-2 sample starts in the aggregation's fixed cell: no target yet (NaN, as that stage's record says),
+  // whatever cell.pressure holds for the stages after it.
+  const double initial_target = settings.preparation == "type2" ? std::nan("") : sim->get("pressure_target");
+  begin_output(out, scene, *sim, warnings, {{"pressure_target", initial_target}});
   // The stage records' own two, for the initial state too: every stage record then has the frames' steps (readers
   // such as MDAnalysis take the observables' rows by the frame's index; one of these a row short made it fail).
   for (const char* name : {"quench_start", "quench_drag"}) out.write_observable(name, 0, sim->time(), std::nan(""));

@@ -54,7 +54,8 @@ void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector
   }
 }
 
-void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings) {
+void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings,
+                  const std::vector<std::pair<std::string, double>>& recorded) {
   out.set_attribute("scene_directory", scene.directory().string());
   out.set_attribute("status", "running");   // replaced at the end: a file left with it was killed
   for (const auto& w : warnings) {
@@ -62,7 +63,7 @@ void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, co
     fmt::print(stderr, "warning: {}\n", w);
   }
   write_frame(out, sim);
-  write_observables(out, sim);
+  write_observables(out, sim, recorded);
 }
 
 void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error) {

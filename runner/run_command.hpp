@@ -16,8 +16,10 @@ void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector
 
 class Scene;
 // A new output file's start, shared by `run` and `consolidate`: the scene's folder (where `grains resume` finds
-// its relative files), the warnings (also on stderr), the first frame and records.
-void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings);
+// its relative files), the warnings (also on stderr), the first frame and records (`recorded`: values that stand in
+// for the simulation's own, as write_observables).
+void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings,
+                  const std::vector<std::pair<std::string, double>>& recorded = {});
 // A run or programme stopped by an error: its file says so ("failed after step N: ..."), not "running" as a killed
 // run's does, and `grains resume` refuses it.
 void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error);

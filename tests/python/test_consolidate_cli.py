@@ -226,7 +226,8 @@ def test_consolidate_traces_every_stage_at_its_checks_and_its_end_and_changes_no
 
 def test_the_trace_and_record_of_an_aggregation_in_its_fixed_cell_have_no_target(grains_bin, root, tmp_path):
     """The type-2 aggregation holds the cell fixed: its trace's target and its stage record's are NaN, as in the stage
-    table, not the cell.pressure the scene gives for later (the record held that until 2026-12-06)."""
+    table, not the cell.pressure the scene gives for later (the record held that until 2026-12-06, and the initial
+    state's record, before the aggregation, until the thirtieth session)."""
     out = tmp_path / "agg.h5"
     r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--set", "particles.count=100", "--set",
             "programme.aggregation_budget=3000", "--set", "programme.stage_budget=2000", "--set", "programme.load=false",
@@ -243,6 +244,8 @@ def test_the_trace_and_record_of_an_aggregation_in_its_fixed_cell_have_no_target
         clusters = f["grains/trace/bonded_clusters/value"][()]
         recorded_clusters = f["observables/bonded_clusters/value"][1:]
         recorded_target = f["observables/pressure_target/value"][1:]
+        initial_target = f["observables/pressure_target/value"][0]
+    assert np.isnan(initial_target)
     # Every stage ends with a row, the aggregation's too (with its record's clusters, its target NaN as in the table).
     at_end = np.isin(steps, ends)
     assert list(steps[at_end]) == list(ends) and list(stage[at_end]) == [0, 1, 2]
