@@ -8,6 +8,7 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "analysis/cell_hash.hpp"
 #include "neighbours/size_classes.hpp"
 
 namespace grains {
@@ -26,15 +27,6 @@ struct UnionFind {
     if (a == b) return;
     if (size[a] < size[b]) std::swap(a, b);
     parent[b] = a, size[a] += size[b];
-  }
-};
-
-template <int D>
-struct CellHash {
-  std::size_t operator()(const std::array<std::int64_t, D>& c) const {
-    std::uint64_t h = 0x9E3779B97F4A7C15ull;
-    for (int a = 0; a < D; ++a) h = (h ^ std::uint64_t(c[a])) * 0xBF58476D1CE4E5B9ull, h ^= h >> 31;
-    return std::size_t(h);
   }
 };
 

@@ -181,6 +181,7 @@ class SimulationImpl final : public Simulation {
   void warn_pressure_beyond_clamp(const char* key, double reduced_pressure);
   void check_energy(double kinetic) const;
   void check_pass_through() const;
+  void check_softened_core() const;
 
   // --- saved state (simulation_state.cpp) ---
   void check_loaded() const;
@@ -212,6 +213,8 @@ class SimulationImpl final : public Simulation {
   bool uses_list_ = false, rotate_ = false;
   bool orient_ = true;   // particles.track_orientation
   double dt_ = 0, kn_ = 0, cn_ = 0;
+  double contact_duration_ = 0;   // t_c (0 without contacts): the checks' advice in time.steps_per_contact
+  double startup_orbit_step_ = 0;  // T_orb / 20 of the start-up's orbit rule (warn_gravity_step), for the core check
   // The clock (time_after): the time of the last step that was not a whole dt (or of the start), and the
   // whole steps since.
   double clock_origin_ = 0;
@@ -241,6 +244,7 @@ class SimulationImpl final : public Simulation {
   };
   mutable EnergyWatch energy_watch_;
   mutable bool pass_through_warned_ = false;   // check_pass_through has warned (once per run; part of the saved state)
+  mutable bool core_warned_ = false;           // check_softened_core has warned (once per run; part of the saved state)
   // Pressure-controlled cell (absent unless cell.enabled).
   std::unique_ptr<Barostat<D>> barostat_;
   Tensor<D> contact_stress_ = Tensor<D>::Zero();   // from the last force evaluation

@@ -127,6 +127,7 @@ void SimulationImpl<D>::refresh_general() const {
   }
   if (energy_check_) check_energy(kt + kr);
   if (energy_check_ && kn_ > 0) check_pass_through();
+  if (analysis_) check_softened_core();
   if (collisions_) {
     const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());
     o["collision_count"] = n;

@@ -74,6 +74,7 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
     setup_aggregation_analysis(scene, rmin);
   }
 
+  contact_duration_ = tc;
   // Time step rule (physics.md section 3).
   const double nc = scene.real("time.steps_per_contact");
   if (scene.has("time.dt")) dt_ = scene.real("time.dt");

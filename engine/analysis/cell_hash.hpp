@@ -1,0 +1,19 @@
+// A hash of an integer grid cell, for the analyses' sparse grids (std::unordered_map keyed by the cell): the
+// particles of an open box may spread over any range, so the cells are not held in an array.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+namespace grains {
+
+template <int D>
+struct CellHash {
+  std::size_t operator()(const std::array<std::int64_t, D>& c) const {
+    std::uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int a = 0; a < D; ++a) h = (h ^ std::uint64_t(c[a])) * 0xBF58476D1CE4E5B9ull, h ^= h >> 31;
+    return std::size_t(h);
+  }
+};
+
+}  // namespace grains

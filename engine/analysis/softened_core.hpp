@@ -1,0 +1,29 @@
+// The densest softened core of a self-gravitating configuration: the largest mass within a distance `reach` of
+// one particle's centre, its own mass included. Inside gravity's softening length eps the force on a grain from the
+// mass M there, G M m r / (r^2 + eps^2)^{3/2}, tends to G M m r / eps^3: the grain orbits the core with period
+// 2 pi sqrt(eps^3 / (G M)), shorter the more grains crowd in. The start-up's orbit rule sees two grains at most;
+// once contacts cannot hold grains apart, many may share the core (the aggregation sweep's k* = 10 point ends with
+// every grain there), and this measures how many do.
+#pragma once
+#include <cstddef>
+#include <vector>
+
+#include "core/vec.hpp"
+
+namespace grains {
+
+struct SoftenedCore {
+  double mass = 0;          // the largest mass within `reach` of a particle's centre (0 without particles)
+  std::size_t count = 0;    // the particles that make it, the centre included
+  std::size_t centre = 0;   // that particle (the lowest index on ties)
+};
+
+// Hashed cells of edge `reach`, each particle against the 3^D cells around its own: O(N) for particles spread
+// wider than `reach`, O(n^2) for n crowded into one cell (as costly as their contacts' pairs then).
+template <int D>
+SoftenedCore densest_softened_core(const std::vector<Vec<D>>& x, const std::vector<double>& mass, double reach);
+
+extern template SoftenedCore densest_softened_core<2>(const std::vector<Vec<2>>&, const std::vector<double>&, double);
+extern template SoftenedCore densest_softened_core<3>(const std::vector<Vec<3>>&, const std::vector<double>&, double);
+
+}  // namespace grains

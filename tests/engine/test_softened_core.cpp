@@ -1,0 +1,146 @@
+// The softened core (analysis/softened_core.hpp): the largest mass within the softening length of one grain, and the
+// check that warns when the step cannot resolve the orbits inside it (physics.md section 3: nothing blows up
+// silently), which the start-up's two-grain orbit rule cannot foresee.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "analysis/softened_core.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+using namespace grains;
+using Catch::Matchers::Contains;
+
+namespace {
+
+// Every pair measured: the reference the grid must reproduce.
+template <int D>
+SoftenedCore every_pair(const std::vector<Vec<D>>& x, const std::vector<double>& m, double reach) {
+  SoftenedCore best;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    double mass = 0;
+    std::size_t count = 0;
+    for (std::size_t j = 0; j < x.size(); ++j)
+      if ((x[j] - x[i]).norm() < reach) mass += m[j], ++count;
+    if (i == 0 || mass > best.mass) best = {mass, count, i};
+  }
+  return best;
+}
+
+template <int D>
+void check_against_every_pair(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1), w(0.5, 2);
+  std::vector<Vec<D>> x;
+  std::vector<double> m;
+  for (int i = 0; i < 400; ++i) {   // a thin gas, and a tight clump astride cell boundaries (the grid's edge is 0.1)
+    Vec<D> p;
+    for (int a = 0; a < D; ++a) p[a] = i < 300 ? 3 * u(rng) : 0.03 * u(rng);
+    x.push_back(p), m.push_back(w(rng));
+  }
+  const SoftenedCore grid = densest_softened_core<D>(x, m, 0.1), reference = every_pair<D>(x, m, 0.1);
+  CHECK(grid.mass == Approx(reference.mass).epsilon(1e-12));
+  CHECK(grid.count == reference.count);
+  double at_centre = 0;   // the centre it names holds that mass (several may, to rounding: every clump member here)
+  for (std::size_t j = 0; j < x.size(); ++j)
+    if ((x[j] - x[grid.centre]).norm() < 0.1) at_centre += m[j];
+  CHECK(at_centre == Approx(reference.mass).epsilon(1e-12));
+  CHECK(grid.count >= 100);   // the clump is all within reach of its members
+}
+
+// Six unit grains of diameter 0.1 (R_min = 0.05, eps = softening R_min = 0.05), no contacts, G = 1, at rest; the
+// `spread` of their positions. The start-up rule's orbit is two grains' at d = 0: T_orb = 2 pi sqrt(eps^3 / (2 G)).
+std::string six_grains(double spread, double dt) {
+  return fmt::format(R"(
+[particles]
+layout = "list"
+positions = [[0, 0, 0], [{0}, 0, 0], [0, {0}, 0], [0, 0, {0}], [-{0}, 0, 0], [0, -{0}, 0]]
+diameters = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1]
+masses = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0]
+[box]
+periodic = false
+[contact]
+enabled = false
+[gravity]
+enabled = true
+G = 1.0
+softening = 1.0
+[time]
+dt = {1:.17g}
+[run]
+threads = 1
+)", spread, dt);
+}
+
+long core_warnings(const Simulation& sim) {
+  return std::count_if(sim.warnings().begin(), sim.warnings().end(),
+                       [](const std::string& w) { return w.starts_with("softened-core check"); });
+}
+
+}  // namespace
+
+TEST_CASE("softened core: the grid finds the densest core that every pair measured finds", "[gravity][core]") {
+  check_against_every_pair<3>(1);
+  check_against_every_pair<3>(2);
+  check_against_every_pair<2>(3);
+  CHECK(densest_softened_core<3>({}, {}, 0.1).mass == 0);
+  // Grains farther apart than the reach: each holds its own mass, the heaviest the most.
+  const SoftenedCore alone = densest_softened_core<2>({Vec<2>(0, 0), Vec<2>(1, 0), Vec<2>(0, 1)}, {1.0, 3.0, 2.0}, 0.5);
+  CHECK(alone.mass == 3.0);
+  CHECK(alone.count == 1);
+  CHECK(alone.centre == 1);
+}
+
+TEST_CASE("softened-core check: a step too coarse for the orbits in a core of six grains is warned about, once",
+          "[gravity][core]") {
+  const double pi = std::acos(-1.0), eps = 0.05;
+  const double pair_step = 2 * pi * std::sqrt(eps * eps * eps / 2) / 20, core_step = 2 * pi * std::sqrt(eps * eps * eps / 6) / 20;
+  // Between the two: the start-up rule (two grains) is content, the six within eps of each other are not.
+  const double dt = 0.8 * pair_step;
+  REQUIRE(dt > core_step);
+  auto sim = Simulation::create(Scene::from_string(six_grains(0.02, dt), "core"));
+  REQUIRE(sim->warnings().empty());
+  sim->get("kinetic_energy");   // the outputs computed: where the check runs
+  REQUIRE(core_warnings(*sim) == 1);
+  CHECK_THAT(sim->warnings().back(),
+             Contains("softened-core check: at t = 0 ") && Contains("6 grains of mass 6 lie within the softening length eps = 0.05") &&
+                 Contains(fmt::format("exceeds T / 20 = {:.6g}", core_step)) &&
+                 Contains(fmt::format("asked time.dt <= {:.6g}", pair_step)));
+  // Once: more steps, read again, add none; nor does a simulation restored from its state.
+  sim->step_n(5);
+  sim->get("kinetic_energy");
+  CHECK(core_warnings(*sim) == 1);
+  auto restored = Simulation::create(Scene::from_string(six_grains(0.02, dt), "core"));
+  restored->restore_state(sim->save_state());
+  restored->get("kinetic_energy");
+  CHECK(core_warnings(*restored) == 0);
+  // A step within the core's T / 20 is content; so is the coarse one for grains spread beyond eps of each other.
+  auto fine = Simulation::create(Scene::from_string(six_grains(0.02, 0.9 * core_step), "fine"));
+  fine->get("kinetic_energy");
+  CHECK(fine->warnings().empty());
+  auto spread = Simulation::create(Scene::from_string(six_grains(0.2, dt), "spread"));
+  spread->get("kinetic_energy");
+  CHECK(spread->warnings().empty());
+}
+
+TEST_CASE("softened-core check: the aggregation scene at k* = 10 warns of a core the start-up rule did not foresee",
+          "[gravity][core]") {
+  // The sweep's k* = 10, zeta = 0.02 point at the sweep's 30 steps per contact, read every 8 steps as its runs are:
+  // the start-up rule warns of two grains' orbit; three grains lie within eps of each other at 0.67 t_ff (step 152).
+  auto soft = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/aggregation.toml",
+                                                  {"run.threads=1", "contact.restitution=0.9390895628611485",
+                                                   "contact.duration=0.49682878898616584"}));
+  for (int k = 0; k < 27; ++k) soft->step_n(8), soft->get("kinetic_energy");
+  REQUIRE(core_warnings(*soft) == 1);
+  const std::string& w = *std::find_if(soft->warnings().begin(), soft->warnings().end(),
+                                       [](const std::string& x) { return x.starts_with("softened-core check"); });
+  CHECK_THAT(w, Contains("grains of mass") && Contains("time.steps_per_contact") &&
+                    Contains("should every grain sink into it"));
+}
