@@ -1,16 +1,17 @@
 // The FMI 2.0 API (co-simulation; the model-exchange functions exist and refuse with a message).
-// Each function checks its instance, forwards to Instance, and turns any exception into fmi2Error:
-// nothing thrown ever crosses into the host.
+// Each function checks its instance, forwards to Instance (the FMU-state ones through fmu_state_calls.cpp, shared
+// with FMI 3), and turns any exception into fmi2Error (guarded_call.hpp): nothing thrown ever crosses into the host.
 #include <cmath>
-#include <cstring>
 #include <memory>
-#include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "fmi2_api.hpp"
+#include "fmu_state_calls.hpp"
+#include "guarded_call.hpp"
 #include "instance.hpp"
 #include "live_instances.hpp"
 #include "resource_location.hpp"
@@ -20,6 +21,7 @@
 using grains::fmu::Instance;
 using grains::fmu::Status;
 using grains::fmu::ValueType;
+namespace state_calls = grains::fmu::state_calls;
 
 namespace {
 
@@ -34,19 +36,7 @@ std::string escape_percent(const std::string& text) {
 
 template <class F>
 fmi2Status guarded(fmi2Component c, const char* function, F&& body) {
-  Instance* in = grains::fmu::live_instance(c);
-  if (!in) return fmi2Error;   // null, freed or not ours: nothing to log through
-  try {
-    in->log_call(function);
-    return to_fmi2(body(*in));
-  } catch (const std::bad_alloc&) {   // a state's copy, say: named as everywhere else
-    in->error(fmt::format("{}: {}", function, grains::fmu::out_of_memory_message));
-  } catch (const std::exception& e) {
-    in->error(fmt::format("{}: {}", function, e.what()));
-  } catch (...) {
-    in->error(fmt::format("{}: unexpected internal error", function));
-  }
-  return fmi2Error;
+  return to_fmi2(grains::fmu::guarded_call(c, function, std::forward<F>(body)));
 }
 
 template <class T>
@@ -181,53 +171,25 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueRefe
   });
 }
 
-// --- FMU state ---
-// States are handles of live_instances.cpp: one freed already, or another instance's, is refused with a message.
+// --- FMU state: fmu_state_calls.cpp ---
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
-  return guarded(c, "fmi2GetFMUstate", [&](Instance& in) {
-    if (!FMUstate) return in.error("fmi2GetFMUstate: null FMUstate pointer");
-    return grains::fmu::fill_state(in, *FMUstate, [&](grains::fmu::SavedState& state) { return in.save(state); });
-  });
+  return to_fmi2(state_calls::get(c, "fmi2GetFMUstate", "FMUstate", FMUstate));
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
-  return guarded(c, "fmi2SetFMUstate", [&](Instance& in) {
-    if (!FMUstate) return in.error("fmi2SetFMUstate: null FMUstate");
-    return in.restore(grains::fmu::live_state(in, FMUstate));
-  });
+  return to_fmi2(state_calls::set(c, "fmi2SetFMUstate", "FMUstate", FMUstate));
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* FMUstate) {
-  return guarded(c, "fmi2FreeFMUstate", [&](Instance& in) {
-    if (FMUstate && *FMUstate) {   // a null state: nothing to free (FMI 2.0)
-      grains::fmu::free_state(in, *FMUstate);
-      *FMUstate = nullptr;
-    }
-    return Status::ok;
-  });
+  return to_fmi2(state_calls::free(c, "fmi2FreeFMUstate", FMUstate));
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t* size) {
-  return guarded(c, "fmi2SerializedFMUstateSize", [&](Instance& in) {
-    if (!FMUstate || !size) return in.error("fmi2SerializedFMUstateSize: null argument");
-    *size = grains::fmu::live_state(in, FMUstate).bytes.size();
-    return Status::ok;
-  });
+  return to_fmi2(state_calls::serialized_size(c, "fmi2SerializedFMUstateSize", FMUstate, size));
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[], size_t size) {
-  return guarded(c, "fmi2SerializeFMUstate", [&](Instance& in) {
-    if (!FMUstate || !serializedState) return in.error("fmi2SerializeFMUstate: null argument");
-    const auto bytes = in.serialize(grains::fmu::live_state(in, FMUstate));
-    if (size != bytes.size())
-      return in.error(fmt::format("fmi2SerializeFMUstate: size {} given, the state has {} bytes", size, bytes.size()));
-    std::memcpy(serializedState, bytes.data(), size);
-    return Status::ok;
-  });
+  return to_fmi2(state_calls::serialize(c, "fmi2SerializeFMUstate", FMUstate, serializedState, size));
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                                       fmi2FMUstate* FMUstate) {
-  return guarded(c, "fmi2DeSerializeFMUstate", [&](Instance& in) {
-    if (!serializedState || !FMUstate) return in.error("fmi2DeSerializeFMUstate: null argument");
-    const auto bytes = std::span(reinterpret_cast<const std::byte*>(serializedState), size);
-    return grains::fmu::fill_state(in, *FMUstate, [&](grains::fmu::SavedState& state) { return in.deserialize(bytes, state); });
-  });
+  return to_fmi2(state_calls::deserialize(c, "fmi2DeSerializeFMUstate", serializedState, size, FMUstate));
 }
 
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference[], size_t,

@@ -1,18 +1,20 @@
 // The FMI 3.0 API (co-simulation; model exchange, scheduled execution, clocks and event mode exist
-// and refuse with a message). Each function checks its instance, forwards to Instance, and turns any
-// exception into fmi3Error: nothing thrown ever crosses into the host.
+// and refuse with a message). Each function checks its instance, forwards to Instance (the FMU-state ones through
+// fmu_state_calls.cpp, shared with FMI 2), and turns any exception into fmi3Error (guarded_call.hpp): nothing thrown
+// ever crosses into the host.
 #include <algorithm>
 #include <cstdint>
-#include <cstring>
 #include <memory>
-#include <new>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "fmi3_api.hpp"
+#include "fmu_state_calls.hpp"
+#include "guarded_call.hpp"
 #include "instance.hpp"
 #include "live_instances.hpp"
 #include "resource_location.hpp"
@@ -23,6 +25,7 @@ using grains::fmu::Instance;
 using grains::fmu::Role;
 using grains::fmu::Status;
 using grains::fmu::ValueType;
+namespace state_calls = grains::fmu::state_calls;
 
 namespace {
 
@@ -30,19 +33,7 @@ fmi3Status to_fmi3(Status s) { return static_cast<fmi3Status>(s); }
 
 template <class F>
 fmi3Status guarded(fmi3Instance c, const char* function, F&& body) {
-  Instance* in = grains::fmu::live_instance(c);
-  if (!in) return fmi3Error;   // null, freed or not ours: nothing to log through
-  try {
-    in->log_call(function);
-    return to_fmi3(body(*in));
-  } catch (const std::bad_alloc&) {   // a state's copy, say: named as everywhere else
-    in->error(fmt::format("{}: {}", function, grains::fmu::out_of_memory_message));
-  } catch (const std::exception& e) {
-    in->error(fmt::format("{}: {}", function, e.what()));
-  } catch (...) {
-    in->error(fmt::format("{}: unexpected internal error", function));
-  }
-  return fmi3Error;
+  return to_fmi3(grains::fmu::guarded_call(c, function, std::forward<F>(body)));
 }
 
 // The FMI 3 type of each variable, as written in modelDescription.xml (see model_description.cpp).
@@ -261,53 +252,25 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3Va
   return refuse(c, "fmi3GetVariableDependencies", "dependencies are not declared (every output depends on every input)");
 }
 
-// --- FMU state ---
-// States are handles of live_instances.cpp: one freed already, or another instance's, is refused with a message.
+// --- FMU state: fmu_state_calls.cpp ---
 GRAINS_FMI3_EXPORT fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState* FMUState) {
-  return guarded(c, "fmi3GetFMUState", [&](Instance& in) {
-    if (!FMUState) return in.error("fmi3GetFMUState: null FMUState pointer");
-    return grains::fmu::fill_state(in, *FMUState, [&](grains::fmu::SavedState& state) { return in.save(state); });
-  });
+  return to_fmi3(state_calls::get(c, "fmi3GetFMUState", "FMUState", FMUState));
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState FMUState) {
-  return guarded(c, "fmi3SetFMUState", [&](Instance& in) {
-    if (!FMUState) return in.error("fmi3SetFMUState: null FMUState");
-    return in.restore(grains::fmu::live_state(in, FMUState));
-  });
+  return to_fmi3(state_calls::set(c, "fmi3SetFMUState", "FMUState", FMUState));
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState* FMUState) {
-  return guarded(c, "fmi3FreeFMUState", [&](Instance& in) {
-    if (FMUState && *FMUState) {   // a null state: nothing to free (FMI 3.0)
-      grains::fmu::free_state(in, *FMUState);
-      *FMUState = nullptr;
-    }
-    return Status::ok;
-  });
+  return to_fmi3(state_calls::free(c, "fmi3FreeFMUState", FMUState));
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState FMUState, size_t* size) {
-  return guarded(c, "fmi3SerializedFMUStateSize", [&](Instance& in) {
-    if (!FMUState || !size) return in.error("fmi3SerializedFMUStateSize: null argument");
-    *size = grains::fmu::live_state(in, FMUState).bytes.size();
-    return Status::ok;
-  });
+  return to_fmi3(state_calls::serialized_size(c, "fmi3SerializedFMUStateSize", FMUState, size));
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size) {
-  return guarded(c, "fmi3SerializeFMUState", [&](Instance& in) {
-    if (!FMUState || !serializedState) return in.error("fmi3SerializeFMUState: null argument");
-    const auto bytes = in.serialize(grains::fmu::live_state(in, FMUState));
-    if (size != bytes.size())
-      return in.error(fmt::format("fmi3SerializeFMUState: size {} given, the state has {} bytes", size, bytes.size()));
-    std::memcpy(serializedState, bytes.data(), size);
-    return Status::ok;
-  });
+  return to_fmi3(state_calls::serialize(c, "fmi3SerializeFMUState", FMUState, serializedState, size));
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serializedState[], size_t size,
                                                       fmi3FMUState* FMUState) {
-  return guarded(c, "fmi3DeserializeFMUState", [&](Instance& in) {
-    if (!serializedState || !FMUState) return in.error("fmi3DeserializeFMUState: null argument");
-    const auto bytes = std::span(reinterpret_cast<const std::byte*>(serializedState), size);
-    return grains::fmu::fill_state(in, *FMUState, [&](grains::fmu::SavedState& state) { return in.deserialize(bytes, state); });
-  });
+  return to_fmi3(state_calls::deserialize(c, "fmi3DeserializeFMUState", serializedState, size, FMUState));
 }
 
 GRAINS_FMI3_EXPORT fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference[], size_t, const fmi3ValueReference[],

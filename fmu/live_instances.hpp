@@ -25,15 +25,4 @@ SavedState& live_state(const Instance& owner, const void* handle);
 // Deletes the owner's state; throws like live_state for any other handle.
 void free_state(const Instance& owner, const void* handle);
 
-// Get and deserialize, FMI 2 and 3 alike: fill(state) writes into the state the host passes back (`handle` not
-// null: reused) or into a new one, handed out only when filling it succeeded.
-template <class Fill>
-Status fill_state(const Instance& owner, void*& handle, Fill fill) {
-  if (handle) return fill(live_state(owner, handle));
-  auto state = std::make_unique<SavedState>();
-  const Status status = fill(*state);
-  if (status == Status::ok) handle = hand_out_state(owner, std::move(state));
-  return status;
-}
-
 }  // namespace grains::fmu

@@ -1,0 +1,32 @@
+// The frame of every FMI function that takes an instance, FMI 2 and 3 alike: finds the instance behind the host's
+// handle, logs the call, runs the body and turns anything it throws into an error named after the function, so that
+// nothing thrown ever crosses into the host. Each API converts the Status to its own (same order).
+#pragma once
+#include <exception>
+#include <new>
+
+#include <fmt/format.h>
+
+#include "instance.hpp"
+#include "live_instances.hpp"
+
+namespace grains::fmu {
+
+template <class Body>
+Status guarded_call(const void* handle, const char* function, Body&& body) {
+  Instance* in = live_instance(handle);
+  if (!in) return Status::error;   // null, freed or not ours: nothing to log through
+  try {
+    in->log_call(function);
+    return body(*in);
+  } catch (const std::bad_alloc&) {   // a state's copy, say: named as everywhere else
+    in->error(fmt::format("{}: {}", function, out_of_memory_message));
+  } catch (const std::exception& e) {
+    in->error(fmt::format("{}: {}", function, e.what()));
+  } catch (...) {
+    in->error(fmt::format("{}: unexpected internal error", function));
+  }
+  return Status::error;
+}
+
+}  // namespace grains::fmu
