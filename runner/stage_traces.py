@@ -82,14 +82,20 @@ def first_compression_under_way(h5, rows):
 
 def labels_of(paths):
     """Each file's name without its suffix, or, where files share it (every campaign names its samples alike), the
-    shortest end of its path that tells it from the others: a/x/s.h5 and b/x/s.h5 are a/x/s and b/x/s."""
-    parts = [(*p.absolute().parent.parts[1:], p.stem) for p in paths]   # [1:]: not the root
+    shortest end of its path that tells it from the others: a/x/s.h5 and b/x/s.h5 are a/x/s and b/x/s; files that
+    differ by their suffix alone keep it (a/s.h5 and a/s.h5md)."""
+    paths = [p.absolute() for p in paths]
+    beside = {}   # (folder, stem) -> the files there of that stem
+    for p in paths:
+        beside.setdefault((p.parent, p.stem), set()).add(p)
+    suffixed = {stem for (_, stem), files in beside.items() if len(files) > 1}   # these stems' files keep their suffix
+    parts = [(*p.parent.parts[1:], p.name if p.stem in suffixed else p.stem) for p in paths]   # [1:]: not the root
     lengths = [1] * len(paths)
     while True:
         labels = ["/".join(whole[-n:]) for whole, n in zip(parts, lengths)]
         files = {}   # label -> the files it names (a file given twice is one)
-        for whole, label in zip(parts, labels):
-            files.setdefault(label, set()).add(whole)
+        for path, label in zip(paths, labels):
+            files.setdefault(label, set()).add(path)
         shared = [k for k, label in enumerate(labels) if len(files[label]) > 1 and lengths[k] < len(parts[k])]
         if not shared:
             return labels

@@ -153,6 +153,8 @@ def test_labels_are_the_shortest_path_ends_that_tell_the_files_apart(tmp_path):
     paths = [tmp_path / "a/x/s.h5", tmp_path / "b/x/s.h5", tmp_path / "c/y/s.h5", tmp_path / "c/t.h5"]
     assert stage_traces.labels_of(paths) == ["a/x/s", "b/x/s", "y/s", "t"]
     assert stage_traces.labels_of([tmp_path / "a/x/s.h5", tmp_path / "a/x/s.h5"]) == ["s", "s"]
+    # Files that differ by their suffix alone were both labelled s: they keep it.
+    assert stage_traces.labels_of([tmp_path / "a/s.h5", tmp_path / "a/s.h5md", tmp_path / "b/s.h5"]) == ["a/s.h5", "s.h5md", "b/s.h5"]
     relative = [Path("a/x/s.h5"), Path("b/x/s.h5")]
     assert stage_traces.labels_of(relative) == ["a/x/s", "b/x/s"]
 
