@@ -115,16 +115,20 @@ def finish(partial, table, h5):
         f["grains"].attrs["stage_table"] = np.bytes_(table.name.encode())   # fixed length, as grains writes it
 
 
+def refuse_occupied_names(ap, samples):
+    """Before any sample runs (a report writes none): exits with status 2 when a sample's file name holds a folder
+    or FIFO (reuse.not_a_file_to_write; checked again where each sample starts), which the campaign would otherwise
+    meet only on reaching that sample, the samples before it run or under way. `samples` as check_samples'."""
+    occupied = [problem for _, _, stem in samples
+                if (problem := reuse.not_a_file_to_write(stem.with_suffix(".h5"), "a sample's", stem.name))]
+    if occupied:
+        ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
+
+
 def check_samples(ap, grains, samples, report=False):
     """Before anything runs: exits with status 2 when the engine refuses a sample's scene and overrides (its
     message), or when a finished sample in --out (with --report, an unfinished one too) ran other settings
-    than those given now, or when a sample's file name holds a folder or FIFO (reuse.not_a_file_to_write; checked
-    again where each sample starts). `samples`: (scene file, overrides, stem) of each."""
-    if not report:   # before any run: the campaign would stop at the first of them, other samples under way
-        occupied = [problem for _, _, stem in samples
-                    if (problem := reuse.not_a_file_to_write(stem.with_suffix(".h5"), "a sample's", stem.name))]
-        if occupied:
-            ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
+    than those given now. `samples`: (scene file, overrides, stem) of each."""
     stale = []
     for scene_file, overrides, stem in samples:
         try:
@@ -418,6 +422,7 @@ def main():
         reuse.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
         check_samples(ap, args.grains, samples, report=True)
     else:
+        refuse_occupied_names(ap, samples)
         check_samples(ap, args.grains, samples)
         make_out(ap, out)
         import dask

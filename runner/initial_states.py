@@ -25,7 +25,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_campaign import ROOT, check_arguments, check_samples, consolidate, make_out, provenance  # noqa: E402
+from consolidation_campaign import (ROOT, check_arguments, check_samples, consolidate, make_out, provenance,  # noqa: E402
+                                    refuse_occupied_names)
 import reuse  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
@@ -81,6 +82,7 @@ def main():
         reuse.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
     check_samples(ap, args.grains, runs)
     if not args.report:
+        refuse_occupied_names(ap, runs)
         make_out(ap, out)
         import dask
         tasks = {(s, seed): dask.delayed(run)(args.grains, s, seed, args.count, args.set, out) for s in states for seed in seeds}

@@ -5,12 +5,23 @@
 // once contacts cannot hold grains apart, many may share the core (the aggregation sweep's k* = 10 point ends with
 // every grain there), and this measures how many do.
 #pragma once
+#include <cmath>
 #include <cstddef>
+#include <numbers>
 #include <vector>
 
 #include "core/vec.hpp"
 
 namespace grains {
+
+// The period of the circular orbit of two bodies of total mass M at distance d in the softened potential,
+// 2 pi sqrt((d^2 + eps^2)^{3/2} / (G M)); d = 0: a grain inside a core of mass M. The start-up's orbit rule and the
+// softened-core check compare their steps: one formula, so that the same pair gives both the same bits (written
+// twice, eps^3 and pow(eps^2, 1.5) differed in the last bit, and the pair the start-up rule had warned of was warned
+// of again as a core).
+inline double softened_orbit_period(double G, double M, double eps, double d = 0) {
+  return 2 * std::numbers::pi * std::sqrt(std::pow(d * d + eps * eps, 1.5) / (G * M));
+}
 
 struct SoftenedCore {
   double mass = 0;          // the largest mass within `reach` of a particle's centre (0 without particles)

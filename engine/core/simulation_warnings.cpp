@@ -180,7 +180,7 @@ void SimulationImpl<D>::warn_gravity_step(const Scene& scene, double rmin, bool 
   const double pull = G * m[0] * M / (4 * rmin * rmin);
   const bool held = contacts && capped > pull;
   const double d = held ? 2 * rmin : 0.0;
-  const double orbit = 2 * std::acos(-1.0) * std::sqrt(std::pow(d * d + eps * eps, 1.5) / (G * (m[0] + m[1])));
+  const double orbit = softened_orbit_period(G, m[0] + m[1], eps, d);
   const std::string why =
       !contacts ? "no contacts"
       : held    ? fmt::format("contacts keep grains apart: their capped force k_n delta_max = {:.6g} exceeds "
@@ -301,7 +301,7 @@ void SimulationImpl<D>::check_softened_core() const {
   const auto& P = sys_.particles;
   const double eps = gravity_->softening_length(), G = gravity_->G();
   const SoftenedCore core = densest_softened_core<D>(P.position, P.mass, eps);
-  const auto step_for = [&](double M) { return 2 * std::numbers::pi * std::sqrt(eps * eps * eps / (G * M)) / 20; };
+  const auto step_for = [&](double M) { return softened_orbit_period(G, M, eps) / 20; };
   const double resolved = step_for(core.mass), orbit = 20 * resolved;
   if (core.count < 2 || !(dt_ > resolved) || !(resolved < startup_orbit_step_)) return;
   core_warned_ = true;

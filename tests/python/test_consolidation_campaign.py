@@ -463,3 +463,20 @@ def test_a_folder_at_a_later_samples_name_is_refused_before_any_sample_runs(grai
     assert r.returncode == 2, r.stderr
     assert f"{tmp_path / 'consolidation-seed5.h5'} is a folder, not a sample's HDF5 file" in r.stderr, r.stderr
     assert not list(tmp_path.glob("consolidation-seed4*")), "seed 4 ran before the folder at seed 5's name was refused"
+
+
+def test_a_folder_at_a_samples_name_is_refused_before_initial_states_runs_but_not_in_its_report(grains_bin, tmp_path):
+    """runner/initial_states.py shares the check made before any run; its --report, which runs and writes nothing,
+    was refused by it (the tool checks its samples with the campaign's run-time arguments in both modes)."""
+    (tmp_path / "type1-seed2.h5").mkdir()
+    cmd = [sys.executable, str(ROOT / "runner/initial_states.py"), "--samples", "2", "--count", "60", "--state", "type1",
+           "--jobs", "1", "--grains", str(grains_bin), "--out", str(tmp_path)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and f"{tmp_path / 'type1-seed2.h5'} is a folder, not a sample's HDF5 file" in r.stderr, r.stderr
+    assert not list(tmp_path.glob("type1-seed1*")), "seed 1 ran before the folder at seed 2's name was refused"
+    # An archived table of seed 1 (no HDF5 file beside it): the report summarises it and names seed 2 as missing.
+    with (tmp_path / "type1-seed1.csv").open("w") as f:
+        f.write("phi,coordination,reached,steps\n0.72,3.9,1,1000\n")
+    r = subprocess.run(cmd + ["--report"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "type1 seed 2: no table in" in r.stdout, r.stdout + r.stderr
+    assert "| type1 | 0.7200 (1) |" in (tmp_path / "summary.md").read_text()
