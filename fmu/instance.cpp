@@ -363,7 +363,7 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
                            sim_ ? sim_->particle_count() : table_.particle_count, table_.dimension);
     return error(fmt::format("the call passes {} values for variables holding {}{}", values.size(), k, arrays));
   }
-  log_new_warnings();   // the outputs' checks (energy, pass-through) run as they are read
+  log_new_warnings();   // the outputs' checks (energy, pass-through, softened core) run as they are read
   return Status::ok;
 }
 

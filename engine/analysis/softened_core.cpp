@@ -41,7 +41,7 @@ SoftenedCore densest_softened_core(const std::vector<Vec<D>>& x, const std::vect
     }
   }
   for (std::size_t i = 0; i < N; ++i)
-    if (within[i] > best.mass || i == 0) best = {within[i], count[i], i};
+    if (count[i] > 1 && within[i] > best.mass) best = {within[i], count[i], i};
   return best;
 }
 

@@ -23,10 +23,11 @@ inline double softened_orbit_period(double G, double M, double eps, double d = 0
   return 2 * std::numbers::pi * std::sqrt(std::pow(d * d + eps * eps, 1.5) / (G * M));
 }
 
+// Cores of two grains or more only: a lone grain orbits nothing, and a heavy one must not hide a lighter crowd.
 struct SoftenedCore {
-  double mass = 0;          // the largest mass within `reach` of a particle's centre (0 without particles)
-  std::size_t count = 0;    // the particles that make it, the centre included
-  std::size_t centre = 0;   // that particle (the lowest index on ties)
+  double mass = 0;          // the largest mass within `reach` of a particle's centre, with another there (0: none)
+  std::size_t count = 0;    // the particles that make it, the centre included (0: no two within reach)
+  std::size_t centre = 0;   // that particle
 };
 
 // Hashed cells of edge `reach`, each particle against the 3^D cells around its own: O(N) for particles spread

@@ -301,9 +301,10 @@ void SimulationImpl<D>::check_softened_core() const {
   const auto& P = sys_.particles;
   const double eps = gravity_->softening_length(), G = gravity_->G();
   const SoftenedCore core = densest_softened_core<D>(P.position, P.mass, eps);
+  if (core.count < 2) return;   // no two grains within eps of each other
   const auto step_for = [&](double M) { return softened_orbit_period(G, M, eps) / 20; };
   const double resolved = step_for(core.mass), orbit = 20 * resolved;
-  if (core.count < 2 || !(dt_ > resolved) || !(resolved < startup_orbit_step_)) return;
+  if (!(dt_ > resolved) || !(resolved < startup_orbit_step_)) return;
   core_warned_ = true;
   // The core may go on growing: what every grain in it would ask, the bound a run that collapses whole needs.
   const double total = std::accumulate(P.mass.begin(), P.mass.end(), 0.0), all = step_for(total);

@@ -29,7 +29,7 @@ SoftenedCore every_pair(const std::vector<Vec<D>>& x, const std::vector<double>&
     std::size_t count = 0;
     for (std::size_t j = 0; j < x.size(); ++j)
       if ((x[j] - x[i]).norm() < reach) mass += m[j], ++count;
-    if (i == 0 || mass > best.mass) best = {mass, count, i};
+    if (count > 1 && mass > best.mass) best = {mass, count, i};
   }
   return best;
 }
@@ -91,11 +91,15 @@ TEST_CASE("softened core: the grid finds the densest core that every pair measur
   check_against_every_pair<3>(2);
   check_against_every_pair<2>(3);
   CHECK(densest_softened_core<3>({}, {}, 0.1).mass == 0);
-  // Grains farther apart than the reach: each holds its own mass, the heaviest the most.
+  // Grains farther apart than the reach: no core.
   const SoftenedCore alone = densest_softened_core<2>({Vec<2>(0, 0), Vec<2>(1, 0), Vec<2>(0, 1)}, {1.0, 3.0, 2.0}, 0.5);
-  CHECK(alone.mass == 3.0);
-  CHECK(alone.count == 1);
-  CHECK(alone.centre == 1);
+  CHECK(alone.mass == 0);
+  CHECK(alone.count == 0);
+  // A lone grain heavier than a crowded pair does not hide it (it was the "core", of one grain, and the check stopped).
+  const SoftenedCore pair = densest_softened_core<2>({Vec<2>(0, 0), Vec<2>(5, 0), Vec<2>(5.01, 0)}, {3.0, 1.0, 1.0}, 0.05);
+  CHECK(pair.mass == 2.0);
+  CHECK(pair.count == 2);
+  CHECK((pair.centre == 1 || pair.centre == 2));
 }
 
 TEST_CASE("softened-core check: a step too coarse for the orbits in a core of six grains is warned about, once",
