@@ -55,15 +55,14 @@ void check_against_every_pair(unsigned seed) {
   CHECK(grid.count >= 100);   // the clump is all within reach of its members
 }
 
-// Six unit grains of diameter 0.1 (R_min = 0.05, eps = softening R_min = 0.05), no contacts, G = 1, at rest; the
-// `spread` of their positions. The start-up rule's orbit is two grains' at d = 0: T_orb = 2 pi sqrt(eps^3 / (2 G)).
-std::string six_grains(double spread, double dt) {
+// Unit grains of one diameter at `positions` (TOML), at rest, no contacts, G = 1, eps = softening R_min = R.
+std::string resting_grains(const std::string& positions, double diameter, double dt) {
   return fmt::format(R"(
 [particles]
 layout = "list"
-positions = [[0, 0, 0], [{0}, 0, 0], [0, {0}, 0], [0, 0, {0}], [-{0}, 0, 0], [0, -{0}, 0]]
-diameters = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1]
-masses = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0]
+positions = {}
+diameter = {:.17g}
+mass = 1.0
 [box]
 periodic = false
 [contact]
@@ -73,10 +72,17 @@ enabled = true
 G = 1.0
 softening = 1.0
 [time]
-dt = {1:.17g}
+dt = {:.17g}
 [run]
 threads = 1
-)", spread, dt);
+)", positions, diameter, dt);
+}
+
+// Six unit grains of diameter 0.1 (R_min = 0.05, eps = 0.05), the `spread` of their positions. The start-up rule's
+// orbit is two grains' at d = 0: T_orb = 2 pi sqrt(eps^3 / (2 G)).
+std::string six_grains(double spread, double dt) {
+  return resting_grains(fmt::format("[[0, 0, 0], [{0}, 0, 0], [0, {0}, 0], [0, 0, {0}], [-{0}, 0, 0], [0, -{0}, 0]]", spread),
+                        0.1, dt);
 }
 
 long core_warnings(const Simulation& sim) {
@@ -154,25 +160,7 @@ TEST_CASE("softened-core check: two grains within eps, the start-up rule's own p
   // R_min = 0.131 (eps = 0.131): pow(eps^2, 1.5), the start-up rule's, exceeds eps^3 by a rounding, and the core check,
   // which wrote eps^3, found the pair's orbit step a bit below the start-up rule's and warned of it again.
   const double pi = std::acos(-1.0), eps = 0.131, pair_step = 2 * pi * std::sqrt(std::pow(eps * eps, 1.5) / 2) / 20;
-  auto sim = Simulation::create(Scene::from_string(fmt::format(R"(
-[particles]
-layout = "list"
-positions = [[0, 0, 0], [0.05, 0, 0]]
-diameters = [0.262, 0.262]
-masses = [1.0, 1.0]
-[box]
-periodic = false
-[contact]
-enabled = false
-[gravity]
-enabled = true
-G = 1.0
-softening = 1.0
-[time]
-dt = {:.17g}
-[run]
-threads = 1
-)", 1.5 * pair_step), "pair"));
+  auto sim = Simulation::create(Scene::from_string(resting_grains("[[0, 0, 0], [0.05, 0, 0]]", 0.262, 1.5 * pair_step), "pair"));
   REQUIRE(sim->warnings().size() == 1);
   REQUIRE_THAT(sim->warnings()[0], Contains("exceeds T_orb / 20"));
   sim->get("kinetic_energy");
