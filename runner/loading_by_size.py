@@ -1,0 +1,140 @@
+"""The loading curve of type-2 samples against the system size (not part of the test suite; reads finished campaigns).
+
+    python runner/loading_by_size.py --campaign 1400=FOLDER --campaign 5600=FOLDER ... [--out loading-by-size.png]
+                                     [--resamples 40]
+
+Each --campaign names a folder of `consolidation_campaign.py` stage tables (SCENE-seedN.csv; unfinished
+SCENE-seedN.partial.csv are left out, since their curves stop part way) and the label it is shown under, the
+number of disks as a rule. Per scene and folder it averages the samples' loading branches and fits the mean, as
+the campaign does (the paper's method: its Fig. 11 and Table III), and prints a table of lambda, Phimax, P0*,
+Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
+the samples; the figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
+gives one lambda per law for its samples of all sizes together, so this shows whether our excess is a small
+system's.
+"""
+import argparse
+import math
+import pathlib
+import re
+import sys
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import consolidation_campaign as campaign  # noqa: E402
+from consolidation_fit import inverse_phi_crossover, plateau_then  # noqa: E402
+
+
+def parse_campaign(text):
+    """LABEL=FOLDER, the folder existing."""
+    label, sep, folder = text.partition("=")
+    if not sep or not label or not folder:
+        raise argparse.ArgumentTypeError(f"--campaign {text!r}: expected LABEL=FOLDER, e.g. 1400=campaign")
+    path = pathlib.Path(folder)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"--campaign {text!r}: {folder} is not a folder")
+    return label, path
+
+
+def finished_samples(folder, scene):
+    """The summaries of the scene's finished tables in the folder (seed order), those with a loading branch."""
+    named = ((re.fullmatch(rf"{re.escape(scene)}-seed(\d+)\.csv", t.name), t) for t in folder.iterdir())
+    tables = sorted((int(m[1]), t) for m, t in named if m)
+    found = [campaign.summarise(t) for _, t in tables]
+    return [s for s in found if s is not None]
+
+
+def fit_of_mean(results, resamples):
+    """The fit to the samples' mean loading curve and the spread of its values over resampled samples
+    ({} below three samples, where a resample says little), or None where the mean curve cannot be fitted."""
+    p, phi, counts = campaign.mean_curve(results)
+    try:
+        fit = campaign.fit_loading(p, phi)
+    except (ValueError, RuntimeError):
+        return None
+    spread = campaign.resampled_spread(results, resamples)[0] if len(results) >= 3 and resamples else {}
+    return {"fit": fit, "spread": spread, "p": p, "phi": phi, "counts": counts}
+
+
+def paper_p1(scene):
+    """P1*, where the paper's regime II line meets Phimax: ln P1* = ln P0* + (1/Phi0 - 1/Phimax) / lambda."""
+    p0, phi0, lam, phi_max, _ = campaign.PAPER_FIT[scene]
+    return p0 * math.exp((1 / phi0 - 1 / phi_max) / lam)
+
+
+def table_lines(rows):
+    """rows: (scene, label, samples, fit_of_mean result or None)."""
+    lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | paper λ, Φmax, P1* |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for scene, label, n, found in rows:
+        lam, phi_max = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"]
+        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {paper_p1(scene):.3g}"
+        if found is None:
+            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | {paper} |")
+            continue
+        f, s = found["fit"], found["spread"]
+        spread = lambda key: f"; ± {s[key]:.3f}" if key in s else ""
+        lines.append(f"| {scene} | {label} | {n} | {f['lambda']:.3f} ± {f['lambda_err']:.3f}{spread('lambda')} | "
+                     f"{f['phi_max']:.4f} ± {f['phi_max_err']:.4f}{spread('phi_max')} | {f['P0']:.3g} | {f['phi0']:.4f} | {f['P1']:.3g} | {paper} |")
+    return lines
+
+
+def plot(rows, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    scenes = list(dict.fromkeys(r[0] for r in rows))
+    fig, axes = plt.subplots(1, len(scenes), figsize=(6.5 * len(scenes), 4.5), squeeze=False)
+    for ax, scene in zip(axes[0], scenes):
+        ours = [r for r in rows if r[0] == scene]
+        colours = plt.cm.viridis(np.linspace(0, 0.85, len(ours)))
+        for (_, label, n, found), colour in zip(ours, colours):
+            if found is None:
+                continue
+            f = found["fit"]
+            ax.plot(found["p"], found["phi"], "o", color=colour, ms=4, label=f"{label} disks, mean of {n}")
+            grid = np.geomspace(found["p"].min(), found["p"].max(), 200)
+            inv = plateau_then(grid, f["P0"], 1 / f["phi0"], lambda q: inverse_phi_crossover(
+                q, 1 / f["phi0"], f["lambda"], f["phi_max"], f["alpha"], f["P0"]))
+            ax.plot(grid, 1 / inv, "-", color=colour, lw=1.2, label=f"  its fit: λ = {f['lambda']:.3g}, Φmax = {f['phi_max']:.4g}")
+        p0, phi0, lam, phi_max, alpha = campaign.PAPER_FIT[scene]
+        grid = np.geomspace(0.01, 13.33, 200)   # the paper's programme
+        inv = plateau_then(grid, p0, 1 / phi0, lambda q: inverse_phi_crossover(q, 1 / phi0, lam, phi_max, alpha, p0))
+        ax.plot(grid, 1 / inv, "k:", lw=1.5, label=f"paper's fit: λ = {lam:.3g}, Φmax = {phi_max:.4g}")
+        ax.set_xscale("log")
+        ax.set_xlabel("P* = a P / F0")
+        ax.set_ylabel("solid fraction Φ (mean over the samples in equilibrium)")
+        ax.set_title(f"{scene}: loading branch by system size")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--campaign", action="append", type=parse_campaign, required=True, metavar="LABEL=FOLDER",
+                    help="a folder of campaign stage tables and its label, e.g. 1400=campaign (repeatable)")
+    ap.add_argument("--scene", action="append", choices=list(campaign.PAPER), help="scene to read (default both)")
+    ap.add_argument("--resamples", type=int, default=40,
+                    help="resamplings of the samples for the spread of the fitted values, from three samples on (default 40)")
+    ap.add_argument("--out", default="loading-by-size.png", help="the figure (default loading-by-size.png)")
+    args = ap.parse_args(argv)
+    if args.resamples < 0:
+        ap.error(f"--resamples {args.resamples}: must be 0 or more")
+    rows = []
+    for scene in args.scene or list(campaign.PAPER):
+        for label, folder in args.campaign:
+            results = finished_samples(folder, scene)
+            if results:
+                rows.append((scene, label, len(results), fit_of_mean(results, args.resamples)))
+    if not rows:
+        ap.error("no finished stage table (SCENE-seedN.csv) of the scenes in the folders given")
+    print("\n".join(table_lines(rows)))
+    plot(rows, args.out)
+    print(f"figure: {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,60 @@
+"""The loading curve by system size (runner/loading_by_size.py): each folder's samples are averaged and fitted as the
+campaign fits its mean curve, unfinished samples are left out, and bad arguments are refused by name."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from test_consolidation_campaign import synthetic_curve, write_table
+
+sys.path.insert(0, str(ROOT / "runner"))
+import loading_by_size  # noqa: E402
+
+
+def write_samples(folder, scene, lams, partial_lam=None):
+    """One table per lambda of a synthetic crossover curve (and, if given, an unfinished one far off them)."""
+    folder.mkdir()
+    for seed, lam in enumerate(lams, start=1):
+        p, phi = synthetic_curve(lam=lam)
+        write_table(folder / f"{scene}-seed{seed}.csv", [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p, phi)])
+    if partial_lam is not None:
+        p, phi = synthetic_curve(lam=partial_lam)
+        write_table(folder / f"{scene}-seed{len(lams) + 1}.partial.csv",
+                    [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p[:12], phi[:12])])
+
+
+def fitted_lambda(line):
+    return float(line.split(" | ")[3].split(" ±")[0])
+
+
+def test_each_size_gets_the_fit_of_its_mean_curve_and_unfinished_samples_are_left_out(tmp_path):
+    write_samples(tmp_path / "small", "consolidation", [0.3, 0.3, 0.3], partial_lam=0.9)
+    write_samples(tmp_path / "large", "consolidation", [0.2])
+    figure = tmp_path / "by-size.png"
+    out = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--scene", "consolidation",
+                          "--campaign", f"1400={tmp_path / 'small'}", "--campaign", f"5600={tmp_path / 'large'}",
+                          "--resamples", "3", "--out", str(figure)], capture_output=True, text=True, check=True).stdout
+    rows = [l for l in out.splitlines() if l.startswith("| consolidation |")]
+    assert [r.split(" | ")[1:3] for r in rows] == [["1400", "3"], ["5600", "1"]]
+    assert abs(fitted_lambda(rows[0]) - 0.3) < 1e-3 and abs(fitted_lambda(rows[1]) - 0.2) < 1e-3
+    # three identical samples: their resampled spread is zero; one sample has none
+    assert "; ± 0.000" in rows[0] and "; ±" not in rows[1].split(" | ")[3]
+    # the paper's P1* from its own fit: 0.0237 exp((1/0.469 - 1/0.7808) / 0.349)
+    assert rows[0].endswith(f", {0.0237 * np.exp((1 / 0.469 - 1 / 0.7808) / 0.349):.3g} |")
+    assert figure.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("given, said", [("1400", "expected LABEL=FOLDER"), ("1400=/nonexistent/folder", "is not a folder")])
+def test_a_campaign_argument_that_is_not_a_label_and_folder_is_refused(given, said):
+    run = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--campaign", given],
+                         capture_output=True, text=True)
+    assert run.returncode == 2 and said in run.stderr and "Traceback" not in run.stderr
+
+
+def test_folders_without_a_finished_table_are_an_error(tmp_path):
+    (tmp_path / "empty").mkdir()
+    run = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--campaign", f"x={tmp_path / 'empty'}"],
+                         capture_output=True, text=True)
+    assert run.returncode == 2 and "no finished stage table" in run.stderr
