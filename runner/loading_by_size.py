@@ -122,6 +122,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.resamples < 0:
         ap.error(f"--resamples {args.resamples}: must be 0 or more")
+    from plot import image_name_problem
+    problem = image_name_problem("--out", args.out)
+    if problem:   # said before the fits, not after
+        ap.error(problem)
     rows = []
     for scene in args.scene or list(campaign.PAPER):
         for label, folder in args.campaign:

@@ -53,6 +53,14 @@ def test_a_campaign_argument_that_is_not_a_label_and_folder_is_refused(given, sa
     assert run.returncode == 2 and said in run.stderr and "Traceback" not in run.stderr
 
 
+@pytest.mark.parametrize("out, said", [("missing/x.png", "does not exist"), ("x.h5", "supported image format")])
+def test_a_figure_name_that_cannot_be_written_is_refused_before_the_fits(tmp_path, out, said):
+    write_samples(tmp_path / "c", "consolidation", [0.3])
+    run = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--campaign", f"x={tmp_path / 'c'}",
+                          "--out", str(tmp_path / out)], capture_output=True, text=True)
+    assert run.returncode == 2 and said in run.stderr and "Traceback" not in run.stderr and "| consolidation |" not in run.stdout
+
+
 def test_folders_without_a_finished_table_are_an_error(tmp_path):
     (tmp_path / "empty").mkdir()
     run = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--campaign", f"x={tmp_path / 'empty'}"],
