@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -24,6 +25,7 @@
 #include "cell/equilibrium.hpp"
 #include "cell/pressure_ramp.hpp"
 #include "core/integrator.hpp"
+#include "core/orbit_step_rule.hpp"
 #include "core/simulation.hpp"
 #include "core/system.hpp"
 #include "interactions/adhesive_contact_law.hpp"
@@ -178,6 +180,8 @@ class SimulationImpl final : public Simulation {
   void warn_coarse_coordinates(const Scene& scene, double rmin);
   void warn_unresolved_approach(const Scene& scene, double rmin);
   void warn_gravity_step(const Scene& scene, double rmin, bool contacts);
+  std::string orbit_rule_terms(const OrbitStepRule::At& rule) const;
+  void warn_orbit_step_at_G(double G);
   void warn_pressure_beyond_clamp(const char* key, double reduced_pressure);
   void check_energy(double kinetic) const;
   void check_pass_through() const;
@@ -214,7 +218,10 @@ class SimulationImpl final : public Simulation {
   bool orient_ = true;   // particles.track_orientation
   double dt_ = 0, kn_ = 0, cn_ = 0;
   double contact_duration_ = 0;   // t_c (0 without contacts): the checks' advice in time.steps_per_contact
-  double startup_orbit_step_ = 0;  // T_orb / 20 of the start-up's orbit rule (warn_gravity_step), for the core check
+  // The gravity time-step rule's inputs (warn_gravity_step; gravity scenes of two grains or more), evaluated at the G
+  // in effect by the core check and when a host sets gravity.G.
+  std::optional<OrbitStepRule> orbit_rule_;
+  bool orbit_rule_warned_ = false;   // the step exceeded the rule's, at the start-up or a host's G (once per run; saved)
   // The clock (time_after): the time of the last step that was not a whole dt (or of the start), and the
   // whole steps since.
   double clock_origin_ = 0;

@@ -147,6 +147,8 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
                   // Another G moves W (and E) at once: the energy check starts again from the next value.
                   if (G != g->G()) energy_watch_.started = 0;
                   g->set_G(G);
+                  // A restored state carries whether the rule has warned, and its G is no host's new value.
+                  if (!loading_controls_) warn_orbit_step_at_G(G);
                 });
   sys_.dt = 0, sys_.first_step = dt_;
   P.velocity_predicted = P.velocity;   // the dashpots of contacts present at the start see v(0)

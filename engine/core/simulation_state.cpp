@@ -19,9 +19,10 @@ namespace grains {
 // aggregation time; 11: the barostat's last stress, which its next step extrapolates from; 12: the particles' periodic
 // images, after their orientations; 13: whether the clamp warning was given, after the barostat's stress; 14: whether a
 // gravity scene's pass-through warning was given, after the energy check's record; 15: whether its softened-core
-// warning was given, after that).
+// warning was given, after that; 16: whether its orbit-step warning was given, at the start-up or a host's gravity.G,
+// after that).
 // States of builds before the word start with D (2, 3).
-constexpr std::uint32_t state_format = 0x47524e0f;
+constexpr std::uint32_t state_format = 0x47524e10;
 
 // GCC 12 inlines the writer's first insert into its empty vector here and wrongly flags it as overflowing
 // (-Wstringop-overflow); in the one file the class once was, it inlined less and said nothing.
@@ -45,6 +46,7 @@ std::vector<std::byte> SimulationImpl<D>::save_state() const {
     w.put(e.first), w.put(e.minimum), w.put(e.minimum_time), w.put(e.started), w.put(e.warned);
     w.put(std::uint8_t(pass_through_warned_));
     w.put(std::uint8_t(core_warned_));
+    w.put(std::uint8_t(orbit_rule_warned_));
   }
   if (network_) w.put_vector(reference_contacts_), w.put(network_mark_);
   // Whether the clamp warning was given: before the controls, whose restored cell.pressure would give it again.
@@ -144,6 +146,7 @@ void SimulationImpl<D>::load_state(std::span<const std::byte> all) {
     e.started = r.get<std::uint8_t>(), e.warned = r.get<std::uint8_t>();
     pass_through_warned_ = r.get<std::uint8_t>() != 0;
     core_warned_ = r.get<std::uint8_t>() != 0;
+    orbit_rule_warned_ = r.get<std::uint8_t>() != 0;
   }
   if (network_) r.get_vector(reference_contacts_), network_mark_ = r.get<double>();
   if (barostat_) {

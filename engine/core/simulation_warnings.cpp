@@ -155,43 +155,58 @@ void SimulationImpl<D>::warn_unresolved_approach(const Scene& scene, double rmin
                      source, vmax, closing, dt_, depth, depth / (2 * vmax)));
 }
 
-// Gravity time-step rule (physics.md section 3): the fastest orbit the softened potential allows is
-// the circular one of the two heaviest particles at their closest approach d:
-// T_orb = 2 pi sqrt((d^2 + eps^2)^(3/2) / (G (m_1 + m_2))). A step above T_orb / 20 resolves that orbit
-// with fewer than 20 steps.
-// The closest approach is the contact distance 2 R_min only where the contacts surely keep grains apart, and
-// a capped contact force need not: beyond delta_max = contact.overlap_limit R_min it stays k_n delta_max
-// (physics.md section 2), and a larger pull sinks the grains into each other down to the softened centre (at
-// k* = 10, two grains passed through each other and gained 18 times their kinetic energy, with no warning
-// while d was 2 R_min). Bound the pull on one grain by the whole system's mass at contact distance,
-// G m_max M / (2 R_min)^2: a capped force above it keeps d = 2 R_min, else d = 0 (then T_orb depends on eps
-// alone). The bound is generous, so d = 0 is the usual case: the default aggregation scene's capped force,
-// 647, is below its bound, 1000, and its step is 3.7 times below T_orb / 20 at d = 0.
+// The gravity time-step rule (core/orbit_step_rule.hpp), set up from the scene and checked at its G. Kept: the
+// softened-core check compares against it, and a host's gravity.G is checked against it (warn_orbit_step_at_G).
 template <int D>
 void SimulationImpl<D>::warn_gravity_step(const Scene& scene, double rmin, bool contacts) {
   std::vector<double> m = sys_.particles.mass;
   if (m.size() < 2) return;
-  double M = 0;
-  for (double mi : m) M += mi;
+  const double M = std::accumulate(m.begin(), m.end(), 0.0);
   std::partial_sort(m.begin(), m.begin() + 2, m.end(), std::greater<>());
-  const double G = scene.real("gravity.G"), eps = scene.real("gravity.softening") * rmin;
   // kn_: the lightest pair's stiffness, the smallest one (per-pair calibration stiffens heavier pairs)
-  const double capped = contacts ? kn_ * scene.real("contact.overlap_limit") * rmin : 0.0;
-  const double pull = G * m[0] * M / (4 * rmin * rmin);
-  const bool held = contacts && capped > pull;
-  const double d = held ? 2 * rmin : 0.0;
-  const double orbit = softened_orbit_period(G, m[0] + m[1], eps, d);
+  orbit_rule_ = OrbitStepRule{m[0] + m[1], m[0], M, scene.real("gravity.softening") * rmin,
+                              contacts ? kn_ * scene.real("contact.overlap_limit") * rmin : 0.0, rmin, contacts};
+  const double G = scene.real("gravity.G");
+  if (const auto rule = orbit_rule_->at(G); rule.orbit > 0 && dt_ > rule.step()) {   // orbit = 0: unsoftened, no bound
+    orbit_rule_warned_ = true;
+    warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} ({}): close gravitational encounters are resolved by "
+                     "fewer than 20 steps", dt_, rule.step(), orbit_rule_terms(rule)));
+  }
+}
+
+// What the orbit rule's step comes from, for its warnings.
+template <int D>
+std::string SimulationImpl<D>::orbit_rule_terms(const OrbitStepRule::At& rule) const {
+  const double capped = orbit_rule_->capped, pull = rule.pull;
   const std::string why =
-      !contacts ? "no contacts"
-      : held    ? fmt::format("contacts keep grains apart: their capped force k_n delta_max = {:.6g} exceeds "
-                              "G m_max M / (2 R_min)^2 = {:.6g}", capped, pull)
-                : fmt::format("contacts cannot keep grains apart: their capped force k_n delta_max = {:.6g} is below "
-                              "G m_max M / (2 R_min)^2 = {:.6g}, so grains may pass through each other", capped, pull);
-  startup_orbit_step_ = orbit / 20;
-  if (orbit > 0 && dt_ > orbit / 20)   // orbit = 0: unsoftened point masses, no bound to check against
-    warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} (T_orb = {:.6g}: the circular orbit of the two heaviest "
-                     "particles at their closest approach d = {:.6g} with softening eps = {:.6g}; {}): close gravitational "
-                     "encounters are resolved by fewer than 20 steps", dt_, orbit / 20, orbit, d, eps, why));
+      !orbit_rule_->contacts ? "no contacts"
+      : rule.held            ? fmt::format("contacts keep grains apart: their capped force k_n delta_max = {:.6g} exceeds "
+                                           "G m_max M / (2 R_min)^2 = {:.6g}", capped, pull)
+                             : fmt::format("contacts cannot keep grains apart: their capped force k_n delta_max = {:.6g} is "
+                                           "below G m_max M / (2 R_min)^2 = {:.6g}, so grains may pass through each other",
+                                           capped, pull);
+  return fmt::format("T_orb = {:.6g}: the circular orbit of the two heaviest particles at their closest approach d = {:.6g} "
+                     "with softening eps = {:.6g}; {}", rule.orbit, rule.d, orbit_rule_->eps, why);
+}
+
+// A host's gravity.G (the tunable control) moves the orbit rule's step as 1 / sqrt(G), and a G whose pull the contacts
+// cannot hold moves d to 0. A G at which time.dt (fixed for the run) exceeds it is warned about as the start-up's G would have
+// been: without it a raised G went unsaid (the softened-core check compares cores with this rule at the same G, so it
+// cannot see a step too coarse for the rule itself). Once per run, the start-up's warning included: a host steering G
+// step by step would repeat it, and a G raised further only says the same again (part of the saved state).
+template <int D>
+void SimulationImpl<D>::warn_orbit_step_at_G(double G) {
+  if (orbit_rule_warned_ || !orbit_rule_) return;
+  const auto rule = orbit_rule_->at(G);
+  if (!(rule.orbit > 0 && dt_ > rule.step())) return;
+  orbit_rule_warned_ = true;
+  // At this d the step is 1 / sqrt(G) times that at G = 1; a lower G only keeps d or raises it (contacts that hold
+  // grains apart at G hold them at less), so at or below this G the step resolves the orbit.
+  const double unit_step = softened_orbit_period(1.0, orbit_rule_->pair_mass, orbit_rule_->eps, rule.d) / 20;
+  warn(fmt::format("gravity.G = {:.6g} (set at t = {:.6g}, step {}): time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} at this G "
+                   "({}): close gravitational encounters are resolved by fewer than 20 steps; time.dt is fixed for the run, "
+                   "so keep gravity.G at or below {:.6g}, where the step resolves that orbit",
+                   G, sys_.time, sys_.step, dt_, rule.step(), orbit_rule_terms(rule), std::pow(unit_step / dt_, 2)));
 }
 
 // A contact of the pressed packing carries about the pressure's force P a^(D-1); the clamp caps its elastic
@@ -287,14 +302,15 @@ void SimulationImpl<D>::check_pass_through() const {
                    sys_.time, sys_.time / free_fall_time_, sys_.step, overlap->second, o.at("normalised_stiffness")));
 }
 
-// Softened-core check (physics.md section 3: nothing blows up silently). The start-up's orbit rule resolves the
-// orbit of two grains within the softening length eps; where contacts cannot hold grains apart, many may sink
-// within eps of each other, and a grain there orbits their mass M with period T = 2 pi sqrt(eps^3 / (G M))
+// Softened-core check (physics.md section 3: nothing blows up silently). The orbit rule (core/orbit_step_rule.hpp)
+// resolves the orbit of two grains within the softening length eps; where contacts cannot hold grains apart, many may
+// sink within eps of each other, and a grain there orbits their mass M with period T = 2 pi sqrt(eps^3 / (G M))
 // (analysis/softened_core.hpp). Warned once, where the outputs are computed, when time.dt exceeds T / 20, the
-// start-up rule's resolution, for the densest core of two grains or more found, and that core asks a finer step than
-// the start-up rule did (which has said so already otherwise). The aggregation sweep's k* = 10 point (1000 grains,
-// zeta = 0.02) ends with every grain within eps, where the start-up rule asked 201 steps per contact: at 800 the
-// energy check was quiet, yet N_c / N was 0.032 against 0.003 at 1600 (docs/reproduction-aggregation.md).
+// rule's resolution, for the densest core of two grains or more found, and that core asks a finer step than the
+// rule does at the G in effect (which has said so already otherwise, at the start-up or when a host set G). The
+// aggregation sweep's k* = 10 point (1000 grains, zeta = 0.02) ends with every grain within eps, where the start-up
+// rule asked 201 steps per contact: at 800 the energy check was quiet, yet N_c / N was 0.032 against 0.003 at 1600
+// (docs/reproduction-aggregation.md).
 template <int D>
 void SimulationImpl<D>::check_softened_core() const {
   if (core_warned_ || !gravity_ || !(gravity_->softening_length() > 0) || !(gravity_->G() > 0)) return;
@@ -304,7 +320,9 @@ void SimulationImpl<D>::check_softened_core() const {
   if (core.count < 2) return;   // no two grains within eps of each other
   const auto step_for = [&](double M) { return softened_orbit_period(G, M, eps) / 20; };
   const double resolved = step_for(core.mass), orbit = 20 * resolved;
-  if (!(dt_ > resolved) || !(resolved < startup_orbit_step_)) return;
+  // The orbit rule at the G in effect (a host may have changed it since the start-up).
+  const double rule_step = orbit_rule_ ? orbit_rule_->at(G).step() : 0.0;
+  if (!(dt_ > resolved) || !(resolved < rule_step)) return;
   core_warned_ = true;
   // The core may go on growing: what every grain in it would ask, the bound a run that collapses whole needs.
   const double total = std::accumulate(P.mass.begin(), P.mass.end(), 0.0), all = step_for(total);
@@ -315,11 +333,11 @@ void SimulationImpl<D>::check_softened_core() const {
   warn(fmt::format("softened-core check: at t = {:.6g} ({:.3g} t_ff, step {}) {} grains of mass {:.6g} lie within the "
                    "softening length eps = {:.6g} of grain {}; a grain orbits that core in T = 2 pi sqrt(eps^3 / (G M)) = "
                    "{:.6g}, and time.dt = {:.6g} exceeds T / 20 = {:.6g}: the core's orbits are resolved by fewer than 20 "
-                   "steps (the start-up's orbit rule, from two grains, asked time.dt <= {:.6g}), so the collapse into "
+                   "steps (the orbit rule, from two grains, asks time.dt <= {:.6g} at G = {:.6g}), so the collapse into "
                    "it, and the clusters from here on, are not resolved; keep time.dt at or below {:.6g}{} for this core, "
                    "and at or below {:.6g}{} should every grain sink into it",
                    sys_.time, sys_.time / free_fall_time_, sys_.step, core.count, core.mass, eps, core.centre, orbit, dt_,
-                   resolved, startup_orbit_step_, resolved, in_steps_per_contact(resolved), all, in_steps_per_contact(all)));
+                   resolved, rule_step, G, resolved, in_steps_per_contact(resolved), all, in_steps_per_contact(all)));
 }
 
 // This file's members, instantiated one by one: each of the Simulation's files instantiates its own
@@ -330,6 +348,8 @@ void SimulationImpl<D>::check_softened_core() const {
   template void SimulationImpl<D>::warn_coarse_coordinates(const Scene&, double); \
   template void SimulationImpl<D>::warn_unresolved_approach(const Scene&, double); \
   template void SimulationImpl<D>::warn_gravity_step(const Scene&, double, bool); \
+  template std::string SimulationImpl<D>::orbit_rule_terms(const OrbitStepRule::At&) const; \
+  template void SimulationImpl<D>::warn_orbit_step_at_G(double); \
   template void SimulationImpl<D>::warn_pressure_beyond_clamp(const char*, double); \
   template void SimulationImpl<D>::check_energy(double) const; \
   template void SimulationImpl<D>::check_pass_through() const; \

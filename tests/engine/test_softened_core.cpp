@@ -85,10 +85,13 @@ std::string six_grains(double spread, double dt) {
                         0.1, dt);
 }
 
-long core_warnings(const Simulation& sim) {
-  return std::count_if(sim.warnings().begin(), sim.warnings().end(),
-                       [](const std::string& w) { return w.starts_with("softened-core check"); });
+long warnings_starting(const Simulation& sim, const std::string& start) {
+  return std::count_if(sim.warnings().begin(), sim.warnings().end(), [&](const std::string& w) { return w.starts_with(start); });
 }
+long core_warnings(const Simulation& sim) { return warnings_starting(sim, "softened-core check"); }
+
+// What a host does to steer gravity between steps (the FMU sets the tunable parameter through the same call).
+void set_G(Simulation& sim, double G) { sim.set(sim.index_of("gravity.G"), G); }
 
 }  // namespace
 
@@ -122,7 +125,7 @@ TEST_CASE("softened-core check: a step too coarse for the orbits in a core of si
   CHECK_THAT(sim->warnings().back(),
              Contains("softened-core check: at t = 0 ") && Contains("6 grains of mass 6 lie within the softening length eps = 0.05") &&
                  Contains(fmt::format("exceeds T / 20 = {:.6g}", core_step)) &&
-                 Contains(fmt::format("asked time.dt <= {:.6g}", pair_step)));
+                 Contains(fmt::format("asks time.dt <= {:.6g} at G = 1", pair_step)));
   // Once: more steps, read again, add none; nor does a simulation restored from its state.
   sim->step_n(5);
   sim->get("kinetic_energy");
@@ -165,4 +168,92 @@ TEST_CASE("softened-core check: two grains within eps, the start-up rule's own p
   REQUIRE_THAT(sim->warnings()[0], Contains("exceeds T_orb / 20"));
   sim->get("kinetic_energy");
   CHECK(core_warnings(*sim) == 0);
+}
+
+TEST_CASE("softened-core check: after a host raises G, it compares with the orbit rule at that G and quotes its step",
+          "[gravity][core]") {
+  const double pi = std::acos(-1.0), eps = 0.05;
+  const auto pair_step = [&](double G) { return 2 * pi * std::sqrt(eps * eps * eps / (2 * G)) / 20; };
+  const auto core_step = [&](double G) { return 2 * pi * std::sqrt(eps * eps * eps / (6 * G)) / 20; };
+  // Within the six grains' T / 20 at G = 1; at G = 2 beyond it, and still within the orbit rule's (two grains).
+  const double dt = 0.9 * core_step(1);
+  REQUIRE(dt > core_step(2));
+  REQUIRE(dt < pair_step(2));
+  auto sim = Simulation::create(Scene::from_string(six_grains(0.02, dt), "core"));
+  sim->get("kinetic_energy");
+  REQUIRE(sim->warnings().empty());
+  set_G(*sim, 2.0);
+  sim->get("kinetic_energy");
+  REQUIRE(sim->warnings().size() == 1);   // the core's, and no orbit-rule warning: the step is within the rule at G = 2
+  CHECK_THAT(sim->warnings().back(),
+             Contains("softened-core check") && Contains(fmt::format("exceeds T / 20 = {:.6g}", core_step(2))) &&
+                 Contains(fmt::format("asks time.dt <= {:.6g} at G = 2", pair_step(2))));
+}
+
+// Two unit grains of diameter 1 (R_min = 0.5), 1.25 apart: within eps = 4 R_min = 2, not touching. Elastic contacts of
+// t_c = 1 (k_n = m* pi^2 / t_c^2 = 4.93, capped at k_n 0.1 R_min = 0.247), 25 steps each.
+std::string two_grains_with_contacts(double G) {
+  return fmt::format(R"(
+[particles]
+layout = "list"
+positions = [[0, 0, 0], [1.25, 0, 0]]
+diameter = 1.0
+mass = 1.0
+[box]
+periodic = false
+[contact]
+enabled = true
+duration = 1.0
+restitution = 1.0
+[gravity]
+enabled = true
+G = {:.17g}
+softening = 4.0
+[time]
+dt = 0.04
+[run]
+threads = 1
+)", G);
+}
+
+TEST_CASE("orbit rule: a host's G moves its step and whether contacts hold grains apart, and a G it exceeds is warned of once",
+          "[gravity][core]") {
+  // The rule's pull on a grain, G m_max M / (2 R_min)^2 = 2 G, against the capped force 0.247: held (d = 2 R_min = 1)
+  // below G = 0.12, not above (d = 0). Its step at d = 0 is 2 pi sqrt(eps^3 / (2 G)) / 20 = 0.628 / sqrt(G), and the
+  // pair, within eps, is a core of the same two grains with the same step: at d = 0 the rule has said all there is.
+  const double pi = std::acos(-1.0);
+  const auto step_at = [&](double G, double d) { return 2 * pi * std::sqrt(std::pow(d * d + 4, 1.5) / (2 * G)) / 20; };
+  auto sim = Simulation::create(Scene::from_string(two_grains_with_contacts(0.05), "pair"));
+  sim->get("kinetic_energy");
+  REQUIRE(sim->warnings().empty());
+  // G = 4: held no longer, and the step (0.04) within the rule's at d = 0, 0.314.
+  set_G(*sim, 4.0);
+  sim->get("kinetic_energy");
+  CHECK(sim->warnings().empty());
+  // G = 500: 0.04 exceeds the rule's step at d = 0, 0.0281 (at d = 2 R_min it would be 0.0332, where the core's 0.0281
+  // would ask a finer step than the rule and be warned of as a core instead).
+  REQUIRE(0.04 > step_at(500, 0));
+  set_G(*sim, 500.0);
+  sim->get("kinetic_energy");
+  REQUIRE(sim->warnings().size() == 1);
+  CHECK(core_warnings(*sim) == 0);
+  CHECK_THAT(sim->warnings()[0],
+             Contains("gravity.G = 500 (set at t = 0, step 0): time.dt = 0.04 exceeds T_orb / 20 = " +
+                      fmt::format("{:.6g}", step_at(500, 0)) + " at this G") &&
+                 Contains("closest approach d = 0 ") && Contains("contacts cannot keep grains apart") &&
+                 Contains(fmt::format("keep gravity.G at or below {:.6g}", std::pow(step_at(1, 0) / 0.04, 2))));
+  // Once per run: a G raised further, and one set again after a restored state (which carries it), say nothing new.
+  set_G(*sim, 1000.0);
+  CHECK(warnings_starting(*sim, "gravity.G") == 1);
+  auto restored = Simulation::create(Scene::from_string(two_grains_with_contacts(0.05), "pair"));
+  restored->restore_state(sim->save_state());
+  set_G(*restored, 2000.0);
+  restored->get("kinetic_energy");
+  CHECK(restored->warnings().empty());
+  // A scene whose start-up G already exceeds the rule warns at the start-up, and not again when a host raises G.
+  auto coarse = Simulation::create(Scene::from_string(two_grains_with_contacts(500), "coarse"));
+  REQUIRE(coarse->warnings().size() == 1);
+  CHECK_THAT(coarse->warnings()[0], Contains("exceeds T_orb / 20") && Contains("closest approach d = 0 "));
+  set_G(*coarse, 1000.0);
+  CHECK(coarse->warnings().size() == 1);
 }
