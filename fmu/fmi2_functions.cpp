@@ -62,6 +62,17 @@ fmi2Status set_values(fmi2Component c, const char* function, const fmi2ValueRefe
   });
 }
 
+// A status query asks for its one kind with somewhere to put it: a null pointer with the right kind was
+// answered "only <kind> is available", naming the kind the host had passed.
+Status status_query(Instance& in, const char* function, fmi2StatusKind asked, fmi2StatusKind available,
+                    const char* available_name, const void* value) {
+  if (asked != available)
+    return in.error(fmt::format("{}: status kind {} is not available: only {} ({})", function, int(asked), available_name,
+                                int(available)));
+  if (!value) return in.error(fmt::format("{}: value is a null pointer: pass where the status goes", function));
+  return Status::ok;
+}
+
 fmi2Status refuse(fmi2Component c, const char* function, const char* why) {
   return guarded(c, function, [&](Instance& in) { return in.unsupported(function, why); });
 }
@@ -232,14 +243,16 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2CancelStep(fmi2Component c) {
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status* value) {
   return guarded(c, "fmi2GetStatus", [&](Instance& in) {
-    if (s != fmi2DoStepStatus || !value) return in.error("fmi2GetStatus: only fmi2DoStepStatus is available");
+    if (Status e = status_query(in, "fmi2GetStatus", s, fmi2DoStepStatus, "fmi2DoStepStatus", value); e != Status::ok) return e;
     *value = fmi2OK;   // steps are synchronous: a returned fmi2DoStep is complete
     return Status::ok;
   });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real* value) {
   return guarded(c, "fmi2GetRealStatus", [&](Instance& in) {
-    if (s != fmi2LastSuccessfulTime || !value) return in.error("fmi2GetRealStatus: only fmi2LastSuccessfulTime is available");
+    if (Status e = status_query(in, "fmi2GetRealStatus", s, fmi2LastSuccessfulTime, "fmi2LastSuccessfulTime", value);
+        e != Status::ok)
+      return e;
     *value = in.time();
     return Status::ok;
   });
@@ -249,7 +262,8 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2St
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean* value) {
   return guarded(c, "fmi2GetBooleanStatus", [&](Instance& in) {
-    if (s != fmi2Terminated || !value) return in.error("fmi2GetBooleanStatus: only fmi2Terminated is available");
+    if (Status e = status_query(in, "fmi2GetBooleanStatus", s, fmi2Terminated, "fmi2Terminated", value); e != Status::ok)
+      return e;
     *value = 0;   // the FMU never asks the host to stop
     return Status::ok;
   });

@@ -2,9 +2,9 @@
 // and refuse with a message). Each function checks its instance, forwards to Instance (the FMU-state ones through
 // fmu_state_calls.cpp, shared with FMI 2), and turns any exception into fmi3Error (guarded_call.hpp): nothing thrown
 // ever crosses into the host.
-#include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -71,11 +71,19 @@ fmi3Status get_values(fmi3Instance c, const char* function, const fmi3ValueRefer
     if ((nvr > 0 && !vr) || (nValues > 0 && !values)) return in.error(fmt::format("{}: null array", function));
     if (Status s = check_types(in, function, vr, nvr, type); s != Status::ok) return s;
     const ValueType vt = type == Fmi3Type::Float64 ? ValueType::real : type == Fmi3Type::Boolean ? ValueType::boolean : ValueType::integer;
-    std::vector<double> v(nValues);
-    Status s = in.get(std::span<const std::uint32_t>(vr, nvr), vt, v);
-    if (s == Status::ok)
-      for (size_t i = 0; i < nValues; ++i) values[i] = static_cast<T>(v[i]);
-    return s;
+    // The count is checked before nValues values are made: a wrong nValues from the host had the FMU allocate
+    // and zero that many doubles first. Float64 values go straight into the host's array (Instance::get writes
+    // within nValues only and compares the counts); the other types are scalars, one value per reference.
+    if constexpr (std::is_same_v<T, fmi3Float64>) {
+      return in.get(std::span<const std::uint32_t>(vr, nvr), vt, std::span<double>(values, nValues));
+    } else {
+      if (nValues != nvr) return in.error(fmt::format("the call passes {} values for variables holding {}", nValues, nvr));
+      std::vector<double> v(nValues);
+      Status s = in.get(std::span<const std::uint32_t>(vr, nvr), vt, v);
+      if (s == Status::ok)
+        for (size_t i = 0; i < nValues; ++i) values[i] = static_cast<T>(v[i]);
+      return s;
+    }
   });
 }
 
@@ -93,17 +101,25 @@ fmi3Status set_values(fmi3Instance c, const char* function, const fmi3ValueRefer
     if ((nvr > 0 && !vr) || (nValues > 0 && !values)) return in.error(fmt::format("{}: null array", function));
     if (Status s = check_types(in, function, vr, nvr, type); s != Status::ok) return s;
     const ValueType vt = type == Fmi3Type::Float64 ? ValueType::real : type == Fmi3Type::Boolean ? ValueType::boolean : ValueType::integer;
-    // Beyond what a double holds exactly (a negative count passed as unsigned among them): refused before the
-    // conversion rounds it, and named as passed.
-    if constexpr (std::is_same_v<T, fmi3Int64> || std::is_same_v<T, fmi3UInt64>)
-      for (size_t i = 0; i < std::min(nvr, nValues); ++i)
-        if (!exact_in_double(values[i])) {
-          const auto& var = in.table().variables[vr[i]];
-          return in.error(fmt::format("{}: {} = {} is out of range: allowed integer in [{}, {}]", function, var.name, values[i],
-                                      var.min, var.max));
-        }
-    std::vector<double> v(values, values + nValues);
-    return in.set(std::span<const std::uint32_t>(vr, nvr), vt, v);
+    // The count is checked before the values are read: copying all nValues read past the array of a host that
+    // passed a wrong nValues (SIGSEGV in the host). Float64 values are read in place (Instance::set compares the
+    // counts first); the other types are scalars, one value per reference.
+    if constexpr (std::is_same_v<T, fmi3Float64>) {
+      return in.set(std::span<const std::uint32_t>(vr, nvr), vt, std::span<const double>(values, nValues));
+    } else {
+      if (nValues != nvr) return in.error(fmt::format("the call passes {} values for {} scalar variables", nValues, nvr));
+      // Beyond what a double holds exactly (a negative count passed as unsigned among them): refused before the
+      // conversion rounds it, and named as passed.
+      if constexpr (std::is_same_v<T, fmi3Int64> || std::is_same_v<T, fmi3UInt64>)
+        for (size_t i = 0; i < nvr; ++i)
+          if (!exact_in_double(values[i])) {
+            const auto& var = in.table().variables[vr[i]];
+            return in.error(fmt::format("{}: {} = {} is out of range: allowed integer in [{}, {}]", function, var.name,
+                                        values[i], var.min, var.max));
+          }
+      std::vector<double> v(values, values + nValues);
+      return in.set(std::span<const std::uint32_t>(vr, nvr), vt, v);
+    }
   });
 }
 
