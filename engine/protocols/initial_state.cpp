@@ -234,12 +234,17 @@ InitialState<D> make_initial_state(const Scene& s) {
                                           layout == "list" ? "particles.positions lists" : "particles.file holds", N, N));
   if (layout != "list" && layout != "file") {
     N = std::size_t(s.integer("particles.count"));
-    // Refuse what cannot fit before allocating (Linux would hand out the memory and kill the run later):
-    // a run keeps at least ~250 bytes per particle (the gas scene's state and lists, measured).
-    const double need = 250.0 * double(N), have = usable_memory_bytes();
+    // Refuse what cannot fit before allocating (Linux would hand out the memory and kill the run later). The
+    // least a run keeps per particle, its peak resident memory measured (thirty-first session): in 3D 750 bytes
+    // (the aggregation FMU; `grains run` of the gas 800-950 from 8k to 512k spheres), in 2D 320 (the consolidation
+    // FMU; a lean `grains run` 530). The 250 bytes of before let 3D counts of 3e7-1e8 through on a 25 GB machine,
+    // to be killed when they touched the memory.
+    const double per_particle = D == 3 ? 750.0 : 300.0;
+    const double need = per_particle * double(N), have = usable_memory_bytes();
     if (have > 0 && need > have)
-      s.fail("particles.count", fmt::format("value {} needs at least {:.3g} GB of memory (about 250 bytes a particle); "
-                                            "this machine (or its container) has {:.3g} GB", N, need / 1e9, have / 1e9));
+      s.fail("particles.count", fmt::format("value {} needs at least {:.3g} GB of memory (about {:g} bytes a particle in "
+                                            "{}D); this machine (or its container) has {:.3g} GB",
+                                            N, need / 1e9, per_particle, D, have / 1e9));
   }
   P.resize(N);
 

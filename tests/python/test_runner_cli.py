@@ -685,3 +685,27 @@ def test_check_says_what_consolidate_would_refuse(grains_bin, root):
     r = run(grains_bin, "consolidate", scene, *low, "--set", "particles.count=16")
     assert r.returncode == 1 and "programme.top_pressure: value 1e-09 is below the start pressure" in r.stderr, r.stderr
     assert "would refuse" not in run(grains_bin, "check", scene).stderr
+
+
+def usable_memory_bytes():
+    """The machine's memory, or its container's limit (cgroup v2) when smaller: what the engine's guard reads."""
+    have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    try:
+        cap = int(open("/sys/fs/cgroup/memory.max").read())
+        have = min(have, cap)
+    except (OSError, ValueError):   # no cgroup v2 limit file, or "max"
+        pass
+    return have
+
+
+@pytest.mark.parametrize("scene, bytes_each", [("gas", 500), ("consolidation", 280)])
+def test_a_count_the_memory_cannot_hold_is_refused_before_it_is_allocated(grains_bin, root, scene, bytes_each):
+    """A run keeps 750 bytes a sphere and 320 a disk at least (measured peaks); the guard's 250 let counts of twice
+    the memory's worth through, to be killed later. The child's address space is capped, so a count the guard lets
+    through fails on allocation here instead of taking the machine's memory."""
+    count = int(usable_memory_bytes() / bytes_each)
+    cap = lambda: resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+    r = subprocess.run([grains_bin, "check", str(root / "models" / f"{scene}.toml"), "--set", f"particles.count={count}"],
+                       capture_output=True, text=True, preexec_fn=cap)
+    assert r.returncode != 0 and "particles.count" in r.stderr and "needs at least" in r.stderr, r.stderr
+    assert f"value {count} needs at least" in r.stderr and "GB of memory" in r.stderr
