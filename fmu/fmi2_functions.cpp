@@ -3,6 +3,7 @@
 // with FMI 3), and turns any exception into fmi2Error (guarded_call.hpp): nothing thrown ever crosses into the host.
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -123,20 +124,22 @@ GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) { grains::fmu::free_in
 
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                                   fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-  // Unused: the FMU steps by the scene's dt until the host stops.
-  (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
+  // The tolerance is unused: the FMU steps by the scene's dt.
+  (void)toleranceDefined, (void)tolerance;
   return guarded(c, "fmi2SetupExperiment", [&](Instance& in) {
     if (in.phase() != grains::fmu::Phase::instantiated)
       return in.error("fmi2SetupExperiment is only allowed before fmi2EnterInitializationMode");
-    if (!std::isfinite(startTime))   // refused here, where the host gave it, not at the next call
-      return in.error(fmt::format("fmi2SetupExperiment: start time {} is not allowed: a finite number", startTime));
-    in.experiment_start = startTime;
+    const grains::fmu::Experiment experiment{startTime, stopTimeDefined ? std::optional(stopTime) : std::nullopt};
+    // refused here, where the host gave it, not at the next call
+    if (Status s = in.check_experiment("fmi2SetupExperiment", experiment); s != Status::ok) return s;
+    in.fmi2_experiment = experiment;
     return Status::ok;
   });
 }
 
 GRAINS_FMI2_EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-  return guarded(c, "fmi2EnterInitializationMode", [&](Instance& in) { return in.enter_initialization(in.experiment_start); });
+  return guarded(c, "fmi2EnterInitializationMode",
+                 [&](Instance& in) { return in.enter_initialization("fmi2EnterInitializationMode", in.fmi2_experiment); });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
   return guarded(c, "fmi2ExitInitializationMode", [&](Instance& in) { return in.exit_initialization(); });
@@ -146,7 +149,7 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2Reset(fmi2Component c) {
   return guarded(c, "fmi2Reset", [&](Instance& in) {
-    in.experiment_start = 0;
+    in.fmi2_experiment = {};
     return in.reset();
   });
 }
@@ -236,7 +239,9 @@ GRAINS_FMI2_EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, cons
 GRAINS_FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
                                          fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
   (void)noSetFMUStatePriorToCurrentPoint;
-  return guarded(c, "fmi2DoStep", [&](Instance& in) { return in.do_step(currentCommunicationPoint, communicationStepSize, nullptr); });
+  return guarded(c, "fmi2DoStep", [&](Instance& in) {
+    return in.do_step("fmi2DoStep", currentCommunicationPoint, communicationStepSize, nullptr);
+  });
 }
 GRAINS_FMI2_EXPORT fmi2Status fmi2CancelStep(fmi2Component c) {
   return refuse(c, "fmi2CancelStep", "fmi2DoStep always completes before returning (no asynchronous steps)");

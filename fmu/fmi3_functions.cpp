@@ -4,6 +4,7 @@
 // ever crosses into the host.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <type_traits>
@@ -202,8 +203,11 @@ GRAINS_FMI3_EXPORT fmi3Instance fmi3InstantiateScheduledExecution(fmi3String ins
 GRAINS_FMI3_EXPORT void fmi3FreeInstance(fmi3Instance c) { grains::fmu::free_instance(c); }
 
 GRAINS_FMI3_EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean, fmi3Float64, fmi3Float64 startTime,
-                                                          fmi3Boolean, fmi3Float64) {
-  return guarded(c, "fmi3EnterInitializationMode", [&](Instance& in) { return in.enter_initialization(startTime); });
+                                                          fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
+  // The tolerance is unused: the FMU steps by the scene's dt.
+  const grains::fmu::Experiment experiment{startTime, stopTimeDefined ? std::optional(stopTime) : std::nullopt};
+  return guarded(c, "fmi3EnterInitializationMode",
+                 [&](Instance& in) { return in.enter_initialization("fmi3EnterInitializationMode", experiment); });
 }
 GRAINS_FMI3_EXPORT fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
   return guarded(c, "fmi3ExitInitializationMode", [&](Instance& in) { return in.exit_initialization(); });
@@ -376,7 +380,7 @@ GRAINS_FMI3_EXPORT fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentComm
     if (terminateSimulation) *terminateSimulation = false;
     if (earlyReturn) *earlyReturn = false;
     double reached = 0;
-    Status s = in.do_step(currentCommunicationPoint, communicationStepSize, &reached);
+    Status s = in.do_step("fmi3DoStep", currentCommunicationPoint, communicationStepSize, &reached);
     if (lastSuccessfulTime) *lastSuccessfulTime = reached;
     return s;
   });

@@ -54,6 +54,14 @@ inline constexpr const char* blank_instance_name_message =
     "instanceName must be a non-empty string, with at least one character that is not white space (it names the "
     "instance in the messages)";
 
+// The experiment the host sets up (FMI 2: fmi2SetupExperiment; FMI 3: fmi3EnterInitializationMode). The stop time,
+// where the host defines one, is the last time it may step to: a step past it is refused (FMI 2.0 and 3.0 both say
+// the FMU returns an error if the host computes past it).
+struct Experiment {
+  double start = 0;
+  std::optional<double> stop;   // none: the host did not define one
+};
+
 // A saved FMU state: the engine's bytes plus what identifies the scene they belong to.
 struct SavedState {
   std::vector<std::byte> bytes;
@@ -76,9 +84,12 @@ class Instance {
 
   Status enter_configuration();
   Status exit_configuration();
-  Status enter_initialization(double start_time);
+  // Why `experiment` cannot be run (a start or stop time that is not finite, a stop before the start), as an error
+  // naming `function`; ok when it can.
+  Status check_experiment(const char* function, const Experiment& experiment);
+  Status enter_initialization(const char* function, const Experiment& experiment);
   Status exit_initialization();
-  Status do_step(double current_time, double step, double* reached_time);
+  Status do_step(const char* function, double current_time, double step, double* reached_time);
   Status terminate();
   Status reset();
 
@@ -97,7 +108,7 @@ class Instance {
   Status deserialize(std::span<const std::byte> bytes, SavedState& state);
 
   double time() const;
-  double experiment_start = 0;   // FMI 2: the start time given to fmi2SetupExperiment
+  Experiment fmi2_experiment;   // FMI 2: what fmi2SetupExperiment gave, for fmi2EnterInitializationMode
   // Errors for FMI functions this FMU does not support, with the reason.
   Status unsupported(const char* function, const char* why);
   Status error(const std::string& message);
@@ -111,6 +122,7 @@ class Instance {
   Status set_one(const FmuVariable& v, std::size_t ref, double value);
   std::uint64_t parameter_fingerprint() const;
   bool enabled(const char* category) const;
+  double clock_tolerance(double t) const;
 
   std::string name_;
   Logger logger_;
@@ -131,6 +143,9 @@ class Instance {
   // The host's time of the FMU: the last communication point reached (current + h as the host passed
   // them), which time() reports; the simulation follows it (do_step).
   double host_time_ = 0;
+  // The host's stop time (none when it defined none): part of the experiment's setup, not of a saved FMU state, so a
+  // state restored here keeps this instance's stop time.
+  std::optional<double> stop_time_;
   long snapshots_every_ = 0;  // fmu.snapshots_every
   long next_snapshot_ = 0;
   std::unique_ptr<SnapshotOutput> snapshots_;

@@ -103,12 +103,15 @@ class Unit:
         self.time = 0.0
 
     # --- life cycle ---
-    def initialize(self, start_values=None, start_time=0.0):
+    def initialize(self, start_values=None, start_time=0.0, stop_time=None):
+        """stop_time None: the host defines no stop time."""
         for name, value in (start_values or {}).items():
             self.set(name, value)
         if self.version == 2:
-            self.fmu.setupExperiment(startTime=start_time)
-        self.fmu.enterInitializationMode() if self.version == 2 else self.fmu.enterInitializationMode(startTime=start_time)
+            self.fmu.setupExperiment(startTime=start_time, stopTime=stop_time)
+            self.fmu.enterInitializationMode()
+        else:
+            self.fmu.enterInitializationMode(startTime=start_time, stopTime=stop_time)
         self.fmu.exitInitializationMode()
         self.time = start_time
         return self
