@@ -28,7 +28,8 @@ virial ratio Q's first peak and whether a second one follows. Writes OUT/sweep.c
 paper's qualitative findings, each with what the sweep shows, and the points whose runs the engine
 warned about, at start-up or while running: the energy check), OUT/damping.png, OUT/stiffness.png and,
 with --map, OUT/map.png and OUT/virial-map.png (Q against time at every point of the map). A run whose output is complete is not run again, so an interrupted sweep
-(Ctrl-C: exit status 130) resumes, but only if it ran the scene that would run now (its HDF5 file's
+(Ctrl-C: exit status 130) resumes (the run it stopped runs again from its start, over its file: --overwrite), but
+only if it ran the scene that would run now (its HDF5 file's
 parameters/scene.toml; the thread count aside): else the sweep refuses, naming the settings that differ;
 --report runs nothing.
 """
@@ -145,8 +146,10 @@ def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, 
         return h5
     if problem := not_a_run_name(h5):   # checked by main before any run; here too, as this is where it would go
         raise reuse.RunFailed(problem)
-    h5.unlink(missing_ok=True)   # an interrupted run's file: grains never overwrites
-    cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet"]
+    # An interrupted run's file is run again from the start, on purpose (grains refuses to write over a run it could
+    # resume unless told so). --overwrite rather than deleting it first: grains replaces the file only once it has
+    # checked the scene and made the new one (FILE.part, renamed over it).
+    cmd = [str(grains), "run", str(SCENE), "--out", str(h5), "--quiet", "--overwrite"]
     for s in run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own):
         cmd += ["--set", s]
     with (out / f"{stem.name}.log").open("w") as log:

@@ -21,6 +21,7 @@
 #include "output_paths.hpp"
 #include "progress.hpp"
 #include "protocols/consolidation_programme.hpp"
+#include "resumable_output.hpp"
 #include "resume_command.hpp"
 #include "run_command.hpp"
 #include "stop_signal.hpp"
@@ -269,23 +270,27 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
-  auto sim = Simulation::create(scene);
-  settings.check_time_step(scene, sim->dt());
   const std::string name = scene.text("scene.name");
   // The output file: --out, else output.file, else <scene.name>-stages.h5.
   const std::string path = !opt.output.empty()           ? opt.output
                            : scene.has("output.file") ? scene.text("output.file")
                                                       : name + "-stages.h5";
+  const std::string source = !opt.output.empty()           ? "--out"
+                             : scene.has("output.file") ? "output.file"
+                                                        : "scene.name (the default output file <scene.name>-stages.h5)";
+  // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
+  const ResumableOutput existing(path, opt.overwrite);
+  auto sim = Simulation::create(scene);
+  settings.check_time_step(scene, sim->dt());
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
-  check_hdf5_output_path(path, opt.scene, scene, !opt.output.empty()           ? "--out"
-                                     : scene.has("output.file") ? "output.file"
-                                                                : "scene.name (the default output file <scene.name>-stages.h5)");
+  check_hdf5_output_path(path, opt.scene, scene, source);
   check_output_path(table, opt.scene, scene, opt.table.empty() ? "scene.name (the default stage table <scene.name>-stages.csv)" : "--table");
   if (same_file(path, table))
     throw SceneError(fmt::format("the stage table and the HDF5 output are the same file '{}': name two (--table, --out)", path));
   if (const auto xdmf = xdmf_beside(path, scene); xdmf && same_file(*xdmf, table))
     throw SceneError(fmt::format("{}: stage table '{}' is the XDMF file written beside the HDF5 output '{}': name another "
                                  "file (or set output.xdmf = false)", opt.table.empty() ? "scene.name" : "--table", table, path));
+  existing.refuse_replacing_it(source, "--out and --table");
 
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();

@@ -8,6 +8,7 @@ struct ConsolidateOptions {
   std::string scene, output, table;
   std::vector<std::string> overrides;
   bool quiet = false;
+  bool overwrite = false;   // replace an output that holds a programme `grains resume` could continue
 };
 
 // Runs the scene's consolidation programme (preparation, loading, unloading); one H5MD observable

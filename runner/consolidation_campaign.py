@@ -67,11 +67,12 @@ def consolidate(grains, scene_file, overrides, stem, label):
     console to STEM.log. A finished sample (STEM.csv) is taken only if it ran the scene and overrides given
     now (its STEM.h5 says which; the thread count aside), else reuse.Stale is raised. An interrupted run (its
     partial table and output left) continues from its last checkpoint (`grains resume`: a stage's end, or where
-    Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again from the start when
-    it was not or cannot. Raises reuse.Interrupted when Ctrl-C stops the run. Returns the path of the table."""
+    Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again from the start, over
+    its file (`grains consolidate --overwrite`), when it was not or cannot. Raises reuse.Interrupted when Ctrl-C
+    stops the run. Returns the path of the table."""
     table = stem.with_suffix(".csv")
     partial, h5 = stem.with_suffix(".partial.csv"), stem.with_suffix(".h5")
-    if problem := reuse.not_a_file_to_write(h5, "a sample's", label):   # below, an unfinished sample's file is deleted
+    if problem := reuse.not_a_file_to_write(h5, "a sample's", label):   # below, an unfinished sample's file is replaced
         raise reuse.RunFailed(problem)
     now = reuse.resolve(grains, scene_file, overrides)
     if table.exists():
@@ -91,8 +92,10 @@ def consolidate(grains, scene_file, overrides, stem, label):
             finish(partial, table, h5)
             print(f"  finished {label} (resumed)", flush=True)
             return table
-    h5.unlink(missing_ok=True)   # left by an interrupted run that cannot resume: grains never overwrites
-    cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", h5]
+    # An unfinished sample's file left here (other settings, or its resume failed) is replaced on purpose: grains
+    # refuses to write over a programme it could resume unless told so. --overwrite rather than deleting it first:
+    # grains replaces the file only once it has checked the scene and made the new one (FILE.part, renamed over it).
+    cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", h5, "--overwrite"]
     for o in overrides:
         cmd += ["--set", o]
     with stem.with_suffix(".log").open("w") as log:

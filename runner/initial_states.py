@@ -9,7 +9,8 @@ programme.unload = false) of
   - the type-1 packing (models/consolidation-type1.toml: the cohesive gas at rest, compressed at P* = 0.01),
 each without rolling resistance and with mu_R / a = 0.005 (rolling.coefficient), `--jobs` at a time (Dask,
 one thread each). A run whose table already exists in --out is not run again if it ran the settings given now
-(else refused, as by runner/consolidation_campaign.py). Prints Phi and z of the
+(else refused, as by runner/consolidation_campaign.py); an unfinished one is resumed, or run again over its file
+(--overwrite) where it cannot be, as there. Prints Phi and z of the
 equilibrated state, mean +- sample standard deviation, against the paper's Phi (physics.md section 9 table:
 cohesionless 0.811 +- 0.001 and 0.805 +- 0.002; type 1 0.723 +- 0.001 and 0.688 +- 0.001, N = 1400, 4
 samples each); a value passes when the mean lies within twice the paper's error bar. The table goes to

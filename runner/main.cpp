@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   cmd_run->add_option("--out", run.output, "Output HDF5 file (default: output.file or <scene.name>.h5)")->check(file_name);
   cmd_run->add_flag("--quiet", run.quiet, "No progress line");
+  cmd_run->add_flag("--overwrite", run.overwrite, "Replace an output file that holds an interrupted run "
+                                                  "(else refused: grains resume continues it)");
 
   grains::ConsolidateOptions cons;
   auto* cmd_cons = app.add_subcommand("consolidate", "Run a scene's consolidation programme (physics.md section 9): "
@@ -47,6 +49,8 @@ int main(int argc, char** argv) {
   cmd_cons->add_option("--out", cons.output, "Output HDF5 file (default output.file or <scene.name>-stages.h5)")->check(file_name);
   cmd_cons->add_option("--table", cons.table, "Stage table, CSV (default <scene.name>-stages.csv)")->check(file_name);
   cmd_cons->add_flag("--quiet", cons.quiet, "No line per stage");
+  cmd_cons->add_flag("--overwrite", cons.overwrite, "Replace an output file that holds an interrupted programme "
+                                                    "(else refused: grains resume continues it)");
 
   std::string resume_file;
   bool resume_quiet = false;

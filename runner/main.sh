@@ -24,14 +24,19 @@ fi
 scene="$GRAINS_ROOT/models/aggregation.toml"
 if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then scene="$1"; shift; fi
 name="$(basename "$scene" .toml)"
-# The output: out/NAME.h5, or the run's own --out FILE.h5 (the plot then goes beside it, FILE.png).
-h5="" args=()
+# The output: out/NAME.h5, or the run's own --out FILE.h5 (the plot then goes beside it, FILE.png). The --set
+# overrides, --quiet and --overwrite are noted too, for a run left unfinished there (below).
+h5="" args=() sets=() quiet=() overwrite=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --out|--out=)
       if [ -z "${2:-}" ] || [ "$1" = "--out=" ]; then echo "runner/main.sh: --out needs a file name (FILE.h5)" >&2; exit 2; fi
       h5="$2"; shift 2 ;;
     --out=*) h5="${1#--out=}"; shift ;;
+    --set) if [ $# -gt 1 ]; then sets+=("$2"); args+=("$1" "$2"); shift 2; else args+=("$1"); shift; fi ;;
+    --set=*) sets+=("${1#--set=}"); args+=("$1"); shift ;;
+    --quiet) quiet=(--quiet); args+=("$1"); shift ;;
+    --overwrite) overwrite=1; args+=("$1"); shift ;;
     *) args+=("$1"); shift ;;
   esac
 done
@@ -40,7 +45,24 @@ if [ -z "$h5" ]; then
   h5="$GRAINS_ROOT/out/$name.h5"
 fi
 png="${h5%.h5}.png"
-"$GRAINS_BUILD/runner/grains" run "$scene" --out "$h5" ${args[@]+"${args[@]}"}
+grains="$GRAINS_BUILD/runner/grains"
+# The same command again after an interruption (Ctrl-C) goes on with the run it left: a run of this scene with these
+# settings left unfinished in the output is resumed, not started again (--overwrite starts it again). One of other
+# settings there is grains run's to refuse, naming the ways on; a finished one is replaced.
+if [ -z "$overwrite" ] && [ -f "$h5" ] && "$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/same_unfinished_run.py" \
+     "$grains" "$h5" "$scene" ${sets[@]+"${sets[@]}"}; then
+  echo "runner/main.sh: $h5 holds an unfinished run of this scene with these settings: resuming it (grains resume;" \
+       "--overwrite starts it again)" >&2
+  resumed=0
+  "$grains" resume "$h5" ${quiet[@]+"${quiet[@]}"} || resumed=$?
+  [ "$resumed" -eq 130 ] && exit 130
+  if [ "$resumed" -ne 0 ]; then
+    echo "runner/main.sh: it could not be resumed (above): running the scene again" >&2
+    "$grains" run "$scene" --out "$h5" ${args[@]+"${args[@]}"}
+  fi
+else
+  "$grains" run "$scene" --out "$h5" ${args[@]+"${args[@]}"}
+fi
 # plot.py draws the scene's main observables by its kind (gravity: f_max, N_c / N and Q against t / t_ff; a
 # pressure-controlled cell: P* and its target, Phi, z, K; others: energies, contacts, overlap).
 "$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/plot.py" "$h5" -o "$png"

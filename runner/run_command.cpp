@@ -20,6 +20,7 @@
 #include "io/output_error.hpp"
 #include "io/scene.hpp"
 #include "output_paths.hpp"
+#include "resumable_output.hpp"
 #include "resume_command.hpp"
 #include "progress.hpp"
 #include "protocols/consolidation_programme.hpp"
@@ -130,10 +131,17 @@ std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim)
 
 int check_scene(const std::string& path, const std::vector<std::string>& overrides) {
   const Scene scene = Scene::from_file(path, overrides);
+  // What `run` (without --out) would write to; looked at before the simulation is built (resumable_output.hpp).
+  const auto [output, source] = run_output_path(scene, "");
+  const ResumableOutput existing(output, false);
   const PreparedRun r = prepare_run(scene);
-  if (r.steps) {   // what `run` (without --out) would write to
-    const auto [output, source] = run_output_path(scene, "");
+  if (r.steps) {
     check_hdf5_output_path(output, path, scene, source);
+    try {   // a warning: `run` takes --overwrite, or another --out
+      existing.refuse_replacing_it(source, "--out");
+    } catch (const SceneError& e) {
+      fmt::print(stderr, "warning: grains run would refuse its output file: {}\n", e.what());
+    }
   }
   for (const auto& w : run_warnings(scene, *r.sim)) fmt::print(stderr, "warning: {}\n", w);
   // A scene with a programme is likely meant for `grains consolidate`: its own checks too (a top pressure below
@@ -288,12 +296,15 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
 int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
+  const auto [path, source] = run_output_path(scene, opt.output);
+  // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
+  const ResumableOutput existing(path, opt.overwrite);
   PreparedRun prepared = prepare_run(scene);
   auto& sim = prepared.sim;
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
 
-  const auto [path, source] = run_output_path(scene, opt.output);
   check_hdf5_output_path(path, opt.scene, scene, source);
+  existing.refuse_replacing_it(source, "--out");
 
   std::vector<bool> periodic = sim->box().periodic;
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.

@@ -31,6 +31,7 @@ struct RunOptions {
   std::string scene, output;
   std::vector<std::string> overrides;
   bool quiet = false;
+  bool overwrite = false;   // replace an output that holds a run `grains resume` could continue (resumable_output.hpp)
 };
 
 // Validates the scene completely before touching the output file; returns the process exit code.

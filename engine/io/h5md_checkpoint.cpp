@@ -66,6 +66,7 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
       throw std::runtime_error(fmt::format(
           "'{}': its stored scene (parameters/scene.toml) is not the one its checkpoints were written with: it was "
           "edited since, and a resume would go on with other settings; run the edited scene from the start instead", path));
+    cp.status = status;
     cp.scene_directory = h5::read_attr_string(g.get(), "scene_directory", "", path);
     cp.stage_table = stage_table;
     for (auto [name, values] :

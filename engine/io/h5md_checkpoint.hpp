@@ -27,6 +27,7 @@ struct RunCheckpoint {
   // between its scheduled records recorded where it stopped, and its resume drops those.
   bool observables_at_step = true, frame_at_step = true;
   long warnings = -1;                     // rows of /grains/warnings then (the writer counts them; -1: unknown)
+  std::string status;                     // the file's /grains status then: "interrupted at step N", "running" (killed), ...
   std::string scene_toml;                 // the resolved scene the run was started with
   std::string scene_directory;            // where the scene's relative file paths lie (particles.file)
   std::string stage_table;                // `grains consolidate`: the stage table, relative to the file's folder

@@ -26,9 +26,10 @@ ROOT = Path(__file__).resolve().parents[2]
 def base_file(grains, folder):
     """A gas of 64 grains, 450 steps, a checkpoint every 100 (the last at 400): as a killed run leaves it (status `running`)."""
     whole = folder / "whole.h5"
+    # --overwrite: a second session in the same --out finds the last one's file, made resumable below, and replaces it.
     subprocess.run([grains, "run", ROOT / "models/gas-friction.toml", "--out", whole, "--set", "particles.count=64",
                     "--set", "time.steps=450", "--set", "output.checkpoint_every=100", "--set", "run.threads=1",
-                    "--quiet"], check=True, env=environment())
+                    "--quiet", "--overwrite"], check=True, env=environment())
     with h5py.File(whole, "r+") as f:
         f["grains"].attrs.modify("status", "running")   # in the type grains wrote it (a str would be variable length)
         # where the checkpoints' bytes lie in the file, for flips aimed at them

@@ -7,13 +7,13 @@ import time
 import pytest
 
 
-def interrupted(cmd, out, after, within=60, group=False):
+def interrupted(cmd, out, after, within=60, group=False, cwd=None):
     """Starts cmd, sends it SIGINT `after` seconds after its output file appears, and fails the test unless it
     ends within `within` seconds of the signal; returns (code, stdout, stderr). With `group`, cmd runs in a
     process group of its own and the signal goes to the whole group, as Ctrl-C in a terminal does (to a tool
-    and the runs it started)."""
+    and the runs it started). `cwd`: the folder cmd runs in (where a default output name lands)."""
     p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         start_new_session=group)
+                         start_new_session=group, cwd=cwd)
     deadline = time.monotonic() + 60
     while not out.exists() and time.monotonic() < deadline and p.poll() is None:
         time.sleep(0.05)

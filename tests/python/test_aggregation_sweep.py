@@ -265,8 +265,8 @@ def test_runs_are_reused_only_with_the_settings_asked_for_now(grains_bin, tmp_pa
 
 
 def test_a_folder_or_fifo_at_a_run_name_is_refused_not_deleted(grains_bin, tmp_path):
-    """A run's file that is not complete is deleted before the run (grains never overwrites): a FIFO at its name was
-    deleted silently, and a folder ended the sweep in a traceback. The sweep refuses before any run, naming each path
+    """A run's file that is not complete was deleted before the run (now it is run again over: --overwrite): a FIFO
+    at its name was deleted silently, and a folder ended the sweep in a traceback. The sweep refuses before any run, naming each path
     and what it holds; a sweep that meets one later (run_point) ends with the same message."""
     os.mkfifo(tmp_path / "z0p3-k6469-s1.h5")
     (tmp_path / "z0p5-k6469-s1.h5").mkdir()
@@ -285,6 +285,27 @@ def test_a_folder_or_fifo_at_a_run_name_is_refused_not_deleted(grains_bin, tmp_p
         with pytest.raises(sweep.reuse.RunFailed, match=re.escape(f"{sweep.run_name(zeta, 6469, 1)}.h5 is {kind}, ")):
             sweep.run_point(tmp_path / "no-grains", zeta, 6469.0, 1, 0.5, 1.0, 1, [], tmp_path)
     assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
+
+
+def test_a_run_left_interrupted_is_run_again_over_its_file(grains_bin, tmp_path):
+    """The sweep runs an interrupted point again from its start. Its file holds a checkpoint, which grains refuses
+    to write over unless told so: the sweep says so (--overwrite), and the point ends complete."""
+    from interrupt import interrupted
+    h5 = tmp_path / "z0p3-k6469-s1.h5"
+    code, _, err = interrupted([grains_bin, "run", ROOT / "models/gas.toml", "--set", "time.steps=700000",
+                                "--set", "run.threads=1", "--out", h5, "--quiet"], h5, 0.3)
+    assert code == 130, err
+    plain = subprocess.run([grains_bin, "run", str(ROOT / "models/gas.toml"), "--out", str(h5), "--quiet"],
+                           capture_output=True, text=True)
+    assert plain.returncode == 1 and "holds a run interrupted at step" in plain.stderr, plain.stderr
+    small = ["--set", "particles.count=30", "--set", "time.duration=0.5", "--set", "analysis.every=20",
+             "--set", "output.observables_every=50"]
+    cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(tmp_path),
+           "--damping", "0.3", "--stiffness", "--jobs", "1", "--threads", "1", *small]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and "finished zeta 0.3" in r.stdout, r.stdout + r.stderr
+    ran = sweep.reuse.stored(h5)   # the sweep's point, not the gas left there
+    assert sweep.reuse.ended(h5) and ran["scene"]["name"] == "aggregation" and ran["particles"]["count"] == 30
 
 
 def test_rank_correlation_gives_ties_their_mean_rank():

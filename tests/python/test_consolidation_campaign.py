@@ -441,8 +441,8 @@ def test_reading_or_comparing_a_fifo_at_a_runs_path_neither_waits_nor_calls_it_m
 
 
 def test_a_folder_or_fifo_at_a_samples_name_is_refused_not_deleted(tmp_path):
-    """An unfinished sample's file is deleted before its programme runs again (grains never overwrites): a FIFO at
-    its name was deleted silently, and a folder ended the campaign in a traceback. Refused, naming the path and what
+    """An unfinished sample's file was deleted before its programme ran again (now it is run again over:
+    --overwrite): a FIFO at its name was deleted silently, and a folder ended the campaign in a traceback. Refused, naming the path and what
     it holds, before anything runs (no grains is needed to get there)."""
     os.mkfifo(tmp_path / "consolidation-seed4.h5")
     (tmp_path / "consolidation-seed5.h5").mkdir()
