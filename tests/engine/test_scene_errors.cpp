@@ -177,7 +177,7 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   REQUIRE_THROWS_WITH(build(good, {"box.lengths=[3.0, 3.0]"}), Contains("box.lengths: 2 values; a 3D scene needs 3"));
   // A count no machine here holds is refused before anything is allocated, naming the memory it needs.
   REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"random\"", "particles.count=1000000000"}),
-                      Contains("particles.count") && Contains("1000000000") && Contains("250 GB"));
+                      Contains("particles.count") && Contains("1000000000") && Contains("750 GB"));
   // Masses whose products would vanish (they once surfaced as "time.dt: required when contacts are off").
   REQUIRE_THROWS_WITH(build(good, {"particles.density=1e-308"}),
                       Contains("particles.density") && Contains("[1e-150, 1e150]"));
