@@ -2,6 +2,8 @@
 // Each function checks its instance, forwards to Instance (the FMU-state ones through fmu_state_calls.cpp, shared
 // with FMI 3), and turns any exception into fmi2Error (guarded_call.hpp): nothing thrown ever crosses into the host.
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -40,9 +42,22 @@ fmi2Status guarded(fmi2Component c, const char* function, F&& body) {
   return to_fmi2(grains::fmu::guarded_call(c, function, std::forward<F>(body)));
 }
 
+// The most values one get or set passes: they go through an array of doubles, and no array holds more. A larger
+// nvr (a negative count passed as size_t, say) is no array the host can have: refused before anything is read or
+// allocated. nvr = 2^62 made the reference check read nothing (the span's end wrapped round to its start) and then
+// failed in the C++ library, whose message ("cannot create std::vector larger than max_size()") was all the host saw.
+constexpr size_t most_values = PTRDIFF_MAX / sizeof(double);
+
+Status check_count(Instance& in, const char* function, size_t nvr) {
+  if (nvr <= most_values) return Status::ok;
+  return in.error(fmt::format("{}: nvr = {} is more values than an array holds: nvr, the number of references in vr, "
+                              "is allowed from 0 to {}", function, nvr, most_values));
+}
+
 template <class T>
 fmi2Status get_values(fmi2Component c, const char* function, const fmi2ValueReference vr[], size_t nvr, T value[], ValueType type) {
   return guarded(c, function, [&](Instance& in) {
+    if (Status s = check_count(in, function, nvr); s != Status::ok) return s;
     if (nvr > 0 && (!vr || !value)) return in.error(fmt::format("{}: null array", function));
     if (Status s = in.check_fmi2_references(std::span<const std::uint32_t>(vr, nvr)); s != Status::ok) return s;
     std::vector<double> v(nvr);
@@ -56,6 +71,7 @@ fmi2Status get_values(fmi2Component c, const char* function, const fmi2ValueRefe
 template <class T>
 fmi2Status set_values(fmi2Component c, const char* function, const fmi2ValueReference vr[], size_t nvr, const T value[], ValueType type) {
   return guarded(c, function, [&](Instance& in) {
+    if (Status s = check_count(in, function, nvr); s != Status::ok) return s;
     if (nvr > 0 && (!vr || !value)) return in.error(fmt::format("{}: null array", function));
     if (Status s = in.check_fmi2_references(std::span<const std::uint32_t>(vr, nvr)); s != Status::ok) return s;
     std::vector<double> v(value, value + nvr);

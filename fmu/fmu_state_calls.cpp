@@ -27,14 +27,14 @@ Status fill_state(const Instance& owner, void*& handle, Fill fill) {
 Status get(const void* instance, const char* function, const char* argument, void** state) {
   return guarded_call(instance, function, [&](Instance& in) {
     if (!state) return in.error(fmt::format("{}: null {} pointer", function, argument));
-    return fill_state(in, *state, [&](SavedState& saved) { return in.save(saved); });
+    return fill_state(in, *state, [&](SavedState& saved) { return in.save(function, saved); });
   });
 }
 
 Status set(const void* instance, const char* function, const char* argument, const void* state) {
   return guarded_call(instance, function, [&](Instance& in) {
     if (!state) return in.error(fmt::format("{}: null {}", function, argument));
-    return in.restore(live_state(in, state));
+    return in.restore(function, live_state(in, state));
   });
 }
 
@@ -71,7 +71,7 @@ Status deserialize(const void* instance, const char* function, const void* bytes
   return guarded_call(instance, function, [&](Instance& in) {
     if (!bytes || !state) return in.error(fmt::format("{}: null argument", function));
     const auto serialized = std::span(static_cast<const std::byte*>(bytes), size);
-    return fill_state(in, *state, [&](SavedState& saved) { return in.deserialize(serialized, saved); });
+    return fill_state(in, *state, [&](SavedState& saved) { return in.deserialize(function, serialized, saved); });
   });
 }
 

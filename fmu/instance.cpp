@@ -492,8 +492,9 @@ std::uint64_t Instance::parameter_fingerprint() const {
   return h;
 }
 
-Status Instance::save(SavedState& state) {
-  if (phase_ == Phase::failed) return error("GetFMUState is not allowed in the error state: the simulation is not valid");
+Status Instance::save(const char* function, SavedState& state) {
+  if (phase_ == Phase::failed)
+    return error(fmt::format("{} is not allowed in the error state: the simulation is not valid", function));
   if (Status s = ensure_built(); s != Status::ok) return s;
   ByteWriter w;
   w.put(state_magic), w.put(parameter_fingerprint()), w.put(start_time_), w.put(host_time_);
@@ -510,24 +511,27 @@ Status Instance::save(SavedState& state) {
 // Also after a failed step (FMI 2.0, 2.1.3: a host may restart from a state it stored before the error): the
 // state replaces the whole simulation, and stepping may go on. Not before the end of initialization: the
 // start time given there, and parameters set until then, would replace the restored simulation and its time.
-Status Instance::restore(const SavedState& state) {
+Status Instance::restore(const char* function, const SavedState& state) {
   if (phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization)
-    return error(fmt::format("SetFMUState is not allowed in {}: a state is set from the end of initialization on "
+    return error(fmt::format("{} is not allowed in {}: a state is set from the end of initialization on "
                              "(after ExitInitializationMode), when the start time and the fixed parameters are final "
-                             "(initialization would replace the restored simulation and its time)", phase_name(phase_)));
+                             "(initialization would replace the restored simulation and its time)", function,
+                             phase_name(phase_)));
   const bool failed = phase_ == Phase::failed;
   if (Status s = ensure_built(); s != Status::ok) return s;
-  if (const std::string defect = state_defect(state.bytes); !defect.empty()) return error("SetFMUState: " + defect);
+  if (const std::string defect = state_defect(state.bytes); !defect.empty()) return error(fmt::format("{}: {}", function, defect));
   ByteReader r(std::span(state.bytes).first(state_header));
   r.get<std::uint64_t>();   // the format word, checked above
   if (r.get<std::uint64_t>() != parameter_fingerprint())
-    return error("SetFMUState: the state was saved with other parameter values or by another FMU; it cannot be restored here");
+    return error(fmt::format("{}: the state was saved with other parameter values or by another FMU; it cannot be "
+                             "restored here", function));
   const double start = r.get<double>(), host = r.get<double>();
-  if (!std::isfinite(start) || !std::isfinite(host)) return error("SetFMUState: the state's start or current time is not finite");
+  if (!std::isfinite(start) || !std::isfinite(host))
+    return error(fmt::format("{}: the state's start or current time is not finite", function));
   try {
     sim_->restore_state(std::span(state.bytes).subspan(state_header, state.bytes.size() - state_header - state_sum));
   } catch (const std::exception& e) {
-    return error(fmt::format("SetFMUState: {}", e.what()));
+    return error(fmt::format("{}: {}", function, e.what()));
   }
   start_time_ = start, host_time_ = host;
   if (failed) phase_ = Phase::stepping;
@@ -536,8 +540,8 @@ Status Instance::restore(const SavedState& state) {
 
 std::vector<std::byte> Instance::serialize(const SavedState& state) const { return state.bytes; }
 
-Status Instance::deserialize(std::span<const std::byte> bytes, SavedState& state) {
-  if (const std::string defect = state_defect(bytes); !defect.empty()) return error("DeserializeFMUState: " + defect);
+Status Instance::deserialize(const char* function, std::span<const std::byte> bytes, SavedState& state) {
+  if (const std::string defect = state_defect(bytes); !defect.empty()) return error(fmt::format("{}: {}", function, defect));
   state.bytes.assign(bytes.begin(), bytes.end());
   return Status::ok;
 }

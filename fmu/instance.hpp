@@ -102,10 +102,12 @@ class Instance {
   // Element count of a variable (1 for scalars) for sizing array calls; nullopt for an unknown reference.
   std::optional<std::size_t> element_count(std::uint32_t ref) const;
 
-  Status save(SavedState& state);
-  Status restore(const SavedState& state);
+  // `function` is the FMI function the host called (fmi2SetFMUstate, fmi3SetFMUState): the messages name it, in its
+  // version's spelling, as do_step's do.
+  Status save(const char* function, SavedState& state);
+  Status restore(const char* function, const SavedState& state);
   std::vector<std::byte> serialize(const SavedState& state) const;
-  Status deserialize(std::span<const std::byte> bytes, SavedState& state);
+  Status deserialize(const char* function, std::span<const std::byte> bytes, SavedState& state);
 
   double time() const;
   Experiment fmi2_experiment;   // FMI 2: what fmi2SetupExperiment gave, for fmi2EnterInitializationMode

@@ -122,13 +122,20 @@ def stable_steps_per_contact(grains, zeta, k_star, m_star, k_g, overrides):
     return int(found.group(1)) if found else None
 
 
+# What a run writes unless the --set overrides say otherwise: no snapshots (a sweep reads only the observables).
+RUN_DEFAULTS = {"output.snapshots_every": "0"}
+
+
 def run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own=None):
-    """The --set settings of a run. The point's own settings (`own`: steps per contact, cadences) replace the
-    scene's and any override's."""
+    """The --set settings of a run, each key once (grains refuses a key given twice with two values). The point's
+    own settings (`own`: steps per contact, cadences) replace the scene's and any override's; an override replaces
+    the sweep's defaults (RUN_DEFAULTS)."""
     if own:
-        overrides = [s for s in overrides if s.split("=", 1)[0] not in own] + [f"{k}={v}" for k, v in own.items()]
+        overrides = [s for s in overrides if s.split("=", 1)[0].strip() not in own] + [f"{k}={v}" for k, v in own.items()]
+    given = {s.split("=", 1)[0].strip() for s in overrides}
+    defaults = [f"{k}={v}" for k, v in RUN_DEFAULTS.items() if k not in given]
     return [*point_settings(zeta, k_star, m_star, k_g), f"particles.seed={seed}", f"run.threads={threads}",
-            "output.snapshots_every=0", *overrides]
+            *defaults, *overrides]
 
 
 def not_a_run_name(h5):

@@ -1,14 +1,17 @@
 #include "io/scene.hpp"
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <fmt/format.h>
 
+#include "io/file_kind.hpp"
 #include "io/file_name.hpp"
 
 namespace grains {
@@ -209,6 +212,10 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
                                  err.source().begin.column, err.description()));
   }
   std::string length_override;   // the run-length key an override gave, if any
+  // Each key an override gave: its value as written and as read. A key given again with another value was the
+  // last one silently winning; the same value again passes (nothing is lost, and a script that repeats a
+  // setting keeps working).
+  std::map<std::string, std::pair<std::string, std::string>, std::less<>> given;
   std::vector<std::string> problems;   // the overrides': one list with the scene's own problems
   for (const auto& o : overrides) {
     try {
@@ -222,7 +229,13 @@ Scene Scene::from_string(std::string_view text, std::string origin, const std::v
                                        "time.free_fall_times", key, length_override));
         length_override = key;
       }
-      s.set_value(key, std::string_view(o).substr(eq + 1));
+      const std::string_view written = std::string_view(o).substr(eq + 1);
+      s.set_value(key, written);
+      const std::string read = value_text(*s.node(key).node());
+      const auto [first, is_new] = given.try_emplace(std::string(key), std::string(written), read);
+      if (!is_new && first->second.second != read)
+        throw SceneError(fmt::format("--set {}: given twice, as {} and as {}: give each key once", key,
+                                     first->second.first, written));
     } catch (const SceneError& err) {
       problems.push_back(err.what());
     }
@@ -248,12 +261,27 @@ bool Scene::replace_run_length(std::string_view key) {
 
 Scene Scene::from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides,
                        const std::string& origin) {
-  std::ifstream in(file);
+  const std::string allowed = fmt::format("a scene is a TOML file (a regular file or a pipe) of at most {} MiB",
+                                          scene_file_limit >> 20);
+  std::error_code ec;
+  if (const auto kind = not_a_regular_file(file.string()); kind && !std::filesystem::is_fifo(file, ec))
+    throw SceneError(fmt::format("scene file '{}' is {}: {}", file.string(), *kind, allowed));
+  const auto too_large = [&](const std::string& bytes) {
+    return SceneError(fmt::format("scene file '{}' holds {} bytes: {} ({} bytes); a large particle set belongs in "
+                                  "particles.file", file.string(), bytes, allowed, scene_file_limit));
+  };
+  if (const auto size = std::filesystem::file_size(file, ec); !ec && size > scene_file_limit)
+    throw too_large(std::to_string(size));
+  std::ifstream in(file, std::ios::binary);
   if (!in) throw SceneError(fmt::format("cannot read scene file '{}': no such file or not readable", file.string()));
-  std::stringstream buf;
-  buf << in.rdbuf();
-  return from_string(buf.str(), origin.empty() ? file.string() : origin, overrides,
-                     std::filesystem::absolute(file).parent_path());
+  // Read in pieces up to the limit: a pipe has no size to check beforehand.
+  std::string text;
+  std::array<char, 1 << 16> piece;
+  while (in.read(piece.data(), piece.size()) || in.gcount() > 0) {
+    text.append(piece.data(), std::size_t(in.gcount()));
+    if (text.size() > scene_file_limit) throw too_large(fmt::format("more than {}", scene_file_limit));
+  }
+  return from_string(text, origin.empty() ? file.string() : origin, overrides, std::filesystem::absolute(file).parent_path());
 }
 
 void Scene::set_value(std::string_view path, std::string_view toml_value) {

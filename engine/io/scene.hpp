@@ -1,6 +1,7 @@
 // A scene: the TOML file that describes one run, checked against the schema in scene_schema.cpp.
 // Every accessor validates type and range and names the key, the value and what is allowed.
 #pragma once
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
@@ -44,10 +45,17 @@ std::string schema_reference_markdown();   // the scene reference page, generate
 
 struct UnreadKeyRule;
 
+// The most a scene file may hold. A scene is TOML that a person writes: the shipped ones are a few kB, and 16 MiB
+// holds the listed positions of some 250,000 particles at full precision (larger sets belong in particles.file,
+// which has no such limit). Past it, and from a device (/dev/zero has no end), the whole text was read into
+// memory until none was left, and the run said only "out of memory".
+inline constexpr std::uintmax_t scene_file_limit = std::uintmax_t(16) << 20;
+
 class Scene {
  public:
   // Parse a file (or text) and apply "key.path=value" overrides. Throws SceneError. `origin` names the
-  // scene in messages (default: the file's path).
+  // scene in messages (default: the file's path). The file is a regular file or a pipe (`<(...)`) of at most
+  // scene_file_limit bytes: a folder, a device or a socket is refused, naming what it is.
   static Scene from_file(const std::filesystem::path& file, const std::vector<std::string>& overrides = {},
                          const std::string& origin = "");
   // `directory`: where relative file paths in the text (particles.file) lie; default the working directory.

@@ -1,5 +1,6 @@
 #include "protocols/initial_state.hpp"
 #include "core/morton.hpp"
+#include "io/file_kind.hpp"
 #include "protocols/initial_overlaps.hpp"
 
 #include <algorithm>
@@ -187,9 +188,12 @@ InitialState<D> make_initial_state(const Scene& s) {
   } else if (layout == "file") {
     auto& path = file_path;
     path = *particle_file(s);
+    // An ifstream opens a folder and reads nothing from it, and reads a device (/dev/zero: one line without end)
+    // until memory runs out. A pipe is read as a file. No size limit: a particle table may be large.
     std::error_code ec;
-    if (std::filesystem::is_directory(path, ec))   // an ifstream opens a folder and reads nothing from it
-      s.fail("particles.file", fmt::format("'{}' is a folder: name a file of particle rows in it", path.string()));
+    if (const auto kind = not_a_regular_file(path.string()); kind && !std::filesystem::is_fifo(path, ec))
+      s.fail("particles.file", fmt::format("'{}' is {}: name a file of particle rows (a regular file or a pipe)",
+                                           path.string(), *kind));
     std::ifstream in(path);
     if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
     std::string line;

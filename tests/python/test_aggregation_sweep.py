@@ -15,6 +15,7 @@ from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "runner"))
 import aggregation_sweep as sweep  # noqa: E402
+import reuse  # noqa: E402
 
 
 def test_damping_ratio_and_restitution_are_inverse():
@@ -54,6 +55,19 @@ def test_points_past_the_damped_packing_rule_run_at_its_steps_per_contact(grains
     assert sweep.run_name(0.1, 10, 2, own) == "z0p1-k10-a4o8-s2"
     points = [{"zeta": 0.9, "steps_per_contact": 92}, {"zeta": 0.5, "steps_per_contact": 30}]
     assert sweep.raised_points(points, 30)[-1].endswith("zeta 0.9 at 92.") and sweep.raised_points(points[1:], 30) == []
+
+
+def test_an_override_of_a_sweep_default_replaces_it_and_each_key_is_given_once(grains_bin):
+    """The sweep set output.snapshots_every = 0 before the user's overrides, so a --set of it gave the key twice:
+    the last one won silently then, and grains now refuses a key given twice with two values."""
+    m_star, k_g = 0.5, 2.0
+    own = {"time.steps_per_contact": 92}
+    for overrides, snapshots in (([], 0), (["output.snapshots_every=7"], 7)):
+        settings = sweep.run_settings(0.9, 10.0, 1, m_star, k_g, 1, overrides + ["time.steps_per_contact=40"], own)
+        keys = [s.split("=", 1)[0] for s in settings]
+        assert len(keys) == len(set(keys)), settings
+        scene = reuse.resolve(grains_bin, sweep.SCENE, settings)   # grains takes them as they are
+        assert scene["output"]["snapshots_every"] == snapshots and scene["time"]["steps_per_contact"] == 92
 
 
 def test_virial_peaks():
@@ -257,8 +271,9 @@ def test_runs_are_reused_only_with_the_settings_asked_for_now(grains_bin, tmp_pa
     assert float(rows[0]["k_star"]) == pytest.approx(scene_k, rel=1e-12) and scene_k == pytest.approx(3234.39, rel=1e-6)
     again = subprocess.run(cmd + ["--jobs", "2", "--threads", "2"], capture_output=True, text=True)
     assert again.returncode == 0 and "finished" not in again.stdout, again.stderr
+    fewer = ["particles.count=30" if a == "particles.count=40" else a for a in cmd]   # a key given twice is refused
     for other in ([], ["--report"]):
-        bad = subprocess.run(cmd + ["--set", "particles.count=30", *other], capture_output=True, text=True)
+        bad = subprocess.run(fewer + other, capture_output=True, text=True)
         assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
         assert "particles.count = 40 there, 30 now" in bad.stderr and "give another --out" in bad.stderr
     assert (tmp_path / "sweep.csv").read_text() == table
