@@ -25,19 +25,20 @@ scene="$GRAINS_ROOT/models/aggregation.toml"
 if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then scene="$1"; shift; fi
 name="$(basename "$scene" .toml)"
 # The output: out/NAME.h5, or the run's own --out FILE.h5 (the plot then goes beside it, FILE.png). The --set
-# overrides, --quiet and --overwrite are noted too, for a run left unfinished there (below).
-h5="" args=() sets=() quiet=() overwrite=""
+# overrides, --quiet and --overwrite are noted too, for a run left unfinished there (below), and whether anything
+# else was given (a misspelt option, a scene after the options): grains run is left to refuse that.
+h5="" args=() sets=() quiet=() overwrite="" unread=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --out|--out=)
       if [ -z "${2:-}" ] || [ "$1" = "--out=" ]; then echo "runner/main.sh: --out needs a file name (FILE.h5)" >&2; exit 2; fi
       h5="$2"; shift 2 ;;
     --out=*) h5="${1#--out=}"; shift ;;
-    --set) if [ $# -gt 1 ]; then sets+=("$2"); args+=("$1" "$2"); shift 2; else args+=("$1"); shift; fi ;;
+    --set) if [ $# -gt 1 ]; then sets+=("$2"); args+=("$1" "$2"); shift 2; else unread=1; args+=("$1"); shift; fi ;;
     --set=*) sets+=("${1#--set=}"); args+=("$1"); shift ;;
     --quiet) quiet=(--quiet); args+=("$1"); shift ;;
     --overwrite) overwrite=1; args+=("$1"); shift ;;
-    *) args+=("$1"); shift ;;
+    *) unread=1; args+=("$1"); shift ;;
   esac
 done
 if [ -z "$h5" ]; then
@@ -48,8 +49,9 @@ png="${h5%.h5}.png"
 grains="$GRAINS_BUILD/runner/grains"
 # The same command again after an interruption (Ctrl-C) goes on with the run it left: a run of this scene with these
 # settings left unfinished in the output is resumed, not started again (--overwrite starts it again). One of other
-# settings there is grains run's to refuse, naming the ways on; a finished one is replaced.
-if [ -z "$overwrite" ] && [ -f "$h5" ] && "$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/same_unfinished_run.py" \
+# settings there is grains run's to refuse, naming the ways on; a finished one is replaced. With an argument main.sh
+# did not read, grains run says what it makes of it: a resume would pass over it (`--quite` resumed the run).
+if [ -z "$overwrite" ] && [ -z "$unread" ] && [ -f "$h5" ] && "$GRAINS_VENV/bin/python" "$GRAINS_ROOT/runner/same_unfinished_run.py" \
      "$grains" "$h5" "$scene" ${sets[@]+"${sets[@]}"}; then
   echo "runner/main.sh: $h5 holds an unfinished run of this scene with these settings: resuming it (grains resume;" \
        "--overwrite starts it again)" >&2

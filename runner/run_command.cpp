@@ -131,6 +131,9 @@ std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim)
 
 int check_scene(const std::string& path, const std::vector<std::string>& overrides) {
   const Scene scene = Scene::from_file(path, overrides);
+  // All the scene's problems at once: the output's name below reads scene.name or output.file alone, and a bad one
+  // was the only problem said.
+  scene.validate();
   // What `run` (without --out) would write to; looked at before the simulation is built (resumable_output.hpp).
   const auto [output, source] = run_output_path(scene, "");
   const ResumableOutput existing(output, false);
@@ -296,6 +299,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
 int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
+  scene.validate();   // all its problems at once, before the output's name reads scene.name or output.file alone
   const auto [path, source] = run_output_path(scene, opt.output);
   // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
   const ResumableOutput existing(path, opt.overwrite);

@@ -7,27 +7,16 @@
 #include <vector>
 
 #include "io/scene.hpp"
+#include "plain_lattice_scene.hpp"
 
 using namespace grains;
 using Catch::Contains;
 
 namespace {
 
-const std::string scene = R"(
-[scene]
-dimension = 3
-[particles]
-layout = "lattice"
-count = 27
-solid_fraction = 0.2
-[contact]
-restitution = 0.5
-duration = 0.05
-[run]
-threads = 1
-)";
-
-Scene with(const std::vector<std::string>& overrides) { return Scene::from_string(scene, "twice.toml", overrides); }
+Scene with(const std::vector<std::string>& overrides) {
+  return Scene::from_string(plain_lattice_scene(), "twice.toml", overrides);
+}
 
 }  // namespace
 

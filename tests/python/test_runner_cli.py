@@ -154,6 +154,18 @@ def test_scene_name_that_is_not_a_file_name_is_refused(grains_bin, root, tmp_pat
     assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == ["work", "work/scene.toml"]
 
 
+@pytest.mark.parametrize("command", ["run", "check"])
+def test_a_bad_scene_name_is_listed_with_the_scenes_other_problems(grains_bin, root, tmp_path, command):
+    """The default output's name is read from scene.name before the run is built (to look at an unfinished run
+    there): a bad name was said alone, the scene's other problems left out."""
+    r = run(grains_bin, command, root / "models" / "gas.toml", "--set", "scene.name=a/b", "--set",
+            "contact.restitution=2", cwd=tmp_path)
+    assert r.returncode == 1 and "2 problems in the scene" in r.stderr, r.stderr
+    assert 'scene.name: value "a/b" is not allowed' in r.stderr, r.stderr
+    assert "contact.restitution: value 2 is out of range" in r.stderr, r.stderr
+    assert not list(tmp_path.iterdir())
+
+
 def test_check_refuses_what_run_refuses(grains_bin, root, tmp_path):
     """`check` builds the run as `run` does: two run lengths are refused there too, and it reports the
     derived time step and the run's steps (dt = t_c / 50 = 0.002, duration 1)."""

@@ -162,6 +162,13 @@ def test_main_sh_run_again_resumes_its_interrupted_run(grains_bin, root, tmp_pat
     assert other.returncode == 1, other.stderr
     assert refusal(out, f"a run interrupted at step {step} of {total}") in other.stderr
     assert digest(out) == before and not out.with_suffix(".png").exists()
+    # An argument main.sh does not read (a misspelt option, a scene after the options) goes to grains run, which
+    # refuses it: a resume passed over it and went on with the run.
+    for unread in (["--quite"], [scene]):
+        typo = main_sh(*unread)
+        assert typo.returncode != 0 and "resuming it" not in typo.stderr, typo.stderr
+        assert "not expected" in typo.stderr and str(unread[0]) in typo.stderr, typo.stderr
+        assert digest(out) == before
     again = main_sh()
     assert again.returncode == 0, again.stderr
     assert "resuming it" in again.stderr and f"resumed      at step {step}" in again.stdout
