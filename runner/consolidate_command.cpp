@@ -271,13 +271,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
   const std::string name = scene.text("scene.name");
-  // The output file: --out, else output.file, else <scene.name>-stages.h5.
-  const std::string path = !opt.output.empty()           ? opt.output
-                           : scene.has("output.file") ? scene.text("output.file")
-                                                      : name + "-stages.h5";
-  const std::string source = !opt.output.empty()           ? "--out"
-                             : scene.has("output.file") ? "output.file"
-                                                        : "scene.name (the default output file <scene.name>-stages.h5)";
+  const auto [path, source] = hdf5_output_name(scene, opt.output, "-stages.h5");
   // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
   const ResumableOutput existing(path, opt.overwrite);
   auto sim = Simulation::create(scene);

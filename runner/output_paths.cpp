@@ -46,6 +46,14 @@ void check_name_and_folder(const std::string& output, const std::string& source)
 
 }  // namespace
 
+std::pair<std::string, std::string> hdf5_output_name(const Scene& scene, const std::string& out_option,
+                                                     const std::string& default_suffix) {
+  if (!out_option.empty()) return {out_option, "--out"};
+  if (scene.has("output.file")) return {scene.text("output.file"), "output.file"};
+  return {scene.text("scene.name") + default_suffix,
+          fmt::format("scene.name (the default output file <scene.name>{})", default_suffix)};
+}
+
 bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
   namespace fs = std::filesystem;
   std::error_code ec;

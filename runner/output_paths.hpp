@@ -4,10 +4,16 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 
 namespace grains {
 
 class Scene;
+
+// A command's HDF5 output and what named it (for messages): `out_option` (--out) if given, else output.file, else
+// <scene.name><default_suffix> (run: ".h5"; consolidate: "-stages.h5").
+std::pair<std::string, std::string> hdf5_output_name(const Scene& scene, const std::string& out_option,
+                                                     const std::string& default_suffix);
 
 // The same file: one path a link (symbolic or hard) to the other, or both naming it alike.
 bool same_file(const std::filesystem::path& a, const std::filesystem::path& b);

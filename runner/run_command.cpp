@@ -30,15 +30,6 @@
 
 namespace grains {
 
-namespace {
-// The output file of `grains run` and where its name comes from: --out, else output.file, else scene.name.
-std::pair<std::string, std::string> run_output_path(const Scene& scene, const std::string& out_option) {
-  if (!out_option.empty()) return {out_option, "--out"};
-  if (scene.has("output.file")) return {scene.text("output.file"), "output.file"};
-  return {scene.text("scene.name") + ".h5", "scene.name (the default output file <scene.name>.h5)"};
-}
-}  // namespace
-
 void write_frame(H5mdWriter& out, const Simulation& sim) {
   const ParticleView p = sim.particles();
   const BoxView b = sim.box();
@@ -135,7 +126,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   // was the only problem said.
   scene.validate();
   // What `run` (without --out) would write to; looked at before the simulation is built (resumable_output.hpp).
-  const auto [output, source] = run_output_path(scene, "");
+  const auto [output, source] = hdf5_output_name(scene, "", ".h5");
   const ResumableOutput existing(output, false);
   const PreparedRun r = prepare_run(scene);
   if (r.steps) {
@@ -300,7 +291,7 @@ int run_scene(const RunOptions& opt) {
   // Everything that can be checked is checked before the output file is opened.
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
   scene.validate();   // all its problems at once, before the output's name reads scene.name or output.file alone
-  const auto [path, source] = run_output_path(scene, opt.output);
+  const auto [path, source] = hdf5_output_name(scene, opt.output, ".h5");
   // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
   const ResumableOutput existing(path, opt.overwrite);
   PreparedRun prepared = prepare_run(scene);
