@@ -143,20 +143,34 @@ def ended(h5):
     """Whether grains wrote the file to its end: status 'complete' (a run), or 'complete; ...' (a programme with
     stages short of equilibrium); False for a file that is missing, not a regular file, unreadable, running or
     interrupted."""
-    import h5py
-    if not_a_run_file(h5):
-        return False
-    try:
-        with h5py.File(h5, "r") as f:
-            return ended_in(f)
-    except (OSError, KeyError):
-        return False
+    return (run_status(h5) or "").startswith("complete")
 
 
 def ended_in(f):
     """ended() of a file already open (h5py.File)."""
-    status = f["grains"].attrs.get("status", b"") if "grains" in f else b""
-    return (status.decode() if isinstance(status, bytes) else str(status)).startswith("complete")
+    return (status_in(f) or "").startswith("complete")
+
+
+def run_status(h5):
+    """The run's status in the file at h5 (status_in), or None where it is no grains output h5py can read (missing,
+    not a regular file, unreadable)."""
+    import h5py
+    if not_a_run_file(h5):
+        return None
+    try:
+        with h5py.File(h5, "r") as f:
+            return status_in(f)
+    except (OSError, KeyError):
+        return None
+
+
+def status_in(f):
+    """The /grains status attribute of a file already open (h5py.File): 'complete...', 'running', 'interrupted at
+    step ...', 'failed...'; None without a /grains group."""
+    if "grains" not in f:
+        return None
+    status = f["grains"].attrs.get("status", b"")
+    return status.decode() if isinstance(status, bytes) else str(status)
 
 
 def refuse_controlled(ap, overrides, controlled):

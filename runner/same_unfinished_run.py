@@ -15,21 +15,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reuse  # noqa: E402
 
 
-def status(h5):
-    """The file's /grains status attribute, or None where the file is no grains output h5py can read."""
-    import h5py
-    if reuse.not_a_run_file(h5):
-        return None
-    try:
-        with h5py.File(h5, "r") as f:
-            value = f["grains"].attrs.get("status", b"")
-    except (OSError, KeyError):
-        return None
-    return value.decode() if isinstance(value, bytes) else str(value)
-
-
 def same_unfinished_run(grains, h5, scene_file, overrides):
-    found = status(h5)
+    found = reuse.run_status(h5)
     if found is None or found.startswith(("complete", "failed")):
         return False
     try:
