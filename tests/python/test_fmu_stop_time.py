@@ -90,6 +90,26 @@ def test_hosts_reach_the_stop_time_through_their_clocks_rounding_and_step_no_fur
 
 
 @pytest.mark.parametrize("version", [2, 3])
+def test_far_from_time_zero_neither_the_clock_nor_the_stop_time_lets_a_step_through(version):
+    # At 1e13 steps from zero the tolerance's relative part (1e-12 |t|) is 10 dt: a host clock three steps off, and a
+    # step ending three steps past the stop time, passed. Double precision still resolves 2e-3 dt there.
+    dt = scene_dt(version)
+    start = 1e13 * dt
+    stop = start + 5 * dt
+    unit = Unit(path(version)).initialize(start_time=start, stop_time=stop)
+    try:
+        unit.step(dt)
+        t = unit.time
+        fails(unit, lambda: unit.fmu.doStep(t + 3 * dt, dt), "is not the FMU's time")
+        fails(unit, lambda: unit.fmu.doStep(t, 7 * dt), "past the stop time")
+        assert unit.get("step") == 1
+        unit.step(4 * dt)   # up to the stop time, as the host's clock rounds it
+        assert unit.get("step") == 5
+    finally:
+        unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
 def test_without_a_stop_time_stepping_goes_on_and_a_reset_clears_it(version):
     dt = scene_dt(version)
     unit = Unit(path(version)).initialize(stop_time=10 * dt)
