@@ -129,7 +129,7 @@ GRAINS_FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Ty
     std::filesystem::path resources = fmuResourceLocation && *fmuResourceLocation
                                           ? grains::fmu::decode_resource_location(fmuResourceLocation)
                                           : grains::fmu::resources_beside_binary();
-    return grains::fmu::hand_out(Instance::create(name, fmuGUID ? fmuGUID : "", resources, logger, loggingOn != 0));
+    return grains::fmu::hand_out(Instance::create("fmi2Instantiate", name, fmuGUID ? fmuGUID : "", resources, logger, loggingOn != 0));
   } catch (const std::exception& e) {
     logger(Status::error, grains::fmu::log_error, fmt::format("fmi2Instantiate: {}", e.what()));
   }

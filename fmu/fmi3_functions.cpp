@@ -183,7 +183,7 @@ GRAINS_FMI3_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     }
     std::filesystem::path resources = resourcePath && *resourcePath ? grains::fmu::decode_resource_location(resourcePath)
                                                                     : grains::fmu::resources_beside_binary();
-    return grains::fmu::hand_out(Instance::create(name, instantiationToken ? instantiationToken : "", resources, logger, loggingOn));
+    return grains::fmu::hand_out(Instance::create("fmi3InstantiateCoSimulation", name, instantiationToken ? instantiationToken : "", resources, logger, loggingOn));
   } catch (const std::exception& e) {
     logger(Status::error, grains::fmu::log_error, fmt::format("fmi3InstantiateCoSimulation: {}", e.what()));
   }

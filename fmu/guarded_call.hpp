@@ -16,6 +16,11 @@ template <class Body>
 Status guarded_call(const void* handle, const char* function, Body&& body) {
   Instance* in = live_instance(handle);
   if (!in) return Status::error;   // null, freed or not ours: nothing to log through
+  struct Answering {   // the instance's errors name this call until it returns
+    Instance& in;
+    Answering(Instance& i, const char* f) : in(i) { in.answering(f); }
+    ~Answering() { in.answering(nullptr); }
+  } answering(*in, function);
   try {
     in->log_call(function);
     return body(*in);

@@ -83,9 +83,10 @@ std::uint64_t fnv1a(std::string_view text, std::uint64_t h = 1469598103934665603
 
 }  // namespace
 
-std::unique_ptr<Instance> Instance::create(std::string name, std::string_view token, const std::filesystem::path& resources,
-                                           Logger logger, bool logging_on) {
+std::unique_ptr<Instance> Instance::create(const char* function, std::string name, std::string_view token,
+                                           const std::filesystem::path& resources, Logger logger, bool logging_on) {
   std::unique_ptr<Instance> in(new Instance(std::move(name), std::move(logger), logging_on));
+  in->answering(function);
   const auto file = resources / "scene.toml";
   try {
     if (!std::filesystem::is_regular_file(file))
@@ -114,6 +115,7 @@ std::unique_ptr<Instance> Instance::create(std::string name, std::string_view to
     return nullptr;
   }
   in->log_new_warnings();   // the start-up warnings
+  in->answering(nullptr);
   return in;
 }
 
@@ -144,7 +146,10 @@ Status Instance::set_debug_logging(bool on, std::span<const char* const> categor
 }
 
 Status Instance::error(const std::string& message) {
-  logger_(Status::error, log_error, message);
+  if (answering_ && !std::string_view(message).starts_with(answering_))
+    logger_(Status::error, log_error, fmt::format("{}: {}", answering_, message));
+  else
+    logger_(Status::error, log_error, message);
   return Status::error;
 }
 

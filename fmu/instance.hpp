@@ -72,9 +72,10 @@ class Instance {
   // Receives pre-formatted messages; the FMI layer adds the instance name and escapes as needed.
   using Logger = std::function<void(Status, const char* category, const std::string& message)>;
 
-  // Returns nullptr (after logging why) when the resources or the token do not fit.
-  static std::unique_ptr<Instance> create(std::string name, std::string_view token, const std::filesystem::path& resources,
-                                          Logger logger, bool logging_on);
+  // Returns nullptr (after logging why, named after `function`, the host's instantiate call) when the resources or
+  // the token do not fit.
+  static std::unique_ptr<Instance> create(const char* function, std::string name, std::string_view token,
+                                          const std::filesystem::path& resources, Logger logger, bool logging_on);
 
   const std::string& name() const { return name_; }
   const ModelTable& table() const { return table_; }
@@ -113,7 +114,11 @@ class Instance {
   Experiment fmi2_experiment;   // FMI 2: what fmi2SetupExperiment gave, for fmi2EnterInitializationMode
   // Errors for FMI functions this FMU does not support, with the reason.
   Status unsupported(const char* function, const char* why);
+  // Logged as an error and named after the host's call being answered (answering()), unless the message starts with
+  // that call's name already: the host's log interleaves many calls, and "unknown value reference 9" alone does not
+  // say which one was refused.
   Status error(const std::string& message);
+  void answering(const char* function) { answering_ = function; }   // nullptr: between calls
   void log_new_warnings();   // sim_'s warnings not yet passed to the logger
   void log_call(const std::string& call);
 
@@ -127,6 +132,7 @@ class Instance {
   double clock_tolerance(double t) const;
 
   std::string name_;
+  const char* answering_ = nullptr;
   Logger logger_;
   bool logging_on_ = false;
   std::map<std::string, bool> categories_;   // empty = all categories on
