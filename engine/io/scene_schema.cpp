@@ -181,7 +181,7 @@ const std::vector<SchemaEntry>& scene_schema() {
        "Elastic-moduli outputs (adhesion scenes in a periodic box, physics.md section 9): `B`, `G`, `C11`, `C12`, ..., "
        "`B_Voigt`, `G_Voigt`, `B_Reuss`, `Z2` and the `moduli_*` diagnostics from the stiffness matrix of the contact "
        "network, in `grains consolidate`'s stage rows. Computed only when read, but each reading is a sparse "
-       "factorisation (measured 15-50 ms for 1444 frictional disks, 0.4-2 s for 1000 spheres) that `grains run` would "
+       "factorisation (measured 11-52 ms for 1444 disks, 0.32-2.1 s for 1000 spheres, as the host was loaded) that `grains run` would "
        "repeat at every observables record: off unless asked for (the consolidation scenes in `models/` ask)."},
       {"analysis.collision_log", K::boolean, not_a_quantity, "false", 0, 0, false, false, "",
        "Log every contact event (start, end, impact and rebound normal speeds; physics.md section 8) and report "
