@@ -5,7 +5,9 @@
 
 Each --campaign names a folder of `consolidation_campaign.py` stage tables (SCENE-seedN.csv; unfinished
 SCENE-seedN.partial.csv are left out, since their curves stop part way) and the label it is shown under, the
-number of disks as a rule. Per scene and folder it averages the samples' loading branches and fits the mean, as
+number of disks as a rule; FOLDER:SEEDS (4-8, or 4,6,9) takes those seeds only, and a label given more than once
+pools its folders' samples, so that the paper's own mix of sizes (its Table II: five samples of 1400 disks, three
+of 5600, one of 10,976) can be averaged as one curve. Per scene and label it averages the samples' loading branches and fits the mean, as
 the campaign does (the paper's method: its Fig. 11 and Table III), and prints a table of lambda, Phimax, P0*,
 Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
 the samples; the figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
@@ -25,21 +27,44 @@ import consolidation_campaign as campaign  # noqa: E402
 from consolidation_fit import inverse_phi_crossover, plateau_then  # noqa: E402
 
 
+SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
+
+
+def parse_seeds(text):
+    """4-8 or 4,6,9 (or both: 4-6,9) as a set of seeds; None where a range runs backwards."""
+    seeds = set()
+    for part in text.split(","):
+        first, _, last = part.partition("-")
+        if last and int(last) < int(first):
+            return None
+        seeds.update(range(int(first), int(last or first) + 1))
+    return seeds
+
+
 def parse_campaign(text):
-    """LABEL=FOLDER, the folder existing."""
+    """LABEL=FOLDER or LABEL=FOLDER:SEEDS, the folder existing: (label, folder, set of seeds or None for all)."""
     label, sep, folder = text.partition("=")
     if not sep or not label or not folder:
-        raise argparse.ArgumentTypeError(f"--campaign {text!r}: expected LABEL=FOLDER, e.g. 1400=campaign")
+        raise argparse.ArgumentTypeError(f"--campaign {text!r}: expected LABEL=FOLDER or LABEL=FOLDER:SEEDS, e.g. "
+                                         "1400=campaign or 1400=campaign:4-8")
+    seeds = None
+    head, colon, tail = folder.rpartition(":")
+    if colon and SEEDS.fullmatch(tail) and not pathlib.Path(folder).is_dir():
+        folder, seeds = head, parse_seeds(tail)
+        if seeds is None:
+            raise argparse.ArgumentTypeError(f"--campaign {text!r}: seeds {tail!r} run backwards: expected FIRST-LAST "
+                                             "with FIRST <= LAST, e.g. 4-8")
     path = pathlib.Path(folder)
     if not path.is_dir():
         raise argparse.ArgumentTypeError(f"--campaign {text!r}: {folder} is not a folder")
-    return label, path
+    return label, path, seeds
 
 
-def finished_samples(folder, scene):
-    """The summaries of the scene's finished tables in the folder (seed order), those with a loading branch."""
+def finished_samples(folder, scene, seeds=None):
+    """The summaries of the scene's finished tables in the folder (seed order; only `seeds`, if given), those with a
+    loading branch."""
     named = ((re.fullmatch(rf"{re.escape(scene)}-seed(\d+)\.csv", t.name), t) for t in folder.iterdir())
-    tables = sorted((int(m[1]), t) for m, t in named if m)
+    tables = sorted((int(m[1]), t) for m, t in named if m and (seeds is None or int(m[1]) in seeds))
     found = [campaign.summarise(t) for _, t in tables]
     return [s for s in found if s is not None]
 
@@ -92,7 +117,8 @@ def plot(rows, path):
             if found is None:
                 continue
             f = found["fit"]
-            ax.plot(found["p"], found["phi"], "o", color=colour, ms=4, label=f"{label} disks, mean of {n}")
+            name = f"{label} disks" if label.isdigit() else label
+            ax.plot(found["p"], found["phi"], "o", color=colour, ms=4, label=f"{name}, mean of {n}")
             grid = np.geomspace(found["p"].min(), found["p"].max(), 200)
             inv = plateau_then(grid, f["P0"], 1 / f["phi0"], lambda q: inverse_phi_crossover(
                 q, 1 / f["phi0"], f["lambda"], f["phi_max"], f["alpha"], f["P0"]))
@@ -113,8 +139,9 @@ def plot(rows, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--campaign", action="append", type=parse_campaign, required=True, metavar="LABEL=FOLDER",
-                    help="a folder of campaign stage tables and its label, e.g. 1400=campaign (repeatable)")
+    ap.add_argument("--campaign", action="append", type=parse_campaign, required=True, metavar="LABEL=FOLDER[:SEEDS]",
+                    help="a folder of campaign stage tables and its label, e.g. 1400=campaign, or some of its seeds, "
+                         "e.g. 1400=campaign:4-8 (repeatable; a label given again pools the folders' samples)")
     ap.add_argument("--scene", action="append", choices=list(campaign.PAPER), help="scene to read (default both)")
     ap.add_argument("--resamples", type=int, default=40,
                     help="resamplings of the samples for the spread of the fitted values, from three samples on (default 40)")
@@ -126,10 +153,11 @@ def main(argv=None):
     problem = image_name_problem("--out", args.out)
     if problem:   # said before the fits, not after
         ap.error(problem)
+    labels = list(dict.fromkeys(label for label, _, _ in args.campaign))
     rows = []
     for scene in args.scene or list(campaign.PAPER):
-        for label, folder in args.campaign:
-            results = finished_samples(folder, scene)
+        for label in labels:
+            results = [r for l, folder, seeds in args.campaign if l == label for r in finished_samples(folder, scene, seeds)]
             if results:
                 rows.append((scene, label, len(results), fit_of_mean(results, args.resamples)))
     if not rows:

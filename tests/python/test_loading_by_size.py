@@ -46,7 +46,22 @@ def test_each_size_gets_the_fit_of_its_mean_curve_and_unfinished_samples_are_lef
     assert figure.stat().st_size > 10_000
 
 
-@pytest.mark.parametrize("given, said", [("1400", "expected LABEL=FOLDER"), ("1400=/nonexistent/folder", "is not a folder")])
+def test_a_label_given_twice_pools_the_seeds_chosen_from_its_folders(tmp_path):
+    # the paper's mix of sizes: some seeds of one campaign and some of another, averaged as one curve
+    write_samples(tmp_path / "small", "consolidation", [0.3, 0.3, 0.9])
+    write_samples(tmp_path / "large", "consolidation", [0.9, 0.3])
+    out = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--scene", "consolidation",
+                          "--campaign", f"mix={tmp_path / 'small'}:1-2", "--campaign", f"mix={tmp_path / 'large'}:2",
+                          "--campaign", f"all={tmp_path / 'small'}", "--resamples", "0", "--out", str(tmp_path / "m.png")],
+                         capture_output=True, text=True, check=True).stdout
+    rows = [l for l in out.splitlines() if l.startswith("| consolidation |")]
+    assert [r.split(" | ")[1:3] for r in rows] == [["mix", "3"], ["all", "3"]]
+    assert abs(fitted_lambda(rows[0]) - 0.3) < 1e-3   # the λ = 0.9 samples left out
+    assert fitted_lambda(rows[1]) > 0.35   # and counted where every seed is taken
+
+
+@pytest.mark.parametrize("given, said", [("1400", "expected LABEL=FOLDER"), ("1400=/nonexistent/folder", "is not a folder"),
+                                         ("1400=/nonexistent/folder:4-8", "is not a folder"), (".=.:8-4", "run backwards")])
 def test_a_campaign_argument_that_is_not_a_label_and_folder_is_refused(given, said):
     run = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--campaign", given],
                          capture_output=True, text=True)
