@@ -69,10 +69,7 @@ def first_compression_under_way(h5, rows):
     has `rows` (its finished stages), is inside its first compression; None when it is not (still preparing, or its
     file says it ended). Its status says which: 'running' or 'resumed ...' while a process writes it (a killed one's
     reads the same), 'interrupted ...' (Ctrl-C) or 'failed ...' once it stopped."""
-    def read(f):
-        status = f["grains"].attrs.get("status", b"") if "grains" in f else b""
-        return status.decode() if isinstance(status, bytes) else str(status), reuse.ended_in(f)
-    status, ended = reuse.read_unlocked(h5, read)
+    status, ended = reuse.read_unlocked(h5, lambda f: (reuse.status_in(f) or "", reuse.ended_in(f)))
     preparation = (reuse.stored(h5) or {}).get("programme", {}).get("preparation", "none")
     if ended or len(rows) != PREPARATION_STAGES.get(preparation, 0):
         return None
