@@ -279,10 +279,24 @@ def resampled_spread(results, resamples, seed=1):
     return {k: float(np.std([f[k] for f in fits], ddof=1)) for k in ("lambda", "phi_max")}, len(fits)
 
 
+def regime_two_line(scene, p, phi):
+    """Table row: lambda of the regime II line alone (P* <= 0.1, P0* found as the kink) of the mean curve. The
+    crossover form's lambda also answers for how soon the curve bends to Phimax; the line's is the slope alone (at
+    5600 disks it has the paper's, where the crossover's does not: docs/reproduction-consolidation.md)."""
+    value, bar = PAPER[scene]["lambda"]
+    try:
+        line = fit_regime_two(p, phi)
+    except ValueError as error:
+        return f"| {scene} | lambda of the mean curve's regime II line alone (P* <= 0.1) | no fit ({error}) | {value} ± {bar} | |"
+    verdict = "yes" if abs(line["lambda"] - value) <= 2 * bar else "NO"
+    return (f"| {scene} | lambda of the mean curve's regime II line alone (P* <= 0.1) | {line['lambda']:.4f} ± "
+            f"{line['lambda_err']:.4f} (fit); {line['stages']} stages, P0* {line['P0']:.3g} | {value} ± {bar} | {verdict} |")
+
+
 def mean_curve_lines(scene, results, resamples=0):
     """Table rows: lambda and Phimax fitted to the mean loading curve, with the fit's standard errors and,
-    with `resamples`, the spread over resampled samples. The verdict compares the value with twice the paper's
-    bar (the issue's criterion); the spread says how well our value itself is known."""
+    with `resamples`, the spread over resampled samples, and the regime II line's lambda. The verdict compares the
+    value with twice the paper's bar (the issue's criterion); the spread says how well our value itself is known."""
     p, phi, counts = mean_curve(results)
     try:
         fit = fit_loading(p, phi)
@@ -298,7 +312,7 @@ def mean_curve_lines(scene, results, resamples=0):
         lines.append(f"| {scene} | {key} of the mean curve | {fit[key]:.4f} ± {fit[key + '_err']:.4f} (fit){samples}; "
                      f"{len(p)} stages ({fit['stages']} from P0* on), {min(counts)}–{max(counts)} samples each | "
                      f"{value}{f' ± {bar}' if bar else ''} | {verdict} |")
-    return lines
+    return lines + [regime_two_line(scene, p, phi)]
 
 
 def fractal_dimensions(table):

@@ -10,7 +10,7 @@ pools its folders' samples, so that the paper's own mix of sizes (its Table II: 
 of 5600, one of 10,976) can be averaged as one curve. Per scene and label it averages the samples' loading branches and fits the mean, as
 the campaign does (the paper's method: its Fig. 11 and Table III), and prints a table of lambda, Phimax, P0*,
 Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
-the samples; the figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
+the samples, and lambda of the regime II line alone (P* <= 0.1); the figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
 gives one lambda per law for its samples of all sizes together, so this shows whether our excess is a small
 system's.
 """
@@ -24,7 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
-from consolidation_fit import inverse_phi_crossover, plateau_then  # noqa: E402
+from consolidation_fit import fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
 
 
 SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
@@ -78,7 +78,11 @@ def fit_of_mean(results, resamples):
     except (ValueError, RuntimeError):
         return None
     spread = campaign.resampled_spread(results, resamples)[0] if len(results) >= 3 and resamples else {}
-    return {"fit": fit, "spread": spread, "p": p, "phi": phi, "counts": counts}
+    try:   # the regime II line alone: the slope, without how soon the curve bends to Phimax
+        line = fit_regime_two(p, phi)
+    except ValueError:
+        line = None
+    return {"fit": fit, "spread": spread, "line": line, "p": p, "phi": phi, "counts": counts}
 
 
 def paper_p1(scene):
@@ -89,18 +93,22 @@ def paper_p1(scene):
 
 def table_lines(rows):
     """rows: (scene, label, samples, fit_of_mean result or None)."""
-    lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | paper λ, Φmax, P1* |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | λ of the regime II line alone (P* ≤ 0.1) "
+             "| paper λ, Φmax, P1* |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for scene, label, n, found in rows:
         lam, phi_max = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"]
         paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {paper_p1(scene):.3g}"
         if found is None:
-            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | {paper} |")
+            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {paper} |")
             continue
         f, s = found["fit"], found["spread"]
         spread = lambda key: f"; ± {s[key]:.3f}" if key in s else ""
+        line = found["line"]
+        line = f"{line['lambda']:.3f} ± {line['lambda_err']:.3f}" if line else "no fit"
         lines.append(f"| {scene} | {label} | {n} | {f['lambda']:.3f} ± {f['lambda_err']:.3f}{spread('lambda')} | "
-                     f"{f['phi_max']:.4f} ± {f['phi_max_err']:.4f}{spread('phi_max')} | {f['P0']:.3g} | {f['phi0']:.4f} | {f['P1']:.3g} | {paper} |")
+                     f"{f['phi_max']:.4f} ± {f['phi_max_err']:.4f}{spread('phi_max')} | {f['P0']:.3g} | {f['phi0']:.4f} | "
+                     f"{f['P1']:.3g} | {line} | {paper} |")
     return lines
 
 

@@ -92,6 +92,22 @@ def test_the_mean_curve_over_the_samples_is_fitted_as_the_paper_fits_its_average
     fitted = float(lines[0].split("| lambda of the mean curve | ")[1].split(" ±")[0])
     assert abs(fitted - 0.3) < 1e-4 and "24 stages (" in lines[0] and "2–3 samples each" in lines[0]   # printed to 4 decimals
     assert lines[0].endswith("| NO |") and lines[1].endswith("| yes |")   # 0.3 against 0.194 ± 0.004; 0.78
+    assert "regime II line alone" in lines[2]
+
+
+def test_the_regime_two_line_alone_is_fitted_to_the_mean_curve(tmp_path):
+    """A plateau at Phi0 to P0* = 0.03, then 1/Phi = 1/Phi0 - lambda ln(P*/P0*): the line's lambda is the curve's,
+    whatever the crossover form makes of the stages above P* = 0.1 (here a sudden rise to 0.78 that no line has)."""
+    p = 0.01 * 10 ** (np.arange(0, 25) / 8)
+    inv = 1 / 0.5 - 0.35 * np.log(np.maximum(p, 0.03) / 0.03)
+    phi = np.where(p <= 0.1 * (1 + 1e-12), 1 / inv, 0.78)
+    results = []
+    for k in range(3):
+        write_table(tmp_path / f"s{k}.csv", [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p, phi)])
+        results.append(campaign.summarise(tmp_path / f"s{k}.csv"))
+    line = campaign.mean_curve_lines("consolidation", results)[-1]
+    assert "regime II line alone" in line and line.endswith("| yes |"), line   # 0.35 against 0.349 ± 0.019
+    assert abs(float(line.split(" | ")[2].split(" ±")[0]) - 0.35) < 1e-4 and "P0* 0.03" in line, line
 
 
 def test_report_reads_unfinished_samples_and_skips_those_still_aggregating(tmp_path):

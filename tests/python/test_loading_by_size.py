@@ -39,6 +39,9 @@ def test_each_size_gets_the_fit_of_its_mean_curve_and_unfinished_samples_are_lef
     rows = [l for l in out.splitlines() if l.startswith("| consolidation |")]
     assert [r.split(" | ")[1:3] for r in rows] == [["1400", "3"], ["5600", "1"]]
     assert abs(fitted_lambda(rows[0]) - 0.3) < 1e-3 and abs(fitted_lambda(rows[1]) - 0.2) < 1e-3
+    # the regime II line alone, to P* = 0.1: flatter than the crossover's lambda, as the curve already bends there
+    line = float(rows[0].split(" | ")[8].split(" ±")[0])
+    assert 0.2 < line < 0.3, rows[0]
     # three identical samples: their resampled spread is zero; one sample has none
     assert "; ± 0.000" in rows[0] and "; ±" not in rows[1].split(" | ")[3]
     # the paper's P1* from its own fit: 0.0237 exp((1/0.469 - 1/0.7808) / 0.349)
