@@ -18,8 +18,9 @@ Status guarded_call(const void* handle, const char* function, Body&& body) {
   if (!in) return Status::error;   // null, freed or not ours: nothing to log through
   struct Answering {   // the instance's errors name this call until it returns
     Instance& in;
-    Answering(Instance& i, const char* f) : in(i) { in.answering(f); }
-    ~Answering() { in.answering(nullptr); }
+    const char* outer;
+    Answering(Instance& i, const char* f) : in(i), outer(i.answering(f)) {}
+    ~Answering() { in.answering(outer); }
   } answering(*in, function);
   try {
     in->log_call(function);

@@ -164,7 +164,8 @@ void Instance::log_call(const std::string& call) {
 Status Instance::check_phase(const char* function, std::initializer_list<Phase> allowed) {
   for (Phase p : allowed)
     if (p == phase_) return Status::ok;
-  return error(fmt::format("{} is not allowed in {}", function, phase_name(phase_)));
+  // The host's own call in its version's spelling where one is being answered ("Terminate" is both versions')
+  return error(fmt::format("{} is not allowed in {}", answering_ ? answering_ : function, phase_name(phase_)));
 }
 
 Status Instance::ensure_built() {
@@ -259,8 +260,8 @@ double Instance::time() const { return host_time_; }
 
 // How far the host's clock may be from the FMU's at time t and still be the same time: a host that adds its steps
 // up drifts from the FMU's clock by its rounding (2.3e-10 after 100,000 steps of 0.002 from 0). Capped at a quarter
-// step: from t = 2.5e11 dt on, the relative part alone would let a clock a whole step off, or a step past the stop
-// time, through.
+// step (binding from t = 2.5e11 dt on): from t = 1e12 dt on, the relative part alone let a clock a whole step off, or
+// a step past the stop time, through.
 double Instance::clock_tolerance(double t) const {
   return std::min(1e-6 * sim_->dt() + 1e-12 * std::abs(t), 0.25 * sim_->dt());
 }

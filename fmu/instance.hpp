@@ -13,6 +13,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/simulation.hpp"
@@ -118,7 +119,9 @@ class Instance {
   // that call's name already: the host's log interleaves many calls, and "unknown value reference 9" alone does not
   // say which one was refused.
   Status error(const std::string& message);
-  void answering(const char* function) { answering_ = function; }   // nullptr: between calls
+  // The call now answered (nullptr: none); returns the one before, for a call made inside another (a host's logger
+  // calling back into the instance) to restore.
+  const char* answering(const char* function) { return std::exchange(answering_, function); }
   void log_new_warnings();   // sim_'s warnings not yet passed to the logger
   void log_call(const std::string& call);
 

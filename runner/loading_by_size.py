@@ -60,13 +60,24 @@ def parse_campaign(text):
     return label, path, seeds
 
 
+def finished_tables(folder, scene, seeds=None):
+    """The scene's finished tables in the folder, in seed order (only `seeds`, if given)."""
+    named = ((re.fullmatch(rf"{re.escape(scene)}-seed(\d+)\.csv", t.name), t) for t in folder.iterdir())
+    return [t for _, t in sorted((int(m[1]), t) for m, t in named if m and (seeds is None or int(m[1]) in seeds))]
+
+
+def summaries(tables):
+    """The summaries of the tables with a loading branch, each table once (a label's folders and seeds may overlap:
+    a sample counted twice would count twice in the mean and in the samples' spread)."""
+    unique = {t.resolve(): t for t in tables}
+    found = [campaign.summarise(t) for t in unique.values()]
+    return [s for s in found if s is not None]
+
+
 def finished_samples(folder, scene, seeds=None):
     """The summaries of the scene's finished tables in the folder (seed order; only `seeds`, if given), those with a
     loading branch."""
-    named = ((re.fullmatch(rf"{re.escape(scene)}-seed(\d+)\.csv", t.name), t) for t in folder.iterdir())
-    tables = sorted((int(m[1]), t) for m, t in named if m and (seeds is None or int(m[1]) in seeds))
-    found = [campaign.summarise(t) for _, t in tables]
-    return [s for s in found if s is not None]
+    return summaries(finished_tables(folder, scene, seeds))
 
 
 def fit_of_mean(results, resamples):
@@ -165,7 +176,8 @@ def main(argv=None):
     rows = []
     for scene in args.scene or list(campaign.PAPER):
         for label in labels:
-            results = [r for l, folder, seeds in args.campaign if l == label for r in finished_samples(folder, scene, seeds)]
+            results = summaries([t for l, folder, seeds in args.campaign if l == label
+                                 for t in finished_tables(folder, scene, seeds)])
             if results:
                 rows.append((scene, label, len(results), fit_of_mean(results, args.resamples)))
     if not rows:

@@ -27,6 +27,8 @@ def test_value_phase_and_initialization_errors_begin_with_the_called_function(ve
         assert m.startswith(f"{fmi}Set{real}: unknown value reference 9999"), m
         m = refused(unit, lambda: unit.fmu.doStep(0.0, 0.1))   # named already: not twice
         assert m.startswith(f"{fmi}DoStep is not allowed"), m
+        m = refused(unit, lambda: unit.fmu.terminate())   # in its version's spelling, once ("Terminate" is both's)
+        assert m.startswith(f"{fmi}Terminate is not allowed in"), m
         unit.set("adhesion.force", 2e4)   # more than the contact's clamp holds: the simulation is not built
         m = refused(unit, lambda: unit.fmu.enterInitializationMode())
         assert m.startswith(f"{fmi}EnterInitializationMode: ") and "adhesion.force: value 20000" in m, m

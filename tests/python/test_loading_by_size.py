@@ -55,9 +55,11 @@ def test_a_label_given_twice_pools_the_seeds_chosen_from_its_folders(tmp_path):
     write_samples(tmp_path / "large", "consolidation", [0.9, 0.3])
     out = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--scene", "consolidation",
                           "--campaign", f"mix={tmp_path / 'small'}:1-2", "--campaign", f"mix={tmp_path / 'large'}:2",
-                          "--campaign", f"all={tmp_path / 'small'}", "--resamples", "0", "--out", str(tmp_path / "m.png")],
+                          "--campaign", f"all={tmp_path / 'small'}", "--campaign", f"all={tmp_path / 'small'}/:2-3",
+                          "--resamples", "0", "--out", str(tmp_path / "m.png")],
                          capture_output=True, text=True, check=True).stdout
     rows = [l for l in out.splitlines() if l.startswith("| consolidation |")]
+    # "all" names seeds 2 and 3 of its folder twice (the second time as another spelling of the folder): counted once
     assert [r.split(" | ")[1:3] for r in rows] == [["mix", "3"], ["all", "3"]]
     assert abs(fitted_lambda(rows[0]) - 0.3) < 1e-3   # the λ = 0.9 samples left out
     assert fitted_lambda(rows[1]) > 0.35   # and counted where every seed is taken
