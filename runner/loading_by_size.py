@@ -105,11 +105,11 @@ def paper_p1(scene):
 def table_lines(rows):
     """rows: (scene, label, samples, fit_of_mean result or None)."""
     lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | λ of the regime II line alone (P* ≤ 0.1) "
-             "| paper λ, Φmax, P1* |",
+             "| paper λ, Φmax, P1*; its curve's line |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for scene, label, n, found in rows:
         lam, phi_max = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"]
-        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {paper_p1(scene):.3g}"
+        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {paper_p1(scene):.3g}; line {campaign.paper_line(scene):.3f}"
         if found is None:
             lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {paper} |")
             continue
