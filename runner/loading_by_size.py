@@ -10,7 +10,8 @@ pools its folders' samples, so that the paper's own mix of sizes (its Table II: 
 of 5600, one of 10,976) can be averaged as one curve. Per scene and label it averages the samples' loading branches and fits the mean, as
 the campaign does (the paper's method: its Fig. 11 and Table III), and prints a table of lambda, Phimax, P0*,
 Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
-the samples, and lambda of the regime II line alone (P* <= 0.1); the figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
+the samples, and lambda of the regime II line alone (P* <= 0.1) beside the same line of the paper's own curve; the
+figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
 gives one lambda per law for its samples of all sizes together, so this shows whether our excess is a small
 system's.
 """
