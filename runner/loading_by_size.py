@@ -75,11 +75,6 @@ def summaries(tables):
     return [s for s in found if s is not None]
 
 
-def finished_samples(folder, scene, seeds=None):
-    """The summaries of the scene's finished tables in the folder (seed order; only `seeds`, if given), those with a
-    loading branch."""
-    return summaries(finished_tables(folder, scene, seeds))
-
 
 def fit_of_mean(results, resamples):
     """The fit to the samples' mean loading curve and the spread of its values over resampled samples
