@@ -58,6 +58,8 @@ PAPER = {
 # The paper's fit of its mean loading curve (physics.md section 9 table): P0*, Phi0, lambda, Phimax, alpha; drawn
 # beside ours, so the plot shows where the curves part, not only Phi(0.01).
 PAPER_FIT = {"consolidation": (0.0237, 0.469, 0.349, 0.7808, 0.91), "consolidation-rr": (0.0316, 0.515, 0.194, 0.7745, 1.08)}
+# P1*, where its regime II line meets Phimax, as its Table III states it (its parameters, rounded, give 0.272 and 0.904).
+PAPER_P1 = {"consolidation": (0.271, 0.033), "consolidation-rr": (0.900, 0.064)}
 RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02, "d_F_0": 0.05, "d_F_0.01": 0.05}
 
 

@@ -16,7 +16,6 @@ gives one lambda per law for its samples of all sizes together, so this shows wh
 system's.
 """
 import argparse
-import math
 import pathlib
 import re
 import sys
@@ -92,20 +91,14 @@ def fit_of_mean(results, resamples):
     return {"fit": fit, "spread": spread, "line": line, "p": p, "phi": phi, "counts": counts}
 
 
-def paper_p1(scene):
-    """P1*, where the paper's regime II line meets Phimax: ln P1* = ln P0* + (1/Phi0 - 1/Phimax) / lambda."""
-    p0, phi0, lam, phi_max, _ = campaign.PAPER_FIT[scene]
-    return p0 * math.exp((1 / phi0 - 1 / phi_max) / lam)
-
-
 def table_lines(rows):
     """rows: (scene, label, samples, fit_of_mean result or None)."""
     lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | λ of the regime II line alone (P* ≤ 0.1) "
              "| paper λ, Φmax, P1*; its curve's line |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for scene, label, n, found in rows:
-        lam, phi_max = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"]
-        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {paper_p1(scene):.3g}; line {campaign.paper_line(scene):.3f}"
+        lam, phi_max, p1 = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"], campaign.PAPER_P1[scene]
+        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]} ± {p1[1]}; line {campaign.paper_line(scene):.3f}"
         if found is None:
             lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {paper} |")
             continue
