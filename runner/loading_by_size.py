@@ -98,7 +98,7 @@ def table_lines(rows):
              "|---|---|---|---|---|---|---|---|---|---|"]
     for scene, label, n, found in rows:
         lam, phi_max, p1 = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"], campaign.PAPER_P1[scene]
-        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]} ± {p1[1]}; line {campaign.paper_line(scene):.3f}"
+        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]:.3f} ± {p1[1]:.3f}; line {campaign.paper_line(scene):.3f}"
         if found is None:
             lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {paper} |")
             continue
