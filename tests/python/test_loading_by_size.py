@@ -3,7 +3,6 @@ campaign fits its mean curve, unfinished samples are left out, and bad arguments
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
 from conftest import ROOT
