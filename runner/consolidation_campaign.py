@@ -30,6 +30,7 @@ it refuses tables run with other settings than those given, as a campaign does.
 """
 import argparse
 import csv
+import functools
 import math
 import os
 import pathlib
@@ -281,6 +282,7 @@ def resampled_spread(results, resamples, seed=1):
     return {k: float(np.std([f[k] for f in fits], ddof=1)) for k in ("lambda", "phi_max")}, len(fits)
 
 
+@functools.cache   # one fit per scene, however many rows quote it
 def paper_line(scene):
     """lambda of the regime II line alone fitted to the paper's own curve (its Table III fit) at the programme's
     target pressures, 0.01 x 10^(k/8): what our line is to be compared with (0.3275 without rolling resistance, where

@@ -74,7 +74,6 @@ def summaries(tables):
     return [s for s in found if s is not None]
 
 
-
 def fit_of_mean(results, resamples):
     """The fit to the samples' mean loading curve and the spread of its values over resampled samples
     ({} below three samples, where a resample says little), or None where the mean curve cannot be fitted."""
