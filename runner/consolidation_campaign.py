@@ -282,15 +282,21 @@ def resampled_spread(results, resamples, seed=1):
     return {k: float(np.std([f[k] for f in fits], ddof=1)) for k in ("lambda", "phi_max")}, len(fits)
 
 
-@functools.cache   # one fit per scene, however many rows quote it
-def paper_line(scene):
-    """lambda of the regime II line alone fitted to the paper's own curve (its Table III fit) at the programme's
-    target pressures, 0.01 x 10^(k/8): what our line is to be compared with (0.3275 without rolling resistance, where
-    the crossover's lambda is 0.349; 0.194 with it)."""
+def paper_curve(scene):
+    """The paper's own loading curve (its Table III fit) at the programme's target pressures, 0.01 x 10^(k/8) up to
+    13.33: (P*, Phi)."""
     p0, phi0, lam, phi_max, alpha = PAPER_FIT[scene]
     p = 0.01 * 10 ** (np.arange(0, 26) / 8)
     inv = plateau_then(p, p0, 1 / phi0, lambda q: inverse_phi_crossover(q, 1 / phi0, lam, phi_max, alpha, p0))
-    return fit_regime_two(p, 1 / inv)["lambda"]
+    return p, 1 / inv
+
+
+@functools.cache   # one fit per scene, however many rows quote it
+def paper_line(scene):
+    """lambda of the regime II line alone fitted to the paper's own curve at the programme's target pressures: what
+    our line is to be compared with (0.3275 without rolling resistance, where the crossover's lambda is 0.349; 0.194
+    with it)."""
+    return fit_regime_two(*paper_curve(scene))["lambda"]
 
 
 def regime_two_line(scene, p, phi):

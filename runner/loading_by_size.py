@@ -10,7 +10,9 @@ pools its folders' samples, so that the paper's own mix of sizes (its Table II: 
 of 5600, one of 10,976) can be averaged as one curve. Per scene and label it averages the samples' loading branches and fits the mean, as
 the campaign does (the paper's method: its Fig. 11 and Table III), and prints a table of lambda, Phimax, P0*,
 Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
-the samples, and lambda of the regime II line alone (P* <= 0.1) beside the same line of the paper's own curve; the
+the samples, lambda of the regime II line alone (P* <= 0.1) beside the same line of the paper's own curve, and how
+the samples climb: their one-stage rises of Phi from the paper's P0* to P* = 1 (median, largest, and the share of
+flat stages, below 0.005), beside the paper's curve's over the same stages, which rises at every one; the
 figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
 gives one lambda per law for its samples of all sizes together, so this shows whether our excess is a small
 system's.
@@ -74,6 +76,32 @@ def summaries(tables):
     return [s for s in found if s is not None]
 
 
+FLAT = 0.005   # a stage that raised Phi by less than this is a stair's tread: the sample held its plateau
+
+
+def rising_stages(scene, p):
+    """Which of the target pressures p lie from the paper's P0* to P* = 1, where its curve rises at every stage."""
+    return (p >= campaign.PAPER_FIT[scene][0] * (1 - 1e-6)) & (p <= 1 + 1e-6)
+
+
+def stage_rises(scene, results):
+    """The one-stage rises of Phi of every sample over those stages, pooled (all the sample's stages, in equilibrium
+    or not: its collapses are as much its own as its plateaus). A staircase shows as flat stages and a few large
+    rises."""
+    return np.concatenate([np.diff(r["all_phi"][rising_stages(scene, r["all_p"])]) for r in results])
+
+
+def paper_rises(scene):
+    """The paper's curve's rises over the same stages. Its curve is a fit to its samples' mean, so it is smoother
+    than any one sample need be."""
+    p, phi = campaign.paper_curve(scene)
+    return np.diff(phi[rising_stages(scene, p)])
+
+
+def rises_text(rises):
+    return f"{np.median(rises):.4f}, {rises.max():.3f}, {np.mean(rises < FLAT):.0%}" if len(rises) else "none"
+
+
 def fit_of_mean(results, resamples):
     """The fit to the samples' mean loading curve and the spread of its values over resampled samples
     ({} below three samples, where a resample says little), or None where the mean curve cannot be fitted."""
@@ -91,15 +119,17 @@ def fit_of_mean(results, resamples):
 
 
 def table_lines(rows):
-    """rows: (scene, label, samples, fit_of_mean result or None)."""
+    """rows: (scene, label, samples, fit_of_mean result or None, the samples' stage rises)."""
     lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | λ of the regime II line alone (P* ≤ 0.1) "
-             "| paper λ, Φmax, P1*; its curve's line |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    for scene, label, n, found in rows:
+             f"| one-stage rises of Φ, paper's P0* to P* = 1: median, largest, flat (< {FLAT}) "
+             "| paper λ, Φmax, P1*; its curve's line; its rises |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for scene, label, n, found, rises in rows:
         lam, phi_max, p1 = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"], campaign.PAPER_P1[scene]
-        paper = f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]:.3f} ± {p1[1]:.3f}; line {campaign.paper_line(scene):.3f}"
+        paper = (f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]:.3f} ± {p1[1]:.3f}; line {campaign.paper_line(scene):.3f}; "
+                 f"rises {rises_text(paper_rises(scene))}")
         if found is None:
-            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {paper} |")
+            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {rises_text(rises)} | {paper} |")
             continue
         f, s = found["fit"], found["spread"]
         spread = lambda key: f"; ± {s[key]:.3f}" if key in s else ""
@@ -107,7 +137,7 @@ def table_lines(rows):
         line = f"{line['lambda']:.3f} ± {line['lambda_err']:.3f}" if line else "no fit"
         lines.append(f"| {scene} | {label} | {n} | {f['lambda']:.3f} ± {f['lambda_err']:.3f}{spread('lambda')} | "
                      f"{f['phi_max']:.4f} ± {f['phi_max_err']:.4f}{spread('phi_max')} | {f['P0']:.3g} | {f['phi0']:.4f} | "
-                     f"{f['P1']:.3g} | {line} | {paper} |")
+                     f"{f['P1']:.3g} | {line} | {rises_text(rises)} | {paper} |")
     return lines
 
 
@@ -120,7 +150,7 @@ def plot(rows, path):
     for ax, scene in zip(axes[0], scenes):
         ours = [r for r in rows if r[0] == scene]
         colours = plt.cm.viridis(np.linspace(0, 0.85, len(ours)))
-        for (_, label, n, found), colour in zip(ours, colours):
+        for (_, label, n, found, _), colour in zip(ours, colours):
             if found is None:
                 continue
             f = found["fit"]
@@ -167,7 +197,7 @@ def main(argv=None):
             results = summaries([t for l, folder, seeds in args.campaign if l == label
                                  for t in finished_tables(folder, scene, seeds)])
             if results:
-                rows.append((scene, label, len(results), fit_of_mean(results, args.resamples)))
+                rows.append((scene, label, len(results), fit_of_mean(results, args.resamples), stage_rises(scene, results)))
     if not rows:
         ap.error("no finished stage table (SCENE-seedN.csv) of the scenes in the folders given")
     print("\n".join(table_lines(rows)))

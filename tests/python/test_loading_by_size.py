@@ -3,12 +3,14 @@ campaign fits its mean curve, unfinished samples are left out, and bad arguments
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import ROOT
 from test_consolidation_campaign import synthetic_curve, write_table
 
 sys.path.insert(0, str(ROOT / "runner"))
+import consolidation_campaign as campaign  # noqa: E402
 import loading_by_size  # noqa: E402
 
 
@@ -43,8 +45,8 @@ def test_each_size_gets_the_fit_of_its_mean_curve_and_unfinished_samples_are_lef
     assert 0.2 < line < 0.3, rows[0]
     # three identical samples: their resampled spread is zero; one sample has none
     assert "; ± 0.000" in rows[0] and "; ±" not in rows[1].split(" | ")[3]
-    # the paper's P1* as its Table III states it, and its own curve's regime II line
-    assert rows[0].endswith("0.349 ± 0.019, 0.7808, 0.271 ± 0.033; line 0.328 |")
+    # the paper's P1* as its Table III states it, its own curve's regime II line and one-stage rises
+    assert rows[0].endswith("0.349 ± 0.019, 0.7808, 0.271 ± 0.033; line 0.328; rises 0.0231, 0.028, 0% |")
     assert figure.stat().st_size > 10_000
 
 
@@ -62,6 +64,25 @@ def test_a_label_given_twice_pools_the_seeds_chosen_from_its_folders(tmp_path):
     assert [r.split(" | ")[1:3] for r in rows] == [["mix", "3"], ["all", "3"]]
     assert abs(fitted_lambda(rows[0]) - 0.3) < 1e-3   # the λ = 0.9 samples left out
     assert fitted_lambda(rows[1]) > 0.35   # and counted where every seed is taken
+
+
+def test_the_stage_rises_tell_a_staircase_from_a_smooth_climb(tmp_path):
+    p, phi = campaign.paper_curve("consolidation")
+    stairs = phi[np.arange(len(phi)) // 4 * 4]   # each value held four stages: three flat ones, then a jump
+    for name, curve in (("smooth", phi), ("stairs", stairs)):
+        (tmp_path / name).mkdir()
+        write_table(tmp_path / name / "consolidation-seed1.csv", [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p, curve)])
+    out = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--scene", "consolidation",
+                          "--campaign", f"smooth={tmp_path / 'smooth'}", "--campaign", f"stairs={tmp_path / 'stairs'}",
+                          "--resamples", "0", "--out", str(tmp_path / "s.png")], capture_output=True, text=True, check=True).stdout
+    rows = {r.split(" | ")[1]: r.split(" | ") for r in out.splitlines() if r.startswith("| consolidation |")}
+    # the paper's own curve climbs as the paper's does; its stairs from P0* = 0.0237 (the fourth stage) to P* = 1 (the
+    # seventeenth): 13 rises, 4 of them the jumps at stages 5, 9, 13 and 17, each the sum of four of the curve's rises
+    assert rows["smooth"][9] == "0.0231, 0.028, 0%"
+    median, largest, flat = rows["stairs"][9].split(", ")
+    assert float(median) == 0 and flat == "69%"   # 9 of 13
+    jumps = [phi[k + 4] - phi[k] for k in (0, 4, 8, 12)]
+    assert float(largest) == pytest.approx(max(jumps), abs=6e-4) and float(largest) > 3.5 * 0.028
 
 
 @pytest.mark.parametrize("given, said", [("1400", "expected LABEL=FOLDER"), ("1400=/nonexistent/folder", "is not a folder"),
