@@ -96,12 +96,17 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
             "stages": int(keep.sum()), "P_last": float(p[keep].max())}
 
 
-def fit_crossover(p, phi, p0=None, guess=None):
+def fit_crossover(p, phi, p0=None, guess=None, joined=False):
     """The regimes II-III form (with the flat regime I below P0*). P0* is held fixed when given, else
     found by a scan like fit_regime_two. Returns a dict with Phi0, lambda, Phimax, alpha, the derived
     P1* and their standard errors (the fit's, with P0* counted among the fitted parameters when scanned).
     A fit whose Phi0 is not below its Phimax (so P1* not above P0*) describes no plateau, line and crossover:
-    it raises RuntimeError (degenerate)."""
+    it raises RuntimeError (degenerate).
+
+    The plateau is 1/Phi0, the regime II line's start; the crossover term already lowers the curve at P0* by
+    lambda ln(1 - exp(-(P1*/P0*)^alpha)) / alpha, negligible where P1* >> P0* (the paper's 11x: 1e-4) but not
+    where P1* is a few P0* (0.04 in 1/Phi at 3x), where the model steps at P0* and a scanned P0* can put that step
+    between two stages. joined=True holds the plateau at the curve's own value at P0* instead (no step)."""
     p, phi = np.asarray(p, float), np.asarray(phi, float)
     if len(p) < 6:
         raise ValueError(f"regimes II-III fit: {len(p)} stages; need at least 6")
@@ -111,7 +116,10 @@ def fit_crossover(p, phi, p0=None, guess=None):
     bounds = ([1.0, 1e-6, 1e-3, 0.05], [np.inf, 10.0, 1.0, 10.0])   # 1/Phi0 >= 1: a solid fraction is at most 1
 
     def fit_at(p0_try, start):
-        model = lambda pp, a, b, c, d: plateau_then(pp, p0_try, a, lambda q: inverse_phi_crossover(q, a, b, c, d, p0_try))
+        if joined:   # below P0* the curve's value at P0*
+            model = lambda pp, a, b, c, d: inverse_phi_crossover(np.maximum(pp, p0_try), a, b, c, d, p0_try)
+        else:
+            model = lambda pp, a, b, c, d: plateau_then(pp, p0_try, a, lambda q: inverse_phi_crossover(q, a, b, c, d, p0_try))
         params, cov = curve_fit(model, p, y, p0=start, bounds=bounds, maxfev=20000)
         return params, cov, float(np.sum((model(p, *params) - y) ** 2))
 

@@ -12,7 +12,9 @@ the campaign does (the paper's method: its Fig. 11 and Table III), and prints a 
 Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
 the samples, lambda of the regime II line alone (P* <= 0.1) beside the same line of the paper's own curve, and how
 the samples climb: their one-stage rises of Phi from the paper's P0* to P* = 1 (median, largest, and the share of
-flat stages, below 0.005), beside the paper's curve's over the same stages, which rises at every one; the
+flat stages, below 0.005), beside the paper's curve's over the same stages, which rises at every one; and how firmly
+the fits hold: the crossover with P0* held at the paper's, the crossover with its plateau joined to the curve
+(no step at P0*; see consolidation_fit.fit_crossover), and the regime II line to P* <= 0.075 and 0.178. The
 figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
 gives one lambda per law for its samples of all sizes together, so this shows whether our excess is a small
 system's.
@@ -26,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
-from consolidation_fit import fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
+from consolidation_fit import fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
 
 
 SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
@@ -102,9 +104,46 @@ def rises_text(rises):
     return f"{np.median(rises):.4f}, {rises.max():.3f}, {np.mean(rises < FLAT):.0%}" if len(rises) else "none"
 
 
-def fit_of_mean(results, resamples):
+# Other ends of the regime II line than the fits' 0.1: the paper's regime II ends "near P* = 0.1-0.3", and where our
+# curves bend soon after 0.1 the line's slope depends on its end more than its error says.
+LINE_ENDS = (0.075, 0.178)
+
+
+def lines_to(p, phi):
+    """lambda of the regime II line ending at each of LINE_ENDS (None where too few stages)."""
+    found = []
+    for end in LINE_ENDS:
+        try:
+            found.append(fit_regime_two(p, phi, p_max=end)["lambda"])
+        except ValueError:
+            found.append(None)
+    return found
+
+
+def fit_at_paper_start(scene, p, phi):
+    """The crossover fit with P0* held at the paper's: where our mean curve's plateau ends elsewhere, the scan's
+    P0* moves lambda and P1* with it (the objective is flat along that valley). None where it does not converge."""
+    p0 = campaign.PAPER_FIT[scene][0]
+    try:
+        line = fit_regime_two(p, phi, p0=p0)
+        return fit_crossover(p, phi, p0=p0, guess=(1 / line["phi0"], line["lambda"], phi.max() * 1.01, 1.0))
+    except (ValueError, RuntimeError):
+        return None
+
+
+def fit_joined(p, phi, fit):
+    """The crossover with its plateau joined to the curve at P0* (fit_crossover's joined), started from `fit`; the
+    fit, or the reason there is none ("degenerate": Phi0 above Phimax, no regime II line at all)."""
+    try:
+        return fit_crossover(p, phi, guess=(1 / fit["phi0"], fit["lambda"], fit["phi_max"], fit["alpha"]), joined=True)
+    except RuntimeError as error:
+        return "degenerate" if "degenerate" in str(error) else "no fit"
+
+
+def fit_of_mean(scene, results, resamples):
     """The fit to the samples' mean loading curve and the spread of its values over resampled samples
-    ({} below three samples, where a resample says little), or None where the mean curve cannot be fitted."""
+    ({} below three samples, where a resample says little), or None where the mean curve cannot be fitted; with the
+    fits' sensitivity: the crossover at the paper's P0*, the regime II line to other ends."""
     p, phi, counts = campaign.mean_curve(results)
     try:
         fit = campaign.fit_loading(p, phi)
@@ -115,21 +154,35 @@ def fit_of_mean(results, resamples):
         line = fit_regime_two(p, phi)
     except ValueError:
         line = None
-    return {"fit": fit, "spread": spread, "line": line, "p": p, "phi": phi, "counts": counts}
+    return {"fit": fit, "spread": spread, "line": line, "p": p, "phi": phi, "counts": counts,
+            "at_paper_start": fit_at_paper_start(scene, p, phi), "joined": fit_joined(p, phi, fit),
+            "line_ends": lines_to(p, phi)}
+
+
+def sensitivity_text(found):
+    at = found["at_paper_start"]
+    fixed = f"{at['lambda']:.3f} ± {at['lambda_err']:.3f}, {at['P1']:.3g}" if at else "no fit"
+    j = found["joined"]
+    joined = j if isinstance(j, str) else f"{j['lambda']:.3f} ± {j['lambda_err']:.3f}, {j['P0']:.3g}"
+    ends = ", ".join("–" if v is None else f"{v:.3f}" for v in found["line_ends"])
+    return f"{fixed}; {joined}; {ends}"
 
 
 def table_lines(rows):
     """rows: (scene, label, samples, fit_of_mean result or None, the samples' stage rises)."""
+    ends = ", ".join(f"{e:g}" for e in LINE_ENDS)
     lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | λ of the regime II line alone (P* ≤ 0.1) "
              f"| one-stage rises of Φ, paper's P0* to P* = 1: median, largest, flat (< {FLAT}) "
-             "| paper λ, Φmax, P1*; its curve's line; its rises |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"| at the paper's P0*: λ, P1*; joined to the plateau: λ, P0*; the line to P* ≤ {ends} "
+             "| paper λ, Φmax, P1*; its curve's line (to 0.1; to " + ends + "); its rises |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene, label, n, found, rises in rows:
         lam, phi_max, p1 = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"], campaign.PAPER_P1[scene]
-        paper = (f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]:.3f} ± {p1[1]:.3f}; line {campaign.paper_line(scene):.3f}; "
-                 f"rises {rises_text(paper_rises(scene))}")
+        paper_ends = ", ".join("–" if v is None else f"{v:.3f}" for v in lines_to(*campaign.paper_curve(scene)))
+        paper = (f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]:.3f} ± {p1[1]:.3f}; line {campaign.paper_line(scene):.3f} "
+                 f"({paper_ends}); rises {rises_text(paper_rises(scene))}")
         if found is None:
-            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {rises_text(rises)} | {paper} |")
+            lines.append(f"| {scene} | {label} | {n} | no fit | | | | | | {rises_text(rises)} | | {paper} |")
             continue
         f, s = found["fit"], found["spread"]
         spread = lambda key: f"; ± {s[key]:.3f}" if key in s else ""
@@ -137,7 +190,7 @@ def table_lines(rows):
         line = f"{line['lambda']:.3f} ± {line['lambda_err']:.3f}" if line else "no fit"
         lines.append(f"| {scene} | {label} | {n} | {f['lambda']:.3f} ± {f['lambda_err']:.3f}{spread('lambda')} | "
                      f"{f['phi_max']:.4f} ± {f['phi_max_err']:.4f}{spread('phi_max')} | {f['P0']:.3g} | {f['phi0']:.4f} | "
-                     f"{f['P1']:.3g} | {line} | {rises_text(rises)} | {paper} |")
+                     f"{f['P1']:.3g} | {line} | {rises_text(rises)} | {sensitivity_text(found)} | {paper} |")
     return lines
 
 
@@ -197,7 +250,8 @@ def main(argv=None):
             results = summaries([t for l, folder, seeds in args.campaign if l == label
                                  for t in finished_tables(folder, scene, seeds)])
             if results:
-                rows.append((scene, label, len(results), fit_of_mean(results, args.resamples), stage_rises(scene, results)))
+                rows.append((scene, label, len(results), fit_of_mean(scene, results, args.resamples),
+                             stage_rises(scene, results)))
     if not rows:
         ap.error("no finished stage table (SCENE-seedN.csv) of the scenes in the folders given")
     print("\n".join(table_lines(rows)))

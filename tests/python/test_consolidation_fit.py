@@ -230,3 +230,19 @@ def test_a_table_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, suf
                        text=True, timeout=60)
     assert r.returncode == 2 and r.stderr == (f"consolidation_fit: stage table '{table}' is a {kind}: name the stage "
                                               "table (CSV) or the HDF5 file grains consolidate wrote with it\n"), r.stderr
+
+
+def test_a_plateau_joined_to_the_curve_has_no_step_where_p1_is_a_few_p0():
+    """The plateau at 1/Phi0 meets the crossover form with a step of lambda ln(1 - exp(-(P1*/P0*)^alpha)) / alpha:
+    nothing at the paper's P1* = 11 P0*, 0.04 in 1/Phi at 3 P0*. The joined form has none and recovers a curve made
+    with it, P0* scanned; at the paper's parameters the two forms agree."""
+    lam, phi0, phi_max, alpha, p0 = 0.6, 0.49, 0.78, 0.8, 0.03
+    assert math.exp((1 / phi0 - 1 / phi_max) / lam) < 4   # P1* / P0*: 3.54
+    p = programme()
+    phi = 1 / cf.inverse_phi_crossover(np.maximum(p, p0), 1 / phi0, lam, phi_max, alpha, p0)
+    joined = cf.fit_crossover(p, phi, joined=True)
+    assert joined["lambda"] == pytest.approx(lam, rel=1e-4) and joined["P0"] == pytest.approx(p0, rel=1e-3)
+    step = -lam * math.log(-math.expm1(-(joined["P1"] / p0) ** alpha)) / alpha
+    assert step > 0.03
+    paper = cf.fit_crossover(programme(), synthetic_phi(programme()), joined=True)
+    assert paper["lambda"] == pytest.approx(LAM, rel=1e-3) and paper["P0"] == pytest.approx(P0, rel=1e-2)

@@ -46,7 +46,7 @@ def test_each_size_gets_the_fit_of_its_mean_curve_and_unfinished_samples_are_lef
     # three identical samples: their resampled spread is zero; one sample has none
     assert "; ± 0.000" in rows[0] and "; ±" not in rows[1].split(" | ")[3]
     # the paper's P1* as its Table III states it, its own curve's regime II line and one-stage rises
-    assert rows[0].endswith("0.349 ± 0.019, 0.7808, 0.271 ± 0.033; line 0.328; rises 0.0231, 0.028, 0% |")
+    assert rows[0].endswith("0.349 ± 0.019, 0.7808, 0.271 ± 0.033; line 0.328 (0.336, 0.303); rises 0.0231, 0.028, 0% |")
     assert figure.stat().st_size > 10_000
 
 
@@ -106,3 +106,24 @@ def test_folders_without_a_finished_table_are_an_error(tmp_path):
     run = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--campaign", f"x={tmp_path / 'empty'}"],
                          capture_output=True, text=True)
     assert run.returncode == 2 and "no finished stage table" in run.stderr
+
+
+def test_the_fit_at_the_papers_start_shows_how_far_lambda_rides_on_where_the_plateau_ends(tmp_path):
+    # two curves of the same lambda, one leaving its plateau at the paper's P0* = 0.0237, one at 0.0422: the free fit
+    # finds lambda in both; held at the paper's P0*, the second reads a shallower climb from an earlier start
+    for name, p0 in (("paper-start", 0.0237), ("late-start", 0.0422)):
+        folder = tmp_path / name
+        folder.mkdir()
+        p, phi = synthetic_curve(lam=0.3, p0=p0)
+        write_table(folder / "consolidation-seed1.csv", [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p, phi)])
+    out = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--scene", "consolidation",
+                          "--campaign", f"a={tmp_path / 'paper-start'}", "--campaign", f"b={tmp_path / 'late-start'}",
+                          "--resamples", "0", "--out", str(tmp_path / "f.png")], capture_output=True, text=True, check=True).stdout
+    rows = {r.split(" | ")[1]: r.split(" | ") for r in out.splitlines() if r.startswith("| consolidation |")}
+    held = {k: float(v[10].split(" ±")[0]) for k, v in rows.items()}
+    assert abs(fitted_lambda(" | ".join(rows["a"])) - 0.3) < 1e-3 and abs(fitted_lambda(" | ".join(rows["b"])) - 0.3) < 1e-3
+    assert abs(held["a"] - 0.3) < 1e-3 and held["b"] < 0.27
+    # the line's other ends, ours and the paper's curve's: numbers (its curve bends, so the longer line is flatter)
+    ends = [float(x) for x in rows["a"][10].split("; ")[2].split(", ")]
+    assert len(ends) == 2 and ends[1] < ends[0]
+    assert "line 0.328 (0.336, 0.303); rises" in rows["a"][11]
