@@ -177,8 +177,11 @@ TEST_CASE("barostat: a cohesionless 2D packing reaches its target pressure and e
   const long steps = run_to_equilibrium(*s, 300000);
   REQUIRE(steps > 0);
   INFO("steps " << steps << ", phi " << phi0 << " -> " << s->get("solid_fraction"));
-  // Within the equilibrium tolerance: |sigma_aa - P| < 1e-5 F1 / a, F1 = P a  =>  |P* - target| < 1e-5 target.
-  CHECK(std::abs(s->get("pressure_reduced") - 1e-3) < 1e-5 * 1e-3);
+  // The equilibrium tolerance, |sigma_aa - P| < 1e-5 F1 / a with F1 = P a, is |P* - target| < 1e-5 target: that the
+  // detector passed says so much. The barostat settles ten times closer (2e-7 of the target measured), which this
+  // checks, so that a barostat stopping at the tolerance's edge would fail.
+  WARN("2D |P* - target| / target = " << std::abs(s->get("pressure_reduced") - 1e-3) / 1e-3);
+  CHECK(std::abs(s->get("pressure_reduced") - 1e-3) < 1e-6 * 1e-3);
   CHECK(s->get("solid_fraction") > phi0);   // compressed from the loose start
   CHECK(s->get("solid_fraction") > 0.75);   // a jammed 2D packing, not a gas
 }
@@ -188,7 +191,8 @@ TEST_CASE("barostat: a cohesionless 3D packing reaches its target pressure and e
   const long steps = run_to_equilibrium(*s, 200000);
   REQUIRE(steps > 0);
   INFO("steps " << steps << ", phi " << s->get("solid_fraction"));
-  CHECK(std::abs(s->get("pressure_reduced") - 1e-3) < 1e-5 * 1e-3);
+  WARN("3D |P* - target| / target = " << std::abs(s->get("pressure_reduced") - 1e-3) / 1e-3);
+  CHECK(std::abs(s->get("pressure_reduced") - 1e-3) < 1e-6 * 1e-3);   // ten times inside the detector's tolerance (2D case)
   CHECK(s->get("solid_fraction") > 0.55);   // a jammed 3D packing
   for (int a = 0; a < 3; ++a)   // isotropic target: every axis at P
     CHECK(std::abs(s->get(fmt::format("stress_{}{}", "xyz"[a], "xyz"[a])) / s->get("pressure") - 1) < 1e-4);
