@@ -325,12 +325,18 @@ def test_aggregation_plot_against_free_fall_time(grains_bin, root, tmp_path):
     assert p.returncode == 0, p.stderr
 
 
+def _as_from_a_terminal():
+    """A hang-up stops the run as from a terminal: a suite run under nohup hands its SIGHUP disposition (ignored) down,
+    and grains then keeps running through a hang-up, as it should there (the test under nohup hung 60 s)."""
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
 def _start_long_run(grains_bin, root, out, scene="gas", sets=("time.steps=100000000", "particles.count=512")):
     """A run far longer than the test waits (by default a gas); returns once its output file exists."""
     extra = [x for s in sets for x in ("--set", s)]
     p = subprocess.Popen([grains_bin, "run", str(root / "models" / f"{scene}.toml"), "--out", str(out), "--quiet",
                           "--set", "run.threads=1", *extra],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_as_from_a_terminal)
     deadline = time.monotonic() + 60
     while not out.exists() and time.monotonic() < deadline and p.poll() is None:
         time.sleep(0.05)
@@ -360,6 +366,25 @@ def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path, stop
             assert series["step"][-1] == step, name
             assert (np.diff(series["step"][()]) > 0).all(), name
             assert len(series["step"]) == len(series["time"]) == len(series["value"]), name
+
+
+def test_a_run_started_to_outlive_its_terminal_ignores_a_hang_up(grains_bin, root, tmp_path):
+    """nohup (SIGHUP ignored when grains starts): a hang-up does not stop the run; Ctrl-C still does."""
+    out = tmp_path / "gas.h5"
+    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet", "--set",
+                          "run.threads=1", "--set", "time.steps=100000000", "--set", "particles.count=512"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    deadline = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGHUP)
+    time.sleep(1.0)
+    assert p.poll() is None   # still running, a few tenths of a second past its next look at the stop request
+    p.send_signal(signal.SIGINT)
+    p.communicate(timeout=60)
+    assert p.returncode == 130
 
 
 @pytest.mark.parametrize("limit", [20_000, 1_000_000])
