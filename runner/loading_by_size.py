@@ -121,8 +121,9 @@ def lines_to(p, phi):
 
 
 def fit_at_paper_start(scene, p, phi):
-    """The crossover fit with P0* held at the paper's: where our mean curve's plateau ends elsewhere, the scan's
-    P0* moves lambda and P1* with it (the objective is flat along that valley). None where it does not converge."""
+    """The crossover fit with P0* held at the paper's: where our mean curve's plateau ends elsewhere, or where the
+    scan puts the model's step at P0* on a stage (fit_crossover), lambda and P1* move with P0*. None where it does
+    not converge."""
     p0 = campaign.PAPER_FIT[scene][0]
     try:
         line = fit_regime_two(p, phi, p0=p0)
@@ -143,7 +144,7 @@ def fit_joined(p, phi, fit):
 def fit_of_mean(scene, results, resamples):
     """The fit to the samples' mean loading curve and the spread of its values over resampled samples
     ({} below three samples, where a resample says little), or None where the mean curve cannot be fitted; with the
-    fits' sensitivity: the crossover at the paper's P0*, the regime II line to other ends."""
+    fits' sensitivity: the crossover at the paper's P0* and joined to its plateau, the regime II line to other ends."""
     p, phi, counts = campaign.mean_curve(results)
     try:
         fit = campaign.fit_loading(p, phi)

@@ -331,12 +331,17 @@ def _as_from_a_terminal():
     signal.signal(signal.SIGHUP, signal.SIG_DFL)
 
 
-def _start_long_run(grains_bin, root, out, scene="gas", sets=("time.steps=100000000", "particles.count=512")):
+def _as_under_nohup():
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+
+def _start_long_run(grains_bin, root, out, scene="gas", sets=("time.steps=100000000", "particles.count=512"),
+                    started=_as_from_a_terminal):
     """A run far longer than the test waits (by default a gas); returns once its output file exists."""
     extra = [x for s in sets for x in ("--set", s)]
     p = subprocess.Popen([grains_bin, "run", str(root / "models" / f"{scene}.toml"), "--out", str(out), "--quiet",
                           "--set", "run.threads=1", *extra],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_as_from_a_terminal)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=started)
     deadline = time.monotonic() + 60
     while not out.exists() and time.monotonic() < deadline and p.poll() is None:
         time.sleep(0.05)
@@ -370,14 +375,7 @@ def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path, stop
 
 def test_a_run_started_to_outlive_its_terminal_ignores_a_hang_up(grains_bin, root, tmp_path):
     """nohup (SIGHUP ignored when grains starts): a hang-up does not stop the run; Ctrl-C still does."""
-    out = tmp_path / "gas.h5"
-    p = subprocess.Popen([grains_bin, "run", str(root / "models" / "gas.toml"), "--out", str(out), "--quiet", "--set",
-                          "run.threads=1", "--set", "time.steps=100000000", "--set", "particles.count=512"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
-    deadline = time.monotonic() + 60
-    while not out.exists() and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
+    p = _start_long_run(grains_bin, root, tmp_path / "gas.h5", started=_as_under_nohup)
     time.sleep(1.0)
     p.send_signal(signal.SIGHUP)
     time.sleep(1.0)
