@@ -120,6 +120,11 @@ def lines_to(p, phi):
     return found
 
 
+def line_ends_text(found):
+    """lines_to's slopes as a table cell ("–" where a line had too few stages)."""
+    return ", ".join("–" if v is None else f"{v:.3f}" for v in found)
+
+
 def fit_at_paper_start(scene, p, phi):
     """The crossover fit with P0* held at the paper's: where our mean curve's plateau ends elsewhere, or where the
     scan puts the model's step at P0* on a stage (fit_crossover), lambda and P1* move with P0*. None where it does
@@ -165,8 +170,7 @@ def sensitivity_text(found):
     fixed = f"{at['lambda']:.3f} ± {at['lambda_err']:.3f}, {at['P1']:.3g}" if at else "no fit"
     j = found["joined"]
     joined = j if isinstance(j, str) else f"{j['lambda']:.3f} ± {j['lambda_err']:.3f}, {j['P0']:.3g}"
-    ends = ", ".join("–" if v is None else f"{v:.3f}" for v in found["line_ends"])
-    return f"{fixed}; {joined}; {ends}"
+    return f"{fixed}; {joined}; {line_ends_text(found['line_ends'])}"
 
 
 def table_lines(rows):
@@ -179,7 +183,7 @@ def table_lines(rows):
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene, label, n, found, rises in rows:
         lam, phi_max, p1 = campaign.PAPER[scene]["lambda"], campaign.PAPER[scene]["phi_max"], campaign.PAPER_P1[scene]
-        paper_ends = ", ".join("–" if v is None else f"{v:.3f}" for v in lines_to(*campaign.paper_curve(scene)))
+        paper_ends = line_ends_text(lines_to(*campaign.paper_curve(scene)))
         paper = (f"{lam[0]} ± {lam[1]}, {phi_max[0]}, {p1[0]:.3f} ± {p1[1]:.3f}; line {campaign.paper_line(scene):.3f} "
                  f"({paper_ends}); rises {rises_text(paper_rises(scene))}")
         if found is None:
