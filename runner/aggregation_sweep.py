@@ -629,6 +629,22 @@ def main(argv=None):
                              "analysis_every": own[(z, k)].get("analysis.every", setting("analysis.every")), **point})
         return measured
 
+    # Every point that may run, resolved by grains before the first run: a point the scene refuses (a k* whose
+    # contact stiffness underflows, say) stopped the sweep only when its turn came, after the damping sweep's runs.
+    # With --fixed-damping auto the stiffness sweep's zeta is one of --damping, so every pairing is checked.
+    stiffness_zetas = args.damping if args.fixed_damping == "auto" else [float(args.fixed_damping)]
+    maybe = [(z, fixed_stiffness) for z in args.damping] + [(z, k) for z in stiffness_zetas for k in args.stiffness]
+    if args.map:
+        maybe += [(z, k) for z in args.damping for k in args.stiffness]
+    refused = []
+    for z, k in dict.fromkeys(maybe):
+        try:
+            reuse.resolve(args.grains, SCENE, run_settings(z, k, 1, m_star, k_g, threads, args.set, own_settings(z, k)))
+        except reuse.SceneError as error:
+            refused.append(f"  - zeta {z:g}, k* {k:g}: {str(error).removeprefix(f'zeta {z:g}, k* {k:g}: ')}")
+    if refused:
+        ap.exit(2, f"{ap.prog}: error: grains refuses {len(refused)} of the sweep's points (nothing was run):\n"
+                   + "\n".join(refused) + "\n")
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
     damping = points([(z, fixed_stiffness) for z in args.damping])
     if not args.stiffness:

@@ -206,6 +206,19 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
         assert bad.returncode == 2 and message in bad.stderr, bad.stderr
 
 
+def test_a_point_grains_refuses_stops_the_sweep_before_any_run(grains_bin, tmp_path):
+    """Every point is resolved by grains first. Until 2026-12-06 a stiffness the scene refuses (k* = 1e-300: a
+    contact so soft the run's free-fall times round to no step) stopped the sweep only in its turn, after the
+    damping sweep had run."""
+    cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(tmp_path),
+           "--damping", "0.1", "--stiffness", "100", "1e-300", "--set", "particles.count=40"]
+    bad = subprocess.run(cmd, capture_output=True, text=True)
+    assert bad.returncode == 2, bad.stdout + bad.stderr
+    assert "grains refuses 1 of the sweep's points (nothing was run)" in bad.stderr
+    assert "zeta 0.1, k* 1e-300:" in bad.stderr and "time.free_fall_times" in bad.stderr
+    assert "damping sweep" not in bad.stdout and not list(tmp_path.glob("*.h5"))
+
+
 def test_a_stiffness_option_without_values_runs_the_damping_sweep_alone(grains_bin, tmp_path):
     """Until 2026-12-05 every sweep ran the stiffness sweep after the damping one (six more runs by default), so a user
     asking for two dampings got eight runs; `--stiffness` with no value now leaves it out. The help lists the defaults."""
