@@ -334,9 +334,20 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();
   if (stop_requested()) return 130;
-  std::ofstream csv(table, std::ios::trunc);
-  for (const auto& line : kept) csv << line << '\n';
-  csv << std::flush;
+  // The kept rows go to a new file that then takes the table's name: a kill at any moment leaves the old table
+  // or the new one whole, never a table cut short (which the next resume would refuse). A link to the table
+  // stays a link: the file it names is the one replaced, from its own folder (rename stays on one file system).
+  const std::string target = std::filesystem::canonical(table).string(), rewritten = target + ".resuming";
+  {
+    std::ofstream part(rewritten, std::ios::trunc);
+    for (const auto& line : kept) part << line << '\n';
+    part.close();
+    if (!part) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", rewritten));
+  }
+  std::error_code renamed;
+  std::filesystem::rename(rewritten, target, renamed);
+  if (renamed) throw std::runtime_error(fmt::format("cannot replace the stage table '{}' ({})", table, renamed.message()));
+  std::ofstream csv(table, std::ios::app);
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));

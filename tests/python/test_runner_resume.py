@@ -487,6 +487,26 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
     assert_same_records(whole, killed)
 
 
+
+def test_a_resumed_programme_replaces_its_stage_table_whole_and_keeps_a_link_to_it(grains_bin, root, tmp_path):
+    """The resume writes the rows it keeps to a new file that then takes the table's name (a kill in between leaves
+    the old table whole; until 2026-12-06 it cut the table to nothing first). A table reached through a link stays
+    a link, the file it names holding the rows, and nothing is left beside it."""
+    programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
+                 "programme.top_pressure=0.1", "--set", "programme.stage_budget=20000", "--quiet"]
+    whole, whole_table, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, programme, lambda rows: rows[:-1])
+    elsewhere = tmp_path / "tables"
+    elsewhere.mkdir()
+    real_table = elsewhere / "real.csv"
+    killed_table.rename(real_table)
+    killed_table.symlink_to(real_table)
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert killed_table.is_symlink() and real_table.read_text() == whole_table.read_text()
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["real.csv"]
+    assert not any(p.name.endswith(".resuming") for p in tmp_path.iterdir())
+
+
 # A type-2 programme of 200 disks: its aggregation takes about 1 million of its 1.16 million steps.
 TYPE2 = ["--set", "particles.count=200", "--set", "programme.top_pressure=0.02", "--set", "programme.stage_budget=20000",
          "--set", "run.threads=1", "--quiet"]
