@@ -12,7 +12,8 @@ the campaign does (the paper's method: its Fig. 11 and Table III), and prints a 
 Phi at P0* and P1* with the fit's standard errors and, from three samples on, the spread over --resamples resamplings of
 the samples, lambda of the regime II line alone (P* <= 0.1) beside the same line of the paper's own curve, and how
 the samples climb: their one-stage rises of Phi from the paper's P0* to P* = 1 (median, largest, and the share of
-flat stages, below 0.005), beside the paper's curve's over the same stages, which rises at every one; and how firmly
+flat stages, below 0.005), and those of their mean curve, beside the paper's curve's over the same stages, which
+rises at every one; and how firmly
 the fits hold: the crossover with P0* held at the paper's, the crossover with its plateau joined to the curve
 (no step at P0*; see consolidation_fit.fit_crossover), and the regime II line to P* <= 0.075 and 0.178. The
 figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
@@ -100,6 +101,12 @@ def paper_rises(scene):
     return np.diff(phi[rising_stages(scene, p)])
 
 
+def mean_curve_rises(scene, found):
+    """The one-stage rises of the samples' mean curve (the one fitted) over the same stages: smoother than a single
+    sample's, as the paper's curve is a fit to its samples' mean."""
+    return np.diff(found["phi"][rising_stages(scene, found["p"])])
+
+
 def rises_text(rises):
     return f"{np.median(rises):.4f}, {rises.max():.3f}, {np.mean(rises < FLAT):.0%}" if len(rises) else "none"
 
@@ -177,7 +184,7 @@ def table_lines(rows):
     """rows: (scene, label, samples, fit_of_mean result or None, the samples' stage rises)."""
     ends = ", ".join(f"{e:g}" for e in LINE_ENDS)
     lines = ["| scene | size | samples | λ (fit; samples) | Φmax | P0* | Φ0 | P1* | λ of the regime II line alone (P* ≤ 0.1) "
-             f"| one-stage rises of Φ, paper's P0* to P* = 1: median, largest, flat (< {FLAT}) "
+             f"| one-stage rises of Φ, paper's P0* to P* = 1: median, largest, flat (< {FLAT}), of the samples; of their mean curve "
              f"| at the paper's P0*: λ, P1*; joined to the plateau: λ, P0*; the line to P* ≤ {ends} "
              "| paper λ, Φmax, P1*; its curve's line (to 0.1; to " + ends + "); its rises |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -195,7 +202,8 @@ def table_lines(rows):
         line = f"{line['lambda']:.3f} ± {line['lambda_err']:.3f}" if line else "no fit"
         lines.append(f"| {scene} | {label} | {n} | {f['lambda']:.3f} ± {f['lambda_err']:.3f}{spread('lambda')} | "
                      f"{f['phi_max']:.4f} ± {f['phi_max_err']:.4f}{spread('phi_max')} | {f['P0']:.3g} | {f['phi0']:.4f} | "
-                     f"{f['P1']:.3g} | {line} | {rises_text(rises)} | {sensitivity_text(found)} | {paper} |")
+                     f"{f['P1']:.3g} | {line} | {rises_text(rises)}; mean curve {rises_text(mean_curve_rises(scene, found))} | "
+                     f"{sensitivity_text(found)} | {paper} |")
     return lines
 
 

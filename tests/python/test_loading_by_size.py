@@ -69,20 +69,28 @@ def test_a_label_given_twice_pools_the_seeds_chosen_from_its_folders(tmp_path):
 def test_the_stage_rises_tell_a_staircase_from_a_smooth_climb(tmp_path):
     p, phi = campaign.paper_curve("consolidation")
     stairs = phi[np.arange(len(phi)) // 4 * 4]   # each value held four stages: three flat ones, then a jump
-    for name, curve in (("smooth", phi), ("stairs", stairs)):
+    shifted = phi[np.clip((np.arange(len(phi)) + 2) // 4 * 4 - 2, 0, None)]   # the same, its jumps two stages later
+    for name, curves in (("smooth", [phi]), ("stairs", [stairs]), ("two", [stairs, shifted])):
         (tmp_path / name).mkdir()
-        write_table(tmp_path / name / "consolidation-seed1.csv", [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p, curve)])
+        for seed, curve in enumerate(curves, start=1):
+            write_table(tmp_path / name / f"consolidation-seed{seed}.csv",
+                        [("loading", "loading", x, y, 1, 3.1) for x, y in zip(p, curve)])
     out = subprocess.run([sys.executable, str(ROOT / "runner" / "loading_by_size.py"), "--scene", "consolidation",
                           "--campaign", f"smooth={tmp_path / 'smooth'}", "--campaign", f"stairs={tmp_path / 'stairs'}",
+                          "--campaign", f"two={tmp_path / 'two'}",
                           "--resamples", "0", "--out", str(tmp_path / "s.png")], capture_output=True, text=True, check=True).stdout
-    rows = {r.split(" | ")[1]: r.split(" | ") for r in out.splitlines() if r.startswith("| consolidation |")}
+    rows = {r.split(" | ")[1]: r.split(" | ")[9].split("; mean curve ") for r in out.splitlines() if r.startswith("| consolidation |")}
     # the paper's own curve climbs as the paper's does; its stairs from P0* = 0.0237 (the fourth stage) to P* = 1 (the
     # seventeenth): 13 rises, 4 of them the jumps at stages 5, 9, 13 and 17, each the sum of four of the curve's rises
-    assert rows["smooth"][9] == "0.0231, 0.028, 0%"
-    median, largest, flat = rows["stairs"][9].split(", ")
+    assert rows["smooth"] == ["0.0231, 0.028, 0%"] * 2
+    median, largest, flat = rows["stairs"][0].split(", ")
     assert float(median) == 0 and flat == "69%"   # 9 of 13
+    assert rows["stairs"][1] == rows["stairs"][0]   # one sample is its own mean curve
     jumps = [phi[k + 4] - phi[k] for k in (0, 4, 8, 12)]
     assert float(largest) == pytest.approx(max(jumps), abs=6e-4) and float(largest) > 3.5 * 0.028
+    # two staircases whose jumps fall on other stages: their mean climbs every second stage, with smaller jumps
+    samples, mean = ([float(v.rstrip("%")) for v in cell.split(", ")] for cell in rows["two"])
+    assert mean[2] < samples[2] - 20 and mean[1] < samples[1]
 
 
 @pytest.mark.parametrize("given, said", [("1400", "expected LABEL=FOLDER"), ("1400=/nonexistent/folder", "is not a folder"),
