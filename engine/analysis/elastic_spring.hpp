@@ -19,6 +19,9 @@ struct ElasticSpring {
   // contact stiffness K_N that weights them (also for a distant bond, as in the paper's Z2).
   double normal_force = 0, tangential_force = 0, rolling_moment = 0;
   double contact_stiffness = 0;
+  // The bounds |F_T| and |Gamma| slide at: mu F_N^e and mu_R F_N^e, F_N^e = K_N delta the elastic part
+  // (physics.md sections 4-6); 0 where there is no such spring.
+  double tangential_bound = 0, rolling_bound = 0;
 };
 
 }  // namespace grains

@@ -7,6 +7,7 @@
 #include "analysis/bonded_clusters.hpp"
 #include "analysis/elastic_moduli.hpp"
 #include "analysis/fractal_dimension.hpp"
+#include "analysis/yielding_contacts.hpp"
 #include "core/simulation_impl.hpp"
 
 namespace grains {
@@ -208,6 +209,11 @@ void SimulationImpl<D>::refresh_network() const {
   o["contacts_lost"] = double(ch.lost);
   o["contacts_gained"] = double(ch.gained);
   for (int b = 0; b <= network_bins_; ++b) o[fmt::format("force_histogram_{:02}", b)] = net.histogram[b];
+  std::vector<ElasticSpring<D>> springs;
+  for (const auto& m : modules_) m->list_springs(sys_, springs);
+  const YieldingContacts yielding = yielding_contacts<D>(springs);
+  o["contacts_at_friction_bound"] = yielding.sliding;
+  o["contacts_at_rolling_bound"] = yielding.rolling;
 }
 
 template <int D>

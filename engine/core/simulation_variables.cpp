@@ -156,6 +156,10 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
     out("contacts_kept", "", "contacts (h < 0) present both now and at the last network.mark");
     out("contacts_lost", "", "contacts at the last network.mark that are open now");
     out("contacts_gained", "", "contacts now that were open at the last network.mark");
+    out("contacts_at_friction_bound", "", "fraction of the frictional contacts whose |F_T| is at mu F_N^e (to 1e-6): ready to "
+                                          "slide (the consolidation paper finds none in equilibrium); NaN without friction");
+    out("contacts_at_rolling_bound", "", "fraction of the contacts with a rolling spring whose |Gamma_R| is at mu_R F_N^e (to "
+                                         "1e-6): ready to roll; NaN without rolling resistance");
     // Each bin says its own range: every bin's text said "(the first bin also holds what is below)" until 2026-12-05.
     for (int b = 0; b <= network_bins_; ++b)
       out(fmt::format("force_histogram_{:02}", b), "",

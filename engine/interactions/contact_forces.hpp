@@ -312,7 +312,7 @@ class ContactForces final : public ForceModule<D> {
 
   // The same pairs linearised, for the elastic moduli: K_N (a distant bond: the tail's -F0 / D0), K_T
   // and K_R in contact, lever arms to the middle of the overlap (as the tangential force uses), and the
-  // static F_N, |F_T| = |k_t xi| and |Gamma| = |K_R theta_R|.
+  // static F_N, |F_T| = |k_t xi| and |Gamma| = |K_R theta_R|, with the bounds they slide at.
   void list_springs(const System<D>& s, std::vector<ElasticSpring<D>>& out) const override {
     flush_slots();
     if constexpr (Law::has_tail) {
@@ -327,13 +327,17 @@ class ContactForces final : public ForceModule<D> {
           e.normal_force = law_.static_force(gap);
           e.contact_stiffness = law_.stiffness(P.mass[i], P.mass[j]);
           if (gap < 0) {
+            // F_N^e = K_N delta with delta clamped as the law clamps it (physics.md section 2)
+            const double elastic = e.contact_stiffness * std::min(-gap, law_.overlap_limit * std::min(P.radius[i], P.radius[j]));
             if constexpr (Friction::enabled) {
               e.tangential = friction_.stiffness_ratio * e.contact_stiffness;
               if (holds_history(k)) e.tangential_force = e.tangential * tangential_[k].norm();
+              e.tangential_bound = friction_.mu * elastic;
             }
             if constexpr (Rolling::enabled) {
               e.rolling = rolling_.stiffness;
               if (holds_history(k)) e.rolling_moment = rolling_.stiffness * rolling_angle_[k].norm();
+              e.rolling_bound = rolling_.coefficient * elastic;
             }
           }
           out.push_back(e);

@@ -4,6 +4,7 @@
 
 #include "adhesive_scene.hpp"
 #include "analysis/contact_network.hpp"
+#include "analysis/yielding_contacts.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
@@ -105,4 +106,47 @@ TEST_CASE("without an adhesion force a pair within D0 of contact is no distant b
   CHECK(s->get("coordination_zero") == 0);
   CHECK(s->get("rattler_fraction") == Approx(0.5));
   CHECK(s->get("backbone_coordination") == Approx(1.0));
+}
+
+TEST_CASE("contacts at the friction and rolling bounds, counted from constructed springs", "[network]") {
+  auto spring = [](double tangential_ratio, double rolling_ratio) {
+    ElasticSpring<2> e;
+    e.tangential = e.rolling = 1;
+    e.tangential_bound = 0.5, e.rolling_bound = 0.005;
+    e.tangential_force = tangential_ratio * e.tangential_bound, e.rolling_moment = rolling_ratio * e.rolling_bound;
+    return e;
+  };
+  // At the bound to rounding (a contact that slid and stopped), just inside the tolerance, and inside the cone.
+  const std::vector<ElasticSpring<2>> springs{spring(1.0, 0.5), spring(1 - 1e-7, 1.0), spring(0.999, 0.0)};
+  const YieldingContacts y = yielding_contacts<2>(springs);
+  CHECK(y.sliding == Approx(2.0 / 3.0));
+  CHECK(y.rolling == Approx(1.0 / 3.0));
+  // A distant bond has neither spring, and a contact without rolling resistance no rolling spring.
+  ElasticSpring<2> bond;
+  const YieldingContacts none = yielding_contacts<2>(std::vector<ElasticSpring<2>>{bond});
+  CHECK(std::isnan(none.sliding));
+  CHECK(std::isnan(none.rolling));
+}
+
+TEST_CASE("the Simulation reports contacts at their friction and rolling bounds", "[network][adhesion][rolling]") {
+  // Two unit-mass grains bonded at rest at the equilibrium overlap F0 / K_N: no spring is loaded.
+  ListedParticles p;
+  p.positions = {{0, 0}, {1 - 1e-5, 0}};
+  p.velocities = {{0, 0}, {0, 0}};
+  p.diameters = {1, 1};
+  p.masses = {1, 1};
+  const std::string laws = "[friction]\ncoefficient = 0.5\n[rolling]\ncoefficient = 0.005\n";
+  auto rest = Simulation::create(Scene::from_string(adhesive_scene(2, p, laws), "at rest"));
+  CHECK(rest->get("contacts_at_friction_bound") == 0);
+  CHECK(rest->get("contacts_at_rolling_bound") == 0);
+  // Grain 1 spinning at 1 / T0: the tangential spring reaches mu F0 within 1e-5 T0 and the rolling spring
+  // mu_R F0 within 5e-4 T0, while the friction slows the relative spin by about 4 / T0 per T0: both slide.
+  auto spinning = Simulation::create(Scene::from_string(adhesive_scene(2, p, laws, "angular_velocities = [[0], [1]]"), "spinning"));
+  spinning->step(0.01);
+  CHECK(spinning->get("contacts_at_friction_bound") == 1);
+  CHECK(spinning->get("contacts_at_rolling_bound") == 1);
+  // Without friction and rolling resistance there is no spring to be at a bound.
+  auto frictionless = Simulation::create(Scene::from_string(adhesive_scene(2, p), "frictionless"));
+  CHECK(std::isnan(frictionless->get("contacts_at_friction_bound")));
+  CHECK(std::isnan(frictionless->get("contacts_at_rolling_bound")));
 }
