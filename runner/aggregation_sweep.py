@@ -559,10 +559,6 @@ def main(argv=None):
     fixed_stiffness = one_per_name(fixed_stiffness)
     args.stiffness = [one_per_name(k) for k in args.stiffness]
     threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
     seeds = range(1, args.seeds + 1)
     def setting(key):   # the scene's value of a [section] key, with the overrides
         section, name = key.split(".")
@@ -645,6 +641,11 @@ def main(argv=None):
     if refused:
         ap.exit(2, f"{ap.prog}: error: grains refuses {len(refused)} of the sweep's points (nothing was run):\n"
                    + "\n".join(refused) + "\n")
+    # The folder only now, so that a sweep refused above leaves none behind.
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
     damping = points([(z, fixed_stiffness) for z in args.damping])
     if not args.stiffness:

@@ -35,19 +35,26 @@ from consolidation_fit import fit_crossover, fit_regime_two, inverse_phi_crossov
 SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
 
 
+class Seeds(tuple):
+    """Seeds given as ranges (4-8, or 4,6,9, or both: 4-6,9), tested by membership: a set of every seed of
+    1-999999999999 took minutes to build."""
+    def __contains__(self, seed):
+        return any(seed in r for r in tuple.__iter__(self))
+
+
 def parse_seeds(text):
-    """4-8 or 4,6,9 (or both: 4-6,9) as a set of seeds; None where a range runs backwards."""
-    seeds = set()
+    """4-8 or 4,6,9 (or both: 4-6,9) as Seeds; None where a range runs backwards."""
+    ranges = []
     for part in text.split(","):
         first, _, last = part.partition("-")
         if last and int(last) < int(first):
             return None
-        seeds.update(range(int(first), int(last or first) + 1))
-    return seeds
+        ranges.append(range(int(first), int(last or first) + 1))
+    return Seeds(ranges)
 
 
 def parse_campaign(text):
-    """LABEL=FOLDER or LABEL=FOLDER:SEEDS, the folder existing: (label, folder, set of seeds or None for all)."""
+    """LABEL=FOLDER or LABEL=FOLDER:SEEDS, the folder existing: (label, folder, Seeds or None for all)."""
     label, sep, folder = text.partition("=")
     if not sep or not label or not folder:
         raise argparse.ArgumentTypeError(f"--campaign {text!r}: expected LABEL=FOLDER or LABEL=FOLDER:SEEDS, e.g. "

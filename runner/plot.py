@@ -182,7 +182,10 @@ def image_formats():
 
 
 def image_name_problem(option, out):
-    """Why `out` cannot name a plot (its folder missing, or no image format matplotlib writes), or None."""
+    """Why `out` cannot name a plot (its folder missing, no image format matplotlib writes, or a folder, FIFO or device
+    at the name, which matplotlib met only after the figure was drawn), or None."""
+    if kind := reuse.not_a_regular_file(out):
+        return f"{option} '{out}' is {kind}, not a file an image can be written to"
     if not Path(out).resolve().parent.is_dir():
         return f"{option}: the folder '{Path(out).parent}' of '{out}' does not exist"
     if Path(out).suffix[1:].lower() not in image_formats():
@@ -281,9 +284,14 @@ def main(argv=None):
     path = Path(args.run)
     if problem := reuse.not_a_run_file(path):
         fail(f"run file '{path}' {problem}")
-    if args.out and (problem := image_name_problem("-o/--out", args.out)):
+    out = Path(args.out) if args.out else path.with_suffix(".png")
+    if problem := image_name_problem("-o/--out" if args.out else "the image (RUN with .png; -o names another)", out):
         fail(problem)
-    wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables else None
+    if out.resolve() == path.resolve():   # a run file named RUN.png, say: the plot would replace it
+        fail(f"the image '{out}' is the run file itself: name another with -o")
+    wanted = [n.strip() for n in args.observables.split(",") if n.strip()] if args.observables is not None else None
+    if wanted == []:
+        fail(f"--observables '{args.observables}': no name in it (comma-separated observables, e.g. kinetic_energy,pressure)")
     series, x_name, x_series, companions = read_observables(path, wanted, args.x, args.stage)
     title, mark, pressure = read_context(path)
     if args.stage is not None:
@@ -296,7 +304,6 @@ def main(argv=None):
                 fail(f"'{name}' and the x-axis '{x_name}' are not recorded at the same times")
         # the aggregation time where the axis is at it (an axis that grows with time, as t / t_ff does)
         mark = float(np.interp(mark, x_time, x_values)) if (np.diff(x_values) > 0).all() else float("nan")
-    out = Path(args.out) if args.out else path.with_suffix(".png")
     # Stage N's records are the ends of stages N - 1 and N: only stage 0's first is the initial state.
     plot(series, out, x_name, x_values, title, mark, companions, {"pressure_reduced": pressure, TRACE + "pressure_reduced": pressure},
          args.stage in (None, 0))

@@ -112,32 +112,58 @@ def untraced(h5, stage):
 
 def first_compressions(files):
     """For each stages file: its Course, the files without a table or a first compression begun left out, and so
-    are those inside it without a trace row of it yet (saying so on stderr)."""
+    are those inside it without a trace row of it yet (saying so on stderr). A file h5py cannot open raises OSError
+    naming it."""
     courses = []
     paths = list(map(Path, files))
     for h5, label in zip(paths, labels_of(paths)):
-        table = stage_table_of(h5) if h5.is_file() else None
-        if table is None:
-            continue
-        with open(table, newline="") as f:
-            rows = list(csv.DictReader(f))
-        first = first_loading_stage(rows)
-        if first is None:
-            under_way = first_compression_under_way(h5, rows)
-            if under_way is not None:
-                stage, start, state = under_way
-                t, phi, _ = stage_course(h5, stage, start)
-                if len(t):
-                    courses.append(Course(label, t, phi, math.nan, False, math.nan, state))
-                else:   # nothing to draw: it had an empty legend entry
-                    print(f"note: {h5}: left out of the first-compression figure: {untraced(h5, stage)}",
-                          file=sys.stderr)
-            continue
-        stage, start = first
-        t, phi, _ = stage_course(h5, stage, start)
-        row = rows[[int(r["stage"]) for r in rows].index(stage)]
-        courses.append(Course(label, t, phi, float(row["phi"]), row["reached"] == "1", float(row["time"]) - start))
+        try:
+            courses += first_compression(h5, label)
+        except OSError as error:
+            raise OSError(f"'{h5}' cannot be read as the HDF5 file grains consolidate wrote ({error})") from None
     return courses
+
+
+def first_compression(h5, label):
+    """first_compressions' work for one file: [its Course], or [] where there is none to draw: a file not there (a
+    campaign's archive keeps its tables only), one still preparing, or (said on stderr) one without a stage table or
+    without trace rows of its first compression."""
+    if not h5.is_file():
+        return []
+    import h5py  # late, as reuse imports it: --help works without it
+    if not h5py.is_hdf5(h5):   # a stage table given in its place, say: read as one, it lacked the trace
+        raise OSError("not an HDF5 file")
+    table = stage_table_of(h5)
+    if table is None:
+        print(f"note: {h5}: left out of the first-compression figure: no stage table named in it or beside it "
+              "(not a grains consolidate output?)", file=sys.stderr)
+        return []
+    with open(table, newline="") as f:
+        rows = list(csv.DictReader(f))
+    try:
+        return course_of(h5, label, rows)
+    except (KeyError, ValueError, IndexError) as error:   # a table cut short or edited by hand
+        raise ValueError(f"'{h5}': its stage table '{table}' is not one grains consolidate wrote ({type(error).__name__}: "
+                         f"{error})") from None
+
+
+def course_of(h5, label, rows):
+    """first_compression's reading of the stage table's rows (and the file's trace)."""
+    first = first_loading_stage(rows)
+    if first is None:
+        under_way = first_compression_under_way(h5, rows)
+        if under_way is None:
+            return []
+        stage, start, state = under_way
+        t, phi, _ = stage_course(h5, stage, start)
+        if not len(t):   # nothing to draw: it had an empty legend entry
+            print(f"note: {h5}: left out of the first-compression figure: {untraced(h5, stage)}", file=sys.stderr)
+            return []
+        return [Course(label, t, phi, math.nan, False, math.nan, state)]
+    stage, start = first
+    t, phi, _ = stage_course(h5, stage, start)
+    row = rows[[int(r["stage"]) for r in rows].index(stage)]
+    return [Course(label, t, phi, float(row["phi"]), row["reached"] == "1", float(row["time"]) - start)]
 
 
 def first_compression_figure(panels, reference=None):
@@ -184,7 +210,13 @@ def main(argv=None):
     for f in args.files:
         if problem := reuse.not_a_run_file(f):
             ap.error(f"'{f}' {problem}")
-    courses = first_compressions(args.files)
+    from plot import image_name_problem
+    if problem := image_name_problem("-o/--out", args.out):   # said before the files are read, not after
+        ap.error(problem)
+    try:
+        courses = first_compressions(args.files)
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
     if not courses:
         ap.error("nothing to draw: no file has a stage table with a loading stage beside it, or a first compression "
                  "under way with trace rows")

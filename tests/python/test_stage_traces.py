@@ -69,6 +69,18 @@ def test_the_picture_and_its_refusals(programme, tmp_path):
         f["grains"].attrs["stage_table"] = np.bytes_("missing.csv")
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", lone], capture_output=True, text=True)
     assert r.returncode == 2 and "no file has a stage table" in r.stderr, r.stderr
+    assert f"note: {lone}: left out of the first-compression figure: no stage table" in r.stderr
+    # Until 2026-12-06 these ended in tracebacks: a file h5py cannot open (here a CSV), and -o unchecked until the
+    # figure was drawn (a format matplotlib does not write, a missing folder, a folder at the name).
+    table = tmp_path / "stages.csv"
+    table.write_text("stage,phi\n0,0.5\n")
+    (tmp_path / "folder.png").mkdir()
+    for args, words in (([table], [f"'{table}' cannot be read as the HDF5 file grains consolidate wrote"]),
+                        ([programme, "-o", tmp_path / "x.txt"], ["-o/--out", "supported image format"]),
+                        ([programme, "-o", tmp_path / "no" / "x.png"], ["-o/--out", "does not exist"]),
+                        ([programme, "-o", tmp_path / "folder.png"], ["-o/--out", "is a folder"])):
+        r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", *args], capture_output=True, text=True)
+        assert r.returncode == 2 and "Traceback" not in r.stderr and all(w in r.stderr for w in words), r.stderr
 
 
 def test_samples_of_the_same_name_in_two_folders_are_told_apart(programme, tmp_path):

@@ -75,6 +75,23 @@ def test_plot_to_an_unsupported_format(grains_bin, tmp_path):
     assert not (tmp_path / "c.h5x").exists()
 
 
+def test_plot_never_writes_over_its_run_file_or_into_a_folder(grains_bin, tmp_path):
+    """Until 2026-12-06 a run file named RUN.png was replaced by its own plot (the default image is RUN with .png),
+    and a folder at the image's name met matplotlib's IsADirectoryError after the figure was drawn; an
+    --observables of commas alone fell back to the default panels."""
+    run = tmp_path / "c.png"
+    r = subprocess.run([grains_bin, "run", str(ROOT / "models" / "collision.toml"), "--out", str(run), "--quiet",
+                        "--set", "time.duration=0.1", "--set", "output.xdmf=false"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    before = run.read_bytes()
+    refused(tool("plot.py", run), "the image", "is the run file itself", "-o")
+    refused(tool("plot.py", run, "-o", run), "is the run file itself")
+    assert run.read_bytes() == before
+    (tmp_path / "folder.png").mkdir()
+    refused(tool("plot.py", run, "-o", tmp_path / "folder.png"), "-o/--out", "folder.png' is a folder")
+    refused(tool("plot.py", run, "-o", tmp_path / "c-plot.png", "--observables", ",,"), "--observables ',,': no name in it")
+
+
 @pytest.mark.parametrize("script", ["consolidation_campaign.py", "initial_states.py", "aggregation_sweep.py"])
 def test_campaign_tools_name_bad_arguments_in_a_line(grains_bin, tmp_path, script):
     """An override the engine refuses (its message), --out naming a file, --grains naming a file that is not
