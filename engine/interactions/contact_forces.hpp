@@ -328,7 +328,8 @@ class ContactForces final : public ForceModule<D> {
           e.contact_stiffness = law_.stiffness(P.mass[i], P.mass[j]);
           if (gap < 0) {
             // F_N^e = K_N delta with delta clamped as the law clamps it (physics.md section 2)
-            const double elastic = e.contact_stiffness * std::min(-gap, law_.overlap_limit * std::min(P.radius[i], P.radius[j]));
+            const double elastic =
+                e.contact_stiffness * std::min(-gap, law_.overlap_limit * std::min(P.radius[i], P.radius[j]));
             if constexpr (Friction::enabled) {
               e.tangential = friction_.stiffness_ratio * e.contact_stiffness;
               if (holds_history(k)) e.tangential_force = e.tangential * tangential_[k].norm();

@@ -128,7 +128,8 @@ long ramp_steps(double first_compression_time, double dt, const ProgrammeSetting
 const char* const recorded[] = {
     "pressure_reduced", "solid_fraction", "coordination", "coordination_compressive", "coordination_tensile",
     "coordination_zero", "rattler_fraction", "backbone_coordination", "distant_bonds", "bonded_clusters",
-    "contacts_kept", "contacts_lost", "contacts_gained", "contacts_at_friction_bound", "contacts_at_rolling_bound", "contacts", "cell_length_x", "cell_length_y", "cell_length_z",
+    "contacts_kept", "contacts_lost", "contacts_gained", "contacts_at_friction_bound", "contacts_at_rolling_bound",
+    "contacts", "cell_length_x", "cell_length_y", "cell_length_z",
     "equilibrium_force", "equilibrium_torque", "equilibrium_stress", "equilibrium_kinetic", "kinetic_energy",
     "B", "G", "C11", "C22", "C33", "C12", "C13", "C23", "B_Voigt", "G_Voigt", "B_Reuss", "Z2", "moduli_mechanisms",
     "moduli_unstable_modes", "moduli_floppy_modes"};
