@@ -43,6 +43,13 @@ def hex_lattice(cells_x, cells_y):
     return np.array(x), (cells_x * a, cells_y * a * math.sqrt(3))
 
 
+# grains refuses a periodic box no longer than twice the interaction reach, 2 R_max + the adhesion range D0 + the skin
+# (1 + 0.001 + 0.1 here); along x the box is --cells lattice constants long, and fewer cells than this ended the
+# benchmark, after its first LAMMPS run, in grains' message about box lengths, which does not name --cells.
+REACH = 1.0 + 1e-3 + 0.1
+MIN_CELLS = math.floor(2 * REACH / hex_lattice(1, 1)[1][0]) + 1
+
+
 # disks2d.lmp's pair style; `peer_pair_style` reads the peer file's own line when it is there.
 PEER_PAIR_STYLE = "pair_style gran/hooke/history 100000.0 NULL 50.0 NULL 0.5 0"
 
@@ -157,7 +164,10 @@ def main():
                     help="rounds (each grains law right after a LAMMPS run, each round); medians and the range of the ratios")
     args = ap.parse_args()
     reuse.require_binary(ap, "--binary", args.binary)
-    reuse.require_counts(ap, steps=args.steps, cells=args.cells, repeat=args.repeat)
+    reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
+    if args.cells < MIN_CELLS:
+        ap.error(f"--cells = {args.cells}: must be at least {MIN_CELLS}: grains needs the periodic box along x "
+                 f"({args.cells} x {hex_lattice(1, 1)[1][0]:.4g}) longer than twice the interaction reach, {2 * REACH:.4g}")
     try:
         reuse.require_counts(ap, threads=min(int(t) for t in args.threads.split(",")))
     except ValueError:

@@ -6,10 +6,10 @@ of an empty fmi2DoStep / fmi3DoStep (step size 0) through fmpy.
     python runner/bench_fmu.py [--build build] [--duration T] [--repeat 2]
 """
 import argparse
+import math
 import os
 import pathlib
 import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -31,9 +31,11 @@ def main():
     reuse.require_counts(ap, repeat=args.repeat, calls=args.calls, threads=args.threads)
     if not pathlib.Path(args.build, "fmus").is_dir():
         ap.error(f"--build {args.build}: no fmus folder there (build first: cmake --build build)")
-    if args.duration is not None and not args.duration > 0:
-        ap.error(f"--duration = {args.duration}: must be positive")
+    if args.duration is not None and not 0 < args.duration < math.inf:
+        ap.error(f"--duration = {args.duration}: must be a finite number > 0")
     build = pathlib.Path(args.build)
+    grains = build / "runner" / "grains"
+    reuse.require_binary(ap, "--build", grains)
     os.environ["GRAINS_FMU_DIR"] = str(build / "fmus")
     sys.path.insert(0, str(ROOT / "tests" / "python"))
     import fmpy
@@ -48,6 +50,16 @@ def main():
     steps -= steps % 100
     if steps == 0:
         ap.error(f"--duration = {args.duration}: shorter than one communication step of 100 dt = {100 * dt:.6g}; give at least that")
+    # The engine's own ranges (time.steps, run.threads), before anything is timed: a value it refused ended the
+    # benchmark in a traceback that hid its reason.
+    for option, value, override in (("--duration", args.duration, f"time.steps={steps}"),
+                                    ("--threads", args.threads, f"run.threads={args.threads}")):
+        if value is not None:
+            try:
+                reuse.resolve(grains, scene, [override])
+            except reuse.SceneError as error:
+                asked = f" ({steps:.3g} steps of dt = {dt:.6g})" if option == "--duration" else ""
+                ap.error(f"{option} = {value}: grains refuses it{asked}: {reuse.engine_refusal(error)}")
     stop = steps * dt
     print(f"aggregation scene: {steps} steps of dt = {dt:.6g} (t = {stop:.6g}), communication step 100 dt")
 
@@ -57,8 +69,8 @@ def main():
     def runner():   # (wall, CPU) seconds of the whole command
         with tempfile.TemporaryDirectory() as tmp:
             c, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-            subprocess.run([str(build / "runner" / "grains"), "run", str(scene), "--set", f"time.steps={steps}", *threads,
-                            "--out", f"{tmp}/a.h5", "--quiet"], check=True, capture_output=True)
+            reuse.run_grains("bench_fmu.py", [grains, "run", scene, "--set", f"time.steps={steps}", *threads,
+                                              "--out", f"{tmp}/a.h5", "--quiet"])
             c2 = resource.getrusage(resource.RUSAGE_CHILDREN)
             return time.perf_counter() - t, c2.ru_utime + c2.ru_stime - c.ru_utime - c.ru_stime
 

@@ -35,6 +35,7 @@ Writes summary.md (the tables) and lammps-comparison.png into --out. Needs LAMMP
 """
 import argparse
 import math
+import os
 import pathlib
 import re
 import shutil
@@ -56,6 +57,37 @@ TC, E, DT = 0.05, 0.9, 0.001
 FRICTION = {"coefficient": 0.5, "stiffness_ratio": 2 / 7, "damping_ratio": 0.5}   # the peer README's frictional variant
 EVERY = 250
 PAIRS = 400
+
+
+def out_folder_problem(out, names):
+    """Why --out cannot be the folder the files `names` are written into, or None. The LAMMPS comparisons check it
+    before their runs (minutes long), which ended in a traceback where --out named a file or a place no folder can
+    be made, and make the folder only to write into it (make_out), so that a failed run leaves none behind."""
+    out = pathlib.Path(out)
+    if out.is_dir():
+        if not os.access(out, os.W_OK | os.X_OK):
+            return f"--out {out}: no permission to write into this folder"
+        for name in names:
+            if kind := reuse.not_a_regular_file(out / name):
+                return f"--out {out}: {out / name} is {kind}: move it out of the way, or give another --out"
+        return None
+    if os.path.lexists(out):
+        kind = reuse.not_a_regular_file(out) or ("a file" if out.exists() else "a link to nothing")
+        return f"--out {out} is {kind}, not a folder: give a folder (made if missing)"
+    place = next(p for p in out.absolute().parents if p.exists())   # the folder it would be made in
+    if not place.is_dir():
+        return f"--out {out}: no folder can be made there: {place} is {reuse.not_a_regular_file(place) or 'a file'}"
+    if not os.access(place, os.W_OK | os.X_OK):
+        return f"--out {out}: no folder can be made there: no permission to write into {place}"
+    return None
+
+
+def make_out(ap, out):
+    """Makes the --out folder (out_folder_problem found nothing against it before the runs)."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.exit(1, f"{ap.prog}: error: --out {out}: cannot make the folder ({error.strerror}); the tables are printed above\n")
 
 
 def run(cmd, cwd):
@@ -256,14 +288,14 @@ def main():
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     args = ap.parse_args()
     reuse.require_counts(ap, steps=args.steps)
+    if problem := out_folder_problem(args.out, ["summary.md", "lammps-comparison.png"]):
+        ap.error(problem)
+    if not (args.peers / "gas_data.py").is_file():
+        ap.error(f"--peers {args.peers}: no gas_data.py there (the shared peer inputs)")
+    reuse.require_binary(ap, "--binary", args.binary)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
     if not shutil.which("lmp"):
         sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps.py installs it")
-    if not (args.peers / "gas_data.py").exists():
-        sys.exit(f"error: --peers {args.peers}: no gas_data.py there (the shared peer inputs)")
-    if not args.binary.exists():
-        sys.exit(f"error: --binary {args.binary}: not built (cmake --build build)")
-    args.out.mkdir(parents=True, exist_ok=True)
     report = ["# grains against LAMMPS on identical initial states", "",
               f"`python runner/compare_lammps.py --steps {args.steps}`; LAMMPS `gran/hooke(/history)` + `nve/sphere`.", ""]
 
@@ -339,8 +371,9 @@ def main():
     report += ["", f"Frictionless gas at t = {t_end:g}: grains / LAMMPS = {g0[-1, 1] / l0[-1, 1]:.4f} measured; "
                f"Haff's law with LAMMPS' tau ({tau_lammps:.3f}) and the collisions' dissipation ratio ({rate:.4f}) "
                f"predicts {predicted:.4f}."]
-    (args.out / "summary.md").write_text("\n".join(report) + "\n")
     print("\n".join(report))
+    make_out(ap, args.out)
+    (args.out / "summary.md").write_text("\n".join(report) + "\n")
     plot(gas, n, args.out / "lammps-comparison.png")
     print(f"\nwrote {args.out / 'summary.md'} and {args.out / 'lammps-comparison.png'}")
 

@@ -64,7 +64,8 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from compare_lammps import grains_scene, lammps_data, run, write_table  # noqa: E402
+import reuse  # noqa: E402
+from compare_lammps import grains_scene, lammps_data, make_out, out_folder_problem, run, write_table  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENE = ROOT / "models" / "aggregation.toml"
@@ -511,12 +512,17 @@ def main():
         ap.error(f"--seeds {' '.join(map(str, args.seeds))}: each seed once")
     if any(s < 0 for s in args.seeds):
         ap.error(f"--seeds {' '.join(map(str, args.seeds))}: particles.seed is a number >= 0")
+    if problem := out_folder_problem(args.out, ["summary.md", "lammps-gravity.png"]):
+        ap.error(problem)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
-    if not args.binary.exists():
-        ap.error(f"--binary {args.binary}: no such file (cmake --build build)")
+    reuse.require_binary(ap, "--binary", args.binary)
+    for seed in args.seeds:   # the engine's range (to 9.2e18), which it checked only when the seed's first run began
+        try:
+            reuse.resolve(args.binary, SCENE, [f"particles.seed={seed}"])
+        except reuse.SceneError as error:
+            ap.error(f"--seeds {seed}: grains refuses it: {reuse.engine_refusal(error)}")
     if not shutil.which("lmp"):
         sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps_gravity.py installs it")
-    args.out.mkdir(parents=True, exist_ok=True)
     kn, cn, m_star = kn_cn()
     report = ["# The aggregation scene against LAMMPS on identical initial states", "",
               f"`python runner/compare_lammps_gravity.py --seeds {' '.join(map(str, args.seeds))} --free-fall-times "
@@ -625,8 +631,9 @@ def main():
         dw = np.abs(g["W"][before] / l["W"][before] - 1).max()
         report.append(f"| {r['seed']} | " + " | ".join(f"{parting_time(r, th * DIAMETER):.3f}" for th in (1e-6, 1e-3, 0.1, 1.0))
                       + f" | {dk:.1e} | {dw:.1e} |")
-    (args.out / "summary.md").write_text("\n".join(report) + "\n")
     print("\n".join(report))
+    make_out(ap, args.out)
+    (args.out / "summary.md").write_text("\n".join(report) + "\n")
     plot(col, results, args.out / "lammps-gravity.png")
     print(f"\nwrote {args.out / 'summary.md'} and {args.out / 'lammps-gravity.png'}")
 

@@ -62,7 +62,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from compare_lammps import grains_scene, lammps_data, lammps_thermo, run, write_table  # noqa: E402
+from compare_lammps import grains_scene, lammps_data, lammps_thermo, make_out, out_folder_problem, run, write_table  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 KN = 1e5               # K_N (adhesion.stiffness)
@@ -497,12 +497,13 @@ def main():
     reuse.require_counts(ap, steps=args.steps, seeds=args.seeds)
     if args.steps < 2000 or args.steps % PACK_EVERY:
         ap.error(f"--steps = {args.steps}: must be a multiple of {PACK_EVERY}, at least 2000")
+    if problem := out_folder_problem(args.out, ["summary.md"]):
+        ap.error(problem)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
+    reuse.require_binary(ap, "--binary", args.binary)
     if not shutil.which("lmp"):
         sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; "
                  "bash runner/with_lammps.sh compare_lammps_rolling.py installs it")
-    reuse.require_binary(ap, "--binary", args.binary)
-    args.out.mkdir(parents=True, exist_ok=True)
     report = ["# Rolling resistance: grains against LAMMPS `pair granular` (rolling sds)", "",
               f"`python runner/compare_lammps_rolling.py --steps {args.steps} --seeds {args.seeds}`", "",
               f"## 1. Four-grain chains (delta = {OVERLAP:g}, F_n = {KN * OVERLAP:g}, K_R = {KR_RATIO * KN:g}, "
@@ -547,8 +548,9 @@ def main():
             report += ["", "## 2. Packings"]
             for dim in args.dims:
                 report += pack_report(args.binary, work, dim, args.steps, args.seeds)
-    (args.out / "summary.md").write_text("\n".join(report) + "\n")
     print("\n".join(report))
+    make_out(ap, args.out)
+    (args.out / "summary.md").write_text("\n".join(report) + "\n")
 
 
 if __name__ == "__main__":

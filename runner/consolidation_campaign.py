@@ -29,7 +29,6 @@ the unfinished ones (SCENE-seedN.partial.csv, written stage by stage), which the
 it refuses tables run with other settings than those given, as a campaign does.
 """
 import argparse
-import csv
 import functools
 import math
 import os
@@ -40,7 +39,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_fit import fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
+from consolidation_fit import (FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRACTION, TEXT, StageTable, TableError,  # noqa: E402
+                               fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then)
 import density_correlations  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
 import reuse  # noqa: E402
@@ -220,8 +220,17 @@ def existing_table(out, scene, seed):
 
 def summarise(table):
     """Phi and z at the first loading stage (reached or not), lambda and Phimax from the reached loading stages.
-    None when the table has no loading stage yet (a sample still aggregating)."""
-    rows = list(csv.DictReader(table.open()))
+    None when the table has no loading stage yet (a sample still aggregating). TableError for a table that is no
+    campaign's (a folder or FIFO at its name, a column missing, a value that is no number or out of range)."""
+    stages = StageTable(table, empty=True)   # a sample's table stays empty until its first stage (the aggregation) ends
+    if stages.header:
+        stages.columns("branch", "reached", "P_star", "phi", "coordination", "phase")
+    target = {"target_pressure": NUMBER} if "target_pressure" in stages.header else {}   # older tables have none
+    stages.check({"phase": TEXT, "branch": TEXT, "P_star": NUMBER, "phi": SOLID_FRACTION, "reached": FLAG,
+                  "coordination": NUMBER, **target})
+    rows = stages.rows
+    fitted = [i for i, r in enumerate(rows) if r["branch"] == "loading" and r["reached"] == "1"]
+    stages.check({"P_star": REDUCED_PRESSURE}, fitted)
     loading = [r for r in rows if r["branch"] == "loading"]
     if not loading:
         return None
@@ -478,7 +487,10 @@ def main():
             if (scene, seed) not in tables:
                 print(f"  {scene} seed {seed}: no table in {out}", flush=True)
                 continue
-            result = summarise(tables[(scene, seed)])
+            try:
+                result = summarise(tables[(scene, seed)])
+            except TableError as error:   # one line naming the table, the line and the value, not a traceback
+                ap.exit(2, f"{ap.prog}: error: {error}\n")
             if result is None:
                 print(f"  {scene} seed {seed}: no loading stage yet", flush=True)
                 continue
@@ -493,8 +505,12 @@ def main():
     plot(summaries, out / "campaign.png")
     print(f"wrote {out / 'summary.md'} and {out / 'campaign.png'}")
     # Every sample's first compression, from the traces of its file (finished or not): Phi against time.
-    courses = {scene: first_compressions([out / f"{scene}-seed{seed}.h5" for seed in seeds if (scene, seed) in tables])
-               for scene in scenes}
+    try:
+        courses = {scene: first_compressions([out / f"{scene}-seed{seed}.h5" for seed in seeds if (scene, seed) in tables])
+                   for scene in scenes}
+    except (OSError, ValueError) as error:   # a sample's file damaged: the summary above stands, the figure is left out
+        print(f"note: no first-compression figure: {error}", file=sys.stderr)
+        courses = {}
     if any(courses.values()):
         plot_first_compressions(courses, out / "first-compression.png", {s: PAPER[s]["phi_0.01"] for s in scenes})
         print(f"wrote {out / 'first-compression.png'}")

@@ -20,9 +20,11 @@ P* = 0.1-0.3), the regimes II-III form to every loading stage.
 """
 import argparse
 import csv
+import itertools
 import math
 import pathlib
 import sys
+from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy.optimize import curve_fit, minimize_scalar
@@ -154,6 +156,101 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
             "P1": p1, "P1_err": p1_err, "stages": int(np.sum(p >= p0))}
 
 
+class TableError(ValueError):
+    """A stage table that is none to read: its message names the file and, for a bad value, the line, column and value
+    and what the column holds. The tools say it in one line and exit with status 2."""
+
+
+class Values(NamedTuple):
+    """What a stage table's column holds: `parse` turns a value's text into a value (a ValueError: the text is not
+    `kind`), which `within`, when given, must accept (`allowed` says what it accepts)."""
+    kind: str = "a number"
+    parse: Callable = float
+    within: Callable = None
+    allowed: str = ""
+
+
+def _flag(text):   # exactly 0 or 1: the tools compare the text with "1" and "0"
+    if text not in ("0", "1"):
+        raise ValueError(text)
+    return int(text)
+
+
+NUMBER = Values()   # nan and inf too: grains writes nan where a stage has no value (the aggregation's target)
+SOLID_FRACTION = Values(within=lambda v: 0 < v <= 1, allowed="a solid fraction is in (0, 1]")
+# Only for the stages a fit takes: grains writes a negative P* for its preparation and for a stage short of its target.
+REDUCED_PRESSURE = Values(within=lambda v: math.isfinite(v) and v >= 0,
+                          allowed="the reduced pressure P* of a stage in equilibrium is finite and at least 0")
+STEPS = Values("a whole number", int, lambda v: v >= 0, "a count of steps is at least 0")
+FLAG = Values("0 or 1", _flag)   # reached: 1 where the stage ended in equilibrium
+TEXT = Values("text", str)   # any value, but there: a row cut short has none
+
+
+class StageTable:
+    """A CSV stage table, read once it is known to be one (else TableError): `header`, the column names; `rows`, one
+    dict per stage, column -> text (None where the row ends short of the header); `lines`, the file's line of each.
+    Lines starting with # are left out. `empty`: a file with no stage (nothing at all, or a header only) is taken as
+    a table without rows; else it is refused."""
+
+    def __init__(self, path, empty=False):
+        self.path = pathlib.Path(path)
+        if kind := reuse.not_a_regular_file(self.path):   # open would wait on a FIFO until something writes into it
+            raise TableError(f"stage table '{self.path}' is {kind}, not a CSV file")
+        self.header, self.rows, self.lines = [], [], []
+        try:
+            with open(self.path, newline="") as f:
+                reader = csv.reader(f)
+                for record in reader:
+                    if not record or record[0].startswith("#"):
+                        continue
+                    if not self.header:
+                        self.header = record
+                        continue
+                    self.rows.append(dict(itertools.zip_longest(self.header, record[:len(self.header)])))
+                    self.lines.append(reader.line_num)
+        except FileNotFoundError:
+            raise TableError(f"stage table '{self.path}' does not exist") from None
+        except UnicodeDecodeError:   # an HDF5 file, an image: open() reads text
+            raise TableError(f"stage table '{self.path}' is not a text (CSV) file") from None
+        except csv.Error as error:   # a NUL byte, a field past csv's size limit
+            raise TableError(f"stage table '{self.path}' line {reader.line_num}: {error}") from None
+        except OSError as error:
+            raise TableError(f"stage table '{self.path}' cannot be read ({error.strerror})") from None
+        if not self.rows and not empty:
+            raise TableError(f"stage table '{self.path}' " + ("has a header and no stage" if self.header
+                                                               else "is empty: no header naming its columns, no stage"))
+
+    def columns(self, *wanted):
+        """The header's name of each wanted column: a name, or a tuple of the names it goes by (the first the header
+        has is taken). TableError when the header lacks any, naming what it needs and what it has."""
+        wanted = [(w,) if isinstance(w, str) else w for w in wanted]
+        found = [next((n for n in names if n in self.header), None) for names in wanted]
+        if None in found:
+            need = [names[0] + "".join(f" (or {n})" for n in names[1:]) for names in wanted]
+            need = need[0] if len(need) == 1 else ", ".join(need[:-1]) + " and " + need[-1]
+            raise TableError(f"stage table '{self.path}' needs a header with columns {need}; it has "
+                             f"{', '.join(self.header) or 'none'}")
+        return found
+
+    def check(self, values, rows=None):
+        """TableError at the first of `rows` (indices, in the file's order; default all) with a value that is not as
+        `values` (column -> Values) says."""
+        for i in range(len(self.rows)) if rows is None else rows:
+            row = self.rows[i]
+            for column, kind in values.items():
+                text, where = row[column], f"stage table '{self.path}' line {self.lines[i]}: column '{column}'"
+                if text is None:
+                    fields = sum(v is not None for v in row.values())
+                    raise TableError(f"{where} is missing: the row has {fields} of the header's {len(self.header)} "
+                                     "fields")
+                try:
+                    value = kind.parse(text)
+                except ValueError:
+                    raise TableError(f"{where} = '{text}' is not {kind.kind}") from None
+                if kind.within and not kind.within(value):
+                    raise TableError(f"{where} = '{text}' is out of range: {kind.allowed}")
+
+
 # Column names accepted for each quantity: this tool's own, and those of `grains consolidate`'s table.
 COLUMNS = {"P_star": ("P_star", "pressure_reduced"), "phi": ("phi", "solid_fraction"), "branch": ("branch", "phase")}
 
@@ -188,27 +285,28 @@ def read_stages(path):
     """(P*, Phi, branch) arrays from a CSV stage table (given, or the one a `grains consolidate` HDF5 file names,
     else the one beside it). Rows of `grains consolidate` that did not reach equilibrium (reached = 0), the aggregation stage
     and the relaxation at target P* = 0 are left out (and counted on stderr); its `equilibrate` stage at
-    the start pressure is the first loading point."""
+    the start pressure is the first loading point. TableError names the line, column and value of a value that is
+    no number, a solid fraction outside (0, 1], or a P* of a stage the fit takes that is negative or not finite."""
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
     if kind := reuse.not_a_regular_file(path):   # a FIFO: open and h5py would wait for a writer
-        raise ValueError(f"stage table '{path}' is {kind}: name the stage table (CSV) or the HDF5 file grains "
+        raise TableError(f"stage table '{path}' is {kind}: name the stage table (CSV) or the HDF5 file grains "
                          "consolidate wrote with it")
     if path.suffix in (".h5", ".hdf5"):   # the stage table grains consolidate wrote with it
         table = stage_table_of(path)
         if table is None:
-            raise ValueError(f"'{path}' is an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
+            raise TableError(f"'{path}' is an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
                              f"writes with it (--table), and there is none at '{recorded_table(path) or path.with_suffix('.csv')}'")
         print(f"reading the stage table {table}", file=sys.stderr)
         path = table
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
-    header = [h for h in rows[0].keys() if h is not None] if rows else []   # None: the fields of a row beyond the header
-    pick = {k: next((c for c in names if c in header), None) for k, names in COLUMNS.items()}
-    if pick["P_star"] is None or pick["phi"] is None:
-        raise ValueError(f"'{path}' needs a header with columns P_star (or pressure_reduced) and phi "
-                         f"(or solid_fraction); it has {', '.join(header) or 'none'}")
+    table = StageTable(path)
+    pick = dict(zip(("P_star", "phi"), table.columns(COLUMNS["P_star"], COLUMNS["phi"])))
+    pick["branch"] = next((c for c in COLUMNS["branch"] if c in table.header), None)
+    rows = table.rows
+    table.check({pick["P_star"]: NUMBER, pick["phi"]: SOLID_FRACTION,
+                 **{c: kind for c, kind in ((pick["branch"], TEXT), ("target_pressure", NUMBER), ("reached", FLAG))
+                    if c in table.header}})
     p = np.array([float(r[pick["P_star"]]) for r in rows])
     phi = np.array([float(r[pick["phi"]]) for r in rows])
     branch = np.array([r[pick["branch"]] for r in rows]) if pick["branch"] else None
@@ -219,7 +317,9 @@ def read_stages(path):
         top = int(np.argmax(p))
         branch = np.array(["loading"] * (top + 1) + ["unloading"] * (len(p) - top - 1))
     branch = np.where(branch == "equilibrate", "loading", branch)
-    keep = reached & prepared & np.isfinite(p) & (p > 0) & np.isfinite(phi) & np.isin(branch, ["loading", "unloading"])
+    taken = reached & prepared & np.isin(branch, ["loading", "unloading"])
+    table.check({pick["P_star"]: REDUCED_PRESSURE}, np.flatnonzero(taken))   # P* = 0 (a relaxation) is left out below
+    keep = taken & (p > 0)
     if (~keep).any():
         print(f"{int((~reached).sum())} stage(s) without equilibrium and {int((~keep & reached).sum())} preparation "
               f"stage(s) left out", file=sys.stderr)

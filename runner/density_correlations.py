@@ -20,6 +20,7 @@ The paper's values (1400 disks, type 2): d_F ~ 1.52-1.55 with rolling resistance
 import argparse
 import csv
 import math
+import os
 import pathlib
 import sys
 import warnings
@@ -30,6 +31,19 @@ from scipy.optimize import OptimizeWarning, curve_fit
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
 from consolidation_fit import stage_table_of  # noqa: E402
+
+# A grid finer than this resolves nothing the fit sees: at 16 points per diameter I(k) is within 5 % of a disk's
+# closed form below k R = 2 and each doubling cuts that threefold (tests/python/test_density_correlations.py),
+# while the grid's memory grows with the square (100,000 asked for 139 GiB).
+MAX_POINTS_PER_DIAMETER = 128
+# What the analysis of one state holds per grid point (chi, its transform, |k| and the pooled shells' work arrays):
+# 42-50 bytes measured (2026-12), rounded up; the grids of one pressure's states together are kept below the budget.
+BYTES_PER_GRID_POINT = 64
+GRID_MEMORY = 4 * 2 ** 30
+
+
+class FitRangeError(ValueError):
+    """The fit's range, 2 pi / L to k_max, holds too few shells (the one error --k-max answers for)."""
 
 
 def density_field(positions, radii, edges, spacing):
@@ -92,7 +106,7 @@ def fit_blob(k, intensity, counts, k_min, k_max):
     level."""
     sel = (k >= k_min * (1 - 1e-12)) & (k <= k_max * (1 + 1e-12)) & (intensity > 0)
     if sel.sum() < 4:
-        raise ValueError(f"blob fit: {sel.sum()} shells with {k_min:.3g} <= k <= {k_max:.3g}; need at least 4")
+        raise FitRangeError(f"blob fit: {sel.sum()} shells with {k_min:.3g} <= k <= {k_max:.3g}; need at least 4")
     x, y, sigma = k[sel], np.log(intensity[sel]), np.sqrt(2.0 / counts[sel])
     start = (y[0], 1.5, math.log(2 * np.pi / math.sqrt(x[0] * x[-1])))
     with warnings.catch_warnings():
@@ -186,6 +200,8 @@ def loading_frame(p_star, target):
     target 0, the last frame under |P*| < 1e-3 before loading starts (the equilibrated P* = 0 state of a
     type-2 programme); otherwise the frame nearest in ln P*, within a factor 10^(1/16) (half a stage of
     the programme). None if there is none."""
+    if not np.isfinite(p_star[1:]).any():   # no P* after the initial state: no loading branch (nanargmax would raise)
+        return None
     top = 1 + int(np.nanargmax(p_star[1:]))   # frame 0 is the initial gas
     if target == 0:
         relaxed = [i for i in range(1, top + 1) if abs(p_star[i]) < 1e-3]
@@ -227,40 +243,104 @@ def plot(results, out, title):
     return fig
 
 
+def default_outputs(first):
+    """The table and the plot beside the first sample's file: <name>-intensity.csv and .png."""
+    stem = pathlib.Path(first).with_suffix("")
+    return stem.parent / f"{stem.name}-intensity.csv", stem.parent / f"{stem.name}-intensity.png"
+
+
+def same_file(a, b):
+    """Whether the names a and b (links followed) are one file that exists."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def largest_grid(samples, pressures, points_per_diameter):
+    """(grid points, P*) of the pressure whose states' density grids (density_field's) hold the most points in all."""
+    largest = (0, math.nan)
+    for target in pressures:
+        points = 0
+        for _, _, radii, edges, p_star, _ in samples:
+            i = loading_frame(p_star, target)
+            if i is not None:
+                spacing = 2 * float(np.max(radii[i])) / points_per_diameter
+                points += int(np.prod(np.maximum(np.ceil(np.asarray(edges[i], float) / spacing), 1)))
+        if points > largest[0]:
+            largest = (points, target)
+    return largest
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Scattering intensity I(k), fractal dimension d_F and blob size xi of 2D disk packings (physics.md section 9).")
     ap.add_argument("h5", nargs="+", help="stages files of `grains consolidate` (samples of one programme: their I(k) are pooled)")
     ap.add_argument("--pressures", type=float, nargs="+", default=[0.0, 0.01, 0.178, 1.0],
                     help="reduced pressures of the loading branch to analyse (default: 0 0.01 0.178 1, the paper's)")
-    ap.add_argument("--points-per-diameter", type=int, default=8, help="grid points per largest diameter a (default 8)")
+    ap.add_argument("--points-per-diameter", type=int, default=8,
+                    help=f"grid points per largest diameter a, 4 to {MAX_POINTS_PER_DIAMETER}, and no more than keep the "
+                         f"grids of one pressure's states within {GRID_MEMORY // 2 ** 30} GiB (default 8)")
     ap.add_argument("--k-max", type=float, default=2 * math.pi, help="largest k of the fit, in 1/a (default 2 pi)")
     ap.add_argument("-o", "--out", help="plot file (PNG); default: beside the first input, <name>-intensity.png")
     ap.add_argument("--table", help="CSV of the fits (default: beside the first input, <name>-intensity.csv)")
     args = ap.parse_args(argv)
-    if args.points_per_diameter < 4:
-        ap.error(f"--points-per-diameter: {args.points_per_diameter}; need at least 4 grid points per diameter")
-    if not args.k_max > 0:
-        ap.error(f"--k-max: {args.k_max}; must be positive")
-    if any(not (p >= 0) for p in args.pressures):
-        ap.error(f"--pressures: {args.pressures}; reduced pressures must be >= 0")
+    ppd = args.points_per_diameter
+    if not 4 <= ppd <= MAX_POINTS_PER_DIAMETER:
+        ap.error(f"--points-per-diameter: {ppd}; need at least 4 grid points per diameter and at most "
+                 f"{MAX_POINTS_PER_DIAMETER} (finer grids add nothing the fit sees, and their memory grows as the square)")
+    if not 0 < args.k_max < math.inf:
+        ap.error(f"--k-max: {args.k_max}; must be a finite number > 0")
+    if any(not 0 <= p < math.inf for p in args.pressures):
+        ap.error(f"--pressures: {args.pressures}; reduced pressures must be finite numbers >= 0")
     from plot import image_name_problem
     if args.out and (problem := image_name_problem("-o/--out", args.out)):
         ap.error(problem)
     if args.table and not pathlib.Path(args.table).resolve().parent.is_dir():
         ap.error(f"--table: the folder '{pathlib.Path(args.table).parent}' of '{args.table}' does not exist")
-    samples = []
+    names = {}   # path -> the name given
     for name in args.h5:
         path = pathlib.Path(name)
         if problem := reuse.not_a_run_file(path):
             ap.error(f"h5: '{path}' {problem}")
+        if first := next((p for p in names if same_file(p, path)), None):   # pooled twice, it made "2 sample(s)"
+            print(f"h5: '{name}' is the file '{names[first]}' again: counted once", file=sys.stderr)
+        else:
+            names[path] = name
+    paths = list(names)
+    # The outputs, named or beside the first input, before any work: not a folder (a traceback came after the table
+    # was written), not an input or its stage table (--table cons.h5 overwrote the input), not each other.
+    table, out = default_outputs(paths[0])
+    given = {"--table": args.table, "-o/--out": args.out}
+    outputs = {"--table": pathlib.Path(args.table) if args.table else table,
+               "-o/--out": pathlib.Path(args.out) if args.out else out}
+    for option, path in outputs.items():
+        default = "" if given[option] else f" (the default; give {option})"
+        if kind := reuse.not_a_regular_file(path):
+            ap.error(f"{option} '{path}' is {kind}: name a file to write{default}")
+        for source in paths:
+            for read, what in ((source, "an input"), (stage_table_of(source), f"the stage table of the input '{source}'")):
+                if read is not None and same_file(path, read):
+                    ap.error(f"{option} '{path}' is {what}, which it would overwrite: name another file{default}")
+    if same_file(*outputs.values()) or outputs["--table"].resolve() == outputs["-o/--out"].resolve():
+        ap.error(f"--table and -o/--out both name '{outputs['--table']}': the plot would overwrite the table")
+    samples = []
+    for path in paths:
         try:
             samples.append((path, *read_frames(path)))
         except (OSError, KeyError, ValueError) as err:
             ap.error(f"h5: {path}: not a 2D H5MD stages file ({err})")
+        if not np.isfinite(samples[-1][4][1:]).any():
+            ap.error(f"h5: {path}: no stages in it (no reduced pressure P* after its first snapshot, from "
+                     "observables/pressure_reduced or a stage table beside it): not an output of `grains consolidate`")
+    points, target = largest_grid(samples, args.pressures, ppd)
+    if points * BYTES_PER_GRID_POINT > GRID_MEMORY:
+        fits = int(ppd * math.sqrt(GRID_MEMORY / (points * BYTES_PER_GRID_POINT)))   # points grow as ppd^2
+        ap.error(f"--points-per-diameter: {ppd}; the density grids at P* = {target:g} would hold {points:.3g} points, "
+                 f"about {points * BYTES_PER_GRID_POINT / 2 ** 30:.0f} GiB; at most about {fits} points per diameter "
+                 f"keep them within {GRID_MEMORY // 2 ** 30} GiB")
     try:
-        rows = report(samples, args.pressures, args.points_per_diameter, args.k_max,
-                      pathlib.Path(args.out) if args.out else None, pathlib.Path(args.table) if args.table else None)
-    except ValueError as err:   # the fit's range, 2 pi / L to --k-max, holds too few shells
+        rows = report(samples, args.pressures, ppd, args.k_max, outputs["-o/--out"], outputs["--table"])
+    except FitRangeError as err:   # the fit's range, 2 pi / L to --k-max, holds too few shells
         ap.error(f"--k-max: {args.k_max}: {err} (the fit runs from 2 pi / L, L the cell's longest edge, to --k-max / a)")
     if not rows:
         ap.error(f"--pressures: none of {args.pressures} is a loading stage of the input")
@@ -303,13 +383,13 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
             print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  no fractal range (flat I(k))")
     if not rows:
         return rows
-    stem = samples[0][0].with_suffix("")
-    table = table or stem.parent / f"{stem.name}-intensity.csv"
+    default_table, default_plot = default_outputs(samples[0][0])
+    table = table or default_table
     with open(table, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    out = out or stem.parent / f"{stem.name}-intensity.png"
+    out = out or default_plot
     first = samples[0][0].name + (f" and {len(samples) - 1} more" if len(samples) > 1 else "")
     plot(results, out, f"Scattering intensity of {first}, pooled\nlines: blob fits; dotted: 2π / ξ")
     print(f"wrote {table} and {out}")

@@ -18,7 +18,6 @@ OUT/summary.md and a plot of every sample against the paper to OUT/initial-state
 them from the tables already in --out. Type-2 samples are the campaign's (runner/consolidation_campaign.py).
 """
 import argparse
-import csv
 import os
 import pathlib
 import sys
@@ -28,6 +27,7 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_campaign import (ROOT, check_arguments, check_samples, consolidate, make_out, provenance,  # noqa: E402
                                     refuse_occupied_names)
+from consolidation_fit import FLAG, NUMBER, SOLID_FRACTION, STEPS, StageTable, TableError  # noqa: E402
 import reuse  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
@@ -49,6 +49,15 @@ def preparation(state, seed, count, overrides, out):
 def run(grains, state, seed, count, overrides, out):
     """One preparation unless its table exists; returns the path of its stage table."""
     return consolidate(grains, *preparation(state, seed, count, overrides, out), f"{state} seed {seed}")
+
+
+def final_state(table):
+    """The last row of a preparation's stage table (its equilibrated state, whose values the summary gives), once the
+    table is known to hold one; TableError else."""
+    stages = StageTable(table)
+    stages.columns("phi", "coordination", "reached", "steps")
+    stages.check({"phi": SOLID_FRACTION, "coordination": NUMBER, "reached": FLAG, "steps": STEPS})
+    return stages.rows[-1]
 
 
 def main():
@@ -94,7 +103,10 @@ def main():
              "|---|---|---|---|---|---|---|"]
     final = {}
     for s in states:
-        rows = [list(csv.DictReader(tables[(s, seed)].open()))[-1] for seed in seeds if (s, seed) in tables]
+        try:
+            rows = [final_state(tables[(s, seed)]) for seed in seeds if (s, seed) in tables]
+        except TableError as error:   # one line naming the table, the line and the value, not a traceback
+            ap.exit(2, f"{ap.prog}: error: {error}\n")
         if not rows:
             continue
         final[s] = rows

@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
-from consolidation_fit import fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
+from consolidation_fit import TableError, fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
 
 
 SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
@@ -267,8 +267,11 @@ def main(argv=None):
     rows = []
     for scene in args.scene or list(campaign.PAPER):
         for label in labels:
-            results = summaries([t for l, folder, seeds in args.campaign if l == label
-                                 for t in finished_tables(folder, scene, seeds)])
+            try:
+                results = summaries([t for l, folder, seeds in args.campaign if l == label
+                                     for t in finished_tables(folder, scene, seeds)])
+            except TableError as error:   # one line naming the table, the line and the value
+                ap.exit(2, f"{ap.prog}: error: {error}\n")
             if results:
                 rows.append((scene, label, len(results), fit_of_mean(scene, results, args.resamples),
                              stage_rises(scene, results)))

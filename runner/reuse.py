@@ -84,12 +84,23 @@ def require_counts(ap, **counts):
 
 
 def require_binary(ap, option, path):
-    """Exits with an argparse error when `path`, given by `option`, is no executable file."""
+    """Exits with an argparse error when `path`, given by `option`, is no executable file (a folder named as one)."""
     import os
+    if kind := not_a_regular_file(path):
+        ap.error(f"{option} {path} is {kind}, not the grains program (build it: cmake --build build)")
     if not os.path.isfile(path):
         ap.error(f"{option} {path}: no such file (build first: cmake --build build)")
     if not os.access(path, os.X_OK):
         ap.error(f"{option} {path}: not executable")
+
+
+def engine_refusal(error):
+    """A SceneError's message in one line: the engine's problems without its heading, numbers of more than 16 digits
+    shortened (bench_fmu's --duration 1e300 asked for a time.steps of 304 digits)."""
+    import re
+    lines = str(error).splitlines()   # the engine's heading, then its problems, one a line
+    reason = "; ".join(line.strip(" -") for line in lines[1:] or lines)
+    return re.sub(r"\d{17,}", lambda m: f"{int(m.group()):.3g}", reason)
 
 
 def run_grains(prog, command):

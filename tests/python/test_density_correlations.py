@@ -186,3 +186,87 @@ def test_plot_legend_names_the_solid_fraction_of_each_state(tmp_path, monkeypatc
     dc.report([(stages, *dc.read_frames(stages))], [0.0, 0.01])
     labels = [t.get_text() for t in drawn[0].axes[0].get_legend().get_texts()]
     assert [label.split(":")[0] for label in labels] == ["P* = 0 (Φ 0.400)", "P* = 0.01 (Φ 0.400)"]
+
+
+def small_stages(path, edge=20.0):
+    """A stages file of disks on a jittered square lattice (cheap; no fractal range) whose frames reach P* = 0 and
+    0.01."""
+    side = int(edge / 1.25)
+    lattice = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2) + 0.5) * (edge / side)
+    lattice += np.random.default_rng(7).uniform(-0.1, 0.1, lattice.shape)
+    write_stages(path, [(lattice, np.full(len(lattice), 0.5), np.array([edge, edge]), p) for p in (0.02, 1e-4, 2e-8, 0.0101)])
+    return path
+
+
+def command(*args, cwd=None):
+    return subprocess.run([sys.executable, str(ROOT / "runner/density_correlations.py"), *map(str, args)],
+                          capture_output=True, text=True, timeout=120, cwd=cwd)
+
+
+def refused(run, *words):
+    assert run.returncode == 2 and "Traceback" not in run.stderr, run.stderr
+    assert "density_correlations.py: error: " in run.stderr and all(w in run.stderr for w in words), run.stderr
+
+
+def test_outputs_that_are_an_input_or_a_folder_are_refused_before_any_work(tmp_path):
+    """--table naming the input overwrote the HDF5 file with the CSV (exit 0); a folder as -o or --table ended in a
+    traceback after the table was written."""
+    stages = small_stages(tmp_path / "sample.h5")
+    before = stages.read_bytes(), stages.with_suffix(".csv").read_bytes()
+    refused(command(stages, "--table", stages), f"--table '{stages}' is an input")
+    refused(command(stages, "--table", tmp_path / "." / "sample.csv"), "is the stage table of the input")
+    refused(command(stages, "--table", tmp_path / "t.png", "-o", tmp_path / "t.png"), "both name")
+    (tmp_path / "adir.png").mkdir()
+    (tmp_path / "adir").mkdir()
+    refused(command(stages, "-o", tmp_path / "adir.png"), "adir.png", "is a folder")
+    refused(command(stages, "--table", tmp_path / "adir"), "--table", "adir' is a folder")
+    (tmp_path / "sample-intensity.png").mkdir()   # the default plot
+    refused(command(stages), "-o/--out", "sample-intensity.png' is a folder", "the default")
+    assert (stages.read_bytes(), stages.with_suffix(".csv").read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["adir", "adir.png", "sample-intensity.png", "sample.csv", "sample.h5"]
+
+
+def test_k_max_is_blamed_only_for_the_fits_range(tmp_path):
+    """A 2D run that is no consolidation output, or --pressures inf, were reported as --k-max errors ("All-NaN slice",
+    "math domain error"); --k-max inf was taken."""
+    run = tmp_path / "run.h5"
+    with h5py.File(run, "w") as f:   # snapshots of 2D disks, no P* and no stage table
+        group = f.create_group("particles/all")
+        group["position/value"] = np.zeros((3, 2, 2))
+        group["position/step"] = np.arange(3)
+        group["radius/value"] = np.full((3, 2), 0.5)
+        group["box/edges/value"] = np.full((3, 2), 10.0)
+    bad = command(run)
+    refused(bad, f"h5: {run}: no stages in it", "not an output of `grains consolidate`")
+    assert "--k-max" not in bad.stderr.splitlines()[-1]
+    stages = small_stages(tmp_path / "sample.h5")
+    for args, words in ((["--pressures", "inf"], ["--pressures: [inf]", "finite"]),
+                        (["--pressures", "0.01", "nan"], ["--pressures", "finite"]),
+                        (["--k-max", "inf"], ["--k-max: inf", "finite"]),
+                        (["--k-max", "-1"], ["--k-max: -1.0", "> 0"])):
+        bad = command(stages, *args)
+        refused(bad, *words)
+    assert not (tmp_path / "sample-intensity.csv").exists()
+
+
+def test_points_per_diameter_has_an_upper_bound(tmp_path):
+    """100,000 points per diameter ended in an ArrayMemoryError (139 GiB): at most 128, and no more than keep the grids
+    within the memory budget (a cell 2000 diameters long at 64 points: 1.6e10 points)."""
+    stages = small_stages(tmp_path / "sample.h5")
+    refused(command(stages, "--points-per-diameter", "100000"), "--points-per-diameter: 100000", "at most 128")
+    refused(command(stages, "--points-per-diameter", "2"), "--points-per-diameter: 2", "at least 4")
+    wide = tmp_path / "wide.h5"
+    positions = np.array([[1.0, 1.0], [500.0, 700.0]])
+    write_stages(wide, [(positions, np.full(2, 0.5), np.array([2000.0, 2000.0]), p) for p in (0.02, 1e-4, 2e-8, 0.0101)])
+    refused(command(wide, "--points-per-diameter", "64"), "--points-per-diameter: 64", "GiB", "at most about")
+    assert not (tmp_path / "wide-intensity.csv").exists()
+
+
+def test_the_same_file_given_twice_is_one_sample(tmp_path):
+    """`sample.h5 ./sample.h5` was pooled as 2 samples."""
+    small_stages(tmp_path / "sample.h5")
+    run = command("sample.h5", "./sample.h5", "--pressures", "0.01", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "'./sample.h5' is the file 'sample.h5' again: counted once" in run.stderr
+    with open(tmp_path / "sample-intensity.csv", newline="") as f:
+        assert [r["samples"] for r in csv.DictReader(f)] == ["1"]

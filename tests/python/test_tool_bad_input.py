@@ -1,0 +1,94 @@
+"""The benchmarks and LAMMPS comparisons refuse bad arguments in one line naming the option, with exit status 2 and
+before anything runs (runner/bench_fmu.py, bench_cohesive.py, compare_lammps*.py): an audit found tracebacks, a
+folder taken as the grains program, an --out left empty behind, and engine refusals whose reason was never shown.
+Only the arguments are tried: a check that let bad input through would start minutes of LAMMPS (hence the timeout)."""
+import importlib.util
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+
+COMPARISONS = ["compare_lammps.py", "compare_lammps_gravity.py", "compare_lammps_rolling.py"]
+
+
+def tool(name, *args, cwd):
+    return subprocess.run([sys.executable, str(ROOT / "runner" / name), *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=60)
+
+
+def refused(run, name, *words):
+    assert run.returncode == 2 and "Traceback" not in run.stderr, (run.returncode, run.stderr)
+    assert f"{name}: error: " in run.stderr and all(w in run.stderr for w in words), run.stderr
+
+
+@pytest.mark.parametrize("name", COMPARISONS)
+def test_comparisons_refuse_an_out_that_is_no_folder_and_make_none(grains_bin, tmp_path, name):
+    """--out naming a file (FileExistsError), or below a file (FileNotFoundError, NotADirectoryError), ended in a
+    traceback; a folder as --binary was taken (compare_lammps_gravity.py ran LAMMPS, then left an empty --out)."""
+    (tmp_path / "afile").write_text("")
+    refused(tool(name, "--binary", grains_bin, "--out", "afile", cwd=tmp_path), name, "--out afile is a file, not a folder")
+    refused(tool(name, "--binary", grains_bin, "--out", "afile/sub", cwd=tmp_path), name, "--out afile/sub",
+            "no folder can be made there", "afile is a file")
+    (tmp_path / "taken").mkdir()
+    (tmp_path / "taken" / "summary.md").mkdir()
+    refused(tool(name, "--binary", grains_bin, "--out", "taken", cwd=tmp_path), name, "summary.md is a folder")
+    refused(tool(name, "--binary", tmp_path, "--out", "g1", cwd=tmp_path), name, f"--binary {tmp_path} is a folder")
+    refused(tool(name, "--binary", tmp_path / "none", "--out", "g1", cwd=tmp_path), name, "--binary", "no such file")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "taken"]
+
+
+def test_compare_lammps_names_missing_peers_as_a_usage_error(grains_bin, tmp_path):
+    """--peers and --binary naming nothing ended with exit status 1, without the program's name."""
+    refused(tool("compare_lammps.py", "--peers", tmp_path / "none", "--binary", grains_bin, cwd=tmp_path),
+            "compare_lammps.py", f"--peers {tmp_path / 'none'}: no gas_data.py there")
+    assert not any(tmp_path.iterdir())
+
+
+def test_gravity_comparison_checks_the_seeds_range_before_running(grains_bin, tmp_path):
+    """particles.seed goes to 9.2e18: a larger seed passed the check (>= 0) and grains refused it only when its runs
+    began."""
+    refused(tool("compare_lammps_gravity.py", "--binary", grains_bin, "--seeds", "1", "9300000000000000000", cwd=tmp_path),
+            "compare_lammps_gravity.py", "--seeds 9300000000000000000: grains refuses it", "particles.seed",
+            "[0, 9.2e+18]")
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("cells", ["0", "1", "2"])
+def test_bench_cohesive_names_too_few_cells(grains_bin, tmp_path, cells):
+    """--cells 1 ended (after the LAMMPS run) in grains' box.lengths message, which does not say --cells; 3 cells
+    (3.15 long) are the fewest whose box is longer than twice the interaction reach (2.202)."""
+    refused(tool("bench_cohesive.py", "--binary", grains_bin, "--cells", cells, cwd=tmp_path), "bench_cohesive.py",
+            f"--cells = {cells}: must be at least 3", "2.202")
+
+
+def test_bench_cohesive_says_a_folder_is_a_folder(tmp_path):
+    refused(tool("bench_cohesive.py", "--binary", tmp_path, cwd=tmp_path), "bench_cohesive.py",
+            f"--binary {tmp_path} is a folder")
+
+
+def test_bench_cohesive_smallest_cells_make_a_scene_grains_takes(grains_bin, tmp_path):
+    """The bound is grains' own: at MIN_CELLS every law's scene passes `grains check`, one fewer does not."""
+    sys.path.insert(0, str(ROOT / "runner"))
+    import bench_cohesive
+    import reuse
+    for variant in ("adhesion+friction+rolling", "adhesion+friction", "spring-dashpot+friction"):
+        scene, _ = bench_cohesive.grains_scene(tmp_path, bench_cohesive.MIN_CELLS, variant, bench_cohesive.PEER_PAIR_STYLE)
+        reuse.resolve(grains_bin, scene, [])
+        scene, _ = bench_cohesive.grains_scene(tmp_path, bench_cohesive.MIN_CELLS - 1, variant, bench_cohesive.PEER_PAIR_STYLE)
+        with pytest.raises(reuse.SceneError, match="periodic axis 0"):
+            reuse.resolve(grains_bin, scene, [])
+
+
+@pytest.mark.skipif(not (ROOT / "build" / "fmus").is_dir() or importlib.util.find_spec("fmpy") is None,
+                    reason="bench_fmu.py needs the built FMUs (it takes dt from one) and fmpy")
+@pytest.mark.parametrize("args, words", [
+    (["--duration", "inf"], ["--duration = inf", "finite"]),   # OverflowError
+    (["--duration", "nan"], ["--duration = nan", "finite"]),
+    (["--duration", "1e300"], ["--duration = 1e+300: grains refuses it", "time.steps", "1.5e+303"]),   # CalledProcessError
+    (["--threads", "5000", "--duration", "0.07"], ["--threads = 5000: grains refuses it", "run.threads", "[0, 1024]"]),
+])
+def test_bench_fmu_refuses_what_grains_would_with_its_reason(tmp_path, args, words):
+    refused(tool("bench_fmu.py", *args, cwd=tmp_path), "bench_fmu.py", *words)
+    assert not any(tmp_path.iterdir())
