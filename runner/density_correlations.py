@@ -102,8 +102,8 @@ def fit_blob(k, intensity, counts, k_min, k_max):
     mean of n wave vectors has a relative spread sqrt(2 / n): the fit's weights. Returns d_F, xi, I0 and
     the standard errors of d_F and xi from the fit's covariance. When the crossover 2 pi / xi does not
     lie below k_max / 2 (less than an octave of power law inside the range: a flat, homogeneous signal), or
-    d_F's standard error exceeds half of it, there is no fractal range: d_F and xi are NaN and I0 is the mean
-    level."""
+    d_F's standard error exceeds half of it, or the fit does not converge, there is no fractal range: d_F and xi
+    are NaN and I0 is the mean level."""
     sel = (k >= k_min * (1 - 1e-12)) & (k <= k_max * (1 + 1e-12)) & (intensity > 0)
     if sel.sum() < 4:
         raise FitRangeError(f"blob fit: {sel.sum()} shells with {k_min:.3g} <= k <= {k_max:.3g}; need at least 4")
@@ -111,7 +111,10 @@ def fit_blob(k, intensity, counts, k_min, k_max):
     start = (y[0], 1.5, math.log(2 * np.pi / math.sqrt(x[0] * x[-1])))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OptimizeWarning)
-        params, cov = curve_fit(blob_form, x, y, p0=start, sigma=sigma, absolute_sigma=False, maxfev=20000)
+        try:
+            params, cov = curve_fit(blob_form, x, y, p0=start, sigma=sigma, absolute_sigma=False, maxfev=20000)
+        except RuntimeError:   # no convergence in maxfev evaluations (a traceback before): no blob form to find
+            params, cov = np.full(3, math.nan), np.full((3, 3), math.nan)
     errors = np.sqrt(np.diag(cov))
     xi = math.exp(params[2])
     # A d_F whose standard error passes half of it is the noise of too few wave vectors (16 disks gave

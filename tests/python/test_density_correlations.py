@@ -270,3 +270,14 @@ def test_the_same_file_given_twice_is_one_sample(tmp_path):
     assert "'./sample.h5' is the file 'sample.h5' again: counted once" in run.stderr
     with open(tmp_path / "sample-intensity.csv", newline="") as f:
         assert [r["samples"] for r in csv.DictReader(f)] == ["1"]
+
+
+def test_a_blob_fit_that_does_not_converge_finds_no_fractal_range(monkeypatch):
+    """curve_fit's RuntimeError (no convergence within maxfev) ended the tool in a traceback until 2026-12-06."""
+    def gives_up(*args, **kwargs):
+        raise RuntimeError("Optimal parameters not found: Number of calls to function has reached maxfev = 20000.")
+    monkeypatch.setattr(dc, "curve_fit", gives_up)
+    k = np.linspace(0.4, 6.28, 30)
+    fit = dc.fit_blob(k, (1 + (3 * k) ** 2) ** -0.8, np.full(k.size, 200), 0.4, 6.28)
+    assert not fit["fractal_range"] and math.isnan(fit["d_F"]) and math.isnan(fit["xi"])
+    assert fit["I0"] > 0
