@@ -295,7 +295,7 @@ def main():
     reuse.require_binary(ap, "--binary", args.binary)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
     if not shutil.which("lmp"):
-        sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps.py installs it")
+        sys.exit(f"{ap.prog}: error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps.py installs it")
     report = ["# grains against LAMMPS on identical initial states", "",
               f"`python runner/compare_lammps.py --steps {args.steps}`; LAMMPS `gran/hooke(/history)` + `nve/sphere`.", ""]
 

@@ -522,7 +522,7 @@ def main():
         except reuse.SceneError as error:
             ap.error(f"--seeds {seed}: grains refuses it: {reuse.engine_refusal(error)}")
     if not shutil.which("lmp"):
-        sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps_gravity.py installs it")
+        sys.exit(f"{ap.prog}: error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps_gravity.py installs it")
     kn, cn, m_star = kn_cn()
     report = ["# The aggregation scene against LAMMPS on identical initial states", "",
               f"`python runner/compare_lammps_gravity.py --seeds {' '.join(map(str, args.seeds))} --free-fall-times "

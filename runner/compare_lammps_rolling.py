@@ -502,7 +502,7 @@ def main():
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
     reuse.require_binary(ap, "--binary", args.binary)
     if not shutil.which("lmp"):
-        sys.exit("error: LAMMPS (`lmp`, Debian package lammps) is not installed; "
+        sys.exit(f"{ap.prog}: error: LAMMPS (`lmp`, Debian package lammps) is not installed; "
                  "bash runner/with_lammps.sh compare_lammps_rolling.py installs it")
     report = ["# Rolling resistance: grains against LAMMPS `pair granular` (rolling sds)", "",
               f"`python runner/compare_lammps_rolling.py --steps {args.steps} --seeds {args.seeds}`", "",
