@@ -290,9 +290,9 @@ def main():
     reuse.require_counts(ap, steps=args.steps)
     if problem := out_folder_problem(args.out, ["summary.md", "lammps-comparison.png"]):
         ap.error(problem)
+    reuse.require_binary(ap, "--binary", args.binary)
     if not (args.peers / "gas_data.py").is_file():
         ap.error(f"--peers {args.peers}: no gas_data.py there (the shared peer inputs)")
-    reuse.require_binary(ap, "--binary", args.binary)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
     if not shutil.which("lmp"):
         sys.exit(f"{ap.prog}: error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps.py installs it")
