@@ -10,7 +10,6 @@ as its trace goes, its legend saying "still running" or "stopped"; one without a
 run without programme.trace_every) is left out, with a note saying so.
 """
 import argparse
-import csv
 import math
 import sys
 from pathlib import Path
@@ -20,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from consolidation_fit import stage_table_of  # noqa: E402
+from consolidation_fit import FLAG, NUMBER, SOLID_FRACTION, TEXT, StageTable, Values, stage_table_of  # noqa: E402
 
 
 # The stages a programme runs before its first compression, by programme.preparation: type 2's aggregation and its
@@ -110,6 +109,9 @@ def untraced(h5, stage):
     return f"no trace rows for its first compression ({what}) yet"
 
 
+STAGE = Values("a whole number", int, lambda v: v >= 0, "a stage's index is at least 0")
+
+
 def first_compressions(files):
     """For each stages file: its Course, the files without a table or a first compression begun left out, and so
     are those inside it without a trace row of it yet (saying so on stderr). A file h5py cannot open raises OSError
@@ -138,13 +140,13 @@ def first_compression(h5, label):
         print(f"note: {h5}: left out of the first-compression figure: no stage table named in it or beside it "
               "(not a grains consolidate output?)", file=sys.stderr)
         return []
-    with open(table, newline="") as f:
-        rows = list(csv.DictReader(f))
-    try:
-        return course_of(h5, label, rows)
-    except (KeyError, ValueError, IndexError) as error:   # a table cut short or edited by hand
-        raise ValueError(f"'{h5}': its stage table '{table}' is not one grains consolidate wrote ({type(error).__name__}: "
-                         f"{error})") from None
+    # A programme's table stays empty until its first stage ends; one cut short or edited by hand is refused (a
+    # TableError naming its line, column and value), not a KeyError.
+    stages = StageTable(table, empty=True)
+    if stages.header:
+        stages.columns("stage", "branch", "phi", "time", "reached")
+        stages.check({"stage": STAGE, "branch": TEXT, "phi": SOLID_FRACTION, "time": NUMBER, "reached": FLAG})
+    return course_of(h5, label, stages.rows)
 
 
 def course_of(h5, label, rows):

@@ -70,6 +70,11 @@ def test_the_picture_and_its_refusals(programme, tmp_path):
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", lone], capture_output=True, text=True)
     assert r.returncode == 2 and "no file has a stage table" in r.stderr, r.stderr
     assert f"note: {lone}: left out of the first-compression figure: no stage table" in r.stderr
+    # A stage table cut short or edited by hand: named with what it lacks (a KeyError before).
+    (tmp_path / "missing.csv").write_text("stage,phi\n0,0.5\n")
+    r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", lone], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "needs a header with columns stage, branch, phi, time and reached; it has stage, phi" in r.stderr, r.stderr
     # Until 2026-12-06 these ended in tracebacks: a file h5py cannot open (here a CSV), and -o unchecked until the
     # figure was drawn (a format matplotlib does not write, a missing folder, a folder at the name).
     table = tmp_path / "stages.csv"
