@@ -641,11 +641,7 @@ def main(argv=None):
     if refused:
         ap.exit(2, f"{ap.prog}: error: grains refuses {len(refused)} of the sweep's points (nothing was run):\n"
                    + "\n".join(refused) + "\n")
-    # The folder only now, so that a sweep refused above leaves none behind.
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
+    reuse.make_out(ap, out)   # only now, so that a sweep refused above leaves no folder behind
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
     damping = points([(z, fixed_stiffness) for z in args.damping])
     if not args.stiffness:

@@ -62,7 +62,7 @@ PAIRS = 400
 def out_folder_problem(out, names):
     """Why --out cannot be the folder the files `names` are written into, or None. The LAMMPS comparisons check it
     before their runs (minutes long), which ended in a traceback where --out named a file or a place no folder can
-    be made, and make the folder only to write into it (make_out), so that a failed run leaves none behind."""
+    be made, and make the folder only to write into it (make_out_after_runs), so that a failed run leaves none behind."""
     out = pathlib.Path(out)
     if out.is_dir():
         if not os.access(out, os.W_OK | os.X_OK):
@@ -82,7 +82,7 @@ def out_folder_problem(out, names):
     return None
 
 
-def make_out(ap, out):
+def make_out_after_runs(ap, out):
     """Makes the --out folder (out_folder_problem found nothing against it before the runs)."""
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -372,7 +372,7 @@ def main():
                f"Haff's law with LAMMPS' tau ({tau_lammps:.3f}) and the collisions' dissipation ratio ({rate:.4f}) "
                f"predicts {predicted:.4f}."]
     print("\n".join(report))
-    make_out(ap, args.out)
+    make_out_after_runs(ap, args.out)
     (args.out / "summary.md").write_text("\n".join(report) + "\n")
     plot(gas, n, args.out / "lammps-comparison.png")
     print(f"\nwrote {args.out / 'summary.md'} and {args.out / 'lammps-comparison.png'}")

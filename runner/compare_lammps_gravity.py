@@ -65,7 +65,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from compare_lammps import grains_scene, lammps_data, make_out, out_folder_problem, run, write_table  # noqa: E402
+from compare_lammps import grains_scene, lammps_data, make_out_after_runs, out_folder_problem, run, write_table  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENE = ROOT / "models" / "aggregation.toml"
@@ -632,7 +632,7 @@ def main():
         report.append(f"| {r['seed']} | " + " | ".join(f"{parting_time(r, th * DIAMETER):.3f}" for th in (1e-6, 1e-3, 0.1, 1.0))
                       + f" | {dk:.1e} | {dw:.1e} |")
     print("\n".join(report))
-    make_out(ap, args.out)
+    make_out_after_runs(ap, args.out)
     (args.out / "summary.md").write_text("\n".join(report) + "\n")
     plot(col, results, args.out / "lammps-gravity.png")
     print(f"\nwrote {args.out / 'summary.md'} and {args.out / 'lammps-gravity.png'}")

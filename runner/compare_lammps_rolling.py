@@ -62,7 +62,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from compare_lammps import grains_scene, lammps_data, lammps_thermo, make_out, out_folder_problem, run, write_table  # noqa: E402
+from compare_lammps import grains_scene, lammps_data, lammps_thermo, make_out_after_runs, out_folder_problem, run, write_table  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 KN = 1e5               # K_N (adhesion.stiffness)
@@ -549,7 +549,7 @@ def main():
             for dim in args.dims:
                 report += pack_report(args.binary, work, dim, args.steps, args.seeds)
     print("\n".join(report))
-    make_out(ap, args.out)
+    make_out_after_runs(ap, args.out)
     (args.out / "summary.md").write_text("\n".join(report) + "\n")
 
 

@@ -156,7 +156,7 @@ def check_samples(ap, grains, samples, report=False):
 
 def check_arguments(ap, args):
     """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (with --report it
-    must exist; make_out makes it once the samples' scenes passed check_samples), and an executable grains binary
+    must exist; reuse.make_out makes it once the samples' scenes passed check_samples), and an executable grains binary
     unless only reporting (the report checks it once it has found tables)."""
     reuse.refuse_controlled(ap, args.set, {"particles.seed": "--first-seed and --samples", "particles.count": "--count",
                                            "run.threads": "--threads" if hasattr(args, "threads") else "one thread each"})
@@ -170,14 +170,6 @@ def check_arguments(ap, args):
         ap.error(f"--out {out}: not a folder")
     if not args.report:
         reuse.require_binary(ap, "--grains", args.grains)
-
-
-def make_out(ap, out):
-    """Makes the --out folder, once nothing is left to refuse (a refused --set left an empty folder behind)."""
-    try:
-        pathlib.Path(out).mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
 
 
 def provenance(args, names):
@@ -471,7 +463,7 @@ def main():
     else:
         refuse_occupied_names(ap, samples)
         check_samples(ap, args.grains, samples)
-        make_out(ap, out)
+        reuse.make_out(ap, out)
         import dask
         tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)
                  for scene in scenes for seed in seeds}

@@ -25,7 +25,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_campaign import (ROOT, check_arguments, check_samples, consolidate, make_out, provenance,  # noqa: E402
+from consolidation_campaign import (ROOT, check_arguments, check_samples, consolidate, provenance,  # noqa: E402
                                     refuse_occupied_names)
 from consolidation_fit import FLAG, NUMBER, SOLID_FRACTION, STEPS, StageTable, TableError  # noqa: E402
 import reuse  # noqa: E402
@@ -93,7 +93,7 @@ def main():
     check_samples(ap, args.grains, runs)
     if not args.report:
         refuse_occupied_names(ap, runs)
-        make_out(ap, out)
+        reuse.make_out(ap, out)
         import dask
         tasks = {(s, seed): dask.delayed(run)(args.grains, s, seed, args.count, args.set, out) for s in states for seed in seeds}
         print(f"initial states: {len(tasks)} runs of {args.count} disks, {args.jobs} at a time, logs in {out}/", flush=True)

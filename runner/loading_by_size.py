@@ -13,8 +13,7 @@ Phi at P0* and P1* with the fit's standard errors and, from three samples on, th
 the samples, lambda of the regime II line alone (P* <= 0.1) beside the same line of the paper's own curve, and how
 the samples climb: their one-stage rises of Phi from the paper's P0* to P* = 1 (median, largest, and the share of
 flat stages, below 0.005), and those of their mean curve, beside the paper's curve's over the same stages, which
-rises at every one; and how firmly
-the fits hold: the crossover with P0* held at the paper's, the crossover with its plateau joined to the curve
+rises at every one; and how firmly the fits hold: the crossover with P0* held at the paper's, the crossover with its plateau joined to the curve
 (no step at P0*; see consolidation_fit.fit_crossover), and the regime II line to P* <= 0.075 and 0.178. The
 figure draws the mean curves, their fits and the paper's fit, one panel per scene. The paper
 gives one lambda per law for its samples of all sizes together, so this shows whether our excess is a small
@@ -94,28 +93,32 @@ def rising_stages(scene, p):
     return (p >= campaign.PAPER_FIT[scene][0] * (1 - 1e-6)) & (p <= 1 + 1e-6)
 
 
+def rises(scene, p, phi):
+    """A curve's one-stage rises of Phi over those stages."""
+    return np.diff(phi[rising_stages(scene, p)])
+
+
 def stage_rises(scene, results):
     """The one-stage rises of Phi of every sample over those stages, pooled (all the sample's stages, in equilibrium
     or not: its collapses are as much its own as its plateaus). A staircase shows as flat stages and a few large
     rises."""
-    return np.concatenate([np.diff(r["all_phi"][rising_stages(scene, r["all_p"])]) for r in results])
+    return np.concatenate([rises(scene, r["all_p"], r["all_phi"]) for r in results])
 
 
 def paper_rises(scene):
     """The paper's curve's rises over the same stages. Its curve is a fit to its samples' mean, so it is smoother
     than any one sample need be."""
-    p, phi = campaign.paper_curve(scene)
-    return np.diff(phi[rising_stages(scene, p)])
+    return rises(scene, *campaign.paper_curve(scene))
 
 
 def mean_curve_rises(scene, found):
     """The one-stage rises of the samples' mean curve (the one fitted) over the same stages: smoother than a single
     sample's, as the paper's curve is a fit to its samples' mean."""
-    return np.diff(found["phi"][rising_stages(scene, found["p"])])
+    return rises(scene, found["p"], found["phi"])
 
 
-def rises_text(rises):
-    return f"{np.median(rises):.4f}, {rises.max():.3f}, {np.mean(rises < FLAT):.0%}" if len(rises) else "none"
+def rises_text(values):
+    return f"{np.median(values):.4f}, {values.max():.3f}, {np.mean(values < FLAT):.0%}" if len(values) else "none"
 
 
 # Other ends of the regime II line than the fits' 0.1: the paper's regime II ends "near P* = 0.1-0.3", and where our

@@ -94,6 +94,14 @@ def require_binary(ap, option, path):
         ap.error(f"{option} {path}: not executable")
 
 
+def make_out(ap, out):
+    """Makes the --out folder, once nothing is left to refuse (a refused --set left an empty folder behind)."""
+    try:
+        Path(out).mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out {out}: cannot make the folder ({error.strerror})")
+
+
 def engine_refusal(error):
     """A SceneError's message in one line: the engine's problems without its heading, numbers of more than 16 digits
     shortened (bench_fmu's --duration 1e300 asked for a time.steps of 304 digits)."""
