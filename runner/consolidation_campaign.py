@@ -39,7 +39,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from consolidation_fit import (FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRACTION, TEXT, StageTable, TableError,  # noqa: E402
+from consolidation_fit import (BRANCH, FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRACTION, TEXT, StageTable, TableError,  # noqa: E402
                                fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then)
 import density_correlations  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
@@ -218,7 +218,7 @@ def summarise(table):
     if stages.header:
         stages.columns("branch", "reached", "P_star", "phi", "coordination", "phase")
     target = {"target_pressure": NUMBER} if "target_pressure" in stages.header else {}   # older tables have none
-    stages.check({"phase": TEXT, "branch": TEXT, "P_star": NUMBER, "phi": SOLID_FRACTION, "reached": FLAG,
+    stages.check({"phase": TEXT, "branch": BRANCH, "P_star": NUMBER, "phi": SOLID_FRACTION, "reached": FLAG,
                   "coordination": NUMBER, **target})
     rows = stages.rows
     fitted = [i for i, r in enumerate(rows) if r["branch"] == "loading" and r["reached"] == "1"]

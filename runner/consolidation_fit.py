@@ -184,6 +184,12 @@ REDUCED_PRESSURE = Values(within=lambda v: math.isfinite(v) and v >= 0,
 STEPS = Values("a whole number", int, lambda v: v >= 0, "a count of steps is at least 0")
 FLAG = Values("0 or 1", _flag)   # reached: 1 where the stage ended in equilibrium
 TEXT = Values("text", str)   # any value, but there: a row cut short has none
+# A stage's branch: grains' branch column (preparation, loading, unloading) or, in tables without it, its phase column
+# (aggregation, equilibrate, loading, unloading). A table by hand with another word (Loading, load) had its stages
+# left out of the fit without a word.
+BRANCHES = ("loading", "unloading", "preparation", "aggregation", "equilibrate")
+BRANCH = Values("text", str, lambda v: v in BRANCHES, "a branch is loading or unloading (grains' tables also have "
+                "preparation, aggregation and equilibrate, which the fit leaves out or takes as loading)")
 
 
 class StageTable:
@@ -271,12 +277,28 @@ def recorded_table(h5):
     return h5.parent / (name.decode() if isinstance(name, bytes) else str(name))
 
 
+def names_stages(path):
+    """Whether the CSV file at `path` is the stage table of `grains consolidate`: its header (the first line not
+    starting with #) has the columns stage and P*. A CSV beside a run that is something else (the table of
+    density_correlations.py --table STEM.csv, whose rows are pressures) is not taken for the run's table."""
+    try:
+        with open(path, newline="") as f:
+            header = next((r for r in csv.reader(f) if r and not r[0].startswith("#")), [])
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return False
+    return "stage" in header and any(name in header for name in COLUMNS["P_star"])
+
+
 def stage_table_of(h5):
     """The stage table written with a `grains consolidate` HDF5 file: the one the file names if it is there, else
-    STEM.csv beside it, else STEM.partial.csv (a campaign's sample still running, or stopped); None if none is."""
+    STEM.csv beside it, else STEM.partial.csv (a campaign's sample still running, or stopped), each only if it is
+    a stage table (names_stages); None if none is."""
     h5 = pathlib.Path(h5)
-    for table in (recorded_table(h5), h5.with_suffix(".csv"), h5.with_suffix(".partial.csv")):
-        if table is not None and table.is_file():
+    recorded = recorded_table(h5)
+    if recorded is not None and recorded.is_file():
+        return recorded
+    for table in (h5.with_suffix(".csv"), h5.with_suffix(".partial.csv")):
+        if table.is_file() and names_stages(table):   # is_file: a FIFO would hang the read
             return table
     return None
 
@@ -305,7 +327,7 @@ def read_stages(path):
     pick["branch"] = next((c for c in COLUMNS["branch"] if c in table.header), None)
     rows = table.rows
     table.check({pick["P_star"]: NUMBER, pick["phi"]: SOLID_FRACTION,
-                 **{c: kind for c, kind in ((pick["branch"], TEXT), ("target_pressure", NUMBER), ("reached", FLAG))
+                 **{c: kind for c, kind in ((pick["branch"], BRANCH), ("target_pressure", NUMBER), ("reached", FLAG))
                     if c in table.header}})
     p = np.array([float(r[pick["P_star"]]) for r in rows])
     phi = np.array([float(r[pick["phi"]]) for r in rows])

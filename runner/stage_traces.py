@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from consolidation_fit import FLAG, NUMBER, SOLID_FRACTION, TEXT, StageTable, Values, stage_table_of  # noqa: E402
+from consolidation_fit import BRANCH, FLAG, NUMBER, SOLID_FRACTION, StageTable, Values, stage_table_of  # noqa: E402
 
 
 # The stages a programme runs before its first compression, by programme.preparation: type 2's aggregation and its
@@ -145,7 +145,7 @@ def first_compression(h5, label):
     stages = StageTable(table, empty=True)
     if stages.header:
         stages.columns("stage", "branch", "phi", "time", "reached")
-        stages.check({"stage": STAGE, "branch": TEXT, "phi": SOLID_FRACTION, "time": NUMBER, "reached": FLAG})
+        stages.check({"stage": STAGE, "branch": BRANCH, "phi": SOLID_FRACTION, "time": NUMBER, "reached": FLAG})
     return course_of(h5, label, stages.rows)
 
 

@@ -226,6 +226,23 @@ def test_outputs_that_are_an_input_or_a_folder_are_refused_before_any_work(tmp_p
     assert sorted(p.name for p in tmp_path.iterdir()) == ["adir", "adir.png", "sample-intensity.png", "sample.csv", "sample.h5"]
 
 
+def test_a_table_written_at_the_stage_tables_name_is_not_taken_for_one(tmp_path):
+    """A run whose stage table is gone (moved, not copied): --table sample.csv wrote the intensity table there, and
+    the next run refused that name as the input's stage table (and would have read its frame targets from it)."""
+    stages = small_stages(tmp_path / "sample.h5")
+    stages.with_suffix(".csv").unlink()
+    first = command(stages, "--pressures", "0.01", "--table", tmp_path / "sample.csv")
+    assert first.returncode == 0, first.stderr
+    written = (tmp_path / "sample.csv").read_text()
+    assert written.splitlines()[0].startswith("P_star,samples,phi_mean,"), written   # the intensity table
+    second = command(stages, "--pressures", "0.01", "--table", tmp_path / "sample.csv")
+    assert second.returncode == 0, second.stderr
+    assert (tmp_path / "sample.csv").read_text() == written
+    # The measured P* serve for the frames, not the intensity table's columns.
+    measured = np.array([0.02, 1e-4, 2e-8, 0.0101])
+    assert dc.stage_targets(stages, measured).tolist() == measured.tolist()
+
+
 def test_k_max_is_blamed_only_for_the_fits_range(tmp_path):
     """A 2D run that is no consolidation output, or --pressures inf, were reported as --k-max errors ("All-NaN slice",
     "math domain error"); --k-max inf was taken."""

@@ -43,8 +43,11 @@ def refused(r, *said):
     ("a,b\n1,2\n", "needs a header with columns P_star (or pressure_reduced) and phi (or solid_fraction); it has a, b"),
     ("", "is empty: no header naming its columns, no stage"),
     ("P_star,phi\n", "has a header and no stage"),
+    # A branch word the fit does not know: its stages were left out without a word.
+    ("P_star,phi,branch\n" + "\n".join(g + ",loading" for g in GOOD[:4]) + "\n0.3,0.68,Loading\n1,0.74,loading\n",
+     "line 6: column 'branch' = 'Loading' is out of range: a branch is loading or unloading"),
 ], ids=["missing-field", "garbage-number", "phi-0", "phi-negative", "p-negative", "line-after-comments",
-        "missing-columns", "empty", "header-only"])
+        "missing-columns", "empty", "header-only", "branch-word"])
 def test_a_bad_table_given_to_the_fit_is_named_with_its_line_column_and_value(tmp_path, text, said):
     table = tmp_path / "stages.csv"
     table.write_text(text)
