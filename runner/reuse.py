@@ -115,8 +115,9 @@ def run_grains(prog, command):
     """Runs a grains command and returns what it printed; a failure ends the tool with grains' own reason (one line,
     no traceback)."""
     done = subprocess.run([str(c) for c in command], capture_output=True, text=True)
-    if done.returncode != 0:
-        sys.exit(f"{prog}: grains {command[1]} ended with status {done.returncode}: {done.stderr.strip()}")
+    if done.returncode != 0:   # grains' stderr may hold warnings and a heading before its reason: one line of all
+        said = "; ".join(line.strip(" -") for line in done.stderr.splitlines() if line.strip())
+        sys.exit(f"{prog}: grains {command[1]} ended with status {done.returncode}: {said or 'it said nothing'}")
     return done.stdout
 
 

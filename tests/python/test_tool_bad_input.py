@@ -92,3 +92,22 @@ def test_bench_cohesive_smallest_cells_make_a_scene_grains_takes(grains_bin, tmp
 def test_bench_fmu_refuses_what_grains_would_with_its_reason(tmp_path, args, words):
     refused(tool("bench_fmu.py", *args, cwd=tmp_path), "bench_fmu.py", *words)
     assert not any(tmp_path.iterdir())
+
+
+def test_a_failed_grains_command_is_told_in_one_line(tmp_path):
+    """reuse.run_grains ends a tool with grains' reason: grains' stderr (warnings, a heading, the problems) came over
+    several lines after the tool's own words (bench_fmu.py's timing runs); it is one line now, and a grains that said
+    nothing is said to have said nothing."""
+    sys.path.insert(0, str(ROOT / "runner"))
+    import reuse
+    fake = tmp_path / "grains"
+    fake.write_text("#!/bin/sh\nprintf 'warning: dt is large\\n\\nerror: the run stopped\\n  - particle 7: position is nan\\n' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    with pytest.raises(SystemExit) as ended:
+        reuse.run_grains("tool.py", [fake, "run", "scene.toml"])
+    assert str(ended.value) == ("tool.py: grains run ended with status 1: warning: dt is large; error: the run stopped; "
+                                "particle 7: position is nan")
+    fake.write_text("#!/bin/sh\nexit 3\n")
+    with pytest.raises(SystemExit) as ended:
+        reuse.run_grains("tool.py", [fake, "run", "scene.toml"])
+    assert str(ended.value) == "tool.py: grains run ended with status 3: it said nothing"
