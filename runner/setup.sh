@@ -47,8 +47,17 @@ grains_install_python() {
 GRAINS_SUNDIALS="$GRAINS_BUILD/sundials"
 GRAINS_SUNDIALS_CMAKE="$GRAINS_SUNDIALS/lib/cmake/sundials"   # its package configuration, which CMake is given
 
+# A build folder configured for a build type other than Release (a developer's checked build, README "Checked
+# builds") is built as it is configured: the setup made it a Release build and built SUNDIALS into it when a test
+# ran runner/main.sh against it.
+grains_other_build() {
+  [ -f "$GRAINS_BUILD/CMakeCache.txt" ] \
+    && [ "$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$GRAINS_BUILD/CMakeCache.txt")" != "Release" ]
+}
+
 grains_build_sundials() {
   [ -f "$GRAINS_SUNDIALS_CMAKE/SUNDIALSConfig.cmake" ] && return 0
+  grains_other_build && return 0
   local work="$GRAINS_BUILD/sundials-source" version
   # Tried once: a machine that cannot fetch the source would otherwise try again at every command.
   if [ -f "$work/failed" ]; then
@@ -85,9 +94,10 @@ grains_build_sundials() {
 }
 
 grains_build() {
-  local sundials=()
+  local sundials=() type=(-DCMAKE_BUILD_TYPE=Release)
   [ -f "$GRAINS_SUNDIALS_CMAKE/SUNDIALSConfig.cmake" ] && sundials=(-DSUNDIALS_DIR="$GRAINS_SUNDIALS_CMAKE")
-  cmake -S "$GRAINS_ROOT" -B "$GRAINS_BUILD" -DCMAKE_BUILD_TYPE=Release "${sundials[@]}" >/dev/null
+  grains_other_build && type=()
+  cmake -S "$GRAINS_ROOT" -B "$GRAINS_BUILD" "${type[@]}" "${sundials[@]}" >/dev/null
   # The compiler's diagnostics only (not file names that hold "error"); a failed build stops here, even
   # when an older binary is still in place.
   local log="$GRAINS_BUILD/build.log"

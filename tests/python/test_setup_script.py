@@ -91,3 +91,30 @@ def test_setup_links_the_systems_sundials_when_the_source_cannot_be_had(root, tm
                            capture_output=True, text=True)
     assert again.returncode == 0 and "failed before" in again.stderr, again.stderr
     assert log.read_text() == calls
+
+
+def test_a_build_folder_of_another_type_keeps_its_configuration(root, tmp_path):
+    """README, "Checked builds": the Python suite against a sanitized RelWithDebInfo build ran runner/main.sh with that
+    folder as GRAINS_BUILD, and the setup reconfigured it as a Release build (a full rebuild) and fetched SUNDIALS'
+    source into it. A folder configured for another build type is now built as it is; a Release folder as before."""
+    fakes = tmp_path / "bin"
+    fakes.mkdir()
+    log = tmp_path / "calls"
+    _fake_sundials_tools(fakes, log)
+    build = tmp_path / "build"
+    (build / "runner").mkdir(parents=True)
+    _fake(build / "runner", "grains", "exit 0")
+    env = dict(os.environ, PATH=f"{fakes}:{os.environ['PATH']}", GRAINS_BUILD=str(build))
+    script = f'source "{root}/runner/setup.sh"; grains_build_sundials; grains_build'
+    (build / "CMakeCache.txt").write_text("CMAKE_BUILD_TYPE:STRING=RelWithDebInfo\n")
+    r = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    calls = log.read_text().splitlines()
+    assert not any("apt-get" in c for c in calls), calls   # no SUNDIALS fetched into it
+    assert calls[0] == f"cmake -S {root} -B {build}", calls   # configured as it was
+    log.unlink()
+    (build / "CMakeCache.txt").write_text("CMAKE_BUILD_TYPE:STRING=Release\n")
+    r = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    calls = log.read_text()
+    assert "source --download-only" in calls and f"-B {build} -DCMAKE_BUILD_TYPE=Release -DSUNDIALS_DIR=" in calls, calls
