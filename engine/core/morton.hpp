@@ -45,24 +45,27 @@ inline unsigned long long key(const std::array<unsigned long long, D>& q) {
 }
 
 // Sorts keys (carrying index along) by key, eight bits a pass from the lowest: a stable sort, so equal keys
-// keep the index order (the order std::sort gives the (key, index) pairs), in a fraction of its time.
+// keep the index order (the order std::sort gives the (key, index) pairs), in a fraction of its time. The
+// eight passes' digit counts are taken in one read of the keys.
 inline void radix_sort(std::vector<unsigned long long>& keys, std::vector<int>& index) {
   const std::size_t n = keys.size();
   if (n == 0) return;
+  std::array<std::array<std::size_t, 256>, 8> start{};
+  for (const unsigned long long key : keys)
+    for (int pass = 0; pass < 8; ++pass) ++start[pass][(key >> (8 * pass)) & 0xff];
   std::vector<unsigned long long> keys2(n);
   std::vector<int> index2(n);
-  for (int shift = 0; shift < 64; shift += 8) {
-    std::array<std::size_t, 256> start{};
-    for (std::size_t k = 0; k < n; ++k) ++start[(keys[k] >> shift) & 0xff];
-    if (start[(keys[0] >> shift) & 0xff] == n) continue;   // one digit value throughout: nothing moves
+  for (int pass = 0; pass < 8; ++pass) {
+    const int shift = 8 * pass;
+    auto& at = start[pass];
+    if (at[(keys[0] >> shift) & 0xff] == n) continue;   // one digit value throughout: nothing moves
     std::size_t sum = 0;
-    for (auto& s : start) sum += std::exchange(s, sum);
+    for (auto& s : at) sum += std::exchange(s, sum);
     for (std::size_t k = 0; k < n; ++k) {
-      const std::size_t to = start[(keys[k] >> shift) & 0xff]++;
+      const std::size_t to = at[(keys[k] >> shift) & 0xff]++;
       keys2[to] = keys[k], index2[to] = index[k];
     }
     keys.swap(keys2), index.swap(index2);
   }
 }
-
 }  // namespace grains::morton

@@ -38,7 +38,7 @@ std::vector<Vec<D>> direct_accelerations(const Particles<D>& P, double eps2, int
 template <int D>
 std::vector<Vec<D>> tree_accelerations(const Particles<D>& P, double theta, double eps2, int threads) {
   std::vector<double> ax, ay, az;
-  gravity_tree::Tree(P, theta).evaluate(gravity_direct::fastest_isa(), eps2, threads, ax, ay, az, nullptr);
+  gravity_tree::Tree(P, theta, threads).evaluate(gravity_direct::fastest_isa(), eps2, threads, ax, ay, az, nullptr);
   return vectors<D>(ax, ay, az);
 }
 
@@ -65,7 +65,7 @@ double SoftenedGravity<D>::potential_energy(const Particles<D>& P, GravitySolver
   if (solver == GravitySolver::direct)
     return G_ * gravity_direct::potential(gravity_direct::fastest_isa(), gravity_direct::Columns(P), eps2, threads);
   std::vector<double> ax, ay, az, phi;
-  gravity_tree::Tree(P, theta_).evaluate(gravity_direct::fastest_isa(), eps2, threads, ax, ay, az, &phi);
+  gravity_tree::Tree(P, theta_, threads).evaluate(gravity_direct::fastest_isa(), eps2, threads, ax, ay, az, &phi);
   double W = 0;
   for (std::size_t i = 0; i < P.size(); ++i) W += 0.5 * P.mass[i] * phi[i];
   return G_ * W;

@@ -27,17 +27,25 @@ struct Lists {
   std::vector<double> x, y, z, m;                                  // particles
   std::vector<double> cx, cy, cz, cm, qxx, qxy, qxz, qyy, qyz, qzz;   // cells
   std::size_t particles = 0, cells = 0;
-  // The AVX-512 kernel's FP32 copy of the cells (cell_sums_fp32), when `fp32`: positions relative to the
-  // group's centre (gx, gy, gz) in units of `len`, each split into float hi + lo; masses in units of `mass`,
-  // quadrupoles in units of mass len^2. Padded to whole 16-float vectors with zeros.
-  bool fp32 = false;
+  // The AVX-512 kernel's FP32 copies (Tree::multipoles32_ and the particles' copies), used instead of the
+  // FP64 ones when fp32_particles or fp32_cells: positions relative to (gx, gy, gz) in units of len, each
+  // split into float hi + lo; masses in units of `mass`, quadrupoles in units of mass len^2. Padded to
+  // whole 16-float vectors with zeros.
+  bool fp32_particles = false, fp32_cells = false;
   double gx = 0, gy = 0, gz = 0, len = 1, mass = 1;
+  std::vector<float> pxh, pxl, pyh, pyl, pzh, pzl, pm;
   std::vector<float> fxh, fxl, fyh, fyl, fzh, fzl, fm, fqxx, fqxy, fqxz, fqyy, fqyz, fqzz;
 
   void clear() {
     for (auto* v : {&x, &y, &z, &m, &cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->clear();
+    for (auto* v : {&pxh, &pxl, &pyh, &pyl, &pzh, &pzl, &pm}) v->clear();
   }
   void pad_particles() {
+    if (fp32_particles) {
+      particles = pxh.size();
+      for (auto* v : {&pxh, &pxl, &pyh, &pyl, &pzh, &pzl, &pm}) v->resize((particles + W16 - 1) / W16 * W16, 0.0f);
+      return;
+    }
     particles = x.size();
     for (auto* v : {&x, &y, &z, &m}) v->resize((particles + W8 - 1) / W8 * W8, 0.0);
   }
@@ -45,25 +53,17 @@ struct Lists {
     cells = cx.size();
     for (auto* v : {&cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->resize((cells + W8 - 1) / W8 * W8, 0.0);
   }
-  // The FP32 copy of the cells `ids` (records com x, y, z, mass, quadrupole), instead of the FP64 one; false
-  // (and the lists unusable) if a mass is too small for FP32 (scaled, below 1e-20 but not 0).
-  template <class Record>
-  bool fill_fp32(const std::vector<Record>& records, const std::vector<int>& ids) {
+  // The FP32 copies of the cells `ids`, instead of the FP64 ones.
+  template <class Record32>
+  void fill_cells_fp32(const std::vector<Record32>& records, const std::vector<int>& ids) {
     cells = ids.size();
     const std::size_t n = (cells + W16 - 1) / W16 * W16;
-    for (auto* v : {&fxh, &fxl, &fyh, &fyl, &fzh, &fzl, &fm, &fqxx, &fqxy, &fqxz, &fqyy, &fqyz, &fqzz}) v->assign(n, 0.0f);
-    const double il = 1 / len, im = 1 / mass, iq = im * il * il;   // powers of two: exact
-    auto split = [](double v, float& hi, float& lo) { hi = float(v), lo = float(v - double(hi)); };
-    bool ok = true;
+    const std::array v{&fxh, &fxl, &fyh, &fyl, &fzh, &fzl, &fm, &fqxx, &fqxy, &fqxz, &fqyy, &fqyz, &fqzz};
+    for (auto* f : v) f->assign(n, 0.0f);
     for (std::size_t k = 0; k < cells; ++k) {
-      const Record& c = records[ids[k]];
-      split((c[0] - gx) * il, fxh[k], fxl[k]), split((c[1] - gy) * il, fyh[k], fyl[k]), split((c[2] - gz) * il, fzh[k], fzl[k]);
-      fm[k] = float(c[3] * im);
-      ok &= c[3] == 0 || c[3] * im >= 1e-20;
-      fqxx[k] = float(c[4] * iq), fqxy[k] = float(c[5] * iq), fqxz[k] = float(c[6] * iq);
-      fqyy[k] = float(c[7] * iq), fqyz[k] = float(c[8] * iq), fqzz[k] = float(c[9] * iq);
+      const Record32& c = records[ids[k]];
+      for (int f = 0; f < 13; ++f) (*v[f])[k] = c[f];
     }
-    return ok;
   }
 };
 
@@ -199,34 +199,72 @@ GRAINS_AVX512 inline __m512d widen(__m512 v, double unit) {
   return _mm512_mul_pd(_mm512_add_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(v)), _mm512_cvtps_pd(hi)), _mm512_set1_pd(unit));
 }
 
-// Cell terms in FP32, sixteen at a time, added to the FP64 lane sums sx .. sp. FP32 is safe here: a cell term
-// is an expansion whose truncation error is ~1e-4 relative at theta 0.5 (the tree's median force error is
-// ~2e-4), FP32 rounding ~1e-7 relative. Large coordinates lose nothing: positions are taken relative to the
-// group's centre in FP64 and split into float hi + lo, so (hi_c - hi_x) + (lo_c - lo_x) is the FP64
-// displacement to about FP32 precision however far from the origin. Lengths and masses are in power-of-two
-// units (exact scaling) fitted to the tree, and the walk keeps a group in FP64 when h could leave the range
-// where h^-7 and the like stay normal floats (Tree::evaluate). 1 / h: vrsqrt14ps and one Newton step (2^-14
-// -> ~1e-8, below FP32 round-off). Each particle's sums stay in FP32 lanes to the end of the list (about 60
-// terms a lane), then are widened, scaled back and added to the FP64 ones: deterministic as before. Measured
-// against the FP64 kernels: within 5e-7 of each particle's acceleration (tests/engine/test_gravity.cpp).
+// Lanes j0 .. j0 + 15 with j < end and j != skip, as bits 0 .. 15.
+inline __mmask16 lanes16_kept(std::size_t j0, std::size_t end, std::size_t skip) {
+  unsigned keep = end >= j0 + W16 ? 0xffffu : end > j0 ? (1u << (end - j0)) - 1 : 0u;
+  if (skip >= j0 && skip < j0 + W16) keep &= ~(1u << (skip - j0));
+  return __mmask16(keep);
+}
+
+// The FP32 terms. FP32 is safe here: a cell term is an expansion whose truncation error is ~1e-4 relative at
+// theta 0.5 (~1e-5 at theta 0.2; the tree's median force error is ~2e-4 at 0.5), and a particle's near field
+// is one part of a sum carrying that error; FP32 rounding is ~1e-7 relative. Large coordinates lose nothing:
+// positions are taken relative to the tree's origin in FP64 and split into float hi + lo, so
+// (hi_j - hi_i) + (lo_j - lo_i) is the FP64 displacement to about FP32 precision however far from the
+// origin. Lengths and masses are in power-of-two units (exact scaling) fitted to the tree, and the walk
+// keeps FP64 where h could leave the range in which h^-7 and the like stay normal floats (Tree::evaluate).
+// 1 / h: vrsqrt14ps and one Newton step (2^-14 -> ~1e-8, below FP32 round-off). Each particle's sums stay in
+// FP32 lanes to the end of its lists (about a hundred terms a lane), then are widened, scaled back and
+// summed in FP64 in a fixed order: deterministic as before. Measured against the FP64 kernels: within 1e-6
+// of each particle's acceleration (tests/engine/test_gravity.cpp).
+struct Sums32 {
+  __m512 x, y, z, phi;
+};
+
+GRAINS_AVX512 inline Sums32 zero_sums32() {
+  const __m512 zero = _mm512_setzero_ps();
+  return Sums32{zero, zero, zero, zero};
+}
+
+GRAINS_AVX512 inline __m512 rsqrt_fp32(__m512 r2) {
+  const __m512 y = _mm512_rsqrt14_ps(r2);
+  return _mm512_fmadd_ps(_mm512_mul_ps(_mm512_set1_ps(0.5f), y), _mm512_fnmadd_ps(_mm512_mul_ps(r2, y), y, _mm512_set1_ps(1.0f)), y);
+}
+
+// Particle `self` of the FP32 particle list against every other particle of it.
 template <bool potential>
-GRAINS_AVX512 void cell_sums_fp32(const Lists& L, double xi, double yi, double zi, double eps2, __m512d& sx,
-                                  __m512d& sy, __m512d& sz, __m512d& sp) {
-  const double il = 1 / L.len;
-  const double X = (xi - L.gx) * il, Y = (yi - L.gy) * il, Z = (zi - L.gz) * il;
-  const float xh = float(X), yh = float(Y), zh = float(Z);
+GRAINS_AVX512 void particle_sums_fp32(const Lists& L, std::size_t self, __m512 e2, Sums32& f) {
+  const __m512 xh = _mm512_set1_ps(L.pxh[self]), yh = _mm512_set1_ps(L.pyh[self]), zh = _mm512_set1_ps(L.pzh[self]);
+  const __m512 xl = _mm512_set1_ps(L.pxl[self]), yl = _mm512_set1_ps(L.pyl[self]), zl = _mm512_set1_ps(L.pzl[self]);
+  // The vector holding `self` and the last one are masked (self: a zero distance; padding: m = 0).
+  const std::size_t self_vector = self / W16 * W16;
+  for (std::size_t j0 = 0; j0 < L.particles; j0 += W16) {
+    const __m512 dx = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.pxh[j0]), xh), _mm512_sub_ps(_mm512_loadu_ps(&L.pxl[j0]), xl));
+    const __m512 dy = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.pyh[j0]), yh), _mm512_sub_ps(_mm512_loadu_ps(&L.pyl[j0]), yl));
+    const __m512 dz = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.pzh[j0]), zh), _mm512_sub_ps(_mm512_loadu_ps(&L.pzl[j0]), zl));
+    const __m512 r2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_fmadd_ps(dx, dx, e2)));
+    const __m512 inv = rsqrt_fp32(r2);
+    __m512 t = _mm512_mul_ps(_mm512_mul_ps(inv, inv), inv);
+    if (j0 == self_vector || j0 + W16 > L.particles) t = _mm512_maskz_mov_ps(lanes16_kept(j0, L.particles, self), t);
+    const __m512 w = _mm512_mul_ps(_mm512_loadu_ps(&L.pm[j0]), t);
+    f.x = _mm512_fmadd_ps(w, dx, f.x), f.y = _mm512_fmadd_ps(w, dy, f.y), f.z = _mm512_fmadd_ps(w, dz, f.z);
+    if constexpr (potential) f.phi = _mm512_fnmadd_ps(w, r2, f.phi);   // m / h = m t r2
+  }
+}
+
+// Cell terms (the portable kernel's formulas) at the point (xh + xl, yh + yl, zh + zl).
+template <bool potential>
+GRAINS_AVX512 void cell_sums_fp32(const Lists& L, float xh, float xl, float yh, float yl, float zh, float zl, __m512 e2,
+                                  Sums32& f) {
   const __m512 xhv = _mm512_set1_ps(xh), yhv = _mm512_set1_ps(yh), zhv = _mm512_set1_ps(zh);
-  const __m512 xlv = _mm512_set1_ps(float(X - xh)), ylv = _mm512_set1_ps(float(Y - yh)), zlv = _mm512_set1_ps(float(Z - zh));
-  const __m512 e2 = _mm512_set1_ps(float(eps2 * il * il));
-  const __m512 one = _mm512_set1_ps(1.0f), half = _mm512_set1_ps(0.5f), five_halves = _mm512_set1_ps(2.5f);
-  __m512 fx = _mm512_setzero_ps(), fy = fx, fz = fx, fp = fx;
+  const __m512 xlv = _mm512_set1_ps(xl), ylv = _mm512_set1_ps(yl), zlv = _mm512_set1_ps(zl);
+  const __m512 half = _mm512_set1_ps(0.5f), five_halves = _mm512_set1_ps(2.5f);
   for (std::size_t j0 = 0; j0 < L.cells; j0 += W16) {
     const __m512 dx = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fxh[j0]), xhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fxl[j0]), xlv));
     const __m512 dy = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fyh[j0]), yhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fyl[j0]), ylv));
     const __m512 dz = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fzh[j0]), zhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fzl[j0]), zlv));
     const __m512 r2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_fmadd_ps(dx, dx, e2)));
-    __m512 inv = _mm512_rsqrt14_ps(r2);
-    inv = _mm512_fmadd_ps(_mm512_mul_ps(half, inv), _mm512_fnmadd_ps(_mm512_mul_ps(r2, inv), inv, one), inv);
+    __m512 inv = rsqrt_fp32(r2);
     if (j0 + W16 > L.cells) inv = _mm512_maskz_mov_ps(__mmask16((1u << (L.cells - j0)) - 1), inv);   // padding
     const __m512 inv2 = _mm512_mul_ps(inv, inv), inv3 = _mm512_mul_ps(inv, inv2), inv5 = _mm512_mul_ps(inv3, inv2);
     const __m512 qxx = _mm512_loadu_ps(&L.fqxx[j0]), qxy = _mm512_loadu_ps(&L.fqxy[j0]), qxz = _mm512_loadu_ps(&L.fqxz[j0]);
@@ -238,22 +276,36 @@ GRAINS_AVX512 void cell_sums_fp32(const Lists& L, double xi, double yi, double z
     const __m512 M = _mm512_loadu_ps(&L.fm[j0]);
     const __m512 rQr_inv5 = _mm512_mul_ps(rQr, inv5);
     const __m512 a = _mm512_fmadd_ps(M, inv3, _mm512_mul_ps(five_halves, _mm512_mul_ps(rQr_inv5, inv2)));
-    fx = _mm512_fnmadd_ps(inv5, qx, _mm512_fmadd_ps(a, dx, fx));
-    fy = _mm512_fnmadd_ps(inv5, qy, _mm512_fmadd_ps(a, dy, fy));
-    fz = _mm512_fnmadd_ps(inv5, qz, _mm512_fmadd_ps(a, dz, fz));
-    if constexpr (potential) fp = _mm512_sub_ps(fp, _mm512_fmadd_ps(M, inv, _mm512_mul_ps(half, rQr_inv5)));
+    f.x = _mm512_fnmadd_ps(inv5, qx, _mm512_fmadd_ps(a, dx, f.x));
+    f.y = _mm512_fnmadd_ps(inv5, qy, _mm512_fmadd_ps(a, dy, f.y));
+    f.z = _mm512_fnmadd_ps(inv5, qz, _mm512_fmadd_ps(a, dz, f.z));
+    if constexpr (potential) f.phi = _mm512_sub_ps(f.phi, _mm512_fmadd_ps(M, inv, _mm512_mul_ps(half, rQr_inv5)));
   }
-  const double unit_a = L.mass * il * il;
-  sx = _mm512_add_pd(sx, widen(fx, unit_a)), sy = _mm512_add_pd(sy, widen(fy, unit_a)), sz = _mm512_add_pd(sz, widen(fz, unit_a));
-  if constexpr (potential) sp = _mm512_add_pd(sp, widen(fp, L.mass * il));
+}
+
+// FP32 lane sums added to FP64 ones: accelerations in units of mass / len^2, potentials of mass / len.
+template <bool potential>
+GRAINS_AVX512 void add_widened(const Lists& L, const Sums32& f, __m512d& sx, __m512d& sy, __m512d& sz, __m512d& sp) {
+  const double il = 1 / L.len, unit_a = L.mass * il * il;
+  sx = _mm512_add_pd(sx, widen(f.x, unit_a)), sy = _mm512_add_pd(sy, widen(f.y, unit_a)), sz = _mm512_add_pd(sz, widen(f.z, unit_a));
+  if constexpr (potential) sp = _mm512_add_pd(sp, widen(f.phi, L.mass * il));
 }
 
 template <bool potential>
 GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
-  using gravity_avx512::inverse_cube, gravity_avx512::rsqrt;
+  using gravity_avx512::inverse_cube, gravity_avx512::rsqrt, gravity_avx512::lane_sum;
+  __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx, sp = sx;
+  const double il = 1 / L.len;
+  const __m512 e2_fp32 = _mm512_set1_ps(float(eps2 * il * il));
+  if (L.fp32_particles) {   // then the cells are FP32 too
+    Sums32 f = zero_sums32();
+    particle_sums_fp32<potential>(L, self, e2_fp32, f);
+    cell_sums_fp32<potential>(L, L.pxh[self], L.pxl[self], L.pyh[self], L.pyl[self], L.pzh[self], L.pzl[self], e2_fp32, f);
+    add_widened<potential>(L, f, sx, sy, sz, sp);
+    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
+  }
   const __m512d xi = _mm512_set1_pd(L.x[self]), yi = _mm512_set1_pd(L.y[self]), zi = _mm512_set1_pd(L.z[self]);
   const __m512d e2 = _mm512_set1_pd(eps2);
-  __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx, sp = sx;
   // Particles: the vector holding `self` and the last one are masked (self: r2 may be 0; padding: m = 0).
   const std::size_t self_vector = self / W8 * W8;
   for (std::size_t j0 = 0; j0 < L.particles; j0 += W8) {
@@ -267,9 +319,12 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
     sx = _mm512_fmadd_pd(w, dx, sx), sy = _mm512_fmadd_pd(w, dy, sy), sz = _mm512_fmadd_pd(w, dz, sz);
     if constexpr (potential) sp = _mm512_fnmadd_pd(w, r2, sp);   // m / h = m t r2
   }
-  using gravity_avx512::lane_sum;
-  if (L.fp32) {
-    cell_sums_fp32<potential>(L, L.x[self], L.y[self], L.z[self], eps2, sx, sy, sz, sp);
+  if (L.fp32_cells) {
+    const double X = (L.x[self] - L.gx) * il, Y = (L.y[self] - L.gy) * il, Z = (L.z[self] - L.gz) * il;
+    const float xh = float(X), yh = float(Y), zh = float(Z);
+    Sums32 f = zero_sums32();
+    cell_sums_fp32<potential>(L, xh, float(X - xh), yh, float(Y - yh), zh, float(Z - zh), e2_fp32, f);
+    add_widened<potential>(L, f, sx, sy, sz, sp);
     return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
   }
   // Cells in FP64 (portable kernel above for the formulas); the last vector is masked.
@@ -307,15 +362,26 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
 // ---------------------------------------------------------------------------------------------
 
 template <int D>
-Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
+Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int group_size)
     : theta_(theta), leaf_size_(std::max(1, leaf_size)), group_size_(std::max(1, group_size)) {
   const std::size_t n = P.size();
   if (n == 0) return;
   // The root cube: the bounding box's centre and its longest half edge, widened a little.
   Vec<D> lo = P.position[0], hi = P.position[0];
-  for (const auto& x : P.position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  double total_mass = 0;
+  for (std::size_t i = 0; i < n; ++i) lo = lo.cwiseMin(P.position[i]), hi = hi.cwiseMax(P.position[i]), total_mass += P.mass[i];
   const double half = 0.5 * (hi - lo).maxCoeff() * (1 + 1e-12) + 1e-300;
   const Vec<D> centre = 0.5 * (lo + hi);
+  // The FP32 copies' frame: the root cube's centre, powers of two near its edge and the total mass.
+  for (int a = 0; a < D; ++a) origin_[a] = centre[a];
+  len_ = std::ldexp(1.0, std::ilogb(2 * half));
+  mass_unit_ = total_mass > 0 ? std::ldexp(1.0, std::ilogb(total_mass)) : 1.0;
+  const double il = 1 / len_, im = 1 / mass_unit_, iq = im * il * il;   // powers of two: exact
+  auto split = [&](double v, int a, float& high, float& low) {   // high + low: v in the frame to ~48 bits
+    const double u = (v - origin_[a]) * il;
+    high = float(u), low = float(u - double(high));
+  };
+  auto normal_fp32 = [im](double m) { return m == 0 || m * im >= 1e-20; };
   // Morton keys: each coordinate quantised to key_bits<D> bits, the bits interleaved (axis a at bit a of
   // every D-bit digit, the top digit naming the root's child).
   constexpr int bits = key_bits<D>;
@@ -323,6 +389,7 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   const double top = std::ldexp(1.0, bits) - 1;
   std::vector<unsigned long long> keys(n);
   order_.resize(n);
+#pragma omp parallel for num_threads(threads) schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
     unsigned long long key = 0;
     for (int a = 0; a < D; ++a) {
@@ -334,26 +401,36 @@ Tree::Tree(const Particles<D>& P, double theta, int leaf_size, int group_size)
   }
   radix_sort(keys, order_);
   for (auto* v : {&x_, &y_, &z_, &m_}) v->assign(n, 0.0);
+  for (auto* v : {&xh_, &xl_, &yh_, &yl_, &zh_, &zl_, &m32_}) v->assign(n, 0.0f);
+  bool masses_ok = true;
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : masses_ok)
   for (std::size_t k = 0; k < n; ++k) {
     x_[k] = P.position[order_[k]][0], y_[k] = P.position[order_[k]][1], m_[k] = P.mass[order_[k]];
     if constexpr (D == 3) z_[k] = P.position[order_[k]][2];
+    split(x_[k], 0, xh_[k], xl_[k]), split(y_[k], 1, yh_[k], yl_[k]), split(z_[k], 2, zh_[k], zl_[k]);
+    m32_[k] = float(m_[k] * im), masses_ok = masses_ok && normal_fp32(m_[k]);
   }
   cells_.reserve(4 * n / std::size_t(leaf_size_) + 16);
   cells_.emplace_back();
   build<D>(0, 0, int(n), 0, false, keys);
   quad_.assign(cells_.size(), Quadrupole{});
   for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
-  // Units of the FP32 cell terms: powers of two near the root cube's edge and the total mass.
-  len_ = std::ldexp(1.0, std::ilogb(2 * half));
-  mass_unit_ = cells_[0].mass > 0 ? std::ldexp(1.0, std::ilogb(cells_[0].mass)) : 1.0;
-  nodes_.resize(cells_.size());
-  multipoles_.resize(cells_.size());
-  for (std::size_t id = 0; id < cells_.size(); ++id) {
+  const std::size_t cells = cells_.size();
+  nodes_.resize(cells);
+  multipoles_.resize(cells);
+  multipoles32_.resize(cells);
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : masses_ok)
+  for (std::size_t id = 0; id < cells; ++id) {
     const Cell& c = cells_[id];
     const Quadrupole& Q = quad_[id];
     nodes_[id] = Node{c.com[0], c.com[1], c.com[2], c.accept2, c.first_child, c.children, c.begin, c.end};
     multipoles_[id] = {c.com[0], c.com[1], c.com[2], c.mass, Q[0], Q[1], Q[2], Q[3], Q[4], Q[5]};
+    Multipole32& f = multipoles32_[id];
+    split(c.com[0], 0, f[0], f[1]), split(c.com[1], 1, f[2], f[3]), split(c.com[2], 2, f[4], f[5]);
+    f[6] = float(c.mass * im), masses_ok = masses_ok && normal_fp32(c.mass);
+    for (int e = 0; e < 6; ++e) f[7 + e] = float(Q[e] * iq);
   }
+  fp32_masses_ = masses_ok;
 }
 
 // Splits cell `id` over the particles [begin, end) at Morton digit `level`; the first cell on the way down
@@ -431,8 +508,8 @@ void Tree::moments(int id) {
   c.accept2 = theta_ > 0 && c.end - c.begin > 1 ? lim * lim : std::numeric_limits<double>::infinity();
 }
 
-template Tree::Tree(const Particles<2>&, double, int, int);
-template Tree::Tree(const Particles<3>&, double, int, int);
+template Tree::Tree(const Particles<2>&, double, int, int, int);
+template Tree::Tree(const Particles<3>&, double, int, int, int);
 
 // ---------------------------------------------------------------------------------------------
 // Walk.
@@ -446,10 +523,19 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
   auto* sums = isa == Isa::portable ? sums_portable
               : isa == Isa::avx2    ? (phi ? sums_avx2<true> : sums_avx2<false>)
                                     : (phi ? sums_avx512<true> : sums_avx512<false>);
+  // FP32 sums (cell_sums_fp32) where h / len lies in [1e-5, 1e5] for every pair summed (all lie within the
+  // root box, < 4 len apart) and every mass is normal in FP32: then h^-5, h^-7 M and the like stay normal
+  // floats. Particles: h >= eps, so the softening decides for the whole walk. Cells: h^2 >= near2 + eps2,
+  // decided group by group.
+  const double scaled_eps2 = eps2 / (len_ * len_);
+  const bool fp32 = isa == Isa::avx512 && theta_ >= fp32_min_theta && fp32_masses_ && scaled_eps2 <= 1e10;
+  const bool fp32_particles = fp32 && scaled_eps2 >= 1e-10;
   std::size_t pairs = 0, cell_terms = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : pairs, cell_terms)
   {
     Lists L;
+    L.fp32_particles = fp32_particles;
+    L.gx = origin_[0], L.gy = origin_[1], L.gz = origin_[2], L.len = len_, L.mass = mass_unit_;
     std::vector<int> stack, used;
 #pragma omp for schedule(dynamic, 4)
     for (std::size_t g = 0; g < groups_.size(); ++g) {
@@ -459,6 +545,13 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       L.clear();
       // Pointers by data() + index: &x_[to] with to == size() is out of range for operator[].
       auto add_particles = [&](int from, int to) {
+        auto add = [from, to](std::vector<float>& list, const std::vector<float>& v) {
+          list.insert(list.end(), v.data() + from, v.data() + to);
+        };
+        if (L.fp32_particles) {
+          add(L.pxh, xh_), add(L.pxl, xl_), add(L.pyh, yh_), add(L.pyl, yl_), add(L.pzh, zh_), add(L.pzl, zl_), add(L.pm, m32_);
+          return;
+        }
         L.x.insert(L.x.end(), x_.data() + from, x_.data() + to), L.y.insert(L.y.end(), y_.data() + from, y_.data() + to);
         L.z.insert(L.z.end(), z_.data() + from, z_.data() + to), L.m.insert(L.m.end(), m_.data() + from, m_.data() + to);
       };
@@ -487,16 +580,10 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       }
       L.pad_particles();
       const std::size_t u = used.size();
-      // FP32 cell terms (cell_sums_fp32) when h / len lies in [1e-5, 1e5] for every particle and cell (cells
-      // lie within the root box, < 4 len apart) and no scaled mass is below 1e-20: then h^-5, h^-7 M and the
-      // like stay normal floats. Otherwise (extreme clustering or softening) the group stays in FP64.
-      L.fp32 = isa == Isa::avx512 && u > 0 && (near2 + eps2) / (len_ * len_) >= 1e-10 && eps2 / (len_ * len_) <= 1e10;
-      if (L.fp32) {
-        L.gx = 0.5 * (lo[0] + hi[0]), L.gy = 0.5 * (lo[1] + hi[1]), L.gz = 0.5 * (lo[2] + hi[2]);
-        L.len = len_, L.mass = mass_unit_;
-        L.fp32 = L.fill_fp32(multipoles_, used);
-      }
-      if (!L.fp32) {
+      L.fp32_cells = fp32_particles || (fp32 && u > 0 && (near2 + eps2) / (len_ * len_) >= 1e-10);
+      if (L.fp32_cells) {
+        L.fill_cells_fp32(multipoles32_, used);
+      } else {
         for (auto* v : {&L.cx, &L.cy, &L.cz, &L.cm, &L.qxx, &L.qxy, &L.qxz, &L.qyy, &L.qyz, &L.qzz}) v->resize(u);
         for (std::size_t k = 0; k < u; ++k) {
           const Multipole& c = multipoles_[used[k]];

@@ -10,13 +10,17 @@
 // it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
 // means used whole for each of its particles under the same rule per particle, so the group walk is never
 // coarser than a walk per particle at the same theta.
-// Every particle of the group then runs over the two lists with an AVX-512 kernel (eight list entries at a
-// time), an AVX2 + FMA one (four) or a portable one, picked at run time like gravity_direct. FP64 throughout,
-// with a correctly rounded square root and division (AVX-512: a reciprocal square root refined to within a
-// few units in the last place, see gravity_avx512.hpp), except the AVX-512 kernel's cell terms: FP32,
-// sixteen at a time (their truncation error, ~1e-4, dwarfs FP32 round-off; see cell_sums_fp32). A
-// particle's sum is formed in an order set by the tree and the kernel alone, so the result is
-// bit-identical on any number of threads.
+// Every particle of the group then runs over the two lists with an AVX-512 kernel, an AVX2 + FMA one (four
+// entries at a time) or a portable one, picked at run time like gravity_direct. The AVX2 and portable
+// kernels are FP64 throughout, with a correctly rounded square root and division. The AVX-512 kernel sums
+// in FP32, sixteen entries at a time, from FP32 copies made when the tree is built (positions as float
+// hi + lo, so that differences keep FP32 precision anywhere): its round-off, ~1e-7 relative, stays far
+// below the expansion's truncation error (~1e-5 at theta 0.2, 2e-4 at 0.5). Below theta = fp32_min_theta,
+// where the truncation error is no longer far above FP32 round-off, or where a softening or mass lies
+// outside FP32's comfortable range, it keeps FP64 (eight entries at a time, 1 / sqrt from a refined
+// reciprocal square root within a few units in the last place, see gravity_avx512.hpp); for the cells
+// alone when only the nearest pairs' distances are out of range. A particle's sum is formed in an order
+// set by the tree and the kernel alone, so the result is bit-identical on any number of threads.
 #pragma once
 #include <array>
 #include <cstddef>
@@ -32,8 +36,11 @@ using gravity_direct::Isa;
 class Tree {
  public:
   // theta <= 0 opens every cell: direct summation, up to round-off.
+  // From this theta on the AVX-512 kernel sums in FP32 (see above).
+  static constexpr double fp32_min_theta = 0.2;
+  // Built on `threads` threads where the work splits evenly (the same tree on any number).
   template <int D>
-  Tree(const Particles<D>& P, double theta, int leaf_size = 16, int group_size = 64);
+  Tree(const Particles<D>& P, double theta, int threads = 1, int leaf_size = 16, int group_size = 64);
 
   struct Counts {
     std::size_t particle_pairs = 0, particle_cells = 0;   // terms summed (ordered pairs, particle-cell)
@@ -67,7 +74,11 @@ class Tree {
   void moments(int id);
 
   double theta_;
-  double len_ = 1, mass_unit_ = 1;        // powers of two: the FP32 cell terms' units (gravity_tree.cpp)
+  // The FP32 copies' frame: positions relative to origin_ in units of len_, masses in units of mass_unit_
+  // (len_ and mass_unit_ are powers of two near the root cube's edge and the total mass: exact scaling).
+  std::array<double, 3> origin_{};
+  double len_ = 1, mass_unit_ = 1;
+  bool fp32_masses_ = false;              // every mass is 0 or at least 1e-20 mass_unit_: normal in FP32
   int leaf_size_, group_size_;
   std::vector<int> order_;                // order_[k] = particle index of the k-th in Morton order
   std::vector<double> x_, y_, z_, m_;     // positions and masses in Morton order
@@ -77,10 +88,14 @@ class Tree {
   // What a cell used whole adds to the lists, in one record: com x, y, z, mass, quadrupole.
   using Multipole = std::array<double, 10>;
   std::vector<Multipole> multipoles_;
+  // Their FP32 copies: com x hi, x lo, y hi, y lo, z hi, z lo, mass, quadrupole.
+  using Multipole32 = std::array<float, 13>;
+  std::vector<Multipole32> multipoles32_;
+  std::vector<float> xh_, xl_, yh_, yl_, zh_, zl_, m32_;   // FP32 copies of the particles, Morton order
   std::vector<int> groups_;               // cells walked for, in Morton order
 };
 
-extern template Tree::Tree(const Particles<2>&, double, int, int);
-extern template Tree::Tree(const Particles<3>&, double, int, int);
+extern template Tree::Tree(const Particles<2>&, double, int, int, int);
+extern template Tree::Tree(const Particles<3>&, double, int, int, int);
 
 }  // namespace grains::gravity_tree
