@@ -353,6 +353,94 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
   }
   return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
 }
+
+// ---------------------------------------------------------------------------------------------
+// Walk of one group (box lo .. hi): from the root down, the children of every opened cell are tested in
+// turn; those whose centre of mass lies beyond their opening distance from the box are used whole (their
+// ids appended to `used`), leaves among the rest give their particles (`add(begin, end)`), and the other
+// cells are opened in their turn, last pushed first. The group's own cell is skipped (its particles come
+// first in the lists). Both walks give the same lists in the same order; they return the least squared
+// distance of a used cell to the box.
+// ---------------------------------------------------------------------------------------------
+
+template <class Nodes, class AddParticles>
+double walk_portable(const Nodes& N, int group, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                     std::vector<int>& stack, std::vector<int>& used, AddParticles&& add) {
+  double near2 = std::numeric_limits<double>::infinity();
+  if (group == 0) return near2;   // the whole tree is the group
+  stack.assign(1, 0);
+  while (!stack.empty()) {
+    const int id = stack.back();
+    stack.pop_back();
+    for (int k = N.first_child[id], last = k + N.children[id]; k < last; ++k) {
+      if (k == group) continue;
+      // From the centre of mass to the group's box.
+      const double dx = std::max({lo[0] - N.cx[k], N.cx[k] - hi[0], 0.0});
+      const double dy = std::max({lo[1] - N.cy[k], N.cy[k] - hi[1], 0.0});
+      const double dz = std::max({lo[2] - N.cz[k], N.cz[k] - hi[2], 0.0});
+      const double d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 > N.accept2[k]) {
+        used.push_back(k), near2 = std::min(near2, d2);
+      } else if (N.children[k] == 0) {
+        add(N.begin[k], N.end[k]);
+      } else {
+        stack.push_back(k);
+      }
+    }
+  }
+  return near2;
+}
+
+// The same walk with the (at most eight) children of a cell tested in one vector: their used and opened ids
+// stored compressed, in order. The distances are formed as in walk_portable (no fused multiply-add), so
+// every decision is the same.
+template <class Nodes, class AddParticles>
+GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                                 std::vector<int>& stack, std::vector<int>& used, AddParticles&& add) {
+  double near2 = std::numeric_limits<double>::infinity();
+  if (group == 0) return near2;
+  const __m512d lx = _mm512_set1_pd(lo[0]), ly = _mm512_set1_pd(lo[1]), lz = _mm512_set1_pd(lo[2]);
+  const __m512d hx = _mm512_set1_pd(hi[0]), hy = _mm512_set1_pd(hi[1]), hz = _mm512_set1_pd(hi[2]);
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  std::size_t top = 0, n_used = used.size();
+  stack.resize(64), stack[top++] = 0;
+  while (top > 0) {
+    const int id = stack[--top];
+    const int first = N.first_child[id], count = N.children[id];
+    const __mmask8 kids = __mmask8((1u << count) - 1);
+    const __m512d cx = _mm512_maskz_loadu_pd(kids, &N.cx[first]), cy = _mm512_maskz_loadu_pd(kids, &N.cy[first]);
+    const __m512d cz = _mm512_maskz_loadu_pd(kids, &N.cz[first]), accept2 = _mm512_maskz_loadu_pd(kids, &N.accept2[first]);
+    const __m512d dx = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(lx, cx), _mm512_sub_pd(cx, hx)), zero);
+    const __m512d dy = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(ly, cy), _mm512_sub_pd(cy, hy)), zero);
+    const __m512d dz = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(lz, cz), _mm512_sub_pd(cz, hz)), zero);
+    const __m512d d2 = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)), _mm512_mul_pd(dz, dz));
+    const unsigned self = group >= first && group < first + count ? 1u << (group - first) : 0u;
+    const __mmask8 use = _mm512_mask_cmp_pd_mask(__mmask8(kids & ~self), d2, accept2, _CMP_GT_OQ);
+    const unsigned open = kids & ~self & ~unsigned(use);
+    const __m512i ids = _mm512_add_epi32(_mm512_set1_epi32(first), lane);
+    if (use) {
+      used.resize(n_used + 16);
+      _mm512_mask_compressstoreu_epi32(&used[n_used], use, ids);
+      n_used += std::size_t(__builtin_popcount(use));
+      used.resize(n_used);
+      near2 = std::min(near2, _mm512_mask_reduce_min_pd(use, d2));
+    }
+    if (open) {
+      const __mmask16 leaves = __mmask16(open) & _mm512_cmpeq_epi32_mask(_mm512_maskz_loadu_epi32(__mmask16(kids), &N.children[first]),
+                                                                        _mm512_setzero_si512());
+      for (unsigned bits = leaves; bits; bits &= bits - 1) {
+        const int k = first + __builtin_ctz(bits);
+        add(N.begin[k], N.end[k]);
+      }
+      const __mmask16 inner = __mmask16(open & ~unsigned(leaves));
+      if (top + 16 > stack.size()) stack.resize(2 * stack.size() + 16);
+      _mm512_mask_compressstoreu_epi32(&stack[top], inner, ids);
+      top += std::size_t(__builtin_popcount(inner));
+    }
+  }
+  return near2;
+}
 #pragma GCC diagnostic pop
 
 }  // namespace
@@ -416,14 +504,16 @@ Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int 
   quad_.assign(cells_.size(), Quadrupole{});
   for (int id = int(cells_.size()) - 1; id >= 0; --id) moments(id);   // children come after their parent
   const std::size_t cells = cells_.size();
-  nodes_.resize(cells);
+  for (auto* v : {&nodes_.cx, &nodes_.cy, &nodes_.cz, &nodes_.accept2}) v->resize(cells);
+  for (auto* v : {&nodes_.first_child, &nodes_.children, &nodes_.begin, &nodes_.end}) v->resize(cells);
   multipoles_.resize(cells);
   multipoles32_.resize(cells);
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : masses_ok)
   for (std::size_t id = 0; id < cells; ++id) {
     const Cell& c = cells_[id];
     const Quadrupole& Q = quad_[id];
-    nodes_[id] = Node{c.com[0], c.com[1], c.com[2], c.accept2, c.first_child, c.children, c.begin, c.end};
+    nodes_.cx[id] = c.com[0], nodes_.cy[id] = c.com[1], nodes_.cz[id] = c.com[2], nodes_.accept2[id] = c.accept2;
+    nodes_.first_child[id] = c.first_child, nodes_.children[id] = c.children, nodes_.begin[id] = c.begin, nodes_.end[id] = c.end;
     multipoles_[id] = {c.com[0], c.com[1], c.com[2], c.mass, Q[0], Q[1], Q[2], Q[3], Q[4], Q[5]};
     Multipole32& f = multipoles32_[id];
     split(c.com[0], 0, f[0], f[1]), split(c.com[1], 1, f[2], f[3]), split(c.com[2], 2, f[4], f[5]);
@@ -558,26 +648,9 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       add_particles(b, e);
       // Cells used whole are noted during the walk and copied into the lists after it.
       used.clear();
-      double near2 = std::numeric_limits<double>::infinity();   // least squared distance of a used cell to the box
-      stack.assign(1, 0);
-      while (!stack.empty()) {
-        const int id = stack.back();
-        stack.pop_back();
-        if (id == groups_[g]) continue;   // its particles are listed first
-        const Node& c = nodes_[id];
-        // From the centre of mass to the group's box.
-        const double dx = std::max({lo[0] - c.cx, c.cx - hi[0], 0.0});
-        const double dy = std::max({lo[1] - c.cy, c.cy - hi[1], 0.0});
-        const double dz = std::max({lo[2] - c.cz, c.cz - hi[2], 0.0});
-        if (dx * dx + dy * dy + dz * dz > c.accept2) {
-          used.push_back(id);
-          near2 = std::min(near2, dx * dx + dy * dy + dz * dz);
-        } else if (c.children == 0) {
-          add_particles(c.begin, c.end);
-        } else {
-          for (int k = c.first_child + c.children - 1; k >= c.first_child; --k) stack.push_back(k);
-        }
-      }
+      // The least squared distance of a used cell to the group's box.
+      const double near2 = isa == Isa::avx512 ? walk_avx512(nodes_, groups_[g], lo, hi, stack, used, add_particles)
+                                              : walk_portable(nodes_, groups_[g], lo, hi, stack, used, add_particles);
       L.pad_particles();
       const std::size_t u = used.size();
       L.fp32_cells = fp32_particles || (fp32 && u > 0 && (near2 + eps2) / (len_ * len_) >= 1e-10);

@@ -4,7 +4,7 @@
 // the 2^D-ary tree holds one contiguous run of them; a cell of more than `leaf_size` particles is split.
 // Moments are formed bottom-up (children's by the parallel-axis rule).
 // Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
-// particles. A cell is used whole when its centre of mass lies farther than max(s / theta, b_max) from the
+// particles; an opened cell's children are tested together (at once on AVX-512). A cell is used whole when its centre of mass lies farther than max(s / theta, b_max) from the
 // group's bounding box, s being the longest edge of the cell's particles' bounding box (not of the
 // geometric cell) and b_max the distance from the centre of mass to that box's farthest corner; otherwise
 // it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
@@ -61,10 +61,11 @@ class Tree {
     int first_child = -1, children = 0;  // children are stored together
     int begin = 0, end = 0;              // particles, in Morton order
   };
-  // What the walk reads of a cell on every visit, packed in 48 bytes (a Cell takes 104).
-  struct Node {
-    double cx, cy, cz, accept2;
-    int first_child, children, begin, end;
+  // What the walk reads of the cells (a Cell takes 104 bytes), one array per field: the children of a cell
+  // are stored together, so the AVX-512 walk tests all of them at once.
+  struct Nodes {
+    std::vector<double> cx, cy, cz, accept2;
+    std::vector<int> first_child, children, begin, end;
   };
   // Sum m (3 d d^T - |d|^2 I), d = x - com: xx, xy, xz, yy, yz, zz.
   using Quadrupole = std::array<double, 6>;
@@ -83,7 +84,7 @@ class Tree {
   std::vector<int> order_;                // order_[k] = particle index of the k-th in Morton order
   std::vector<double> x_, y_, z_, m_;     // positions and masses in Morton order
   std::vector<Cell> cells_;
-  std::vector<Node> nodes_;                // the walk's copy of cells_
+  Nodes nodes_;                           // the walk's copy of cells_
   std::vector<Quadrupole> quad_;
   // What a cell used whole adds to the lists, in one record: com x, y, z, mass, quadrupole.
   using Multipole = std::array<double, 10>;
