@@ -131,12 +131,103 @@ GRAINS_AVX2 inline double lane_sum(__m256d v) {
   return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
 }
 
+// The FP32 sums of the AVX-512 kernels below (see there why FP32 serves), eight list entries at a time. 1 / h
+// from the correctly rounded square root and division, not the reciprocal square root estimate, whose bits
+// differ between processor makers: the results are the same on any AVX2 processor.
+struct Sums32x8 {
+  __m256 x, y, z, phi;
+};
+
+GRAINS_AVX2 inline Sums32x8 zero_sums32x8() {
+  const __m256 zero = _mm256_setzero_ps();
+  return Sums32x8{zero, zero, zero, zero};
+}
+
+// Float lanes j0 .. j0 + 7 with j < end and j != skip, as all ones / all zeros per lane.
+GRAINS_AVX2 inline __m256 lanes8_kept_ps(std::size_t j0, std::size_t end, std::size_t skip) {
+  const __m256i j = _mm256_add_epi32(_mm256_set1_epi32(int(j0)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  const __m256i below = _mm256_cmpgt_epi32(_mm256_set1_epi32(int(end)), j);
+  const __m256i self = _mm256_cmpeq_epi32(j, _mm256_set1_epi32(int(skip)));
+  return _mm256_castsi256_ps(_mm256_andnot_si256(self, below));
+}
+
+template <bool potential>
+GRAINS_AVX2 void particle_sums_fp32_avx2(const Lists& L, std::size_t self, __m256 e2, Sums32x8& f) {
+  const __m256 xh = _mm256_set1_ps(L.pxh[self]), yh = _mm256_set1_ps(L.pyh[self]), zh = _mm256_set1_ps(L.pzh[self]);
+  const __m256 xl = _mm256_set1_ps(L.pxl[self]), yl = _mm256_set1_ps(L.pyl[self]), zl = _mm256_set1_ps(L.pzl[self]);
+  const __m256 one = _mm256_set1_ps(1.0f);
+  const std::size_t self_vector = self / 8 * 8;
+  for (std::size_t j0 = 0; j0 < L.particles; j0 += 8) {
+    const __m256 dx = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.pxh[j0]), xh), _mm256_sub_ps(_mm256_loadu_ps(&L.pxl[j0]), xl));
+    const __m256 dy = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.pyh[j0]), yh), _mm256_sub_ps(_mm256_loadu_ps(&L.pyl[j0]), yl));
+    const __m256 dz = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.pzh[j0]), zh), _mm256_sub_ps(_mm256_loadu_ps(&L.pzl[j0]), zl));
+    const __m256 r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_fmadd_ps(dx, dx, e2)));
+    __m256 t = _mm256_div_ps(one, _mm256_mul_ps(r2, _mm256_sqrt_ps(r2)));
+    if (j0 == self_vector || j0 + 8 > L.particles) t = _mm256_and_ps(t, lanes8_kept_ps(j0, L.particles, self));
+    const __m256 w = _mm256_mul_ps(_mm256_loadu_ps(&L.pm[j0]), t);
+    f.x = _mm256_fmadd_ps(w, dx, f.x), f.y = _mm256_fmadd_ps(w, dy, f.y), f.z = _mm256_fmadd_ps(w, dz, f.z);
+    if constexpr (potential) f.phi = _mm256_fnmadd_ps(w, r2, f.phi);   // m / h = m t r2
+  }
+}
+
+template <bool potential>
+GRAINS_AVX2 void cell_sums_fp32_avx2(const Lists& L, float xh, float xl, float yh, float yl, float zh, float zl, __m256 e2,
+                                     Sums32x8& f) {
+  const __m256 xhv = _mm256_set1_ps(xh), yhv = _mm256_set1_ps(yh), zhv = _mm256_set1_ps(zh);
+  const __m256 xlv = _mm256_set1_ps(xl), ylv = _mm256_set1_ps(yl), zlv = _mm256_set1_ps(zl);
+  const __m256 one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f), five_halves = _mm256_set1_ps(2.5f);
+  for (std::size_t j0 = 0; j0 < L.cells; j0 += 8) {
+    const __m256 dx = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.fxh[j0]), xhv), _mm256_sub_ps(_mm256_loadu_ps(&L.fxl[j0]), xlv));
+    const __m256 dy = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.fyh[j0]), yhv), _mm256_sub_ps(_mm256_loadu_ps(&L.fyl[j0]), ylv));
+    const __m256 dz = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.fzh[j0]), zhv), _mm256_sub_ps(_mm256_loadu_ps(&L.fzl[j0]), zlv));
+    const __m256 r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_fmadd_ps(dx, dx, e2)));
+    __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(r2));
+    if (j0 + 8 > L.cells) inv = _mm256_and_ps(inv, lanes8_kept_ps(j0, L.cells, L.cells));   // padding
+    const __m256 inv2 = _mm256_mul_ps(inv, inv), inv3 = _mm256_mul_ps(inv, inv2), inv5 = _mm256_mul_ps(inv3, inv2);
+    const __m256 qxx = _mm256_loadu_ps(&L.fqxx[j0]), qxy = _mm256_loadu_ps(&L.fqxy[j0]), qxz = _mm256_loadu_ps(&L.fqxz[j0]);
+    const __m256 qyy = _mm256_loadu_ps(&L.fqyy[j0]), qyz = _mm256_loadu_ps(&L.fqyz[j0]), qzz = _mm256_loadu_ps(&L.fqzz[j0]);
+    const __m256 qx = _mm256_fmadd_ps(qxz, dz, _mm256_fmadd_ps(qxy, dy, _mm256_mul_ps(qxx, dx)));
+    const __m256 qy = _mm256_fmadd_ps(qyz, dz, _mm256_fmadd_ps(qyy, dy, _mm256_mul_ps(qxy, dx)));
+    const __m256 qz = _mm256_fmadd_ps(qzz, dz, _mm256_fmadd_ps(qyz, dy, _mm256_mul_ps(qxz, dx)));
+    const __m256 rQr = _mm256_fmadd_ps(dz, qz, _mm256_fmadd_ps(dy, qy, _mm256_mul_ps(dx, qx)));
+    const __m256 M = _mm256_loadu_ps(&L.fm[j0]);
+    const __m256 rQr_inv5 = _mm256_mul_ps(rQr, inv5);
+    const __m256 a = _mm256_fmadd_ps(M, inv3, _mm256_mul_ps(five_halves, _mm256_mul_ps(rQr_inv5, inv2)));
+    f.x = _mm256_fnmadd_ps(inv5, qx, _mm256_fmadd_ps(a, dx, f.x));
+    f.y = _mm256_fnmadd_ps(inv5, qy, _mm256_fmadd_ps(a, dy, f.y));
+    f.z = _mm256_fnmadd_ps(inv5, qz, _mm256_fmadd_ps(a, dz, f.z));
+    if constexpr (potential) f.phi = _mm256_sub_ps(f.phi, _mm256_fmadd_ps(M, inv, _mm256_mul_ps(half, rQr_inv5)));
+  }
+}
+
+// Float lanes k and k + 4 added in FP64, times `unit` (a power of two: exact), added to s.
+GRAINS_AVX2 inline __m256d add_widened4(__m256d s, __m256 v, double unit) {
+  const __m256d w = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(v)), _mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)));
+  return _mm256_add_pd(s, _mm256_mul_pd(w, _mm256_set1_pd(unit)));
+}
+
+template <bool potential>
+GRAINS_AVX2 void add_widened_avx2(const Lists& L, const Sums32x8& f, __m256d& sx, __m256d& sy, __m256d& sz, __m256d& sp) {
+  const double il = 1 / L.len, unit_a = L.mass * il * il;
+  sx = add_widened4(sx, f.x, unit_a), sy = add_widened4(sy, f.y, unit_a), sz = add_widened4(sz, f.z, unit_a);
+  if constexpr (potential) sp = add_widened4(sp, f.phi, L.mass * il);
+}
+
 // The potential only when asked for (it costs a few operations per term).
 template <bool potential>
 GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
+  __m256d sx = _mm256_setzero_pd(), sy = sx, sz = sx, sp = sx;
+  const double il = 1 / L.len;
+  const __m256 e2_fp32 = _mm256_set1_ps(float(eps2 * il * il));
+  if (L.fp32_particles) {   // then the cells are FP32 too
+    Sums32x8 f = zero_sums32x8();
+    particle_sums_fp32_avx2<potential>(L, self, e2_fp32, f);
+    cell_sums_fp32_avx2<potential>(L, L.pxh[self], L.pxl[self], L.pyh[self], L.pyl[self], L.pzh[self], L.pzl[self], e2_fp32, f);
+    add_widened_avx2<potential>(L, f, sx, sy, sz, sp);
+    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
+  }
   const __m256d xi = _mm256_set1_pd(L.x[self]), yi = _mm256_set1_pd(L.y[self]), zi = _mm256_set1_pd(L.z[self]);
   const __m256d e2 = _mm256_set1_pd(eps2), one = _mm256_set1_pd(1.0);
-  __m256d sx = _mm256_setzero_pd(), sy = sx, sz = sx, sp = sx;
   // Particles: the vector holding `self` and the last one are masked (self and padding would add 0 * inf).
   const std::size_t self_vector = self / W * W;
   for (std::size_t j0 = 0; j0 < L.particles; j0 += W) {
@@ -149,6 +240,14 @@ GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
     const __m256d w = _mm256_mul_pd(_mm256_loadu_pd(&L.m[j0]), t);
     sx = _mm256_fmadd_pd(w, dx, sx), sy = _mm256_fmadd_pd(w, dy, sy), sz = _mm256_fmadd_pd(w, dz, sz);
     if constexpr (potential) sp = _mm256_fnmadd_pd(w, r2, sp);   // m / h = m t r2
+  }
+  if (L.fp32_cells) {
+    const double X = (L.x[self] - L.gx) * il, Y = (L.y[self] - L.gy) * il, Z = (L.z[self] - L.gz) * il;
+    const float xh = float(X), yh = float(Y), zh = float(Z);
+    Sums32x8 f = zero_sums32x8();
+    cell_sums_fp32_avx2<potential>(L, xh, float(X - xh), yh, float(Y - yh), zh, float(Z - zh), e2_fp32, f);
+    add_widened_avx2<potential>(L, f, sx, sy, sz, sp);
+    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
   }
   // Cells (portable kernel above for the formulas); the last vector is masked.
   const __m256d half = _mm256_set1_pd(0.5), five_halves = _mm256_set1_pd(2.5);
@@ -215,8 +314,8 @@ inline __mmask16 lanes16_kept(std::size_t j0, std::size_t end, std::size_t skip)
 // keeps FP64 where h could leave the range in which h^-7 and the like stay normal floats (Tree::evaluate).
 // 1 / h: vrsqrt14ps and one Newton step (2^-14 -> ~1e-8, below FP32 round-off). Each particle's sums stay in
 // FP32 lanes to the end of its lists (about a hundred terms a lane), then are widened, scaled back and
-// summed in FP64 in a fixed order: deterministic as before. Measured against the FP64 kernels: within 1e-6
-// of each particle's acceleration (tests/engine/test_gravity.cpp).
+// summed in FP64 in a fixed order: deterministic. Measured against the FP64 kernels: within 1e-6 of each
+// particle's acceleration (tests/engine/test_gravity.cpp, bound 4e-6).
 struct Sums32 {
   __m512 x, y, z, phi;
 };
@@ -618,7 +717,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
   // floats. Particles: h >= eps, so the softening decides for the whole walk. Cells: h^2 >= near2 + eps2,
   // decided group by group.
   const double scaled_eps2 = eps2 / (len_ * len_);
-  const bool fp32 = isa == Isa::avx512 && theta_ >= fp32_min_theta && fp32_masses_ && scaled_eps2 <= 1e10;
+  const bool fp32 = isa != Isa::portable && theta_ >= fp32_min_theta && fp32_masses_ && scaled_eps2 <= 1e10;
   const bool fp32_particles = fp32 && scaled_eps2 >= 1e-10;
   std::size_t pairs = 0, cell_terms = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : pairs, cell_terms)

@@ -10,17 +10,19 @@
 // it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
 // means used whole for each of its particles under the same rule per particle, so the group walk is never
 // coarser than a walk per particle at the same theta.
-// Every particle of the group then runs over the two lists with an AVX-512 kernel, an AVX2 + FMA one (four
-// entries at a time) or a portable one, picked at run time like gravity_direct. The AVX2 and portable
-// kernels are FP64 throughout, with a correctly rounded square root and division. The AVX-512 kernel sums
-// in FP32, sixteen entries at a time, from FP32 copies made when the tree is built (positions as float
-// hi + lo, so that differences keep FP32 precision anywhere): its round-off, ~1e-7 relative, stays far
-// below the expansion's truncation error (~1e-5 at theta 0.2, 2e-4 at 0.5). Below theta = fp32_min_theta,
-// where the truncation error is no longer far above FP32 round-off, or where a softening or mass lies
-// outside FP32's comfortable range, it keeps FP64 (eight entries at a time, 1 / sqrt from a refined
-// reciprocal square root within a few units in the last place, see gravity_avx512.hpp); for the cells
-// alone when only the nearest pairs' distances are out of range. A particle's sum is formed in an order
-// set by the tree and the kernel alone, so the result is bit-identical on any number of threads.
+// Every particle of the group then runs over the two lists with an AVX-512 kernel, an AVX2 + FMA one or a
+// portable one, picked at run time like gravity_direct. The portable kernel is FP64 throughout, with a
+// correctly rounded square root and division. The vector kernels sum in FP32 (sixteen or eight entries at a
+// time) from FP32 copies made when the tree is built (positions as float hi + lo, so that differences keep
+// FP32 precision anywhere): their round-off, ~1e-7 relative, stays far below the expansion's truncation
+// error (~1e-5 at theta 0.2, 2e-4 at 0.5). AVX2 takes 1 / h from the correctly rounded square root and
+// division (the same bits on any maker's processor), AVX-512 from vrsqrt14ps and a Newton step. Below theta =
+// fp32_min_theta, where the truncation error is no longer far above FP32 round-off, or where a softening or
+// mass lies outside FP32's comfortable range, they keep FP64 (AVX-512: eight entries at a time, 1 / sqrt from
+// a refined reciprocal square root within a few units in the last place, see gravity_avx512.hpp; AVX2: four,
+// correctly rounded); for the cells alone when only the nearest pairs' distances are out of range. A
+// particle's sum is formed in an order set by the tree and the kernel alone, so the result is bit-identical
+// on any number of threads.
 #pragma once
 #include <array>
 #include <cstddef>
@@ -36,7 +38,7 @@ using gravity_direct::Isa;
 class Tree {
  public:
   // theta <= 0 opens every cell: direct summation, up to round-off.
-  // From this theta on the AVX-512 kernel sums in FP32 (see above).
+  // From this theta on the vector kernels sum in FP32 (see above).
   static constexpr double fp32_min_theta = 0.2;
   // Built on `threads` threads where the work splits evenly (the same tree on any number).
   template <int D>
