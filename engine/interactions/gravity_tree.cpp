@@ -454,12 +454,15 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Walk of one group (box lo .. hi): from the root down, the children of every opened cell are tested in
-// turn; those whose centre of mass lies beyond their opening distance from the box are used whole (their
-// ids appended to `used`), leaves among the rest give their particles (`add(begin, end)`), and the other
-// cells are opened in their turn, last pushed first. The group's own cell is skipped (its particles come
-// first in the lists). Both walks give the same lists in the same order; they return the least squared
-// distance of a used cell to the box.
+// Walk of one group (cell `group`, box lo .. hi): from the root down, the children of every opened cell are
+// tested in turn; those whose centre of mass lies beyond their opening distance from the box are used whole
+// (their ids appended to `used`), leaves among the rest give their particles (`add(begin, end)`), and the
+// other cells are opened in their turn, last pushed first. The group's own cell is skipped (its particles
+// come first in the lists), and a cell holding the group is always opened: mathematically it never lies
+// beyond its b_max from the box, but at equality (the group at the far corner of the cell's box) rounding
+// could pass it. Both walks give the same lists in the same order (gravity_tree.cpp is compiled without
+// multiply-add contraction, so d2 rounds alike); they return the least squared distance of a used cell to
+// the box.
 // ---------------------------------------------------------------------------------------------
 
 template <class Nodes, class AddParticles>
@@ -467,6 +470,7 @@ double walk_portable(const Nodes& N, int group, const std::array<double, 3>& lo,
                      std::vector<int>& stack, std::vector<int>& used, AddParticles&& add) {
   double near2 = std::numeric_limits<double>::infinity();
   if (group == 0) return near2;   // the whole tree is the group
+  const int group_begin = N.begin[group], group_end = N.end[group];
   stack.assign(1, 0);
   while (!stack.empty()) {
     const int id = stack.back();
@@ -478,7 +482,8 @@ double walk_portable(const Nodes& N, int group, const std::array<double, 3>& lo,
       const double dy = std::max({lo[1] - N.cy[k], N.cy[k] - hi[1], 0.0});
       const double dz = std::max({lo[2] - N.cz[k], N.cz[k] - hi[2], 0.0});
       const double d2 = dx * dx + dy * dy + dz * dz;
-      if (d2 > N.accept2[k]) {
+      const bool holds_group = N.begin[k] <= group_begin && group_end <= N.end[k];
+      if (d2 > N.accept2[k] && !holds_group) {
         used.push_back(k), near2 = std::min(near2, d2);
       } else if (N.children[k] == 0) {
         add(N.begin[k], N.end[k]);
@@ -491,7 +496,8 @@ double walk_portable(const Nodes& N, int group, const std::array<double, 3>& lo,
 }
 
 // The same walk with the (at most eight) children of a cell tested in one vector: their used and opened ids
-// stored compressed, in order. The distances are formed as in walk_portable (no fused multiply-add), so
+// compressed in a register, in order, and stored whole (into 16 slots of slack: a compressing store to
+// memory is slow on some processors). The distances are formed as in walk_portable (no multiply-add), so
 // every decision is the same.
 template <class Nodes, class AddParticles>
 GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
@@ -502,6 +508,7 @@ GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<dou
   const __m512d hx = _mm512_set1_pd(hi[0]), hy = _mm512_set1_pd(hi[1]), hz = _mm512_set1_pd(hi[2]);
   const __m512d zero = _mm512_setzero_pd();
   const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i group_begin = _mm512_set1_epi32(N.begin[group]), group_end = _mm512_set1_epi32(N.end[group]);
   std::size_t top = 0, n_used = used.size();
   stack.resize(64), stack[top++] = 0;
   while (top > 0) {
@@ -515,18 +522,21 @@ GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<dou
     const __m512d dz = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(lz, cz), _mm512_sub_pd(cz, hz)), zero);
     const __m512d d2 = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)), _mm512_mul_pd(dz, dz));
     const unsigned self = group >= first && group < first + count ? 1u << (group - first) : 0u;
-    const __mmask8 use = _mm512_mask_cmp_pd_mask(__mmask8(kids & ~self), d2, accept2, _CMP_GT_OQ);
+    const __mmask16 k16 = __mmask16(kids);
+    const unsigned holds_group = _mm512_mask_cmple_epi32_mask(k16, _mm512_maskz_loadu_epi32(k16, &N.begin[first]), group_begin) &
+                                 _mm512_mask_cmpge_epi32_mask(k16, _mm512_maskz_loadu_epi32(k16, &N.end[first]), group_end);
+    const __mmask8 use = _mm512_mask_cmp_pd_mask(__mmask8(kids & ~holds_group), d2, accept2, _CMP_GT_OQ);
     const unsigned open = kids & ~self & ~unsigned(use);
     const __m512i ids = _mm512_add_epi32(_mm512_set1_epi32(first), lane);
     if (use) {
       used.resize(n_used + 16);
-      _mm512_mask_compressstoreu_epi32(&used[n_used], use, ids);
+      _mm512_storeu_si512(&used[n_used], _mm512_maskz_compress_epi32(use, ids));
       n_used += std::size_t(__builtin_popcount(use));
       used.resize(n_used);
       near2 = std::min(near2, _mm512_mask_reduce_min_pd(use, d2));
     }
     if (open) {
-      const __mmask16 leaves = __mmask16(open) & _mm512_cmpeq_epi32_mask(_mm512_maskz_loadu_epi32(__mmask16(kids), &N.children[first]),
+      const __mmask16 leaves = __mmask16(open) & _mm512_cmpeq_epi32_mask(_mm512_maskz_loadu_epi32(k16, &N.children[first]),
                                                                         _mm512_setzero_si512());
       for (unsigned bits = leaves; bits; bits &= bits - 1) {
         const int k = first + __builtin_ctz(bits);
@@ -534,7 +544,7 @@ GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<dou
       }
       const __mmask16 inner = __mmask16(open & ~unsigned(leaves));
       if (top + 16 > stack.size()) stack.resize(2 * stack.size() + 16);
-      _mm512_mask_compressstoreu_epi32(&stack[top], inner, ids);
+      _mm512_storeu_si512(&stack[top], _mm512_maskz_compress_epi32(inner, ids));
       top += std::size_t(__builtin_popcount(inner));
     }
   }

@@ -6,16 +6,16 @@
 // Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
 // particles; an opened cell's children are tested together (at once on AVX-512). A cell is used whole when its centre of mass lies farther than max(s / theta, b_max) from the
 // group's bounding box, s being the longest edge of the cell's particles' bounding box (not of the
-// geometric cell) and b_max the distance from the centre of mass to that box's farthest corner; otherwise
-// it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
+// geometric cell) and b_max the distance from the centre of mass to that box's farthest corner, and does
+// not hold the group; otherwise it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
 // means used whole for each of its particles under the same rule per particle, so the group walk is never
 // coarser than a walk per particle at the same theta.
 // Every particle of the group then runs over the two lists with an AVX-512 kernel, an AVX2 + FMA one or a
 // portable one, picked at run time like gravity_direct. The portable kernel is FP64 throughout, with a
 // correctly rounded square root and division. The vector kernels sum in FP32 (sixteen or eight entries at a
 // time) from FP32 copies made when the tree is built (positions as float hi + lo, so that differences keep
-// FP32 precision anywhere): their round-off, ~1e-7 relative, stays far below the expansion's truncation
-// error (~1e-5 at theta 0.2, 2e-4 at 0.5). AVX2 takes 1 / h from the correctly rounded square root and
+// FP32 precision anywhere): their round-off, ~1e-7 of the terms' size, stays far below the expansion's
+// truncation error (~1e-5 at theta 0.2, 2e-4 at 0.5). AVX2 takes 1 / h from the correctly rounded square root and
 // division (the same bits on any maker's processor), AVX-512 from vrsqrt14ps and a Newton step. Below theta =
 // fp32_min_theta, where the truncation error is no longer far above FP32 round-off, or where a softening or
 // mass lies outside FP32's comfortable range, they keep FP64 (AVX-512: eight entries at a time, 1 / sqrt from
