@@ -4,7 +4,7 @@
 // the 2^D-ary tree holds one contiguous run of them; a cell of more than `leaf_size` particles is split.
 // Moments are formed bottom-up (children's by the parallel-axis rule).
 // Walk: one traversal per group (the largest cells of at most `group_size` particles) serves all its
-// particles; an opened cell's children are tested together (at once on AVX-512). A cell is used whole when its centre of mass lies farther than max(s / theta, b_max) from the
+// particles; an opened cell's children are tested together (in vectors on AVX-512 and AVX2). A cell is used whole when its centre of mass lies farther than max(s / theta, b_max) from the
 // group's bounding box, s being the longest edge of the cell's particles' bounding box (not of the
 // geometric cell) and b_max the distance from the centre of mass to that box's farthest corner, and does
 // not hold the group; otherwise it is opened, and the particles of the leaves reached are summed one by one. Used whole for the group
@@ -64,7 +64,7 @@ class Tree {
     int begin = 0, end = 0;              // particles, in Morton order
   };
   // What the walk reads of the cells (a Cell takes 104 bytes), one array per field: the children of a cell
-  // are stored together, so the AVX-512 walk tests all of them at once.
+  // are stored together, so the vector walks test all of them at once.
   struct Nodes {
     std::vector<double> cx, cy, cz, accept2;
     std::vector<int> first_child, children, begin, end;

@@ -296,7 +296,7 @@ TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its kernels ag
     std::vector<double> ax1, ay1, az1, p1, ax2, ay2, az2, p2;
     const auto counts1 = tree.evaluate(isa, eps2, 1, ax1, ay1, az1, &p1);
     tree2.evaluate(isa, eps2, 2, ax2, ay2, az2, &p2);
-    // The AVX-512 walk tests a cell's children in one vector, the others one by one: the same terms.
+    // The vector walks test a cell's children together, the portable one one by one: the same terms.
     CHECK(counts1.particle_pairs == counts.particle_pairs);
     CHECK(counts1.particle_cells == counts.particle_cells);
     CHECK(ax1 == ax2);
