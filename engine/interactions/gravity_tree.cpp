@@ -27,7 +27,7 @@ struct Lists {
   std::vector<double> x, y, z, m;                                  // particles
   std::vector<double> cx, cy, cz, cm, qxx, qxy, qxz, qyy, qyz, qzz;   // cells
   std::size_t particles = 0, cells = 0;
-  // The AVX-512 kernel's FP32 copies (Tree::multipoles32_ and the particles' copies), used instead of the
+  // The vector kernels' FP32 copies (Tree::multipoles32_ and the particles' copies), used instead of the
   // FP64 ones when fp32_particles or fp32_cells: positions relative to (gx, gy, gz) in units of len, each
   // split into float hi + lo; masses in units of `mass`, quadrupoles in units of mass len^2. Padded to
   // whole 16-float vectors with zeros.
