@@ -460,7 +460,7 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
 // other cells are opened in their turn, last pushed first. The group's own cell is skipped (its particles
 // come first in the lists), and a cell holding the group is always opened: mathematically it never lies
 // beyond its b_max from the box, but at equality (the group at the far corner of the cell's box) rounding
-// could pass it. Both walks give the same lists in the same order (gravity_tree.cpp is compiled without
+// could pass it. All three walks give the same lists in the same order (gravity_tree.cpp is compiled without
 // multiply-add contraction, so d2 rounds alike); they return the least squared distance of a used cell to
 // the box.
 // ---------------------------------------------------------------------------------------------
@@ -496,7 +496,8 @@ double walk_portable(const Nodes& N, int group, const std::array<double, 3>& lo,
 }
 
 // The same walk with the (at most eight) children of a cell tested in two AVX2 vectors of four; the ids taken
-// from the masks bit by bit, in order.
+// from the masks bit by bit, in order. (Zero is max's first operand, so that a NaN distance stays NaN, as in
+// std::max, and the cell is opened alike.)
 template <class Nodes, class AddParticles>
 GRAINS_AVX2 double walk_avx2(const Nodes& N, int group, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                              std::vector<int>& stack, std::vector<int>& used, AddParticles&& add) {
@@ -513,9 +514,9 @@ GRAINS_AVX2 double walk_avx2(const Nodes& N, int group, const std::array<double,
     const __m256i in = _mm256_cmpgt_epi64(_mm256_set1_epi64x(count - j0), _mm256_setr_epi64x(0, 1, 2, 3));
     const __m256d cx = _mm256_maskload_pd(&N.cx[first + j0], in), cy = _mm256_maskload_pd(&N.cy[first + j0], in);
     const __m256d cz = _mm256_maskload_pd(&N.cz[first + j0], in), accept2 = _mm256_maskload_pd(&N.accept2[first + j0], in);
-    const __m256d dx = _mm256_max_pd(_mm256_max_pd(_mm256_sub_pd(lx, cx), _mm256_sub_pd(cx, hx)), zero);
-    const __m256d dy = _mm256_max_pd(_mm256_max_pd(_mm256_sub_pd(ly, cy), _mm256_sub_pd(cy, hy)), zero);
-    const __m256d dz = _mm256_max_pd(_mm256_max_pd(_mm256_sub_pd(lz, cz), _mm256_sub_pd(cz, hz)), zero);
+    const __m256d dx = _mm256_max_pd(zero, _mm256_max_pd(_mm256_sub_pd(lx, cx), _mm256_sub_pd(cx, hx)));
+    const __m256d dy = _mm256_max_pd(zero, _mm256_max_pd(_mm256_sub_pd(ly, cy), _mm256_sub_pd(cy, hy)));
+    const __m256d dz = _mm256_max_pd(zero, _mm256_max_pd(_mm256_sub_pd(lz, cz), _mm256_sub_pd(cz, hz)));
     d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
     return unsigned(_mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(d2, accept2, _CMP_GT_OQ), _mm256_castsi256_pd(in))));
   };
@@ -578,9 +579,9 @@ GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<dou
     const __mmask8 kids = __mmask8((1u << count) - 1);
     const __m512d cx = _mm512_maskz_loadu_pd(kids, &N.cx[first]), cy = _mm512_maskz_loadu_pd(kids, &N.cy[first]);
     const __m512d cz = _mm512_maskz_loadu_pd(kids, &N.cz[first]), accept2 = _mm512_maskz_loadu_pd(kids, &N.accept2[first]);
-    const __m512d dx = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(lx, cx), _mm512_sub_pd(cx, hx)), zero);
-    const __m512d dy = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(ly, cy), _mm512_sub_pd(cy, hy)), zero);
-    const __m512d dz = _mm512_max_pd(_mm512_max_pd(_mm512_sub_pd(lz, cz), _mm512_sub_pd(cz, hz)), zero);
+    const __m512d dx = _mm512_max_pd(zero, _mm512_max_pd(_mm512_sub_pd(lx, cx), _mm512_sub_pd(cx, hx)));
+    const __m512d dy = _mm512_max_pd(zero, _mm512_max_pd(_mm512_sub_pd(ly, cy), _mm512_sub_pd(cy, hy)));
+    const __m512d dz = _mm512_max_pd(zero, _mm512_max_pd(_mm512_sub_pd(lz, cz), _mm512_sub_pd(cz, hz)));
     const __m512d d2 = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)), _mm512_mul_pd(dz, dz));
     const unsigned self = group >= first && group < first + count ? 1u << (group - first) : 0u;
     const __mmask16 k16 = __mmask16(kids);
@@ -613,7 +614,24 @@ GRAINS_AVX512 double walk_avx512(const Nodes& N, int group, const std::array<dou
 }
 #pragma GCC diagnostic pop
 
+// The walk of the kernel set `isa`.
+template <class Nodes, class AddParticles>
+double walk_of(const Nodes& N, Isa isa, int group, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+               std::vector<int>& stack, std::vector<int>& used, AddParticles&& add) {
+  if (isa == Isa::avx512) return walk_avx512(N, group, lo, hi, stack, used, add);
+  if (isa == Isa::avx2) return walk_avx2(N, group, lo, hi, stack, used, add);
+  return walk_portable(N, group, lo, hi, stack, used, add);
+}
+
 }  // namespace
+
+Tree::Walk Tree::walk(Isa isa, std::size_t g) const {
+  Walk w;
+  std::vector<int> stack;
+  const Cell& c = cells_[groups_.at(g)];
+  w.near2 = walk_of(nodes_, isa, groups_[g], c.lo, c.hi, stack, w.cells, [&w](int from, int to) { w.ranges.emplace_back(from, to); });
+  return w;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Build.
@@ -819,9 +837,7 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       // Cells used whole are noted during the walk and copied into the lists after it.
       used.clear();
       // The least squared distance of a used cell to the group's box.
-      const double near2 = isa == Isa::avx512 ? walk_avx512(nodes_, groups_[g], lo, hi, stack, used, add_particles)
-                           : isa == Isa::avx2 ? walk_avx2(nodes_, groups_[g], lo, hi, stack, used, add_particles)
-                                              : walk_portable(nodes_, groups_[g], lo, hi, stack, used, add_particles);
+      const double near2 = walk_of(nodes_, isa, groups_[g], lo, hi, stack, used, add_particles);
       L.pad_particles();
       const std::size_t u = used.size();
       L.fp32_cells = fp32_particles || (fp32 && u > 0 && (near2 + eps2) / (len_ * len_) >= 1e-10);

@@ -26,6 +26,7 @@
 #pragma once
 #include <array>
 #include <cstddef>
+#include <utility>
 #include <vector>
 
 #include "core/particles.hpp"
@@ -54,6 +55,16 @@ class Tree {
 
   std::size_t cell_count() const { return cells_.size(); }
   std::size_t group_count() const { return groups_.size(); }
+
+  // What the walk of kernel set `isa` gives for group g (0 <= g < group_count()): the cells used whole and the
+  // particle ranges (Morton order) summed one by one, in the order the lists take them, and the least squared
+  // distance of a used cell to the group's box. For tests: every kernel set's walk must give the same.
+  struct Walk {
+    std::vector<int> cells;
+    std::vector<std::pair<int, int>> ranges;
+    double near2 = 0;
+  };
+  Walk walk(Isa isa, std::size_t g) const;
 
  private:
   struct Cell {

@@ -296,9 +296,16 @@ TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its kernels ag
     std::vector<double> ax1, ay1, az1, p1, ax2, ay2, az2, p2;
     const auto counts1 = tree.evaluate(isa, eps2, 1, ax1, ay1, az1, &p1);
     tree2.evaluate(isa, eps2, 2, ax2, ay2, az2, &p2);
-    // The vector walks test a cell's children together, the portable one one by one: the same terms.
+    // The vector walks test a cell's children together, the portable one one by one: the same lists, in the
+    // same order, group by group.
     CHECK(counts1.particle_pairs == counts.particle_pairs);
     CHECK(counts1.particle_cells == counts.particle_cells);
+    std::size_t same = 0;
+    for (std::size_t g = 0; g < tree.group_count(); ++g) {
+      const auto w = tree.walk(isa, g), p = tree.walk(Isa::portable, g);
+      same += w.cells == p.cells && w.ranges == p.ranges && w.near2 == p.near2;
+    }
+    CHECK(same == tree.group_count());
     CHECK(ax1 == ax2);
     CHECK(ay1 == ay2);
     CHECK(az1 == az2);
