@@ -21,6 +21,18 @@ using morton::key_bits;
 using morton::radix_sort;
 using morton::spread_bits;
 
+// A coordinate v in the FP32 frame (relative to `origin`, times il = 1 / len) as float hi + lo: together they
+// hold it to about 48 bits, so that differences of such pairs keep FP32 precision however far from the origin.
+struct HiLo {
+  float hi, lo;
+};
+
+inline HiLo hi_lo(double v, double origin, double il) {
+  const double u = (v - origin) * il;
+  const float hi = float(u);
+  return {hi, float(u - double(hi))};
+}
+
 // What one group needs: the particles to sum one by one (the group's own first, so member k is entry k)
 // and the cells to use whole. Both are padded with zeros to whole vectors; the kernels mask the padding.
 struct Lists {
@@ -242,10 +254,9 @@ GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
     if constexpr (potential) sp = _mm256_fnmadd_pd(w, r2, sp);   // m / h = m t r2
   }
   if (L.fp32_cells) {
-    const double X = (L.x[self] - L.gx) * il, Y = (L.y[self] - L.gy) * il, Z = (L.z[self] - L.gz) * il;
-    const float xh = float(X), yh = float(Y), zh = float(Z);
+    const HiLo x = hi_lo(L.x[self], L.gx, il), y = hi_lo(L.y[self], L.gy, il), z = hi_lo(L.z[self], L.gz, il);
     Sums32x8 f = zero_sums32x8();
-    cell_sums_fp32_avx2<potential>(L, xh, float(X - xh), yh, float(Y - yh), zh, float(Z - zh), e2_fp32, f);
+    cell_sums_fp32_avx2<potential>(L, x.hi, x.lo, y.hi, y.lo, z.hi, z.lo, e2_fp32, f);
     add_widened_avx2<potential>(L, f, sx, sy, sz, sp);
     return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
   }
@@ -419,10 +430,9 @@ GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
     if constexpr (potential) sp = _mm512_fnmadd_pd(w, r2, sp);   // m / h = m t r2
   }
   if (L.fp32_cells) {
-    const double X = (L.x[self] - L.gx) * il, Y = (L.y[self] - L.gy) * il, Z = (L.z[self] - L.gz) * il;
-    const float xh = float(X), yh = float(Y), zh = float(Z);
+    const HiLo x = hi_lo(L.x[self], L.gx, il), y = hi_lo(L.y[self], L.gy, il), z = hi_lo(L.z[self], L.gz, il);
     Sums32 f = zero_sums32();
-    cell_sums_fp32<potential>(L, xh, float(X - xh), yh, float(Y - yh), zh, float(Z - zh), e2_fp32, f);
+    cell_sums_fp32<potential>(L, x.hi, x.lo, y.hi, y.lo, z.hi, z.lo, e2_fp32, f);
     add_widened<potential>(L, f, sx, sy, sz, sp);
     return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
   }
@@ -653,9 +663,9 @@ Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int 
   len_ = std::ldexp(1.0, std::ilogb(2 * half));
   mass_unit_ = total_mass > 0 ? std::ldexp(1.0, std::ilogb(total_mass)) : 1.0;
   const double il = 1 / len_, im = 1 / mass_unit_, iq = im * il * il;   // powers of two: exact
-  auto split = [&](double v, int a, float& high, float& low) {   // high + low: v in the frame to ~48 bits
-    const double u = (v - origin_[a]) * il;
-    high = float(u), low = float(u - double(high));
+  auto split = [&](double v, int a, float& high, float& low) {
+    const HiLo h = hi_lo(v, origin_[a], il);
+    high = h.hi, low = h.lo;
   };
   auto normal_fp32 = [im](double m) { return m == 0 || m * im >= 1e-20; };
   // Morton keys: each coordinate quantised to key_bits<D> bits, the bits interleaved (axis a at bit a of
