@@ -686,13 +686,16 @@ Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int 
     keys[i] = key, order_[i] = int(i);
   }
   radix_sort(keys, order_);
+  // The FP32 copies only where the kernels may read them (Tree::evaluate).
+  const bool fp32 = theta_ >= fp32_min_theta;
   for (auto* v : {&x_, &y_, &z_, &m_}) v->assign(n, 0.0);
-  for (auto* v : {&xh_, &xl_, &yh_, &yl_, &zh_, &zl_, &m32_}) v->assign(n, 0.0f);
-  bool masses_ok = true;
+  for (auto* v : {&xh_, &xl_, &yh_, &yl_, &zh_, &zl_, &m32_}) v->assign(fp32 ? n : 0, 0.0f);
+  bool masses_ok = fp32;
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : masses_ok)
   for (std::size_t k = 0; k < n; ++k) {
     x_[k] = P.position[order_[k]][0], y_[k] = P.position[order_[k]][1], m_[k] = P.mass[order_[k]];
     if constexpr (D == 3) z_[k] = P.position[order_[k]][2];
+    if (!fp32) continue;
     split(x_[k], 0, xh_[k], xl_[k]), split(y_[k], 1, yh_[k], yl_[k]), split(z_[k], 2, zh_[k], zl_[k]);
     m32_[k] = float(m_[k] * im), masses_ok = masses_ok && normal_fp32(m_[k]);
   }
@@ -705,7 +708,7 @@ Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int 
   for (auto* v : {&nodes_.cx, &nodes_.cy, &nodes_.cz, &nodes_.accept2}) v->resize(cells);
   for (auto* v : {&nodes_.first_child, &nodes_.children, &nodes_.begin, &nodes_.end}) v->resize(cells);
   multipoles_.resize(cells);
-  multipoles32_.resize(cells);
+  multipoles32_.resize(fp32 ? cells : 0);
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : masses_ok)
   for (std::size_t id = 0; id < cells; ++id) {
     const Cell& c = cells_[id];
@@ -713,12 +716,13 @@ Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int 
     nodes_.cx[id] = c.com[0], nodes_.cy[id] = c.com[1], nodes_.cz[id] = c.com[2], nodes_.accept2[id] = c.accept2;
     nodes_.first_child[id] = c.first_child, nodes_.children[id] = c.children, nodes_.begin[id] = c.begin, nodes_.end[id] = c.end;
     multipoles_[id] = {c.com[0], c.com[1], c.com[2], c.mass, Q[0], Q[1], Q[2], Q[3], Q[4], Q[5]};
+    if (!fp32) continue;
     Multipole32& f = multipoles32_[id];
     split(c.com[0], 0, f[0], f[1]), split(c.com[1], 1, f[2], f[3]), split(c.com[2], 2, f[4], f[5]);
     f[6] = float(c.mass * im), masses_ok = masses_ok && normal_fp32(c.mass);
     for (int e = 0; e < 6; ++e) f[7 + e] = float(Q[e] * iq);
   }
-  fp32_masses_ = masses_ok;
+  fp32_masses_ = masses_ok;   // false without the copies: then evaluate keeps FP64
 }
 
 // Splits cell `id` over the particles [begin, end) at Morton digit `level`; the first cell on the way down
