@@ -1,10 +1,12 @@
 #include "interactions/gravity_tree.hpp"
 #include "interactions/gravity_avx512.hpp"
+#include "interactions/gravity_lanes.hpp"
 #include "core/morton.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 #include <utility>
 
 #include <immintrin.h>
@@ -13,9 +15,7 @@ namespace grains::gravity_tree {
 
 namespace {
 
-constexpr std::size_t W = 4;     // doubles per AVX2 vector
-constexpr std::size_t W8 = 8;    // per AVX-512 vector; the lists are padded to whole ones
-constexpr std::size_t W16 = 16;  // floats per AVX-512 vector (the FP32 cell lists)
+constexpr std::size_t W_pad = 16;   // the lists are padded to whole vectors of the widest lane type
 
 using morton::key_bits;
 using morton::radix_sort;
@@ -33,49 +33,55 @@ inline HiLo hi_lo(double v, double origin, double il) {
   return {hi, float(u - double(hi))};
 }
 
+// One list's columns, in the order of Tree::Multipole32: positions (FP32: hi and lo parts; FP64: hi alone),
+// masses and, for cells, quadrupoles.
+template <class S>
+struct Columns {
+  std::vector<S> x, xl, y, yl, z, zl, m, qxx, qxy, qxz, qyy, qyz, qzz;
+
+  std::array<std::vector<S>*, 13> all() { return {&x, &xl, &y, &yl, &z, &zl, &m, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}; }
+  // Padded with zeros to whole vectors (the kernels mask the padding); returns the entries before it.
+  std::size_t pad() {
+    const std::size_t n = m.size();
+    for (auto* v : all())
+      if (!v->empty()) v->resize((n + W_pad - 1) / W_pad * W_pad, S(0));
+    return n;
+  }
+  void clear() {
+    for (auto* v : all()) v->clear();
+  }
+};
+
 // What one group needs: the particles to sum one by one (the group's own first, so member k is entry k)
-// and the cells to use whole. Both are padded with zeros to whole vectors; the kernels mask the padding.
+// and the cells to use whole, in FP64 or as the vector kernels' FP32 copies (Tree::multipoles32_ and the
+// particles' copies) when fp32_particles or fp32_cells: positions relative to (gx, gy, gz) in units of len,
+// each split into float hi + lo; masses in units of `mass`, quadrupoles in units of mass len^2.
 struct Lists {
-  std::vector<double> x, y, z, m;                                  // particles
-  std::vector<double> cx, cy, cz, cm, qxx, qxy, qxz, qyy, qyz, qzz;   // cells
+  Columns<double> particles64, cells64;
+  Columns<float> particles32, cells32;
   std::size_t particles = 0, cells = 0;
-  // The vector kernels' FP32 copies (Tree::multipoles32_ and the particles' copies), used instead of the
-  // FP64 ones when fp32_particles or fp32_cells: positions relative to (gx, gy, gz) in units of len, each
-  // split into float hi + lo; masses in units of `mass`, quadrupoles in units of mass len^2. Padded to
-  // whole 16-float vectors with zeros.
   bool fp32_particles = false, fp32_cells = false;
   double gx = 0, gy = 0, gz = 0, len = 1, mass = 1;
-  std::vector<float> pxh, pxl, pyh, pyl, pzh, pzl, pm;
-  std::vector<float> fxh, fxl, fyh, fyl, fzh, fzl, fm, fqxx, fqxy, fqxz, fqyy, fqyz, fqzz;
 
-  void clear() {
-    for (auto* v : {&x, &y, &z, &m, &cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->clear();
-    for (auto* v : {&pxh, &pxl, &pyh, &pyl, &pzh, &pzl, &pm}) v->clear();
-  }
-  void pad_particles() {
-    if (fp32_particles) {
-      particles = pxh.size();
-      for (auto* v : {&pxh, &pxl, &pyh, &pyl, &pzh, &pzl, &pm}) v->resize((particles + W16 - 1) / W16 * W16, 0.0f);
-      return;
+  void clear() { particles64.clear(), particles32.clear(); }
+  void pad_particles() { particles = fp32_particles ? particles32.pad() : particles64.pad(); }
+  // The cells `ids` from their FP64 or FP32 records.
+  void fill_cells64(const std::vector<std::array<double, 10>>& records, const std::vector<int>& ids) {
+    Columns<double>& c = cells64;
+    for (auto* v : {&c.x, &c.y, &c.z, &c.m, &c.qxx, &c.qxy, &c.qxz, &c.qyy, &c.qyz, &c.qzz}) v->resize(ids.size());
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      const auto& r = records[ids[k]];
+      c.x[k] = r[0], c.y[k] = r[1], c.z[k] = r[2], c.m[k] = r[3];
+      c.qxx[k] = r[4], c.qxy[k] = r[5], c.qxz[k] = r[6], c.qyy[k] = r[7], c.qyz[k] = r[8], c.qzz[k] = r[9];
     }
-    particles = x.size();
-    for (auto* v : {&x, &y, &z, &m}) v->resize((particles + W8 - 1) / W8 * W8, 0.0);
+    cells = c.pad();
   }
-  void pad_cells() {
-    cells = cx.size();
-    for (auto* v : {&cx, &cy, &cz, &cm, &qxx, &qxy, &qxz, &qyy, &qyz, &qzz}) v->resize((cells + W8 - 1) / W8 * W8, 0.0);
-  }
-  // The FP32 copies of the cells `ids`, instead of the FP64 ones.
-  template <class Record32>
-  void fill_cells_fp32(const std::vector<Record32>& records, const std::vector<int>& ids) {
-    cells = ids.size();
-    const std::size_t n = (cells + W16 - 1) / W16 * W16;
-    const std::array v{&fxh, &fxl, &fyh, &fyl, &fzh, &fzl, &fm, &fqxx, &fqxy, &fqxz, &fqyy, &fqyz, &fqzz};
-    for (auto* f : v) f->assign(n, 0.0f);
-    for (std::size_t k = 0; k < cells; ++k) {
-      const Record32& c = records[ids[k]];
-      for (int f = 0; f < 13; ++f) (*v[f])[k] = c[f];
-    }
+  void fill_cells32(const std::vector<std::array<float, 13>>& records, const std::vector<int>& ids) {
+    const auto columns = cells32.all();
+    for (auto* v : columns) v->resize(ids.size());
+    for (std::size_t k = 0; k < ids.size(); ++k)
+      for (std::size_t f = 0; f < columns.size(); ++f) (*columns[f])[k] = records[ids[k]][f];
+    cells = cells32.pad();
   }
 };
 
@@ -90,13 +96,14 @@ struct Sums {
 
 // Particle `self` of the list (at x, y, z) against every other particle of the list.
 Sums particle_sums_portable(const Lists& L, std::size_t self, double eps2) {
-  const double xi = L.x[self], yi = L.y[self], zi = L.z[self];
+  const Columns<double>& p = L.particles64;
+  const double xi = p.x[self], yi = p.y[self], zi = p.z[self];
   Sums s;
   for (std::size_t j = 0; j < L.particles; ++j) {
     if (j == self) continue;
-    const double dx = L.x[j] - xi, dy = L.y[j] - yi, dz = L.z[j] - zi;
+    const double dx = p.x[j] - xi, dy = p.y[j] - yi, dz = p.z[j] - zi;
     const double r2 = dx * dx + dy * dy + dz * dz + eps2;
-    const double w = L.m[j] / (r2 * std::sqrt(r2));
+    const double w = p.m[j] / (r2 * std::sqrt(r2));
     s.x += w * dx, s.y += w * dy, s.z += w * dz, s.phi -= w * r2;
   }
   return s;
@@ -105,363 +112,61 @@ Sums particle_sums_portable(const Lists& L, std::size_t self, double eps2) {
 // Monopole + quadrupole of the softened kernel: with r = com - x and h = sqrt(|r|^2 + eps^2),
 // phi = -(M / h + r.Q.r / (2 h^5)), a = (M / h^3 + 5/2 (r.Q.r) / h^7) r - Q r / h^5.
 void cell_sums_portable(const Lists& L, double xi, double yi, double zi, double eps2, Sums& s) {
+  const Columns<double>& c = L.cells64;
   for (std::size_t j = 0; j < L.cells; ++j) {
-    const double dx = L.cx[j] - xi, dy = L.cy[j] - yi, dz = L.cz[j] - zi;
+    const double dx = c.x[j] - xi, dy = c.y[j] - yi, dz = c.z[j] - zi;
     const double inv = 1.0 / std::sqrt(dx * dx + dy * dy + dz * dz + eps2);
     const double inv2 = inv * inv, inv3 = inv * inv2, inv5 = inv3 * inv2;
-    const double qx = L.qxx[j] * dx + L.qxy[j] * dy + L.qxz[j] * dz;
-    const double qy = L.qxy[j] * dx + L.qyy[j] * dy + L.qyz[j] * dz;
-    const double qz = L.qxz[j] * dx + L.qyz[j] * dy + L.qzz[j] * dz;
+    const double qx = c.qxx[j] * dx + c.qxy[j] * dy + c.qxz[j] * dz;
+    const double qy = c.qxy[j] * dx + c.qyy[j] * dy + c.qyz[j] * dz;
+    const double qz = c.qxz[j] * dx + c.qyz[j] * dy + c.qzz[j] * dz;
     const double rQr = dx * qx + dy * qy + dz * qz;
-    const double a = L.cm[j] * inv3 + 2.5 * rQr * inv5 * inv2;
+    const double a = c.m[j] * inv3 + 2.5 * rQr * inv5 * inv2;
     s.x += a * dx - inv5 * qx, s.y += a * dy - inv5 * qy, s.z += a * dz - inv5 * qz;
-    s.phi -= L.cm[j] * inv + 0.5 * rQr * inv5;
+    s.phi -= c.m[j] * inv + 0.5 * rQr * inv5;
   }
 }
 
 Sums sums_portable(const Lists& L, std::size_t self, double eps2) {
   Sums s = particle_sums_portable(L, self, eps2);
-  cell_sums_portable(L, L.x[self], L.y[self], L.z[self], eps2, s);
+  cell_sums_portable(L, L.particles64.x[self], L.particles64.y[self], L.particles64.z[self], eps2, s);
   return s;
 }
 
 // ---------------------------------------------------------------------------------------------
-// AVX2 + FMA kernels: the same sums, four list entries at a time (lanes added in a fixed order at the end).
-// ---------------------------------------------------------------------------------------------
-#define GRAINS_AVX2 __attribute__((target("avx2,fma")))
-
-// Lanes j0 .. j0 + 3 with j < end and j != skip, as all ones / all zeros per lane.
-GRAINS_AVX2 inline __m256d lanes_kept(std::size_t j0, std::size_t end, std::size_t skip) {
-  const __m256i j = _mm256_add_epi64(_mm256_set1_epi64x(static_cast<long long>(j0)), _mm256_setr_epi64x(0, 1, 2, 3));
-  const __m256i below = _mm256_cmpgt_epi64(_mm256_set1_epi64x(static_cast<long long>(end)), j);
-  const __m256i self = _mm256_cmpeq_epi64(j, _mm256_set1_epi64x(static_cast<long long>(skip)));
-  return _mm256_castsi256_pd(_mm256_andnot_si256(self, below));
-}
-
-GRAINS_AVX2 inline double lane_sum(__m256d v) {
-  const __m128d pair = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));   // (0+2, 1+3)
-  return _mm_cvtsd_f64(_mm_add_sd(pair, _mm_unpackhi_pd(pair, pair)));
-}
-
-// The FP32 sums of the AVX-512 kernels below (see there why FP32 serves), eight list entries at a time. 1 / h
-// from the correctly rounded square root and division, not the reciprocal square root estimate, whose bits
-// differ between processor makers: the results are the same on any AVX2 processor.
-struct Sums32x8 {
-  __m256 x, y, z, phi;
-};
-
-GRAINS_AVX2 inline Sums32x8 zero_sums32x8() {
-  const __m256 zero = _mm256_setzero_ps();
-  return Sums32x8{zero, zero, zero, zero};
-}
-
-// Float lanes j0 .. j0 + 7 with j < end and j != skip, as all ones / all zeros per lane.
-GRAINS_AVX2 inline __m256 lanes8_kept_ps(std::size_t j0, std::size_t end, std::size_t skip) {
-  const __m256i j = _mm256_add_epi32(_mm256_set1_epi32(int(j0)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-  const __m256i below = _mm256_cmpgt_epi32(_mm256_set1_epi32(int(end)), j);
-  const __m256i self = _mm256_cmpeq_epi32(j, _mm256_set1_epi32(int(skip)));
-  return _mm256_castsi256_ps(_mm256_andnot_si256(self, below));
-}
-
-template <bool potential>
-GRAINS_AVX2 void particle_sums_fp32_avx2(const Lists& L, std::size_t self, __m256 e2, Sums32x8& f) {
-  const __m256 xh = _mm256_set1_ps(L.pxh[self]), yh = _mm256_set1_ps(L.pyh[self]), zh = _mm256_set1_ps(L.pzh[self]);
-  const __m256 xl = _mm256_set1_ps(L.pxl[self]), yl = _mm256_set1_ps(L.pyl[self]), zl = _mm256_set1_ps(L.pzl[self]);
-  const __m256 one = _mm256_set1_ps(1.0f);
-  const std::size_t self_vector = self / 8 * 8;
-  for (std::size_t j0 = 0; j0 < L.particles; j0 += 8) {
-    const __m256 dx = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.pxh[j0]), xh), _mm256_sub_ps(_mm256_loadu_ps(&L.pxl[j0]), xl));
-    const __m256 dy = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.pyh[j0]), yh), _mm256_sub_ps(_mm256_loadu_ps(&L.pyl[j0]), yl));
-    const __m256 dz = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.pzh[j0]), zh), _mm256_sub_ps(_mm256_loadu_ps(&L.pzl[j0]), zl));
-    const __m256 r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_fmadd_ps(dx, dx, e2)));
-    __m256 t = _mm256_div_ps(one, _mm256_mul_ps(r2, _mm256_sqrt_ps(r2)));
-    if (j0 == self_vector || j0 + 8 > L.particles) t = _mm256_and_ps(t, lanes8_kept_ps(j0, L.particles, self));
-    const __m256 w = _mm256_mul_ps(_mm256_loadu_ps(&L.pm[j0]), t);
-    f.x = _mm256_fmadd_ps(w, dx, f.x), f.y = _mm256_fmadd_ps(w, dy, f.y), f.z = _mm256_fmadd_ps(w, dz, f.z);
-    if constexpr (potential) f.phi = _mm256_fnmadd_ps(w, r2, f.phi);   // m / h = m t r2
-  }
-}
-
-template <bool potential>
-GRAINS_AVX2 void cell_sums_fp32_avx2(const Lists& L, float xh, float xl, float yh, float yl, float zh, float zl, __m256 e2,
-                                     Sums32x8& f) {
-  const __m256 xhv = _mm256_set1_ps(xh), yhv = _mm256_set1_ps(yh), zhv = _mm256_set1_ps(zh);
-  const __m256 xlv = _mm256_set1_ps(xl), ylv = _mm256_set1_ps(yl), zlv = _mm256_set1_ps(zl);
-  const __m256 one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f), five_halves = _mm256_set1_ps(2.5f);
-  for (std::size_t j0 = 0; j0 < L.cells; j0 += 8) {
-    const __m256 dx = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.fxh[j0]), xhv), _mm256_sub_ps(_mm256_loadu_ps(&L.fxl[j0]), xlv));
-    const __m256 dy = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.fyh[j0]), yhv), _mm256_sub_ps(_mm256_loadu_ps(&L.fyl[j0]), ylv));
-    const __m256 dz = _mm256_add_ps(_mm256_sub_ps(_mm256_loadu_ps(&L.fzh[j0]), zhv), _mm256_sub_ps(_mm256_loadu_ps(&L.fzl[j0]), zlv));
-    const __m256 r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_fmadd_ps(dx, dx, e2)));
-    __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(r2));
-    if (j0 + 8 > L.cells) inv = _mm256_and_ps(inv, lanes8_kept_ps(j0, L.cells, L.cells));   // padding
-    const __m256 inv2 = _mm256_mul_ps(inv, inv), inv3 = _mm256_mul_ps(inv, inv2), inv5 = _mm256_mul_ps(inv3, inv2);
-    const __m256 qxx = _mm256_loadu_ps(&L.fqxx[j0]), qxy = _mm256_loadu_ps(&L.fqxy[j0]), qxz = _mm256_loadu_ps(&L.fqxz[j0]);
-    const __m256 qyy = _mm256_loadu_ps(&L.fqyy[j0]), qyz = _mm256_loadu_ps(&L.fqyz[j0]), qzz = _mm256_loadu_ps(&L.fqzz[j0]);
-    const __m256 qx = _mm256_fmadd_ps(qxz, dz, _mm256_fmadd_ps(qxy, dy, _mm256_mul_ps(qxx, dx)));
-    const __m256 qy = _mm256_fmadd_ps(qyz, dz, _mm256_fmadd_ps(qyy, dy, _mm256_mul_ps(qxy, dx)));
-    const __m256 qz = _mm256_fmadd_ps(qzz, dz, _mm256_fmadd_ps(qyz, dy, _mm256_mul_ps(qxz, dx)));
-    const __m256 rQr = _mm256_fmadd_ps(dz, qz, _mm256_fmadd_ps(dy, qy, _mm256_mul_ps(dx, qx)));
-    const __m256 M = _mm256_loadu_ps(&L.fm[j0]);
-    const __m256 rQr_inv5 = _mm256_mul_ps(rQr, inv5);
-    const __m256 a = _mm256_fmadd_ps(M, inv3, _mm256_mul_ps(five_halves, _mm256_mul_ps(rQr_inv5, inv2)));
-    f.x = _mm256_fnmadd_ps(inv5, qx, _mm256_fmadd_ps(a, dx, f.x));
-    f.y = _mm256_fnmadd_ps(inv5, qy, _mm256_fmadd_ps(a, dy, f.y));
-    f.z = _mm256_fnmadd_ps(inv5, qz, _mm256_fmadd_ps(a, dz, f.z));
-    if constexpr (potential) f.phi = _mm256_sub_ps(f.phi, _mm256_fmadd_ps(M, inv, _mm256_mul_ps(half, rQr_inv5)));
-  }
-}
-
-// Float lanes k and k + 4 added in FP64, times `unit` (a power of two: exact), added to s.
-GRAINS_AVX2 inline __m256d add_widened4(__m256d s, __m256 v, double unit) {
-  const __m256d w = _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(v)), _mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)));
-  return _mm256_add_pd(s, _mm256_mul_pd(w, _mm256_set1_pd(unit)));
-}
-
-template <bool potential>
-GRAINS_AVX2 void add_widened_avx2(const Lists& L, const Sums32x8& f, __m256d& sx, __m256d& sy, __m256d& sz, __m256d& sp) {
-  const double il = 1 / L.len, unit_a = L.mass * il * il;
-  sx = add_widened4(sx, f.x, unit_a), sy = add_widened4(sy, f.y, unit_a), sz = add_widened4(sz, f.z, unit_a);
-  if constexpr (potential) sp = add_widened4(sp, f.phi, L.mass * il);
-}
-
-// The potential only when asked for (it costs a few operations per term).
-template <bool potential>
-GRAINS_AVX2 Sums sums_avx2(const Lists& L, std::size_t self, double eps2) {
-  __m256d sx = _mm256_setzero_pd(), sy = sx, sz = sx, sp = sx;
-  const double il = 1 / L.len;
-  const __m256 e2_fp32 = _mm256_set1_ps(float(eps2 * il * il));
-  if (L.fp32_particles) {   // then the cells are FP32 too
-    Sums32x8 f = zero_sums32x8();
-    particle_sums_fp32_avx2<potential>(L, self, e2_fp32, f);
-    cell_sums_fp32_avx2<potential>(L, L.pxh[self], L.pxl[self], L.pyh[self], L.pyl[self], L.pzh[self], L.pzl[self], e2_fp32, f);
-    add_widened_avx2<potential>(L, f, sx, sy, sz, sp);
-    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
-  }
-  const __m256d xi = _mm256_set1_pd(L.x[self]), yi = _mm256_set1_pd(L.y[self]), zi = _mm256_set1_pd(L.z[self]);
-  const __m256d e2 = _mm256_set1_pd(eps2), one = _mm256_set1_pd(1.0);
-  // Particles: the vector holding `self` and the last one are masked (self and padding would add 0 * inf).
-  const std::size_t self_vector = self / W * W;
-  for (std::size_t j0 = 0; j0 < L.particles; j0 += W) {
-    const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&L.x[j0]), xi);
-    const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&L.y[j0]), yi);
-    const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(&L.z[j0]), zi);
-    const __m256d r2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_fmadd_pd(dx, dx, e2)));
-    __m256d t = _mm256_div_pd(one, _mm256_mul_pd(r2, _mm256_sqrt_pd(r2)));
-    if (j0 == self_vector || j0 + W > L.particles) t = _mm256_and_pd(t, lanes_kept(j0, L.particles, self));
-    const __m256d w = _mm256_mul_pd(_mm256_loadu_pd(&L.m[j0]), t);
-    sx = _mm256_fmadd_pd(w, dx, sx), sy = _mm256_fmadd_pd(w, dy, sy), sz = _mm256_fmadd_pd(w, dz, sz);
-    if constexpr (potential) sp = _mm256_fnmadd_pd(w, r2, sp);   // m / h = m t r2
-  }
-  if (L.fp32_cells) {
-    const HiLo x = hi_lo(L.x[self], L.gx, il), y = hi_lo(L.y[self], L.gy, il), z = hi_lo(L.z[self], L.gz, il);
-    Sums32x8 f = zero_sums32x8();
-    cell_sums_fp32_avx2<potential>(L, x.hi, x.lo, y.hi, y.lo, z.hi, z.lo, e2_fp32, f);
-    add_widened_avx2<potential>(L, f, sx, sy, sz, sp);
-    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
-  }
-  // Cells (portable kernel above for the formulas); the last vector is masked.
-  const __m256d half = _mm256_set1_pd(0.5), five_halves = _mm256_set1_pd(2.5);
-  for (std::size_t j0 = 0; j0 < L.cells; j0 += W) {
-    const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&L.cx[j0]), xi);
-    const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&L.cy[j0]), yi);
-    const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(&L.cz[j0]), zi);
-    const __m256d r2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_fmadd_pd(dx, dx, e2)));
-    __m256d inv = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
-    if (j0 + W > L.cells) inv = _mm256_and_pd(inv, lanes_kept(j0, L.cells, L.cells));
-    const __m256d inv2 = _mm256_mul_pd(inv, inv), inv3 = _mm256_mul_pd(inv, inv2), inv5 = _mm256_mul_pd(inv3, inv2);
-    const __m256d qxx = _mm256_loadu_pd(&L.qxx[j0]), qxy = _mm256_loadu_pd(&L.qxy[j0]), qxz = _mm256_loadu_pd(&L.qxz[j0]);
-    const __m256d qyy = _mm256_loadu_pd(&L.qyy[j0]), qyz = _mm256_loadu_pd(&L.qyz[j0]), qzz = _mm256_loadu_pd(&L.qzz[j0]);
-    const __m256d qx = _mm256_fmadd_pd(qxz, dz, _mm256_fmadd_pd(qxy, dy, _mm256_mul_pd(qxx, dx)));
-    const __m256d qy = _mm256_fmadd_pd(qyz, dz, _mm256_fmadd_pd(qyy, dy, _mm256_mul_pd(qxy, dx)));
-    const __m256d qz = _mm256_fmadd_pd(qzz, dz, _mm256_fmadd_pd(qyz, dy, _mm256_mul_pd(qxz, dx)));
-    const __m256d rQr = _mm256_fmadd_pd(dz, qz, _mm256_fmadd_pd(dy, qy, _mm256_mul_pd(dx, qx)));
-    const __m256d M = _mm256_loadu_pd(&L.cm[j0]);
-    const __m256d rQr_inv5 = _mm256_mul_pd(rQr, inv5);
-    const __m256d a = _mm256_fmadd_pd(M, inv3, _mm256_mul_pd(five_halves, _mm256_mul_pd(rQr_inv5, inv2)));
-    sx = _mm256_fnmadd_pd(inv5, qx, _mm256_fmadd_pd(a, dx, sx));
-    sy = _mm256_fnmadd_pd(inv5, qy, _mm256_fmadd_pd(a, dy, sy));
-    sz = _mm256_fnmadd_pd(inv5, qz, _mm256_fmadd_pd(a, dz, sz));
-    if constexpr (potential) sp = _mm256_sub_pd(sp, _mm256_fmadd_pd(M, inv, _mm256_mul_pd(half, rQr_inv5)));
-  }
-  return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
-}
-
-// ---------------------------------------------------------------------------------------------
-// AVX-512 kernels: the AVX2 ones eight list entries at a time, lanes kept as a bit mask; 1 / sqrt(r2) from a
-// refined reciprocal square root (gravity_avx512.hpp: within a few units in the last place), not the divider.
-// ---------------------------------------------------------------------------------------------
-// GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
-// Lanes j0 .. j0 + 7 with j < end and j != skip, as bits 0 .. 7.
-inline __mmask8 lanes8_kept(std::size_t j0, std::size_t end, std::size_t skip) {
-  unsigned keep = end >= j0 + W8 ? 0xffu : end > j0 ? (1u << (end - j0)) - 1 : 0u;
-  if (skip >= j0 && skip < j0 + W8) keep &= ~(1u << (skip - j0));
-  return __mmask8(keep);
-}
-
-// Float lanes k and k + 8 added in FP64, times `unit` (a power of two: exact).
-GRAINS_AVX512 inline __m512d widen(__m512 v, double unit) {
-  const __m256 hi = _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1));
-  return _mm512_mul_pd(_mm512_add_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(v)), _mm512_cvtps_pd(hi)), _mm512_set1_pd(unit));
-}
-
-// Lanes j0 .. j0 + 15 with j < end and j != skip, as bits 0 .. 15.
-inline __mmask16 lanes16_kept(std::size_t j0, std::size_t end, std::size_t skip) {
-  unsigned keep = end >= j0 + W16 ? 0xffffu : end > j0 ? (1u << (end - j0)) - 1 : 0u;
-  if (skip >= j0 && skip < j0 + W16) keep &= ~(1u << (skip - j0));
-  return __mmask16(keep);
-}
-
-// The FP32 terms. FP32 is safe here: a cell term is an expansion whose truncation error is ~1e-4 relative at
+// Vector kernels (gravity_tree_sums.inc), once per instruction set.
+// FP32 is safe where they use it: a cell term is an expansion whose truncation error is ~1e-4 relative at
 // theta 0.5 (~1e-5 at theta 0.2; the tree's median force error is ~2e-4 at 0.5), and a particle's near field
 // is one part of a sum carrying that error; FP32 rounding is ~1e-7 relative. Large coordinates lose nothing:
 // positions are taken relative to the tree's origin in FP64 and split into float hi + lo, so
 // (hi_j - hi_i) + (lo_j - lo_i) is the FP64 displacement to about FP32 precision however far from the
 // origin. Lengths and masses are in power-of-two units (exact scaling) fitted to the tree, and the walk
 // keeps FP64 where h could leave the range in which h^-7 and the like stay normal floats (Tree::evaluate).
-// 1 / h: vrsqrt14ps and one Newton step (2^-14 -> ~1e-8, below FP32 round-off). Each particle's sums stay in
-// FP32 lanes to the end of its lists (about a hundred terms a lane), then are widened, scaled back and
-// summed in FP64 in a fixed order: deterministic. Measured against the FP64 kernels: within 1e-6 of each
-// particle's acceleration (tests/engine/test_gravity.cpp, bound 4e-6).
-struct Sums32 {
-  __m512 x, y, z, phi;
-};
+// Each particle's sums stay in FP32 lanes to the end of its lists (about a hundred terms a lane), then are
+// widened, scaled back and summed in FP64 in a fixed order: deterministic. Measured against the FP64
+// kernels: within 1e-6 of each particle's acceleration (tests/engine/test_gravity.cpp, bound 4e-6).
+// ---------------------------------------------------------------------------------------------
 
-GRAINS_AVX512 inline Sums32 zero_sums32() {
-  const __m512 zero = _mm512_setzero_ps();
-  return Sums32{zero, zero, zero, zero};
-}
+GRAINS_TARGET_BEGIN("avx2,fma")
+namespace avx2 {
+using Exact = lanes::Avx2F64;
+using Fast = lanes::Avx2F32;
+#include "interactions/gravity_tree_sums.inc"
+}  // namespace avx2
+GRAINS_TARGET_END
 
-GRAINS_AVX512 inline __m512 rsqrt_fp32(__m512 r2) {
-  const __m512 y = _mm512_rsqrt14_ps(r2);
-  return _mm512_fmadd_ps(_mm512_mul_ps(_mm512_set1_ps(0.5f), y), _mm512_fnmadd_ps(_mm512_mul_ps(r2, y), y, _mm512_set1_ps(1.0f)), y);
-}
+// GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
-// Particle `self` of the FP32 particle list against every other particle of it.
-template <bool potential>
-GRAINS_AVX512 void particle_sums_fp32(const Lists& L, std::size_t self, __m512 e2, Sums32& f) {
-  const __m512 xh = _mm512_set1_ps(L.pxh[self]), yh = _mm512_set1_ps(L.pyh[self]), zh = _mm512_set1_ps(L.pzh[self]);
-  const __m512 xl = _mm512_set1_ps(L.pxl[self]), yl = _mm512_set1_ps(L.pyl[self]), zl = _mm512_set1_ps(L.pzl[self]);
-  // The vector holding `self` and the last one are masked (self: a zero distance; padding: m = 0).
-  const std::size_t self_vector = self / W16 * W16;
-  for (std::size_t j0 = 0; j0 < L.particles; j0 += W16) {
-    const __m512 dx = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.pxh[j0]), xh), _mm512_sub_ps(_mm512_loadu_ps(&L.pxl[j0]), xl));
-    const __m512 dy = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.pyh[j0]), yh), _mm512_sub_ps(_mm512_loadu_ps(&L.pyl[j0]), yl));
-    const __m512 dz = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.pzh[j0]), zh), _mm512_sub_ps(_mm512_loadu_ps(&L.pzl[j0]), zl));
-    const __m512 r2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_fmadd_ps(dx, dx, e2)));
-    const __m512 inv = rsqrt_fp32(r2);
-    __m512 t = _mm512_mul_ps(_mm512_mul_ps(inv, inv), inv);
-    if (j0 == self_vector || j0 + W16 > L.particles) t = _mm512_maskz_mov_ps(lanes16_kept(j0, L.particles, self), t);
-    const __m512 w = _mm512_mul_ps(_mm512_loadu_ps(&L.pm[j0]), t);
-    f.x = _mm512_fmadd_ps(w, dx, f.x), f.y = _mm512_fmadd_ps(w, dy, f.y), f.z = _mm512_fmadd_ps(w, dz, f.z);
-    if constexpr (potential) f.phi = _mm512_fnmadd_ps(w, r2, f.phi);   // m / h = m t r2
-  }
-}
-
-// Cell terms (the portable kernel's formulas) at the point (xh + xl, yh + yl, zh + zl).
-template <bool potential>
-GRAINS_AVX512 void cell_sums_fp32(const Lists& L, float xh, float xl, float yh, float yl, float zh, float zl, __m512 e2,
-                                  Sums32& f) {
-  const __m512 xhv = _mm512_set1_ps(xh), yhv = _mm512_set1_ps(yh), zhv = _mm512_set1_ps(zh);
-  const __m512 xlv = _mm512_set1_ps(xl), ylv = _mm512_set1_ps(yl), zlv = _mm512_set1_ps(zl);
-  const __m512 half = _mm512_set1_ps(0.5f), five_halves = _mm512_set1_ps(2.5f);
-  for (std::size_t j0 = 0; j0 < L.cells; j0 += W16) {
-    const __m512 dx = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fxh[j0]), xhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fxl[j0]), xlv));
-    const __m512 dy = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fyh[j0]), yhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fyl[j0]), ylv));
-    const __m512 dz = _mm512_add_ps(_mm512_sub_ps(_mm512_loadu_ps(&L.fzh[j0]), zhv), _mm512_sub_ps(_mm512_loadu_ps(&L.fzl[j0]), zlv));
-    const __m512 r2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_fmadd_ps(dx, dx, e2)));
-    __m512 inv = rsqrt_fp32(r2);
-    if (j0 + W16 > L.cells) inv = _mm512_maskz_mov_ps(__mmask16((1u << (L.cells - j0)) - 1), inv);   // padding
-    const __m512 inv2 = _mm512_mul_ps(inv, inv), inv3 = _mm512_mul_ps(inv, inv2), inv5 = _mm512_mul_ps(inv3, inv2);
-    const __m512 qxx = _mm512_loadu_ps(&L.fqxx[j0]), qxy = _mm512_loadu_ps(&L.fqxy[j0]), qxz = _mm512_loadu_ps(&L.fqxz[j0]);
-    const __m512 qyy = _mm512_loadu_ps(&L.fqyy[j0]), qyz = _mm512_loadu_ps(&L.fqyz[j0]), qzz = _mm512_loadu_ps(&L.fqzz[j0]);
-    const __m512 qx = _mm512_fmadd_ps(qxz, dz, _mm512_fmadd_ps(qxy, dy, _mm512_mul_ps(qxx, dx)));
-    const __m512 qy = _mm512_fmadd_ps(qyz, dz, _mm512_fmadd_ps(qyy, dy, _mm512_mul_ps(qxy, dx)));
-    const __m512 qz = _mm512_fmadd_ps(qzz, dz, _mm512_fmadd_ps(qyz, dy, _mm512_mul_ps(qxz, dx)));
-    const __m512 rQr = _mm512_fmadd_ps(dz, qz, _mm512_fmadd_ps(dy, qy, _mm512_mul_ps(dx, qx)));
-    const __m512 M = _mm512_loadu_ps(&L.fm[j0]);
-    const __m512 rQr_inv5 = _mm512_mul_ps(rQr, inv5);
-    const __m512 a = _mm512_fmadd_ps(M, inv3, _mm512_mul_ps(five_halves, _mm512_mul_ps(rQr_inv5, inv2)));
-    f.x = _mm512_fnmadd_ps(inv5, qx, _mm512_fmadd_ps(a, dx, f.x));
-    f.y = _mm512_fnmadd_ps(inv5, qy, _mm512_fmadd_ps(a, dy, f.y));
-    f.z = _mm512_fnmadd_ps(inv5, qz, _mm512_fmadd_ps(a, dz, f.z));
-    if constexpr (potential) f.phi = _mm512_sub_ps(f.phi, _mm512_fmadd_ps(M, inv, _mm512_mul_ps(half, rQr_inv5)));
-  }
-}
-
-// FP32 lane sums added to FP64 ones: accelerations in units of mass / len^2, potentials of mass / len.
-template <bool potential>
-GRAINS_AVX512 void add_widened(const Lists& L, const Sums32& f, __m512d& sx, __m512d& sy, __m512d& sz, __m512d& sp) {
-  const double il = 1 / L.len, unit_a = L.mass * il * il;
-  sx = _mm512_add_pd(sx, widen(f.x, unit_a)), sy = _mm512_add_pd(sy, widen(f.y, unit_a)), sz = _mm512_add_pd(sz, widen(f.z, unit_a));
-  if constexpr (potential) sp = _mm512_add_pd(sp, widen(f.phi, L.mass * il));
-}
-
-template <bool potential>
-GRAINS_AVX512 Sums sums_avx512(const Lists& L, std::size_t self, double eps2) {
-  using gravity_avx512::inverse_cube, gravity_avx512::rsqrt, gravity_avx512::lane_sum;
-  __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx, sp = sx;
-  const double il = 1 / L.len;
-  const __m512 e2_fp32 = _mm512_set1_ps(float(eps2 * il * il));
-  if (L.fp32_particles) {   // then the cells are FP32 too
-    Sums32 f = zero_sums32();
-    particle_sums_fp32<potential>(L, self, e2_fp32, f);
-    cell_sums_fp32<potential>(L, L.pxh[self], L.pxl[self], L.pyh[self], L.pyl[self], L.pzh[self], L.pzl[self], e2_fp32, f);
-    add_widened<potential>(L, f, sx, sy, sz, sp);
-    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
-  }
-  const __m512d xi = _mm512_set1_pd(L.x[self]), yi = _mm512_set1_pd(L.y[self]), zi = _mm512_set1_pd(L.z[self]);
-  const __m512d e2 = _mm512_set1_pd(eps2);
-  // Particles: the vector holding `self` and the last one are masked (self: r2 may be 0; padding: m = 0).
-  const std::size_t self_vector = self / W8 * W8;
-  for (std::size_t j0 = 0; j0 < L.particles; j0 += W8) {
-    const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&L.x[j0]), xi);
-    const __m512d dy = _mm512_sub_pd(_mm512_loadu_pd(&L.y[j0]), yi);
-    const __m512d dz = _mm512_sub_pd(_mm512_loadu_pd(&L.z[j0]), zi);
-    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_fmadd_pd(dx, dx, e2)));
-    __m512d t = inverse_cube(r2);
-    if (j0 == self_vector || j0 + W8 > L.particles) t = _mm512_maskz_mov_pd(lanes8_kept(j0, L.particles, self), t);
-    const __m512d w = _mm512_mul_pd(_mm512_loadu_pd(&L.m[j0]), t);
-    sx = _mm512_fmadd_pd(w, dx, sx), sy = _mm512_fmadd_pd(w, dy, sy), sz = _mm512_fmadd_pd(w, dz, sz);
-    if constexpr (potential) sp = _mm512_fnmadd_pd(w, r2, sp);   // m / h = m t r2
-  }
-  if (L.fp32_cells) {
-    const HiLo x = hi_lo(L.x[self], L.gx, il), y = hi_lo(L.y[self], L.gy, il), z = hi_lo(L.z[self], L.gz, il);
-    Sums32 f = zero_sums32();
-    cell_sums_fp32<potential>(L, x.hi, x.lo, y.hi, y.lo, z.hi, z.lo, e2_fp32, f);
-    add_widened<potential>(L, f, sx, sy, sz, sp);
-    return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
-  }
-  // Cells in FP64 (portable kernel above for the formulas); the last vector is masked.
-  const __m512d half = _mm512_set1_pd(0.5), five_halves = _mm512_set1_pd(2.5);
-  for (std::size_t j0 = 0; j0 < L.cells; j0 += W8) {
-    const __m512d dx = _mm512_sub_pd(_mm512_loadu_pd(&L.cx[j0]), xi);
-    const __m512d dy = _mm512_sub_pd(_mm512_loadu_pd(&L.cy[j0]), yi);
-    const __m512d dz = _mm512_sub_pd(_mm512_loadu_pd(&L.cz[j0]), zi);
-    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_fmadd_pd(dx, dx, e2)));
-    __m512d inv = rsqrt(r2);
-    if (j0 + W8 > L.cells) inv = _mm512_maskz_mov_pd(lanes8_kept(j0, L.cells, L.cells), inv);
-    const __m512d inv2 = _mm512_mul_pd(inv, inv), inv3 = _mm512_mul_pd(inv, inv2), inv5 = _mm512_mul_pd(inv3, inv2);
-    const __m512d qxx = _mm512_loadu_pd(&L.qxx[j0]), qxy = _mm512_loadu_pd(&L.qxy[j0]), qxz = _mm512_loadu_pd(&L.qxz[j0]);
-    const __m512d qyy = _mm512_loadu_pd(&L.qyy[j0]), qyz = _mm512_loadu_pd(&L.qyz[j0]), qzz = _mm512_loadu_pd(&L.qzz[j0]);
-    const __m512d qx = _mm512_fmadd_pd(qxz, dz, _mm512_fmadd_pd(qxy, dy, _mm512_mul_pd(qxx, dx)));
-    const __m512d qy = _mm512_fmadd_pd(qyz, dz, _mm512_fmadd_pd(qyy, dy, _mm512_mul_pd(qxy, dx)));
-    const __m512d qz = _mm512_fmadd_pd(qzz, dz, _mm512_fmadd_pd(qyz, dy, _mm512_mul_pd(qxz, dx)));
-    const __m512d rQr = _mm512_fmadd_pd(dz, qz, _mm512_fmadd_pd(dy, qy, _mm512_mul_pd(dx, qx)));
-    const __m512d M = _mm512_loadu_pd(&L.cm[j0]);
-    const __m512d rQr_inv5 = _mm512_mul_pd(rQr, inv5);
-    const __m512d a = _mm512_fmadd_pd(M, inv3, _mm512_mul_pd(five_halves, _mm512_mul_pd(rQr_inv5, inv2)));
-    sx = _mm512_fnmadd_pd(inv5, qx, _mm512_fmadd_pd(a, dx, sx));
-    sy = _mm512_fnmadd_pd(inv5, qy, _mm512_fmadd_pd(a, dy, sy));
-    sz = _mm512_fnmadd_pd(inv5, qz, _mm512_fmadd_pd(a, dz, sz));
-    if constexpr (potential) sp = _mm512_sub_pd(sp, _mm512_fmadd_pd(M, inv, _mm512_mul_pd(half, rQr_inv5)));
-  }
-  return Sums{lane_sum(sx), lane_sum(sy), lane_sum(sz), lane_sum(sp)};
-}
+GRAINS_TARGET_BEGIN("avx512f,avx2,fma")
+namespace avx512 {
+using Exact = lanes::Avx512F64;
+using Fast = lanes::Avx512F32;
+#include "interactions/gravity_tree_sums.inc"
+}  // namespace avx512
+GRAINS_TARGET_END
 
 // ---------------------------------------------------------------------------------------------
 // Walk of one group (cell `group`, box lo .. hi): from the root down, the children of every opened cell are
@@ -686,8 +391,9 @@ Tree::Tree(const Particles<D>& P, double theta, int threads, int leaf_size, int 
     keys[i] = key, order_[i] = int(i);
   }
   radix_sort(keys, order_);
-  // The FP32 copies only where the kernels may read them (Tree::evaluate).
-  const bool fp32 = theta_ >= fp32_min_theta;
+  // The FP32 copies only where the kernels may read them (Tree::evaluate): the vector kernels (AVX2 at least),
+  // from fp32_min_theta on.
+  const bool fp32 = theta_ >= fp32_min_theta && gravity_direct::supported(Isa::avx2);
   for (auto* v : {&x_, &y_, &z_, &m_}) v->assign(n, 0.0);
   for (auto* v : {&xh_, &xl_, &yh_, &yl_, &zh_, &zl_, &m32_}) v->assign(fp32 ? n : 0, 0.0f);
   bool masses_ok = fp32;
@@ -813,9 +519,9 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
   for (auto* v : {&ax, &ay, &az}) v->assign(n, 0.0);
   if (phi) phi->assign(n, 0.0);
   auto* sums = isa == Isa::portable ? sums_portable
-              : isa == Isa::avx2    ? (phi ? sums_avx2<true> : sums_avx2<false>)
-                                    : (phi ? sums_avx512<true> : sums_avx512<false>);
-  // FP32 sums (cell_sums_fp32) where h / len lies in [1e-5, 1e5] for every pair summed (all lie within the
+              : isa == Isa::avx2    ? (phi ? avx2::sums<true> : avx2::sums<false>)
+                                    : (phi ? avx512::sums<true> : avx512::sums<false>);
+  // FP32 sums where h / len lies in [1e-5, 1e5] for every pair summed (all lie within the
   // root box, < 4 len apart) and every mass is normal in FP32: then h^-5, h^-7 M and the like stay normal
   // floats. Particles: h >= eps, so the softening decides for the whole walk. Cells: h^2 >= near2 + eps2,
   // decided group by group.
@@ -837,15 +543,16 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       L.clear();
       // Pointers by data() + index: &x_[to] with to == size() is out of range for operator[].
       auto add_particles = [&](int from, int to) {
-        auto add = [from, to](std::vector<float>& list, const std::vector<float>& v) {
+        auto add = [from, to](auto& list, const auto& v) {
           list.insert(list.end(), v.data() + from, v.data() + to);
         };
         if (L.fp32_particles) {
-          add(L.pxh, xh_), add(L.pxl, xl_), add(L.pyh, yh_), add(L.pyl, yl_), add(L.pzh, zh_), add(L.pzl, zl_), add(L.pm, m32_);
-          return;
+          Columns<float>& p = L.particles32;
+          add(p.x, xh_), add(p.xl, xl_), add(p.y, yh_), add(p.yl, yl_), add(p.z, zh_), add(p.zl, zl_), add(p.m, m32_);
+        } else {
+          Columns<double>& p = L.particles64;
+          add(p.x, x_), add(p.y, y_), add(p.z, z_), add(p.m, m_);
         }
-        L.x.insert(L.x.end(), x_.data() + from, x_.data() + to), L.y.insert(L.y.end(), y_.data() + from, y_.data() + to);
-        L.z.insert(L.z.end(), z_.data() + from, z_.data() + to), L.m.insert(L.m.end(), m_.data() + from, m_.data() + to);
       };
       add_particles(b, e);
       // Cells used whole are noted during the walk and copied into the lists after it.
@@ -855,17 +562,10 @@ Tree::Counts Tree::evaluate(Isa isa, double eps2, int threads, std::vector<doubl
       L.pad_particles();
       const std::size_t u = used.size();
       L.fp32_cells = fp32_particles || (fp32 && u > 0 && (near2 + eps2) / (len_ * len_) >= 1e-10);
-      if (L.fp32_cells) {
-        L.fill_cells_fp32(multipoles32_, used);
-      } else {
-        for (auto* v : {&L.cx, &L.cy, &L.cz, &L.cm, &L.qxx, &L.qxy, &L.qxz, &L.qyy, &L.qyz, &L.qzz}) v->resize(u);
-        for (std::size_t k = 0; k < u; ++k) {
-          const Multipole& c = multipoles_[used[k]];
-          L.cx[k] = c[0], L.cy[k] = c[1], L.cz[k] = c[2], L.cm[k] = c[3];
-          L.qxx[k] = c[4], L.qxy[k] = c[5], L.qxz[k] = c[6], L.qyy[k] = c[7], L.qyz[k] = c[8], L.qzz[k] = c[9];
-        }
-        L.pad_cells();
-      }
+      if (L.fp32_cells)
+        L.fill_cells32(multipoles32_, used);
+      else
+        L.fill_cells64(multipoles_, used);
       pairs += (L.particles - 1) * std::size_t(e - b), cell_terms += L.cells * std::size_t(e - b);
       for (int k = b; k < e; ++k) {
         const Sums s = sums(L, std::size_t(k - b), eps2);

@@ -92,7 +92,7 @@ class Tree {
   // (len_ and mass_unit_ are powers of two near the root cube's edge and the total mass: exact scaling).
   std::array<double, 3> origin_{};
   double len_ = 1, mass_unit_ = 1;
-  bool fp32_masses_ = false;              // FP32 copies made (theta >= fp32_min_theta), every mass 0 or >= 1e-20 mass_unit_
+  bool fp32_masses_ = false;              // FP32 copies made (theta >= fp32_min_theta, AVX2 or wider), every mass 0 or >= 1e-20 mass_unit_
   int leaf_size_, group_size_;
   std::vector<int> order_;                // order_[k] = particle index of the k-th in Morton order
   std::vector<double> x_, y_, z_, m_;     // positions and masses in Morton order
