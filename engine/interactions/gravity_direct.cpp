@@ -84,26 +84,21 @@ double potential_row_portable(const Columns& c, double eps2, std::size_t i) {
 // first-level cache, which a whole block (up to n / 16 particles) outgrows from n ~ 10^4 on.
 // ---------------------------------------------------------------------------------------------
 
-GRAINS_TARGET_BEGIN("avx2,fma")
 namespace avx2 {
 using V = lanes::Avx2F64;
 constexpr std::size_t j_chunk = std::size_t(-1);   // the whole block
+#define GRAINS_GRAVITY_KERNEL GRAINS_AVX2
 #include "interactions/gravity_direct_tiles.inc"
+#undef GRAINS_GRAVITY_KERNEL
 }  // namespace avx2
-GRAINS_TARGET_END
 
-// GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-GRAINS_TARGET_BEGIN("avx512f,avx2,fma")
 namespace avx512 {
 using V = lanes::Avx512F64;
 constexpr std::size_t j_chunk = 512;   // a multiple of 8, so chunks start on a vector
+#define GRAINS_GRAVITY_KERNEL GRAINS_AVX512
 #include "interactions/gravity_direct_tiles.inc"
+#undef GRAINS_GRAVITY_KERNEL
 }  // namespace avx512
-GRAINS_TARGET_END
-#pragma GCC diagnostic pop
 
 }  // namespace
 

@@ -1,8 +1,8 @@
 // One vector of lanes per instruction set and precision, with what the tree's sums (gravity_tree_sums.inc)
 // need beyond + - * (which the vector types take as they are): those sums are written once over these types.
 // Each member is compiled for its own instruction set whatever the build flags (the binary stays portable
-// x86-64); call them only from code compiled for that set (GRAINS_TARGET_BEGIN .. GRAINS_TARGET_END, or the
-// GRAINS_AVX2 / GRAINS_AVX512 attributes), and that only after gravity_direct::supported(...).
+// x86-64); call them only from functions compiled for that set (GRAINS_AVX2, GRAINS_AVX512), and those only
+// after gravity_direct::supported(...).
 #pragma once
 #include <cstddef>
 
@@ -11,19 +11,6 @@
 #include "interactions/gravity_avx512.hpp"
 
 #define GRAINS_AVX2 __attribute__((target("avx2,fma")))
-
-// Everything between GRAINS_TARGET_BEGIN("set") and GRAINS_TARGET_END is compiled for that instruction set,
-// templates and their instances included: how code written once over a lane type gets each set's
-// instructions (a target attribute cannot depend on a template parameter).
-#define GRAINS_PRAGMA_TEXT(x) #x
-#if defined(__clang__)
-#define GRAINS_TARGET_BEGIN(set) \
-  _Pragma(GRAINS_PRAGMA_TEXT(clang attribute push(__attribute__((target(set))), apply_to = function)))
-#define GRAINS_TARGET_END _Pragma("clang attribute pop")
-#else
-#define GRAINS_TARGET_BEGIN(set) _Pragma("GCC push_options") _Pragma(GRAINS_PRAGMA_TEXT(GCC target(set)))
-#define GRAINS_TARGET_END _Pragma("GCC pop_options")
-#endif
 
 // GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
 #pragma GCC diagnostic push
@@ -40,7 +27,7 @@ inline unsigned kept_bits(std::size_t j0, std::size_t first, std::size_t end, st
   return from & below & all;
 }
 
-// Members of every lane type: T (the vector), S (its scalar), width (lanes), set1, load, store, fma (a b + c),
+// Members of every lane type: T (the vector), S (its scalar), width (lanes), zero, set1, load, store, fma (a b + c),
 // fnma (c - a b), sqrt, inverse_sqrt (1 / sqrt(r2)), inverse_cube (1 / r2^{3/2}), keep (v in the lanes j0 + k
 // with first <= j < end, 0 in the others: self and padding may hold 0 * inf), drop (0 in lane j0 + k with
 // j = skip, if any), and for FP64 sum (the lanes added in a fixed order), for FP32 widen (lanes k and
@@ -51,6 +38,7 @@ struct Avx2F64 {
   using T = __m256d;
   using S = double;
   static constexpr std::size_t width = 4;
+  GRAINS_AVX2 static T zero() { return _mm256_setzero_pd(); }
   GRAINS_AVX2 static T set1(S s) { return _mm256_set1_pd(s); }
   GRAINS_AVX2 static T load(const S* p) { return _mm256_loadu_pd(p); }
   GRAINS_AVX2 static void store(S* p, T v) { _mm256_storeu_pd(p, v); }
@@ -84,6 +72,7 @@ struct Avx2F32 {
   using T = __m256;
   using S = float;
   static constexpr std::size_t width = 8;
+  GRAINS_AVX2 static T zero() { return _mm256_setzero_ps(); }
   GRAINS_AVX2 static T set1(S s) { return _mm256_set1_ps(s); }
   GRAINS_AVX2 static T load(const S* p) { return _mm256_loadu_ps(p); }
   GRAINS_AVX2 static void store(S* p, T v) { _mm256_storeu_ps(p, v); }
@@ -116,6 +105,7 @@ struct Avx512F64 {
   using T = __m512d;
   using S = double;
   static constexpr std::size_t width = 8;
+  GRAINS_AVX512 static T zero() { return _mm512_setzero_pd(); }
   GRAINS_AVX512 static T set1(S s) { return _mm512_set1_pd(s); }
   GRAINS_AVX512 static T load(const S* p) { return _mm512_loadu_pd(p); }
   GRAINS_AVX512 static void store(S* p, T v) { _mm512_storeu_pd(p, v); }
@@ -139,6 +129,7 @@ struct Avx512F32 {
   using T = __m512;
   using S = float;
   static constexpr std::size_t width = 16;
+  GRAINS_AVX512 static T zero() { return _mm512_setzero_ps(); }
   GRAINS_AVX512 static T set1(S s) { return _mm512_set1_ps(s); }
   GRAINS_AVX512 static T load(const S* p) { return _mm512_loadu_ps(p); }
   GRAINS_AVX512 static void store(S* p, T v) { _mm512_storeu_ps(p, v); }

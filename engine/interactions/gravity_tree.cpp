@@ -147,26 +147,26 @@ Sums sums_portable(const Lists& L, std::size_t self, double eps2) {
 // kernels: within 1e-6 of each particle's acceleration (tests/engine/test_gravity.cpp, bound 4e-6).
 // ---------------------------------------------------------------------------------------------
 
-GRAINS_TARGET_BEGIN("avx2,fma")
 namespace avx2 {
 using Exact = lanes::Avx2F64;
 using Fast = lanes::Avx2F32;
+#define GRAINS_GRAVITY_KERNEL GRAINS_AVX2
 #include "interactions/gravity_tree_sums.inc"
+#undef GRAINS_GRAVITY_KERNEL
 }  // namespace avx2
-GRAINS_TARGET_END
 
 // GCC 12's avx512fintrin.h fills "undefined" vectors by self-initialisation, which -Wuninitialized flags.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
-GRAINS_TARGET_BEGIN("avx512f,avx2,fma")
 namespace avx512 {
 using Exact = lanes::Avx512F64;
 using Fast = lanes::Avx512F32;
+#define GRAINS_GRAVITY_KERNEL GRAINS_AVX512
 #include "interactions/gravity_tree_sums.inc"
+#undef GRAINS_GRAVITY_KERNEL
 }  // namespace avx512
-GRAINS_TARGET_END
 
 // ---------------------------------------------------------------------------------------------
 // Walk of one group (cell `group`, box lo .. hi): from the root down, the children of every opened cell are
