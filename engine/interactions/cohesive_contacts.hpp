@@ -33,6 +33,8 @@ struct Input {
   // and the pairs' radii are read per slot too: slot_radius[0][k] = R_i, slot_radius[1][k] = R_j.
   bool dense = false;
   const double* slot_radius[2] = {nullptr, nullptr};
+  // Dense batches of eight: the velocities read by plain loads, not gathered (pair_filter::vector_loads).
+  bool vector_loads = false;
   // The law: K_N, F0, D0, f_max, the step.
   double k, attraction, range, overlap_limit, dt;
   // Friction: k_t / k_n, c_t / c_n, mu, bound on k_n delta (true) or on the normal force.

@@ -34,14 +34,17 @@ struct Kernel : W {
   GRAINS_PAIR_KERNEL static long evaluate(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs,
                                           const std::uint8_t* images, std::size_t n, const Output& out) {
     const Shifts shifts(in.shift);
-    return in.dense ? batches<true>(in, shifts, rows, pairs, images, n, out) : batches<false>(in, shifts, rows, pairs, images, n, out);
+    if (!in.dense) return batches<false>(in, shifts, rows, pairs, images, n, out);
+    if constexpr (W::lanes == 8)   // the velocities by plain loads: pair_filter::vector_loads
+      if (in.vector_loads) return batches<true, true>(in, shifts, rows, pairs, images, n, out);
+    return batches<true>(in, shifts, rows, pairs, images, n, out);
   }
 
-  template <bool Dense>
+  template <bool Dense, bool Loads = false>
   GRAINS_PAIR_KERNEL static long batches(const Input& in, const Shifts& shifts, const std::uint32_t* rows, const std::uint32_t* pairs,
                                          const std::uint8_t* images, std::size_t n, const Output& out) {
     long clamped = 0;
-    for (std::size_t q = 0; q < n; q += W::lanes) clamped += batch<Dense>(in, shifts, rows, pairs, images, q, n - q, out);
+    for (std::size_t q = 0; q < n; q += W::lanes) clamped += batch<Dense, Loads>(in, shifts, rows, pairs, images, q, n - q, out);
     return clamped;
   }
 
@@ -53,14 +56,14 @@ struct Kernel : W {
 
   // The pairs q .. q + lanes - 1 (the first `left` of them live). Inlined into the loop over the batches
   // (the AVX2 build measured faster so).
-  template <bool Dense>
+  template <bool Dense, bool Loads>
   [[gnu::always_inline]] GRAINS_PAIR_KERNEL static long batch(const Input& in, const Shifts& shifts, const std::uint32_t* rows,
                                                               const std::uint32_t* pairs, const std::uint8_t* images, std::size_t q,
                                                               std::size_t left, const Output& out) {
     // The pairs' geometry; the steady contacts among them (touched at the last evaluation too). Loads take
     // every live lane, not only the steady ones, so they need not wait for the stamps: the other lanes'
     // contact results are never read (with CompletesTail: zeros or a tail's force there).
-    const typename W::template Contacts<2, Dense> c(rows, pairs, images, q, left, in.partner, shifts, in.position, in.radius,
+    const typename W::template Contacts<2, Dense, Loads> c(rows, pairs, images, q, left, in.partner, shifts, in.position, in.radius,
                                                     in.touched, in.evaluation, in.slot_radius);
     const V rx = c.r[0], ry = c.r[1], d2 = c.d2, Ri = c.Ri, Rj = c.Rj, Rsum = c.Rsum;
     Mask m = c.steady;

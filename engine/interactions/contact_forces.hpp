@@ -465,6 +465,7 @@ class ContactForces final : public ForceModule<D> {
     in.strain_rate_x = s.strain_rate[0], in.strain_rate_y = s.strain_rate[1];
     in.flow_factor_x = flow_factor(s, 0), in.flow_factor_y = flow_factor(s, 1);
     in.tail_reach = law_.reach();
+    in.vector_loads = pair_filter::vector_loads();
     return in;
   }
 

@@ -31,7 +31,7 @@ struct Width4 {
   static constexpr int lanes = 4;
   using V = __m256d;
   using Mask = __m256d;
-  template <int D, bool Dense = false>
+  template <int D, bool Dense = false, bool /*Loads: the AVX-512 build's*/ = false>
   using Contacts = Contacts4<D, Dense>;
   template <int D>
   using Shifts = ImageShifts<D>;

@@ -21,7 +21,7 @@
 
 namespace grains::pair_avx512 {
 
-template <int D, bool Dense>
+template <int D, bool Dense, bool Loads>
 struct Contacts8;
 template <int D>
 struct ImageShifts;
@@ -33,8 +33,8 @@ struct Width8 {
   static constexpr int lanes = 8;
   using V = __m512d;
   using Mask = __mmask8;
-  template <int D, bool Dense = false>
-  using Contacts = Contacts8<D, Dense>;
+  template <int D, bool Dense = false, bool Loads = false>
+  using Contacts = Contacts8<D, Dense, Loads>;
   template <int D>
   using Shifts = ImageShifts<D>;
 
@@ -82,8 +82,9 @@ using V = Width8::V;
 
 // The 2D vectors of eight particles, a[2 idx[l]] and a[2 idx[l] + 1] for l = 0 .. 7, as x and y components:
 // eight 16-byte loads, transposed, where two gathers would load every lane's line twice. Used for the positions
-// of the dense cohesive kernel (about 2.5 % of its force evaluation on the cohesive bench disks); for the
-// velocities as well it measured slower (the loads' shuffles compete with the kernel's own for one port).
+// of the dense cohesive kernel (about 2.5 % of its force evaluation on the cohesive bench disks), and for the
+// velocities as well where pair_filter::vector_loads() says (Contacts8's Loads): on the Xeon that measured slower
+// (the loads' shuffles compete with the kernel's own for one port), on Zen 4 faster.
 GRAINS_AVX512_PAIRS inline void load_2d(const double* a, const std::uint32_t* idx, V& x, V& y) {
   const auto two = [&](int l) GRAINS_AVX512_PAIRS {
     return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a + 2 * std::size_t(idx[l]))), _mm_loadu_pd(a + 2 * std::size_t(idx[l + 1])), 1);
@@ -162,12 +163,14 @@ GRAINS_AVX512_PAIRS inline __m256i times_dim(__m256i i) {
 // of the particle arrays. Dense: the pairs' entries k are consecutive from k0 = pairs[q] (the shell's
 // slots), so the per-entry data (partner, stamps, and the radii, slot_radius[0][k] = R_i and
 // slot_radius[1][k] = R_j) are loaded, and in 2D a whole batch's positions too (load_2d). Its methods
-// are the kernels' loads and stores for these lanes (pair_avx2.hpp's Contacts4 has the same ones).
-template <int D, bool Dense = false>
+// are the kernels' loads and stores for these lanes (pair_avx2.hpp's Contacts4 has the same ones). Loads (2D,
+// Dense): vector_at_i and vector_at_j read a whole batch's vectors by load_2d too, not by gathers.
+template <int D, bool Dense = false, bool Loads = false>
 struct Contacts8 {
   using Mask = Width8::Mask;
   __m256i i, k, j, iD, jD;
   std::uint32_t k0;
+  const std::uint32_t *row_ids, *partner_ids;   // the lanes' i and j as plain integers (Dense)
   Mask live;
   V r[D], d2, Ri, Rj, Rsum;
   Mask touching, steady;
@@ -177,7 +180,9 @@ struct Contacts8 {
                                                        const double* position, const double* radius, std::uint32_t* touched,
                                                        std::uint32_t evaluation, const double* const* slot_radius = nullptr) {
     using W = Width8;
+    static_assert(!Loads || (D == 2 && Dense));
     live = W::first_lanes(left);
+    row_ids = rows + q, partner_ids = Dense ? partner + pairs[q] : nullptr;
     i = _mm256_maskz_loadu_epi32(live, rows + q);
     k = _mm256_maskz_loadu_epi32(live, pairs + q);
     k0 = pairs[q];
@@ -207,9 +212,13 @@ struct Contacts8 {
   GRAINS_AVX512_PAIRS V at_i(const double* a, Mask m) const { return Width8::gather(a, i, m); }
   GRAINS_AVX512_PAIRS V at_j(const double* a, Mask m) const { return Width8::gather(a, j, m); }
   GRAINS_AVX512_PAIRS void vector_at_i(const double* a, V out[D]) const {
+    if constexpr (Loads)
+      if (live == 0xFF) return load_2d(a, row_ids, out[0], out[1]);
     for (int c = 0; c < D; ++c) out[c] = Width8::gather(a + c, iD, live);
   }
   GRAINS_AVX512_PAIRS void vector_at_j(const double* a, V out[D]) const {
+    if constexpr (Loads)
+      if (live == 0xFF) return load_2d(a, partner_ids, out[0], out[1]);
     for (int c = 0; c < D; ++c) out[c] = Width8::gather(a + c, jD, live);
   }
 

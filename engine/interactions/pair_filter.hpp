@@ -72,6 +72,15 @@ bool supported(Isa isa);   // the processor can run that build (whatever the cap
 const char* isa_name(Isa isa);   // "portable", "avx2", "avx512": for run summaries
 inline bool avx512() { return isa() == Isa::avx512; }
 
+// Whether the AVX-512 cohesive kernel reads a whole batch's 2D velocities as the positions (eight 16-byte loads
+// and two shuffles, pair_avx512.hpp's load_2d) rather than gathered. The same values either way, so the same
+// results. On AMD processors by default: on Zen 4 eight such loads took 2.60 ns where the two gathers took 5.75
+// ns, and the bench disks ran 1.10x faster; on the Xeon the loads' shuffles compete with the kernel's own for one
+// port and measured slower. The environment variable GRAINS_PAIR_LOADS ("gather" or "load", read once) or a
+// test (set_vector_loads) overrides it.
+bool vector_loads();
+void set_vector_loads(bool loads);
+
 template <int D>
 std::size_t gather(const Geometry<D>& g, const std::uint32_t* start, std::size_t row_begin, std::size_t row_end,
                    std::uint32_t* rows, std::uint32_t* pairs, std::uint8_t* images) {

@@ -43,6 +43,25 @@ Isa isa() {
 
 void cap_isa(Isa widest) { cap.store(widest, std::memory_order_relaxed); }
 
+namespace {
+
+std::atomic<int> loads_set{-1};   // set_vector_loads: 0, 1; -1 not set
+
+}  // namespace
+
+bool vector_loads() {
+  static const bool by_default = [] {
+    const char* want = std::getenv("GRAINS_PAIR_LOADS");
+    if (want && std::strcmp(want, "gather") == 0) return false;
+    if (want && std::strcmp(want, "load") == 0) return true;
+    return bool(__builtin_cpu_is("amd"));
+  }();
+  const int set = loads_set.load(std::memory_order_relaxed);
+  return set < 0 ? by_default : set == 1;
+}
+
+void set_vector_loads(bool loads) { loads_set.store(loads ? 1 : 0, std::memory_order_relaxed); }
+
 const char* isa_name(Isa isa) { return isa == Isa::avx512 ? "avx512" : isa == Isa::avx2 ? "avx2" : "portable"; }
 
 }  // namespace grains::pair_filter
