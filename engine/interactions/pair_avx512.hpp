@@ -85,9 +85,13 @@ using V = Width8::V;
 // of the dense cohesive kernel (about 2.5 % of its force evaluation on the cohesive bench disks), and for the
 // velocities as well where pair_filter::vector_loads() says (Contacts8's Loads): on the Xeon that measured slower
 // (the loads' shuffles compete with the kernel's own for one port), on Zen 4 faster.
+// Stride 3: the first two components of the 3D vectors a[3 idx[l] ..] (the pair filter's positions, where
+// pair_filter::vector_loads() says).
+template <int Stride = 2>
 GRAINS_AVX512_PAIRS inline void load_2d(const double* a, const std::uint32_t* idx, V& x, V& y) {
   const auto two = [&](int l) GRAINS_AVX512_PAIRS {
-    return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a + 2 * std::size_t(idx[l]))), _mm_loadu_pd(a + 2 * std::size_t(idx[l + 1])), 1);
+    return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a + Stride * std::size_t(idx[l]))),
+                                _mm_loadu_pd(a + Stride * std::size_t(idx[l + 1])), 1);
   };
   const V low = _mm512_insertf64x4(_mm512_castpd256_pd512(two(0)), two(2), 1);   // x0 y0 x1 y1 x2 y2 x3 y3
   const V high = _mm512_insertf64x4(_mm512_castpd256_pd512(two(4)), two(6), 1);

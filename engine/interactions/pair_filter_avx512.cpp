@@ -12,7 +12,9 @@ namespace {
 
 // The width's operations (gather too: not the pair filter's own) are members.
 struct Filter8 : pair_avx512::Width8 {
-  template <int D, bool Selection>
+  // Loads: a full vector's positions read by load_2d (and the z components gathered), not gathered
+  // (pair_filter::vector_loads).
+  template <int D, bool Selection, bool Loads>
   GRAINS_AVX512_PAIRS static std::size_t select(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
                                                 std::uint32_t* pairs, std::uint8_t* images) {
     using namespace pair_avx512;
@@ -29,9 +31,16 @@ struct Filter8 : pair_avx512::Width8 {
       const __m256i jx = times_dim<D>(j), ix = times_dim<D>(i);
       V shift[D];
       shifts.lookup(s, shift);
+      V xj[D], xi[D];
+      if (Loads && live == 0xFF) {
+        load_2d<D>(x, g.partner + k, xj[0], xj[1]), load_2d<D>(x, g.owner + k, xi[0], xi[1]);
+        if constexpr (D == 3) xj[2] = gather(x + 2, jx, live), xi[2] = gather(x + 2, ix, live);
+      } else {
+        for (int a = 0; a < D; ++a) xj[a] = gather(x + a, jx, live), xi[a] = gather(x + a, ix, live);
+      }
       V d2 = zero();
       for (int a = 0; a < D; ++a) {
-        const V r = sub(add(gather(x + a, jx, live), shift[a]), gather(x + a, ix, live));
+        const V r = sub(add(xj[a], shift[a]), xi[a]);
         d2 = a == 0 ? mul(r, r) : add(d2, mul(r, r));   // (x^2 + y^2) + z^2, as Eigen
       }
       const V reach = add(add(gather(g.radius, i, live), gather(g.radius, j, live)), tail);
@@ -53,8 +62,11 @@ struct Filter8 : pair_avx512::Width8 {
 template <int D>
 std::size_t gather_avx512(const Geometry<D>& g, std::uint32_t k_begin, std::uint32_t k_end, std::uint32_t* rows,
                           std::uint32_t* pairs, std::uint8_t* images) {
-  return g.entry ? Filter8::select<D, true>(g, k_begin, k_end, rows, pairs, images)
-                 : Filter8::select<D, false>(g, k_begin, k_end, rows, pairs, images);
+  if (vector_loads())
+    return g.entry ? Filter8::select<D, true, true>(g, k_begin, k_end, rows, pairs, images)
+                   : Filter8::select<D, false, true>(g, k_begin, k_end, rows, pairs, images);
+  return g.entry ? Filter8::select<D, true, false>(g, k_begin, k_end, rows, pairs, images)
+                 : Filter8::select<D, false, false>(g, k_begin, k_end, rows, pairs, images);
 }
 
 template std::size_t gather_avx512<2>(const Geometry<2>&, std::uint32_t, std::uint32_t, std::uint32_t*, std::uint32_t*,

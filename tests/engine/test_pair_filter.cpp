@@ -1,4 +1,4 @@
-// The pair loop's first pass (interactions/pair_filter.hpp): the AVX-512 and AVX2 builds (each where the
+// The pair loop's first pass (interactions/pair_filter.hpp): the AVX-512 (positions gathered and loaded) and AVX2 builds (each where the
 // processor has it) select exactly the entries the portable build selects, in the same order, with the same rows, on random polydisperse packings (2D
 // and 3D, open and periodic, with and without an attraction range, particles moved since the list was
 // built, runs of rows of every length) and on lattices whose neighbours sit exactly at reach, where the
@@ -82,7 +82,14 @@ Selection compare_builds(const Packing<D>& p, double tail, std::size_t block) {
         CHECK(std::equal(want.images.begin(), want.images.begin() + n, got.images.begin()));
       }
     };
-    if (has_avx512()) compare("AVX-512", pair_filter::gather_avx512<D>);
+    if (has_avx512()) {   // its positions gathered, and read by loads (pair_filter::vector_loads)
+      const bool loads_before = pair_filter::vector_loads();
+      pair_filter::set_vector_loads(false);
+      compare("AVX-512", pair_filter::gather_avx512<D>);
+      pair_filter::set_vector_loads(true);
+      compare("AVX-512 (positions by loads)", pair_filter::gather_avx512<D>);
+      pair_filter::set_vector_loads(loads_before);
+    }
     if (has_avx2()) compare("AVX2", pair_filter::gather_avx2<D>);
     const std::size_t n = portable.n;
     const auto& rows = portable.rows;
