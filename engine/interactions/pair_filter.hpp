@@ -72,12 +72,13 @@ bool supported(Isa isa);   // the processor can run that build (whatever the cap
 const char* isa_name(Isa isa);   // "portable", "avx2", "avx512": for run summaries
 inline bool avx512() { return isa() == Isa::avx512; }
 
-// Whether the AVX-512 cohesive kernel reads a whole batch's 2D velocities as the positions (eight 16-byte loads
-// and two shuffles, pair_avx512.hpp's load_2d) rather than gathered. The same values either way, so the same
-// results. On AMD processors by default: on Zen 4 eight such loads took 2.60 ns where the two gathers took 5.75
-// ns, and the bench disks ran 1.10x faster; on the Xeon the loads' shuffles compete with the kernel's own for one
-// port and measured slower. The environment variable GRAINS_PAIR_LOADS ("gather" or "load", read once) or a
-// test (set_vector_loads) overrides it.
+// Whether the AVX-512 builds read a full vector's 2D vectors by eight 16-byte loads and two shuffles
+// (pair_avx512.hpp's load_2d) rather than by gathers: the dense cohesive kernel its velocities (its positions
+// always), this filter its positions (x and y; z still gathered in 3D). The same values either way, so the
+// same results. On AMD processors by default: on Zen 4 eight such loads took 2.60 ns where the two gathers took
+// 5.75 ns, and the bench disks ran 1.10x faster, the gas 1.04-1.08x; on the Xeon the loads' shuffles compete
+// with the kernel's own for one port and measured slower in the kernel. The environment variable
+// GRAINS_PAIR_LOADS ("gather" or "load", read once) or a test (set_vector_loads) overrides it.
 bool vector_loads();
 void set_vector_loads(bool loads);
 
