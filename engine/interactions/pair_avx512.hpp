@@ -186,18 +186,18 @@ struct Contacts8 {
     using W = Width8;
     static_assert(!Loads || (D == 2 && Dense));
     live = W::first_lanes(left);
-    row_ids = rows + q, partner_ids = Dense ? partner + pairs[q] : nullptr;
     i = _mm256_maskz_loadu_epi32(live, rows + q);
     k = _mm256_maskz_loadu_epi32(live, pairs + q);
     k0 = pairs[q];
-    j = Dense ? _mm256_maskz_loadu_epi32(live, partner + k0)
+    row_ids = rows + q, partner_ids = Dense ? partner + k0 : nullptr;
+    j = Dense ? _mm256_maskz_loadu_epi32(live, partner_ids)
               : _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), live, k, partner, 4);
     iD = times_dim<D>(i), jD = times_dim<D>(j);
     V s[D];
     shifts.lookup(_mm256_cvtepu8_epi32(_mm_maskz_loadu_epi8(live, images + q)), s);
     V xj[D], xi[D];
     if (D == 2 && Dense && live == 0xFF) {   // every lane's row and partner read as plain integers
-      load_2d(position, partner + k0, xj[0], xj[1]), load_2d(position, rows + q, xi[0], xi[1]);
+      load_2d(position, partner_ids, xj[0], xj[1]), load_2d(position, row_ids, xi[0], xi[1]);
     } else {
       for (int a = 0; a < D; ++a) xj[a] = W::gather(position + a, jD, live), xi[a] = W::gather(position + a, iD, live);
     }
