@@ -146,7 +146,7 @@ template <int D, bool Kick>
                   : drift_measured<D, false, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
 }
 #define GRAINS_DRIFT(D)                                                                                             \
-  GRAINS_VECTOR_CLONES DriftSums drift_##D(std::size_t n, double h, const double* __restrict m, double* __restrict x, \
+  GRAINS_VECTOR_CLONES DriftSums drift_##D##_compiled(std::size_t n, double h, const double* __restrict m, double* __restrict x, \
                                            double* __restrict v, double* __restrict vp, const double* __restrict f,   \
                                            double* __restrict f_prev, const DriftGeometry& geometry,                 \
                                            const PendingKick* kick) {                                                \
@@ -253,6 +253,11 @@ DriftSums drift_2_avx2(std::size_t n, double h, const double* m, double* x, doub
               : drift_2_avx2_any<false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
 }
 
+DriftSums drift_3(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
+                  double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
+  return (first_half_avx512() ? drift_3_avx512 : drift_3_compiled)(n, h, m, x, v, vp, f, f_prev, geometry, kick);
+}
+
 DriftSums drift_2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
                   double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
   if (!drift_2_hand_written()) return drift_2_compiled(n, h, m, x, v, vp, f, f_prev, geometry, kick);
@@ -306,15 +311,20 @@ template <int S, bool Kick>
     }
   return kicked;
 }
-#define GRAINS_HALF_KICK_SPIN(S)                                                                                     \
-  GRAINS_VECTOR_CLONES double half_kick_spin_##S(std::size_t n, double h, const double* __restrict ii,               \
+#define GRAINS_HALF_KICK_SPIN(S, NAME)                                                                               \
+  GRAINS_VECTOR_CLONES double NAME(std::size_t n, double h, const double* __restrict ii,               \
                                                  double* __restrict t, double* __restrict w, const PendingKick* kick) { \
     return kick ? half_kick_spin_body<S, true>(n, h, ii, t, w, kick->h, kick->keep)                                 \
                 : half_kick_spin_body<S, false>(n, h, ii, t, w, 0, 1);                                              \
   }
-GRAINS_HALF_KICK_SPIN(1)
-GRAINS_HALF_KICK_SPIN(3)
+GRAINS_HALF_KICK_SPIN(1, half_kick_spin_1)
+GRAINS_HALF_KICK_SPIN(3, half_kick_spin_3_compiled)
 #undef GRAINS_HALF_KICK_SPIN
+
+double half_kick_spin_3(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w,
+                        const PendingKick* kick) {
+  return (first_half_avx512() ? half_kick_spin_3_avx512 : half_kick_spin_3_compiled)(n, h, inverse_inertia, torque, w, kick);
+}
 
 GRAINS_VECTOR_CLONES
 void advance_any(std::size_t n, double h, double* __restrict theta, const double* __restrict w) {

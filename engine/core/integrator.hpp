@@ -78,6 +78,16 @@ DriftSums drift_2_avx2(std::size_t n, double h, const double* __restrict inverse
 DriftSums drift_2_compiled(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                            double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                            const DriftGeometry& geometry, const PendingKick* kick);
+// drift_3 and half_kick_spin_3 run loops written for AVX-512 (core/integrator_avx512.cpp) where the
+// processor has it (first_half_avx512), else the loops the compilers vectorise. Both write the same bits.
+// The _avx512 ones run only where first_half_avx512() (for tests).
+bool first_half_avx512();
+DriftSums drift_3_avx512(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+                         double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
+                         const DriftGeometry& geometry, const PendingKick* kick);
+DriftSums drift_3_compiled(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+                           double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
+                           const DriftGeometry& geometry, const PendingKick* kick);
 template <int D>
 DriftSums drift(std::size_t n, double h, const double* inverse_mass, double* x, double* v, double* vp, const double* f,
                 double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
@@ -94,6 +104,10 @@ double half_kick_spin_1(std::size_t n, double h, const double* __restrict invers
                         double* __restrict w, const PendingKick* kick);
 double half_kick_spin_3(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
                         double* __restrict w, const PendingKick* kick);
+double half_kick_spin_3_avx512(std::size_t n, double h, const double* __restrict inverse_inertia,
+                               double* __restrict torque, double* __restrict w, const PendingKick* kick);
+double half_kick_spin_3_compiled(std::size_t n, double h, const double* __restrict inverse_inertia,
+                                 double* __restrict torque, double* __restrict w, const PendingKick* kick);
 template <int S>
 double half_kick_spin(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w,
                       const PendingKick* kick) {
