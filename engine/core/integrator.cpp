@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <immintrin.h>
-
 namespace grains::integrator_detail {
 namespace {
 
@@ -166,96 +164,14 @@ GRAINS_VECTOR_CLONES DriftSums drift_2_compiled(std::size_t n, double h, const d
               : drift_any<2, false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
 }
 
-namespace {
-
-// The 2D drift written for AVX2: two disks a vector with their components in place (x0, y0, x1, y1), the
-// mass duplicated across each disk's pair and the squared move summed pairwise. drift_body's operations in
-// its order, lane by lane (no FMA), so every array it writes is bit for bit drift_body's; its witness sums
-// run in another order (only their finiteness matters). On processors with AVX2 but not AVX-512 it took
-// the drift from 14 % to 9 % of a pressure-controlled run of cohesive disks (type 1).
-template <int Measure, bool Follow, bool Kick>
-__attribute__((target("avx2"))) DriftSums drift_2_avx2_body(std::size_t n, double h, const double* __restrict inverse_mass,
-                                                            double* __restrict x, double* __restrict v, double* __restrict vp,
-                                                            const double* __restrict f, double* __restrict f_prev,
-                                                            const DriftGeometry& g, double hk, double keep) {
-  using V = __m256d;
-  const V half_h = _mm256_set1_pd(0.5 * h), step = _mm256_set1_pd(h), half_hk = _mm256_set1_pd(0.5 * hk);
-  const V kept = _mm256_set1_pd(keep), newer = _mm256_set1_pd(1.75), older = _mm256_set1_pd(0.75);
-  // Per-axis constants, once per disk: (c_x, c_y, c_x, c_y).
-  const V lower = _mm256_setr_pd(g.lower[0], g.lower[1], g.lower[0], g.lower[1]);
-  const V scale = _mm256_setr_pd(g.scale[0], g.scale[1], g.scale[0], g.scale[1]);
-  const V reference_lower = _mm256_setr_pd(g.reference_lower[0], g.reference_lower[1], g.reference_lower[0], g.reference_lower[1]);
-  const V strain = _mm256_setr_pd(g.strain[0], g.strain[1], g.strain[0], g.strain[1]);
-  V witness = _mm256_setzero_pd(), kicked = _mm256_setzero_pd(), largest = _mm256_setzero_pd();
-  const std::size_t pairs = n / 2;
-  for (std::size_t p = 0; p < pairs; ++p) {
-    const std::size_t k = 4 * p;
-    const V mass = _mm256_permute4x64_pd(_mm256_castpd128_pd256(_mm_loadu_pd(inverse_mass + 2 * p)), 0x50);
-    const V a = _mm256_mul_pd(mass, _mm256_loadu_pd(f + k)), a_prev = _mm256_mul_pd(mass, _mm256_loadu_pd(f_prev + k));
-    V u = _mm256_loadu_pd(v + k);
-    if constexpr (Kick) {
-      u = _mm256_mul_pd(_mm256_add_pd(u, _mm256_mul_pd(half_hk, a)), kept);   // second_half
-      kicked = _mm256_add_pd(kicked, u);
-    }
-    u = _mm256_add_pd(u, _mm256_mul_pd(half_h, a));
-    V r = _mm256_add_pd(_mm256_loadu_pd(x + k), _mm256_mul_pd(step, u));
-    const V predicted = _mm256_add_pd(u, _mm256_mul_pd(half_h, _mm256_sub_pd(_mm256_mul_pd(newer, a), _mm256_mul_pd(older, a_prev))));
-    _mm256_storeu_pd(f_prev + k, _mm256_setzero_pd());
-    witness = _mm256_add_pd(witness, r);
-    if constexpr (Follow) r = _mm256_add_pd(lower, _mm256_mul_pd(_mm256_sub_pd(r, lower), scale));
-    _mm256_storeu_pd(x + k, r), _mm256_storeu_pd(v + k, u), _mm256_storeu_pd(vp + k, predicted);
-    if constexpr (Measure > 0) {
-      V ref = _mm256_loadu_pd(g.reference + k);
-      if constexpr (Measure == 2) ref = _mm256_add_pd(reference_lower, _mm256_mul_pd(_mm256_sub_pd(ref, reference_lower), strain));
-      const V dx = _mm256_sub_pd(r, ref), squared = _mm256_mul_pd(dx, dx);
-      largest = _mm256_max_pd(_mm256_hadd_pd(squared, squared), largest);   // (x^2 + y^2) per disk; as std::max
-    }
-  }
-  alignas(32) double w[4], kk[4], l[4];
-  _mm256_store_pd(w, witness), _mm256_store_pd(kk, kicked), _mm256_store_pd(l, largest);
-  DriftSums sums{(w[0] + w[1]) + (w[2] + w[3]), std::max(std::max(l[0], l[1]), std::max(l[2], l[3])), (kk[0] + kk[1]) + (kk[2] + kk[3])};
-  if (n % 2) {   // the last disk as drift_body does it
-    const std::size_t i = n - 1;
-    DriftGeometry last = g;
-    if (last.reference) last.reference += 2 * i;
-    const DriftSums tail = drift_body<2, Measure, Follow, Kick>(1, h, inverse_mass + i, x + 2 * i, v + 2 * i, vp + 2 * i,
-                                                                f + 2 * i, f_prev + 2 * i, last, hk, keep);
-    sums.witness += tail.witness, sums.kick_witness += tail.kick_witness;
-    sums.largest_move = std::max(sums.largest_move, tail.largest_move);
-  }
-  return sums;
-}
-template <bool Follow, bool Kick>
-__attribute__((target("avx2"))) DriftSums drift_2_avx2_measured(std::size_t n, double h, const double* m, double* x, double* v,
-                                                                double* vp, const double* f, double* f_prev,
-                                                                const DriftGeometry& g, double hk, double keep) {
-  if (!g.reference) return drift_2_avx2_body<0, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
-  if (g.carried) return drift_2_avx2_body<2, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
-  return drift_2_avx2_body<1, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
-}
-template <bool Kick>
-DriftSums drift_2_avx2_any(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
-                           double* f_prev, const DriftGeometry& g, double hk, double keep) {
-  return g.follow ? drift_2_avx2_measured<true, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep)
-                  : drift_2_avx2_measured<false, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
-}
-
-}  // namespace
-
 bool drift_2_hand_written() {
-  static const bool yes = __builtin_cpu_supports("avx2") && !__builtin_cpu_supports("avx512f");
+  static const bool yes = has_avx2() && !__builtin_cpu_supports("avx512f");
   return yes;
-}
-
-DriftSums drift_2_avx2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
-                       double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
-  return kick ? drift_2_avx2_any<true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)
-              : drift_2_avx2_any<false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
 }
 
 DriftSums drift_3(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
                   double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
-  return (first_half_avx512() ? drift_3_avx512 : drift_3_compiled)(n, h, m, x, v, vp, f, f_prev, geometry, kick);
+  return (has_avx2() ? drift_3_avx2 : drift_3_compiled)(n, h, m, x, v, vp, f, f_prev, geometry, kick);
 }
 
 DriftSums drift_2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
@@ -323,7 +239,7 @@ GRAINS_HALF_KICK_SPIN(3, half_kick_spin_3_compiled)
 
 double half_kick_spin_3(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w,
                         const PendingKick* kick) {
-  return (first_half_avx512() ? half_kick_spin_3_avx512 : half_kick_spin_3_compiled)(n, h, inverse_inertia, torque, w, kick);
+  return (has_avx2() ? half_kick_spin_3_avx2 : half_kick_spin_3_compiled)(n, h, inverse_inertia, torque, w, kick);
 }
 
 GRAINS_VECTOR_CLONES
@@ -387,42 +303,9 @@ void add_kinetic_stress_2_compiled(std::size_t n, const double* mass, const doub
   add_kinetic_stress_any<2>(n, mass, inverse_mass, f, v, kick, s);
 }
 
-namespace {
-// The 2D sum written for AVX2: a disk's four terms (m u_r u_c, in s's column-major order) as one vector,
-// (m u_x, m u_y, m u_x, m u_y) times (u_x, u_x, u_y, u_y), added to the four sums at once. The body's
-// operations lane by lane, in particle order (no FMA), so the same bits, but one chain of dependent vector
-// additions where the body has four of scalar ones: in a pressure-controlled run the barostat waits for
-// this sum at every step, on one thread.
-template <bool Kick>
-__attribute__((target("avx2"))) void add_kinetic_stress_2_avx2_body(std::size_t n, const double* __restrict mass,
-                                                                    const double* __restrict inverse_mass,
-                                                                    const double* __restrict f, const double* __restrict v,
-                                                                    double h, double keep, double* s) {
-  const __m128d half_h = _mm_set1_pd(0.5 * h), kept = _mm_set1_pd(keep);
-  __m256d sum = _mm256_loadu_pd(s);
-  for (std::size_t i = 0; i < n; ++i) {
-    __m128d u = _mm_loadu_pd(v + 2 * i);
-    if constexpr (Kick)   // second_half(v, h, inverse_mass f, keep)
-      u = _mm_mul_pd(_mm_add_pd(u, _mm_mul_pd(half_h, _mm_mul_pd(_mm_set1_pd(inverse_mass[i]), _mm_loadu_pd(f + 2 * i)))), kept);
-    const __m128d mu = _mm_mul_pd(_mm_set1_pd(mass[i]), u);
-    const __m256d left = _mm256_insertf128_pd(_mm256_castpd128_pd256(mu), mu, 1);         // (mu_x, mu_y, mu_x, mu_y)
-    const __m256d right = _mm256_permute4x64_pd(_mm256_castpd128_pd256(u), 0x50);         // (u_x, u_x, u_y, u_y)
-    sum = _mm256_add_pd(sum, _mm256_mul_pd(left, right));
-  }
-  _mm256_storeu_pd(s, sum);
-}
-}  // namespace
-
-void add_kinetic_stress_2_avx2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
-                               const double* v, const PendingKick* kick, double* s) {
-  if (kick) add_kinetic_stress_2_avx2_body<true>(n, mass, inverse_mass, f, v, kick->h, kick->keep, s);
-  else add_kinetic_stress_2_avx2_body<false>(n, mass, inverse_mass, f, v, 0, 1, s);
-}
-
 void add_kinetic_stress_2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s) {
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  (avx2 ? add_kinetic_stress_2_avx2 : add_kinetic_stress_2_compiled)(n, mass, inverse_mass, f, v, kick, s);
+  (has_avx2() ? add_kinetic_stress_2_avx2 : add_kinetic_stress_2_compiled)(n, mass, inverse_mass, f, v, kick, s);
 }
 void add_kinetic_stress_3(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
                           const double* v, const PendingKick* kick, double* s) {

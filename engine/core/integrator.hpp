@@ -68,9 +68,12 @@ DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass
 DriftSums drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                   const DriftGeometry& geometry, const PendingKick* kick);
-// drift_2 runs a loop written for AVX2 (drift_2_avx2) where the processor has AVX2 but not AVX-512
-// (drift_2_hand_written), else drift_2_compiled, the loop the compilers vectorise for each instruction set.
-// Both write the same bits. drift_2_avx2 runs on any processor with AVX2 (for tests).
+// The loops written for AVX2 (core/integrator_avx2.cpp) run only where has_avx2(); each writes the bits of
+// its _compiled twin, the loop the compilers vectorise for each instruction set (tests compare them).
+// drift_3 runs drift_3_avx2 wherever the processor has AVX2 (on Zen 4 it beat the compiled AVX-512 loop);
+// drift_2 runs drift_2_avx2 only where it has AVX2 but not AVX-512 (drift_2_hand_written: on Zen 4 the two
+// were even in 2D, and the Xeon's log keeps the compiled AVX-512 loop).
+bool has_avx2();
 bool drift_2_hand_written();
 DriftSums drift_2_avx2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                        double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
@@ -78,13 +81,9 @@ DriftSums drift_2_avx2(std::size_t n, double h, const double* __restrict inverse
 DriftSums drift_2_compiled(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                            double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                            const DriftGeometry& geometry, const PendingKick* kick);
-// drift_3 and half_kick_spin_3 run loops written for AVX-512 (core/integrator_avx512.cpp) where the
-// processor has it (first_half_avx512), else the loops the compilers vectorise. Both write the same bits.
-// The _avx512 ones run only where first_half_avx512() (for tests).
-bool first_half_avx512();
-DriftSums drift_3_avx512(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
-                         double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
-                         const DriftGeometry& geometry, const PendingKick* kick);
+DriftSums drift_3_avx2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+                       double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
+                       const DriftGeometry& geometry, const PendingKick* kick);
 DriftSums drift_3_compiled(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                            double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                            const DriftGeometry& geometry, const PendingKick* kick);
@@ -104,8 +103,9 @@ double half_kick_spin_1(std::size_t n, double h, const double* __restrict invers
                         double* __restrict w, const PendingKick* kick);
 double half_kick_spin_3(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
                         double* __restrict w, const PendingKick* kick);
-double half_kick_spin_3_avx512(std::size_t n, double h, const double* __restrict inverse_inertia,
-                               double* __restrict torque, double* __restrict w, const PendingKick* kick);
+// half_kick_spin_3 runs half_kick_spin_3_avx2 wherever the processor has AVX2, as drift_3.
+double half_kick_spin_3_avx2(std::size_t n, double h, const double* __restrict inverse_inertia, double* __restrict torque,
+                             double* __restrict w, const PendingKick* kick);
 double half_kick_spin_3_compiled(std::size_t n, double h, const double* __restrict inverse_inertia,
                                  double* __restrict torque, double* __restrict w, const PendingKick* kick);
 template <int S>

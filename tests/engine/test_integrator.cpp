@@ -6,6 +6,7 @@
 // pending: bit for bit the kinetic stress after that kick.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <random>
 
 #include "analysis/stress.hpp"
@@ -141,21 +142,22 @@ TEST_CASE("integrator: the kinetic stress of a pending kick is the kinetic stres
   }
 }
 
-// Where the processor has AVX2 but not AVX-512, drift_2 runs a loop written for AVX2 (drift_2_avx2): it
-// must write the bits of the loop the compilers vectorise (drift_2_compiled), in every variant (a pending
-// kick or not, following a cell or not, measuring the move from the reference positions as they are or as
-// carried), over an odd number of disks (the last one alone). Its witness sums may differ in their last
-// bits. Tested wherever the processor has AVX2, AVX-512 machines included.
-TEST_CASE("integrator: the 2D drift written for AVX2 writes the compiled loop's bits", "[integrator]") {
+namespace {
+// The drift written for AVX2 (drift_2_avx2, drift_3_avx2) must write the bits of the loop the compilers
+// vectorise (drift_2_compiled, drift_3_compiled), in every variant (a pending kick or not, following a cell
+// or not, measuring the move from the reference positions as they are or as carried), over a number of
+// particles that leaves one to the compiled loop. Its witness sums may differ in their last bits. The
+// largest move is also compared over every window of four particles (one vector block), so that each lane
+// of the written loop's per-particle sums decides the maximum somewhere.
+template <int D>
+void drift_written_for_avx2_case() {
   using namespace integrator_detail;
-  if (!__builtin_cpu_supports("avx2")) {
-    WARN("this processor has no AVX2: the 2D drift written for it is not tested");
-    return;
-  }
-  std::mt19937_64 rng(7);
+  const auto written = D == 2 ? drift_2_avx2 : drift_3_avx2;
+  const auto compiled = D == 2 ? drift_2_compiled : drift_3_compiled;
+  std::mt19937_64 rng(7 + D);
   std::uniform_real_distribution<double> u(-1, 1);
   const std::size_t n = 301;
-  std::vector<double> mass(n), x(2 * n), v(2 * n), vp(2 * n), f(2 * n), f_prev(2 * n), reference(2 * n);
+  std::vector<double> mass(n), x(D * n), v(D * n), vp(D * n), f(D * n), f_prev(D * n), reference(D * n);
   for (double& m : mass) m = 1.5 + u(rng);
   for (auto* a : {&x, &v, &vp, &f, &f_prev, &reference})
     for (double& e : *a) e = 3 * u(rng);
@@ -169,64 +171,16 @@ TEST_CASE("integrator: the 2D drift written for AVX2 writes the compiled loop's 
       for (int measure : {0, 1, 2}) {
         DriftGeometry g;
         g.follow = follow;
-        g.lower[0] = 0.25, g.lower[1] = -0.5, g.scale[0] = 0.9993, g.scale[1] = 1.0011;
-        g.reference = measure ? reference.data() : nullptr;
-        g.carried = measure == 2;
-        g.reference_lower[0] = 0.1, g.reference_lower[1] = 0.2, g.strain[0] = 0.998, g.strain[1] = 1.003;
-        auto x1 = x, v1 = v, vp1 = vp, fp1 = f_prev, x2 = x, v2 = v, vp2 = vp, fp2 = f_prev;
-        const PendingKick* k = kick ? &pending : nullptr;
-        const DriftSums a = drift_2_avx2(n, 2e-3, mass.data(), x1.data(), v1.data(), vp1.data(), f.data(), fp1.data(), g, k);
-        const DriftSums b = drift_2_compiled(n, 2e-3, mass.data(), x2.data(), v2.data(), vp2.data(), f.data(), fp2.data(), g, k);
-        INFO("kick " << kick << ", follow " << follow << ", measure " << measure);
-        CHECK(x1 == x2);
-        CHECK(v1 == v2);
-        CHECK(vp1 == vp2);
-        CHECK(fp1 == fp2);
-        CHECK(a.largest_move == b.largest_move);
-        CHECK((measure == 0 || a.largest_move > 0));
-        CHECK(a.witness == Approx(b.witness).epsilon(1e-12));
-        CHECK(a.kick_witness == Approx(b.kick_witness).epsilon(1e-12));
-      }
-}
-
-// Where the processor has AVX-512, drift_3 and half_kick_spin_3 run loops written for it (drift_3_avx512,
-// half_kick_spin_3_avx512): they must write the bits of the loops the compilers vectorise, in every
-// variant, over a number of particles that leaves a few to the compiled loop. The largest move is also
-// compared over every window of eight particles, so that each lane of the written loop's per-particle sums
-// decides the maximum somewhere.
-TEST_CASE("integrator: the 3D first half written for AVX-512 writes the compiled loops' bits", "[integrator]") {
-  using namespace integrator_detail;
-  if (!first_half_avx512()) {
-    WARN("this processor has no AVX-512: the 3D first half written for it is not tested");
-    return;
-  }
-  std::mt19937_64 rng(13);
-  std::uniform_real_distribution<double> u(-1, 1);
-  const std::size_t n = 301;
-  std::vector<double> mass(n), x(3 * n), v(3 * n), vp(3 * n), f(3 * n), f_prev(3 * n), reference(3 * n), w(3 * n);
-  for (double& m : mass) m = 1.5 + u(rng);
-  for (auto* a : {&x, &v, &vp, &f, &f_prev, &reference, &w})
-    for (double& e : *a) e = 3 * u(rng);
-  const PendingKick pending = [] {
-    PendingKick k;
-    k.h = 1.3e-3, k.keep = 0.999;
-    return k;
-  }();
-  for (bool kick : {false, true}) {
-    const PendingKick* k = kick ? &pending : nullptr;
-    for (bool follow : {false, true})
-      for (int measure : {0, 1, 2}) {
-        DriftGeometry g;
-        g.follow = follow;
         g.lower[0] = 0.25, g.lower[1] = -0.5, g.lower[2] = 0.75, g.scale[0] = 0.9993, g.scale[1] = 1.0011, g.scale[2] = 0.9998;
         g.reference = measure ? reference.data() : nullptr;
         g.carried = measure == 2;
         g.reference_lower[0] = 0.1, g.reference_lower[1] = 0.2, g.reference_lower[2] = -0.3;
         g.strain[0] = 0.998, g.strain[1] = 1.003, g.strain[2] = 1.001;
+        const PendingKick* k = kick ? &pending : nullptr;
         auto x1 = x, v1 = v, vp1 = vp, fp1 = f_prev, x2 = x, v2 = v, vp2 = vp, fp2 = f_prev;
-        const DriftSums a = drift_3_avx512(n, 2e-3, mass.data(), x1.data(), v1.data(), vp1.data(), f.data(), fp1.data(), g, k);
-        const DriftSums b = drift_3_compiled(n, 2e-3, mass.data(), x2.data(), v2.data(), vp2.data(), f.data(), fp2.data(), g, k);
-        INFO("kick " << kick << ", follow " << follow << ", measure " << measure);
+        const DriftSums a = written(n, 2e-3, mass.data(), x1.data(), v1.data(), vp1.data(), f.data(), fp1.data(), g, k);
+        const DriftSums b = compiled(n, 2e-3, mass.data(), x2.data(), v2.data(), vp2.data(), f.data(), fp2.data(), g, k);
+        INFO("D " << D << ", kick " << kick << ", follow " << follow << ", measure " << measure);
         CHECK(x1 == x2);
         CHECK(v1 == v2);
         CHECK(vp1 == vp2);
@@ -237,25 +191,59 @@ TEST_CASE("integrator: the 3D first half written for AVX-512 writes the compiled
         CHECK(a.kick_witness == Approx(b.kick_witness).epsilon(1e-12));
         if (measure == 0) continue;
         int differing = 0;
-        for (std::size_t i = 0; i + 8 <= n; ++i) {
+        for (std::size_t i = 0; i + 4 <= n; ++i) {
           DriftGeometry window = g;
-          window.reference += 3 * i;
+          window.reference += D * i;
           auto x3 = x, v3 = v, vp3 = vp, fp3 = f_prev, x4 = x, v4 = v, vp4 = vp, fp4 = f_prev;
-          const std::size_t o = 3 * i;
-          const double c = drift_3_avx512(8, 2e-3, mass.data() + i, x3.data() + o, v3.data() + o, vp3.data() + o, f.data() + o,
-                                          fp3.data() + o, window, k).largest_move;
-          const double d = drift_3_compiled(8, 2e-3, mass.data() + i, x4.data() + o, v4.data() + o, vp4.data() + o, f.data() + o,
-                                            fp4.data() + o, window, k).largest_move;
-          differing += c != d;
+          const std::size_t o = D * i;
+          differing += written(4, 2e-3, mass.data() + i, x3.data() + o, v3.data() + o, vp3.data() + o, f.data() + o,
+                               fp3.data() + o, window, k).largest_move !=
+                       compiled(4, 2e-3, mass.data() + i, x4.data() + o, v4.data() + o, vp4.data() + o, f.data() + o,
+                                fp4.data() + o, window, k).largest_move;
         }
         CHECK(differing == 0);
       }
-    auto w1 = w, w2 = w, t1 = f, t2 = f;
-    const double a = half_kick_spin_3_avx512(n, 2e-3, mass.data(), t1.data(), w1.data(), k);
-    const double b = half_kick_spin_3_compiled(n, 2e-3, mass.data(), t2.data(), w2.data(), k);
-    INFO("spins, kick " << kick);
+}
+}  // namespace
+
+// drift_3 (and, where the processor lacks AVX-512, drift_2) runs the loop written for AVX2. Tested wherever
+// the processor has AVX2, AVX-512 machines included.
+TEST_CASE("integrator: the drift written for AVX2 writes the compiled loop's bits (2D and 3D)", "[integrator]") {
+  if (!integrator_detail::has_avx2()) {
+    WARN("this processor has no AVX2: the drift written for it is not tested");
+    return;
+  }
+  drift_written_for_avx2_case<2>();
+  drift_written_for_avx2_case<3>();
+}
+
+// The spheres' spin half kick written for AVX2 (half_kick_spin_3_avx2, run wherever the processor has it)
+// writes the compiled loop's spins and cleared torques, with a pending kick or without, over a number of
+// spheres that leaves one to the compiled loop.
+TEST_CASE("integrator: the spin half kick written for AVX2 writes the compiled loop's bits", "[integrator]") {
+  using namespace integrator_detail;
+  if (!has_avx2()) {
+    WARN("this processor has no AVX2: the spin half kick written for it is not tested");
+    return;
+  }
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::size_t n = 301;
+  std::vector<double> inverse_inertia(n), torque(3 * n), w(3 * n);
+  for (double& i : inverse_inertia) i = 1.5 + u(rng);
+  for (auto* a : {&torque, &w})
+    for (double& e : *a) e = 3 * u(rng);
+  PendingKick pending;
+  pending.h = 1.3e-3, pending.keep = 0.999;
+  const PendingKick* none = nullptr;
+  for (const PendingKick* kick : {none, static_cast<const PendingKick*>(&pending)}) {
+    auto w1 = w, w2 = w, t1 = torque, t2 = torque;
+    const double a = half_kick_spin_3_avx2(n, 2e-3, inverse_inertia.data(), t1.data(), w1.data(), kick);
+    const double b = half_kick_spin_3_compiled(n, 2e-3, inverse_inertia.data(), t2.data(), w2.data(), kick);
+    INFO("pending kick " << (kick != nullptr));
     CHECK(w1 == w2);
     CHECK(t1 == t2);
+    CHECK(std::all_of(t1.begin(), t1.end(), [](double t) { return t == 0; }));
     CHECK(a == Approx(b).epsilon(1e-12));
   }
 }
