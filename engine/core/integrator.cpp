@@ -164,20 +164,14 @@ GRAINS_VECTOR_CLONES DriftSums drift_2_compiled(std::size_t n, double h, const d
               : drift_any<2, false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
 }
 
-bool drift_2_hand_written() {
-  static const bool yes = has_avx2() && !__builtin_cpu_supports("avx512f");
-  return yes;
+// The loops written for AVX2 wherever the processor has it (integrator_avx2.cpp).
+DriftSums drift_2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
+                  double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
+  return (has_avx2() ? drift_2_avx2 : drift_2_compiled)(n, h, m, x, v, vp, f, f_prev, geometry, kick);
 }
-
 DriftSums drift_3(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
                   double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
   return (has_avx2() ? drift_3_avx2 : drift_3_compiled)(n, h, m, x, v, vp, f, f_prev, geometry, kick);
-}
-
-DriftSums drift_2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
-                  double* f_prev, const DriftGeometry& geometry, const PendingKick* kick) {
-  if (!drift_2_hand_written()) return drift_2_compiled(n, h, m, x, v, vp, f, f_prev, geometry, kick);
-  return drift_2_avx2(n, h, m, x, v, vp, f, f_prev, geometry, kick);
 }
 
 // The drift's measure alone, over positions that have already moved.

@@ -68,13 +68,10 @@ DriftSums drift_2(std::size_t n, double h, const double* __restrict inverse_mass
 DriftSums drift_3(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                   double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                   const DriftGeometry& geometry, const PendingKick* kick);
-// The loops written for AVX2 (core/integrator_avx2.cpp) run only where has_avx2(); each writes the bits of
-// its _compiled twin, the loop the compilers vectorise for each instruction set (tests compare them).
-// drift_3 runs drift_3_avx2 wherever the processor has AVX2 (on Zen 4 it beat the compiled AVX-512 loop);
-// drift_2 runs drift_2_avx2 only where it has AVX2 but not AVX-512 (drift_2_hand_written: on Zen 4 the two
-// were even in 2D, and the Xeon's log keeps the compiled AVX-512 loop).
+// drift_2 and drift_3 run the loops written for AVX2 (core/integrator_avx2.cpp) wherever the processor has
+// it (has_avx2; on Zen 4 they beat the compiled AVX-512 loops), else their _compiled twins, the loops the
+// compilers vectorise for each instruction set. Both write the same bits (tests compare them).
 bool has_avx2();
-bool drift_2_hand_written();
 DriftSums drift_2_avx2(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                        double* __restrict v, double* __restrict vp, const double* __restrict f, double* __restrict f_prev,
                        const DriftGeometry& geometry, const PendingKick* kick);

@@ -206,8 +206,7 @@ void drift_written_for_avx2_case() {
 }
 }  // namespace
 
-// drift_3 (and, where the processor lacks AVX-512, drift_2) runs the loop written for AVX2. Tested wherever
-// the processor has AVX2, AVX-512 machines included.
+// drift_2 and drift_3 run the loops written for AVX2 wherever the processor has it.
 TEST_CASE("integrator: the drift written for AVX2 writes the compiled loop's bits (2D and 3D)", "[integrator]") {
   if (!integrator_detail::has_avx2()) {
     WARN("this processor has no AVX2: the drift written for it is not tested");
