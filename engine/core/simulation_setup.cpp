@@ -12,13 +12,25 @@
 #include "cell/force_unit.hpp"
 #include "core/simulation_impl.hpp"
 #include "interactions/contact_forces.hpp"
+#include "interactions/gravity_direct.hpp"
 #include "interactions/normal_calibration.hpp"
+#include "interactions/pair_filter.hpp"
 #include "protocols/initial_state.hpp"
 
 namespace grains {
 
+namespace {
+// The environment variables that choose the vector code (tests and benchmarks): a misspelt or unusable one
+// stops the run rather than letting it measure other code than the one asked for.
+void check_environment() {
+  for (const std::string& problem : {pair_filter::environment_problem(), gravity_direct::environment_problem()})
+    if (!problem.empty()) throw SimulationError(problem);
+}
+}  // namespace
+
 template <int D>
 SimulationImpl<D>::SimulationImpl(const Scene& scene) {
+  check_environment();
   auto init = make_initial_state<D>(scene);
   sys_.particles = std::move(init.particles);
   sys_.box = init.box;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 
 #include <immintrin.h>
 
@@ -29,6 +30,15 @@ Isa fastest_isa() {
     return supported(Isa::avx512) ? Isa::avx512 : supported(Isa::avx2) ? Isa::avx2 : Isa::portable;
   }();
   return isa;
+}
+
+std::string environment_problem() {
+  const char* want = std::getenv("GRAINS_GRAVITY_ISA");
+  if (!want) return "";
+  for (Isa i : {Isa::portable, Isa::avx2, Isa::avx512})
+    if (std::strcmp(want, isa_name(i)) == 0)
+      return supported(i) ? "" : "GRAINS_GRAVITY_ISA = \"" + std::string(want) + "\": this processor cannot run those kernels (unset it, or name a narrower set)";
+  return "GRAINS_GRAVITY_ISA = \"" + std::string(want) + "\" is not a set of gravity kernels: allowed portable, avx2, avx512 (unset: the widest the processor runs)";
 }
 
 namespace {

@@ -11,6 +11,7 @@
 #pragma once
 #include <algorithm>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "core/particles.hpp"
@@ -24,6 +25,9 @@ bool supported(Isa isa);      // the CPU (and OS) can run the kernels of `isa`
 // ("portable", "avx2" or "avx512") names another supported one (for tests and benchmarks). Read once.
 Isa fastest_isa();
 const char* isa_name(Isa isa);   // "portable", "avx2", "avx512"
+// What is wrong with GRAINS_GRAVITY_ISA, naming its value and what is allowed ("" if nothing): a name it
+// does not know, or kernels this processor cannot run. Simulations refuse to start on it.
+std::string environment_problem();
 
 // Positions and masses as separate contiguous arrays, padded to whole blocks with massless particles at the
 // origin (the kernels mask them out); z = 0 in 2D, which only adds exact zeros.

@@ -8,6 +8,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "core/vec.hpp"
 
@@ -63,13 +64,18 @@ std::size_t gather_avx2(const Geometry<D>& g, std::uint32_t k_begin, std::uint32
 
 // Which build of the pair loop's vector pieces runs (this filter, the batched contact kernels, the
 // neighbour build's candidate test): the widest the processor has, AVX-512 (F, VL, BW, DQ) or AVX2, else
-// the portable code. The environment variable GRAINS_PAIR_ISA (read once) caps it: "portable" or "avx2";
-// so does a test, with cap_isa. Every build gives the same results, bit for bit.
+// the portable code. The environment variable GRAINS_PAIR_ISA (read once) caps it: "portable" or "avx2"
+// ("avx512": no cap; anything else stops a simulation, environment_problem); so does a test, with cap_isa.
+// Every build gives the same results, bit for bit.
 enum class Isa { portable, avx2, avx512 };
 Isa isa();
 void cap_isa(Isa widest);
 bool supported(Isa isa);   // the processor can run that build (whatever the caps)
 const char* isa_name(Isa isa);   // "portable", "avx2", "avx512": for run summaries
+// What is wrong with GRAINS_PAIR_ISA or GRAINS_PAIR_LOADS, naming the variable, its value and what is
+// allowed ("" if nothing): a name it does not know, or a build this processor cannot run. Simulations refuse
+// to start on it (a benchmark would otherwise measure another build than the one asked for).
+std::string environment_problem();
 inline bool avx512() { return isa() == Isa::avx512; }
 
 // Whether the AVX-512 builds read a full vector's 2D vectors by eight 16-byte loads and two shuffles

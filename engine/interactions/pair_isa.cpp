@@ -2,6 +2,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 
 #include "interactions/pair_filter.hpp"
 
@@ -63,5 +64,20 @@ bool vector_loads() {
 void set_vector_loads(bool loads) { loads_set.store(loads ? 1 : 0, std::memory_order_relaxed); }
 
 const char* isa_name(Isa isa) { return isa == Isa::avx512 ? "avx512" : isa == Isa::avx2 ? "avx2" : "portable"; }
+
+std::string environment_problem() {
+  if (const char* want = std::getenv("GRAINS_PAIR_ISA")) {
+    bool known = false;
+    for (Isa i : {Isa::portable, Isa::avx2, Isa::avx512})
+      if (std::strcmp(want, isa_name(i)) == 0) {
+        if (!supported(i)) return "GRAINS_PAIR_ISA = \"" + std::string(want) + "\": this processor cannot run that build (unset it, or name a narrower one)";
+        known = true;
+      }
+    if (!known) return "GRAINS_PAIR_ISA = \"" + std::string(want) + "\" is not a build of the pair loop: allowed portable, avx2, avx512 (unset: the widest the processor runs)";
+  }
+  if (const char* want = std::getenv("GRAINS_PAIR_LOADS"); want && std::strcmp(want, "gather") != 0 && std::strcmp(want, "load") != 0)
+    return "GRAINS_PAIR_LOADS = \"" + std::string(want) + "\" is not a way of reading vectors: allowed gather, load (unset: load on AMD processors, gather elsewhere)";
+  return "";
+}
 
 }  // namespace grains::pair_filter

@@ -176,6 +176,29 @@ print([m for _, _, m in unit.messages])
 
 
 @pytest.mark.parametrize("version", [2, 3])
+def test_an_unknown_vector_code_choice_in_the_host_environment_is_an_error_not_a_crash(version):
+    """GRAINS_GRAVITY_ISA with a name the engine does not know: the instance, whose simulation is built at
+    instantiation, is refused (no instance) with a logged message naming the variable, the value and what is
+    allowed; the host goes on."""
+    script = """
+import sys
+from fmu_host import Unit, fmu_path
+unit = Unit.__new__(Unit)
+try:
+    unit.__init__(fmu_path("aggregation", int(sys.argv[1])))
+except Exception:
+    print("refused")
+print([m for _, _, m in unit.messages])
+print("host alive")
+"""
+    r = host_process(script, version, env={"GRAINS_GRAVITY_ISA": "avx1024"})
+    assert r.returncode == 0 and "refused" in r.stdout and "host alive" in r.stdout, r.stdout + r.stderr
+    call = "fmi2Instantiate" if version == 2 else "fmi3InstantiateCoSimulation"
+    assert f'{call}: instantiation failed: GRAINS_GRAVITY_ISA = "avx1024" is not a set of gravity kernels: ' \
+           "allowed portable, avx2, avx512" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("version", [2, 3])
 def test_resources_found_through_a_percent_encoded_location(tmp_path, version):
     """fmpy passes file URIs (FMI 2, spaces become %20) and paths (FMI 3): both must reach resources/."""
     path = fmu_path("collision", version)

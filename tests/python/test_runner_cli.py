@@ -45,6 +45,25 @@ def test_bad_scene_fails_without_clobbering_existing_output(grains_bin, root, tm
     assert out.read_bytes() == b"existing results"
 
 
+@pytest.mark.parametrize("variable, value, allowed", [
+    ("GRAINS_PAIR_ISA", "avx3", "allowed portable, avx2, avx512"),
+    ("GRAINS_PAIR_LOADS", "gathers", "allowed gather, load"),
+    ("GRAINS_GRAVITY_ISA", "AVX2", "allowed portable, avx2, avx512"),
+])
+def test_an_unknown_vector_code_choice_in_the_environment_stops_the_run(grains_bin, root, tmp_path, variable, value, allowed):
+    """These variables choose the vector code for tests and benchmarks; a misspelt one used to be ignored, so a
+    benchmark measured other code than the one asked for."""
+    out = tmp_path / "never.h5"
+    r = subprocess.run([str(grains_bin), "run", str(root / "models" / "aggregation.toml"), "--out", str(out), "--quiet",
+                        "--set", "time.steps=10"], capture_output=True, text=True, env=dict(os.environ, **{variable: value}))
+    assert r.returncode != 0
+    assert f'{variable} = "{value}"' in r.stderr and allowed in r.stderr, r.stderr
+    ok = subprocess.run([str(grains_bin), "run", str(root / "models" / "aggregation.toml"), "--out", str(out), "--quiet",
+                         "--set", "time.steps=10"], capture_output=True, text=True,
+                        env=dict(os.environ, **{variable: "portable" if "ISA" in variable else "gather"}))
+    assert ok.returncode == 0, ok.stderr
+
+
 def test_output_a_running_run_is_writing_is_refused_and_left_intact(grains_bin, root, tmp_path):
     """HDF5 empties a file it creates before it locks it: a second run onto the file a first is writing used to
     be refused only after destroying that file (the first then ended with exit 0 and an unreadable file)."""
