@@ -5,11 +5,11 @@
 // permutes and putting them back; yet every operation but one is per component. So here the arrays are
 // read as they lie, four components a vector (four particles in D vectors), and only the per-particle
 // factor (1/m, 1/I) and the squared move are rearranged. On the AMD EPYC (Zen 4), 17,576 spheres: 1.8-3.1
-// ns a sphere against the compiled AVX-512 loop's 3.4-4.5 (an AVX-512 version of this loop: 2.6-3.5, and
-// slower in whole runs, so not kept); 1,400-70,000 disks: 1.2-1.9 ns against 1.3-2.1. The compiled loops' operations
-// lane by lane (no FMA: this file is compiled without contraction), so every array written is bit for bit
-// theirs; the witness sums run in another order (only their finiteness matters). The last few particles
-// go to the compiled loops.
+// ns a sphere (by the arrays' alignment) against the compiled AVX-512 loop's 3.9-4.5 (an AVX-512 version of
+// this loop: 2.6-3.6, and slower in whole runs, so not kept); 1,400-70,000 disks: 1.2-1.9 ns against 1.3-2.1
+// (docs/speed.md). The compiled loops' operations lane by lane (no FMA: this file is compiled without
+// contraction), so every array written is bit for bit theirs; the witness sums run in another order (only
+// their finiteness matters). The last few particles go to the compiled loops.
 #include <algorithm>
 
 #include <immintrin.h>
