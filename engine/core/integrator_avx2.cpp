@@ -9,12 +9,13 @@
 // this loop: 2.6-3.6, and slower in whole runs, so not kept); 1,400-70,000 disks: 1.2-1.9 ns against 1.3-2.1
 // (docs/speed.md). The compiled loops' operations lane by lane (no FMA: this file is compiled without
 // contraction), so every array written is bit for bit theirs; the witness sums run in another order (only
-// their finiteness matters). The last few particles go to the compiled loops.
+// their finiteness matters). A run's last few particles go through the scalar bodies (integrator_loops.hpp).
 #include <algorithm>
 
 #include <immintrin.h>
 
 #include "core/integrator.hpp"
+#include "core/integrator_loops.hpp"
 
 #define GRAINS_AVX2_PASS __attribute__((target("avx2")))
 
@@ -63,21 +64,8 @@ GRAINS_AVX2_PASS inline double lane_max(V v) {
   return _mm_cvtsd_f64(_mm_max_sd(pair, _mm_unpackhi_pd(pair, pair)));
 }
 
-// The pending kick of step hk and drag factor keep, for the compiled loops that finish a pass.
-PendingKick pending_kick(double hk, double keep) {
-  PendingKick kick;
-  kick.active = true, kick.h = hk, kick.keep = keep;
-  return kick;
-}
-
-template <int D>
-DriftSums drift_compiled(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
-                         double* f_prev, const DriftGeometry& g, const PendingKick* kick) {
-  return (D == 2 ? drift_2_compiled : drift_3_compiled)(n, h, m, x, v, vp, f, f_prev, g, kick);
-}
-
 template <int D, int Measure, bool Follow, bool Kick>
-GRAINS_AVX2_PASS DriftSums drift_body(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
+GRAINS_AVX2_PASS DriftSums drift_vectors(std::size_t n, double h, const double* __restrict inverse_mass, double* __restrict x,
                                       double* __restrict v, double* __restrict vp, const double* __restrict f,
                                       double* __restrict f_prev, const DriftGeometry& g, double hk, double keep) {
   const V half_h = _mm256_set1_pd(0.5 * h), step = _mm256_set1_pd(h), half_hk = _mm256_set1_pd(0.5 * hk);
@@ -119,9 +107,8 @@ GRAINS_AVX2_PASS DriftSums drift_body(std::size_t n, double h, const double* __r
   if (const std::size_t done = 4 * blocks; done < n) {
     DriftGeometry rest = g;
     if (rest.reference) rest.reference += D * done;
-    const PendingKick pending = pending_kick(hk, keep);
-    const DriftSums tail = drift_compiled<D>(n - done, h, inverse_mass + done, x + D * done, v + D * done, vp + D * done,
-                                             f + D * done, f_prev + D * done, rest, Kick ? &pending : nullptr);
+    const DriftSums tail = drift_body<D, Measure, Follow, Kick>(n - done, h, inverse_mass + done, x + D * done, v + D * done,
+                                                                vp + D * done, f + D * done, f_prev + D * done, rest, hk, keep);
     sums.witness += tail.witness, sums.kick_witness += tail.kick_witness;
     sums.largest_move = std::max(sums.largest_move, tail.largest_move);
   }
@@ -131,9 +118,9 @@ GRAINS_AVX2_PASS DriftSums drift_body(std::size_t n, double h, const double* __r
 template <int D, bool Follow, bool Kick>
 DriftSums drift_measured(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
                          double* f_prev, const DriftGeometry& g, double hk, double keep) {
-  if (!g.reference) return drift_body<D, 0, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
-  if (g.carried) return drift_body<D, 2, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
-  return drift_body<D, 1, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
+  if (!g.reference) return drift_vectors<D, 0, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
+  if (g.carried) return drift_vectors<D, 2, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
+  return drift_vectors<D, 1, Follow, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
 }
 
 template <int D>
@@ -147,7 +134,7 @@ DriftSums drift_any(std::size_t n, double h, const double* m, double* x, double*
 
 // half_kick_spin_body's operations on the spheres' spins as they lie.
 template <bool Kick>
-GRAINS_AVX2_PASS double half_kick_spin_3_body(std::size_t n, double h, const double* __restrict inverse_inertia,
+GRAINS_AVX2_PASS double half_kick_spin_3_vectors(std::size_t n, double h, const double* __restrict inverse_inertia,
                                               double* __restrict torque, double* __restrict w, double hk, double keep) {
   const V half_h = _mm256_set1_pd(0.5 * h), half_hk = _mm256_set1_pd(0.5 * hk), kept = _mm256_set1_pd(keep);
   V kicked = _mm256_setzero_pd();
@@ -169,9 +156,7 @@ GRAINS_AVX2_PASS double half_kick_spin_3_body(std::size_t n, double h, const dou
   }
   double sum = lane_sum(kicked);
   if (const std::size_t done = 4 * blocks; done < n) {
-    const PendingKick pending = pending_kick(hk, keep);
-    sum += half_kick_spin_3_compiled(n - done, h, inverse_inertia + done, torque + 3 * done, w + 3 * done,
-                                     Kick ? &pending : nullptr);
+    sum += half_kick_spin_body<3, Kick>(n - done, h, inverse_inertia + done, torque + 3 * done, w + 3 * done, hk, keep);
   }
   return sum;
 }
@@ -218,8 +203,8 @@ DriftSums drift_3_avx2(std::size_t n, double h, const double* m, double* x, doub
 
 double half_kick_spin_3_avx2(std::size_t n, double h, const double* inverse_inertia, double* torque, double* w,
                              const PendingKick* kick) {
-  return kick ? half_kick_spin_3_body<true>(n, h, inverse_inertia, torque, w, kick->h, kick->keep)
-              : half_kick_spin_3_body<false>(n, h, inverse_inertia, torque, w, 0, 1);
+  return kick ? half_kick_spin_3_vectors<true>(n, h, inverse_inertia, torque, w, kick->h, kick->keep)
+              : half_kick_spin_3_vectors<false>(n, h, inverse_inertia, torque, w, 0, 1);
 }
 
 void add_kinetic_stress_2_avx2(std::size_t n, const double* mass, const double* inverse_mass, const double* f,
