@@ -90,26 +90,21 @@ template <int D, bool Kick>
   return g.follow ? drift_measured<D, true, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep)
                   : drift_measured<D, false, Kick>(n, h, m, x, v, vp, f, f_prev, g, hk, keep);
 }
-#define GRAINS_DRIFT(D)                                                                                             \
-  GRAINS_VECTOR_CLONES DriftSums drift_##D##_compiled(std::size_t n, double h, const double* __restrict m, double* __restrict x, \
-                                           double* __restrict v, double* __restrict vp, const double* __restrict f,   \
-                                           double* __restrict f_prev, const DriftGeometry& geometry,                 \
-                                           const PendingKick* kick) {                                                \
-    return kick ? drift_any<D, true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)                  \
-                : drift_any<D, false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);                               \
+
+// The drift compiled for every instruction set (the compilers vectorise it across particles, shuffling their
+// components apart and back).
+#define GRAINS_DRIFT(D)                                                                                                \
+  GRAINS_VECTOR_CLONES DriftSums drift_##D##_compiled(std::size_t n, double h, const double* __restrict m,              \
+                                                      double* __restrict x, double* __restrict v,                       \
+                                                      double* __restrict vp, const double* __restrict f,                \
+                                                      double* __restrict f_prev, const DriftGeometry& geometry,         \
+                                                      const PendingKick* kick) {                                        \
+    return kick ? drift_any<D, true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)                     \
+                : drift_any<D, false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);                                  \
   }
+GRAINS_DRIFT(2)
 GRAINS_DRIFT(3)
 #undef GRAINS_DRIFT
-
-// The 2D drift, compiled for every instruction set (the compilers vectorise it across disks, shuffling
-// their x and y components apart and back).
-GRAINS_VECTOR_CLONES DriftSums drift_2_compiled(std::size_t n, double h, const double* __restrict m, double* __restrict x,
-                                                double* __restrict v, double* __restrict vp, const double* __restrict f,
-                                                double* __restrict f_prev, const DriftGeometry& geometry,
-                                                const PendingKick* kick) {
-  return kick ? drift_any<2, true>(n, h, m, x, v, vp, f, f_prev, geometry, kick->h, kick->keep)
-              : drift_any<2, false>(n, h, m, x, v, vp, f, f_prev, geometry, 0, 1);
-}
 
 // The loops written for AVX2 wherever the processor has it (integrator_avx2.cpp).
 DriftSums drift_2(std::size_t n, double h, const double* m, double* x, double* v, double* vp, const double* f,
