@@ -37,8 +37,10 @@ std::string environment_problem() {
   if (!want) return "";
   for (Isa i : {Isa::portable, Isa::avx2, Isa::avx512})
     if (std::strcmp(want, isa_name(i)) == 0)
-      return supported(i) ? "" : "GRAINS_GRAVITY_ISA = \"" + std::string(want) + "\": this processor cannot run those kernels (unset it, or name a narrower set)";
-  return "GRAINS_GRAVITY_ISA = \"" + std::string(want) + "\" is not a set of gravity kernels: allowed portable, avx2, avx512 (unset: the widest the processor runs)";
+      return supported(i) ? "" : "GRAINS_GRAVITY_ISA = \"" + std::string(want) +
+                                     "\": this processor cannot run those kernels (unset it, or name a narrower set)";
+  return "GRAINS_GRAVITY_ISA = \"" + std::string(want) +
+         "\" is not a set of gravity kernels: allowed portable, avx2, avx512 (unset: the widest the processor runs)";
 }
 
 namespace {

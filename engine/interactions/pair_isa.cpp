@@ -65,19 +65,31 @@ void set_vector_loads(bool loads) { loads_set.store(loads ? 1 : 0, std::memory_o
 
 const char* isa_name(Isa isa) { return isa == Isa::avx512 ? "avx512" : isa == Isa::avx2 ? "avx2" : "portable"; }
 
+namespace {
+
+std::string isa_problem() {
+  const char* want = std::getenv("GRAINS_PAIR_ISA");
+  if (!want) return "";
+  for (Isa i : {Isa::portable, Isa::avx2, Isa::avx512})
+    if (std::strcmp(want, isa_name(i)) == 0)
+      return supported(i) ? "" : "GRAINS_PAIR_ISA = \"" + std::string(want) +
+                                     "\": this processor cannot run that build (unset it, or name a narrower one)";
+  return "GRAINS_PAIR_ISA = \"" + std::string(want) +
+         "\" is not a build of the pair loop: allowed portable, avx2, avx512 (unset: the widest the processor runs)";
+}
+
+std::string loads_problem() {
+  const char* want = std::getenv("GRAINS_PAIR_LOADS");
+  if (!want || std::strcmp(want, "gather") == 0 || std::strcmp(want, "load") == 0) return "";
+  return "GRAINS_PAIR_LOADS = \"" + std::string(want) +
+         "\" is not a way of reading vectors: allowed gather, load (unset: load on AMD processors, gather elsewhere)";
+}
+
+}  // namespace
+
 std::string environment_problem() {
-  if (const char* want = std::getenv("GRAINS_PAIR_ISA")) {
-    bool known = false;
-    for (Isa i : {Isa::portable, Isa::avx2, Isa::avx512})
-      if (std::strcmp(want, isa_name(i)) == 0) {
-        if (!supported(i)) return "GRAINS_PAIR_ISA = \"" + std::string(want) + "\": this processor cannot run that build (unset it, or name a narrower one)";
-        known = true;
-      }
-    if (!known) return "GRAINS_PAIR_ISA = \"" + std::string(want) + "\" is not a build of the pair loop: allowed portable, avx2, avx512 (unset: the widest the processor runs)";
-  }
-  if (const char* want = std::getenv("GRAINS_PAIR_LOADS"); want && std::strcmp(want, "gather") != 0 && std::strcmp(want, "load") != 0)
-    return "GRAINS_PAIR_LOADS = \"" + std::string(want) + "\" is not a way of reading vectors: allowed gather, load (unset: load on AMD processors, gather elsewhere)";
-  return "";
+  std::string problem = isa_problem();
+  return problem.empty() ? loads_problem() : problem;
 }
 
 }  // namespace grains::pair_filter
