@@ -143,11 +143,11 @@ GRAINS_LARGEST_MOVE(2)
 GRAINS_LARGEST_MOVE(3)
 #undef GRAINS_LARGEST_MOVE
 
-#define GRAINS_HALF_KICK_SPIN(S, NAME)                                                                               \
-  GRAINS_VECTOR_CLONES double NAME(std::size_t n, double h, const double* __restrict ii,               \
-                                                 double* __restrict t, double* __restrict w, const PendingKick* kick) { \
-    return kick ? half_kick_spin_body<S, true>(n, h, ii, t, w, kick->h, kick->keep)                                 \
-                : half_kick_spin_body<S, false>(n, h, ii, t, w, 0, 1);                                              \
+#define GRAINS_HALF_KICK_SPIN(S, NAME)                                                                        \
+  GRAINS_VECTOR_CLONES double NAME(std::size_t n, double h, const double* __restrict ii, double* __restrict t, \
+                                   double* __restrict w, const PendingKick* kick) {                            \
+    return kick ? half_kick_spin_body<S, true>(n, h, ii, t, w, kick->h, kick->keep)                            \
+                : half_kick_spin_body<S, false>(n, h, ii, t, w, 0, 1);                                         \
   }
 GRAINS_HALF_KICK_SPIN(1, half_kick_spin_1)
 GRAINS_HALF_KICK_SPIN(3, half_kick_spin_3_compiled)
