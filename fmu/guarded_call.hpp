@@ -24,7 +24,10 @@ Status guarded_call(const void* handle, const char* function, Body&& body) {
   } answering(*in, function);
   try {
     in->log_call(function);
-    return body(*in);
+    in->take_warned();   // an earlier call's warnings were its own
+    const Status status = body(*in);
+    // FMI 2 and 3: Warning is the status of a call that logged a warning (the engine's, raised by this call).
+    return status == Status::ok && in->take_warned() ? Status::warning : status;
   } catch (const std::bad_alloc&) {   // a state's copy, say: named as everywhere else
     in->error(fmt::format("{}: {}", function, out_of_memory_message));
   } catch (const std::exception& e) {

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <new>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -55,10 +56,11 @@ double scene_value(const Scene& scene, const FmuVariable& v) {
                                         : double(scene.boolean(v.scene_key));
 }
 
-// A state: this word, the parameters' fingerprint, the start and host times, the engine's bytes, then a check
-// sum over all of them (the engine's own sum leaves the header out, and a damaged host time would make the
+// A state: this word, the parameters' fingerprint, the start and host times, the token's hash and the fixed
+// parameters' values (to name those that differ), the engine's bytes, then a check sum over all of them (the engine's own sum leaves the header out, and a damaged host time would make the
 // next step run the gap).
-constexpr std::uint64_t state_magic = 0x33534d4649524721ull;           // "!GRIFMS3"
+constexpr std::uint64_t state_magic = 0x34534d4649524721ull;           // "!GRIFMS4"
+constexpr std::uint64_t state_magic_unnamed = 0x33534d4649524721ull;   // "!GRIFMS3": before the parameters' values
 constexpr std::uint64_t state_magic_unsummed = 0x32534d4649524721ull;  // "!GRIFMS2": before the check sum
 constexpr std::size_t state_header = 4 * 8, state_sum = 8;
 
@@ -66,7 +68,7 @@ constexpr std::size_t state_header = 4 * 8, state_sum = 8;
 std::string state_defect(std::span<const std::byte> bytes) {
   std::uint64_t magic = 0;
   if (bytes.size() >= 8) std::memcpy(&magic, bytes.data(), 8);
-  if (magic == state_magic_unsummed) return "the state was saved by an older build of this FMU, whose format this one does not read";
+  if (magic == state_magic_unsummed || magic == state_magic_unnamed) return "the state was saved by an older build of this FMU, whose format this one does not read";
   if (bytes.size() >= 8 && magic != state_magic) return "these bytes are not a state of a grains FMU";
   if (bytes.size() < state_header + state_sum) return "the state is empty or truncated";
   std::uint64_t sum;
@@ -85,7 +87,8 @@ std::uint64_t fnv1a(std::string_view text, std::uint64_t h = 1469598103934665603
 
 std::unique_ptr<Instance> Instance::create(const char* function, std::string name, std::string_view token,
                                            const std::filesystem::path& resources, Logger logger, bool logging_on) {
-  std::unique_ptr<Instance> in(new Instance(std::move(name), std::move(logger), logging_on));
+  const bool fmi3 = std::string_view(function).starts_with("fmi3");
+  std::unique_ptr<Instance> in(new Instance(std::move(name), std::move(logger), logging_on, fmi3));
   in->answering(function);
   const auto file = resources / "scene.toml";
   try {
@@ -115,12 +118,18 @@ std::unique_ptr<Instance> Instance::create(const char* function, std::string nam
     return nullptr;
   }
   in->log_new_warnings();   // the start-up warnings
+  in->take_warned();         // instantiation returns no status to carry them
   in->answering(nullptr);
   return in;
 }
 
 bool Instance::enabled(const char* category) const {
   if (std::strcmp(category, log_error) == 0) return true;   // errors always reach the host
+  // Warnings too (the call returns Warning, which says the FMU logged one), unless the host switched them off by name.
+  if (std::strcmp(category, log_warning) == 0) {
+    const auto it = categories_.find(category);
+    return it == categories_.end() || it->second;
+  }
   if (!logging_on_) return false;
   if (categories_.empty()) return true;
   auto it = categories_.find(category);
@@ -320,6 +329,7 @@ Status Instance::terminate() {
   // As FMI 2 and 3 have it: after initialization (from Step Mode, or after a failed step), not in Initialization Mode.
   if (Status s = check_phase("Terminate", {Phase::stepping, Phase::failed}); s != Status::ok) return s;
   phase_ = Phase::terminated;
+  snapshots_.reset();   // closed: other readers, and the next instance of this name, may open it from now on
   return Status::ok;
 }
 
@@ -403,8 +413,10 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
 void Instance::log_new_warnings() {
   if (!sim_) return;
   const auto& w = sim_->warnings();
-  for (; warnings_logged_ < w.size(); ++warnings_logged_)
+  for (; warnings_logged_ < w.size(); ++warnings_logged_) {
     if (enabled(log_warning)) logger_(Status::warning, log_warning, w[warnings_logged_]);
+    warned_ = true;
+  }
 }
 
 Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::span<const double> values) {
@@ -415,20 +427,40 @@ Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::s
                                role_name(Role::particle_array)));
   if (refs.size() != values.size())
     return error(fmt::format("the call passes {} values for {} scalar variables", values.size(), refs.size()));
+  // All or nothing: a call with one refused value leaves every variable as it was, those listed before it too. The
+  // scene is copied only where a value may go into it (before the steps: a host setting inputs each step pays nothing).
+  const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
+  std::optional<Scene> scene_before;
+  if (before_steps) scene_before = scene_;
+  const bool dirty_before = dirty_;
+  auto pending_before = before_steps ? pending_controls_ : decltype(pending_controls_){};   // changes only before too
+  const long snapshots_before = snapshots_every_;
+  std::vector<std::pair<std::size_t, double>> to_simulation;
+  const auto refuse = [&](Status s) {
+    if (before_steps) scene_ = std::move(*scene_before), pending_controls_ = std::move(pending_before);
+    dirty_ = dirty_before, snapshots_every_ = snapshots_before;
+    return s;
+  };
   for (std::size_t i = 0; i < refs.size(); ++i) {
     const std::uint32_t ref = refs[i];
     if (ref >= table_.variables.size())
-      return error(fmt::format("unknown value reference {}: this FMU's references are 0 to {}", ref, table_.variables.size() - 1));
+      return refuse(error(fmt::format("unknown value reference {}: this FMU's references are 0 to {}", ref, table_.variables.size() - 1)));
     const FmuVariable& v = table_.variables[ref];
     if (v.type != type)
-      return error(fmt::format("variable '{}' (reference {}) has type {}; it was set as {}", v.name, ref, type_name(v.type),
-                               type_name(type)));
-    if (Status s = set_one(v, ref, values[i]); s != Status::ok) return s;
+      return refuse(error(fmt::format("variable '{}' (reference {}) has type {}; it was set as {}", v.name, ref, type_name(v.type),
+                                      type_name(type))));
+    if (Status s = set_one(v, ref, values[i], to_simulation); s != Status::ok) return refuse(s);
+  }
+  try {   // each value was checked against its range already: this does not throw but on an internal error
+    for (const auto& [index, value] : to_simulation) sim_->set(index, value);
+  } catch (const std::exception& e) {
+    return error(e.what());
   }
   return Status::ok;
 }
 
-Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
+Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value,
+                         std::vector<std::pair<std::size_t, double>>& to_simulation) {
   const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
   if (v.role != Role::scene_parameter && v.role != Role::control && v.role != Role::snapshot_option)
     return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", v.name, ref, role_name(v.role)));
@@ -439,6 +471,10 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
                              table_.count_reference != no_index
                                  ? fmt::format(" ('{}')", table_.variables[table_.count_reference].name)
                                  : std::string(" (this FMU has none)")));
+  // FMI 3: the structural parameter sizes the arrays the host reads from Initialization Mode on, so it is set before.
+  if (fmi3_ && v.structural && phase_ == Phase::initialization)
+    return error(fmt::format("'{}' is a structural parameter: it can be set in Configuration Mode (or before it, after "
+                             "instantiation), not in {}", v.name, phase_name(phase_)));
   // a real scene key's NaN or inf goes on to the scene's schema, whose message gives the exact allowed range
   const bool schema_judges = !v.scene_key.empty() && v.type == ValueType::real && before_steps;
   if (!std::isfinite(value) && !schema_judges)
@@ -481,13 +517,7 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value) {
   }
   // A control (input or tunable parameter) of the Simulation.
   if (before_steps) pending_controls_[v.sim_index] = value;
-  if (sim_ && !dirty_) {
-    try {
-      sim_->set(v.sim_index, value);
-    } catch (const std::exception& e) {
-      return error(e.what());
-    }
-  }
+  if (sim_ && !dirty_) to_simulation.emplace_back(v.sim_index, value);
   return Status::ok;
 }
 
@@ -502,12 +532,36 @@ std::uint64_t Instance::parameter_fingerprint() const {
   return h;
 }
 
+std::vector<double> Instance::parameter_values() const {
+  std::vector<double> values;
+  for (const FmuVariable& v : table_.variables)
+    if (v.role == Role::scene_parameter) values.push_back(scene_value(scene_, v));
+  return values;
+}
+
+// "name = <state's> in the state, <this instance's> here" for each fixed parameter that differs; "" when the state
+// comes from another FMU (its token, or its number of parameters, is not this one's).
+std::string Instance::parameter_differences(std::uint64_t token, const std::vector<double>& saved) const {
+  const std::vector<double> mine = parameter_values();
+  if (token != fnv1a(instantiation_token(table_)) || saved.size() != mine.size()) return {};
+  std::vector<std::string> differ;
+  std::size_t k = 0;
+  for (const FmuVariable& v : table_.variables) {
+    if (v.role != Role::scene_parameter) continue;
+    if (std::memcmp(&saved[k], &mine[k], sizeof(double)) != 0)
+      differ.push_back(fmt::format("{} = {} in the state, {} here", v.name, saved[k], mine[k]));
+    ++k;
+  }
+  return fmt::format("{}", fmt::join(differ, "; "));
+}
+
 Status Instance::save(const char* function, SavedState& state) {
   if (phase_ == Phase::failed)
     return error(fmt::format("{} is not allowed in the error state: the simulation is not valid", function));
   if (Status s = ensure_built(); s != Status::ok) return s;
   ByteWriter w;
   w.put(state_magic), w.put(parameter_fingerprint()), w.put(start_time_), w.put(host_time_);
+  w.put(fnv1a(instantiation_token(table_))), w.put_vector(parameter_values());   // to name what differs, if refused
   auto bytes = w.take();
   auto body = sim_->save_state();
   bytes.insert(bytes.end(), body.begin(), body.end());
@@ -530,16 +584,26 @@ Status Instance::restore(const char* function, const SavedState& state) {
   const bool failed = phase_ == Phase::failed;
   if (Status s = ensure_built(); s != Status::ok) return s;
   if (const std::string defect = state_defect(state.bytes); !defect.empty()) return error(fmt::format("{}: {}", function, defect));
-  ByteReader r(std::span(state.bytes).first(state_header));
+  ByteReader r(std::span(state.bytes).first(state.bytes.size() - state_sum));
   r.get<std::uint64_t>();   // the format word, checked above
-  if (r.get<std::uint64_t>() != parameter_fingerprint())
-    return error(fmt::format("{}: the state was saved with other parameter values or by another FMU; it cannot be "
-                             "restored here", function));
+  const std::uint64_t fingerprint = r.get<std::uint64_t>();
   const double start = r.get<double>(), host = r.get<double>();
+  const std::uint64_t token = r.get<std::uint64_t>();
+  std::vector<double> saved;
+  r.get_vector(saved);
+  if (fingerprint != parameter_fingerprint()) {
+    if (const std::string differ = parameter_differences(token, saved); !differ.empty())
+      return error(fmt::format("{}: the state was saved with other parameter values ({}); it cannot be restored here: a "
+                               "state restores into an instance whose fixed parameters have the values it was saved with",
+                               function, differ));
+    return error(fmt::format("{}: the state was saved by another FMU (another model, or a build with other variables); "
+                             "it cannot be restored here", function));
+  }
+  const std::size_t body = state_header + 2 * sizeof(std::uint64_t) + saved.size() * sizeof(double);
   if (!std::isfinite(start) || !std::isfinite(host))
     return error(fmt::format("{}: the state's start or current time is not finite", function));
   try {
-    sim_->restore_state(std::span(state.bytes).subspan(state_header, state.bytes.size() - state_header - state_sum));
+    sim_->restore_state(std::span(state.bytes).subspan(body, state.bytes.size() - body - state_sum));
   } catch (const std::exception& e) {
     return error(fmt::format("{}: {}", function, e.what()));
   }

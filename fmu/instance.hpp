@@ -123,14 +123,22 @@ class Instance {
   // calling back into the instance) to restore.
   const char* answering(const char* function) { return std::exchange(answering_, function); }
   void log_new_warnings();   // sim_'s warnings not yet passed to the logger
+  // Whether warnings were passed (logged, unless the host switched logStatusWarning off) since the last take: the
+  // call that raised them returns fmi2Warning / fmi3Warning instead of OK (guarded_call).
+  bool take_warned() { return std::exchange(warned_, false); }
   void log_call(const std::string& call);
 
  private:
-  Instance(std::string name, Logger logger, bool logging_on) : name_(std::move(name)), logger_(std::move(logger)), logging_on_(logging_on) {}
+  Instance(std::string name, Logger logger, bool logging_on, bool fmi3)
+      : name_(std::move(name)), logger_(std::move(logger)), logging_on_(logging_on), fmi3_(fmi3) {}
   Status ensure_built();
   Status check_phase(const char* function, std::initializer_list<Phase> allowed);
-  Status set_one(const FmuVariable& v, std::size_t ref, double value);
+  // Applies one value to the instance (scene_, pending controls, the snapshot option); a control for the built
+  // simulation is appended to `to_simulation`, which set() applies once every value of the call is accepted.
+  Status set_one(const FmuVariable& v, std::size_t ref, double value, std::vector<std::pair<std::size_t, double>>& to_simulation);
   std::uint64_t parameter_fingerprint() const;
+  std::vector<double> parameter_values() const;   // the fixed parameters', in the table's order
+  std::string parameter_differences(std::uint64_t token, const std::vector<double>& saved) const;
   bool enabled(const char* category) const;
   double clock_tolerance(double t) const;
 
@@ -138,6 +146,7 @@ class Instance {
   const char* answering_ = nullptr;
   Logger logger_;
   bool logging_on_ = false;
+  bool fmi3_ = false;   // instantiated through FMI 3: particles.count is a structural parameter there
   std::map<std::string, bool> categories_;   // empty = all categories on
   Scene packaged_;            // the scene in resources/, as shipped
   Scene scene_;               // packaged_ plus the host's overrides
@@ -147,6 +156,7 @@ class Instance {
   // reads the outputs (energy, pass-through), are logged at the end of that DoStep or read. Until 2026-12-05 a
   // read's warnings waited for the next DoStep, so those of the last read before Terminate never reached the host.
   std::size_t warnings_logged_ = 0;
+  bool warned_ = false;   // see take_warned()
   bool dirty_ = true;         // scene_ changed since sim_ was built
   ModelTable table_;          // of the packaged scene: references and types never change
   Phase phase_ = Phase::instantiated;
