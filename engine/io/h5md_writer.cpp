@@ -267,8 +267,9 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   const std::string creating = target + ".part";
   for (const std::string& p : {target, creating})
     if (h5::locked_by_another_process(p))
-      throw std::runtime_error(fmt::format("cannot create output file '{}': another process is writing it (a run still "
-                                           "going?); choose another file, or wait until that process ends", path));
+      throw std::runtime_error(fmt::format("cannot create output file '{}': another writer holds it (a run still going, or "
+                                           "an FMU instance of the same name not yet terminated?); choose another file, "
+                                           "or wait until that writer ends", path));
   hid_t fid = H5Fcreate(creating.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, fmt::format("creating the file (first as '{}'; is the folder writable?)", creating));
   m.file = h5::Handle(fid, H5Fclose);
@@ -347,6 +348,10 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   hid_t fid = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, "opening the file to resume its run (is it writable?)");
   m.file = h5::Handle(fid, H5Fclose);
+  // A killed run's superblock can name an end of allocation short of what the run had written past it (the
+  // superblock is written at flushes): HDF5 would put new objects over those bytes, and cut the file back to that
+  // end when it closes. From the end of the file on, nothing written is reused.
+  h5::check(H5Fincrement_filesize(fid, 0), path, "setting the file's end of allocation to its end");
   const hid_t root = m.file.get();
   m.particles = h5::open_group(root, "particles/all", path);
   m.box = h5::open_group(m.particles.get(), "box", path);

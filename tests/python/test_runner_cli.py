@@ -79,7 +79,7 @@ def test_output_a_running_run_is_writing_is_refused_and_left_intact(grains_bin, 
         second = run(grains_bin, "run", root / "models/gas.toml", "--out", out, "--set", "particles.count=216",
                      "--set", "time.steps=10", "--quiet")
         assert second.returncode != 0
-        assert str(out) in second.stderr and "another process is writing it" in second.stderr
+        assert str(out) in second.stderr and "another writer holds it" in second.stderr
         assert out.stat().st_size > 0
     finally:
         first.send_signal(signal.SIGINT)
