@@ -53,9 +53,9 @@ int resume_run(const std::string& path, bool quiet) {
 Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {
   // The stored scene is the resolved one: every key written out, defaults included. The run's thread count
   // is kept (an automatic one follows the cores, which may be fewer now): it decides the results' last bits.
-  const std::vector<std::string> threads = cp.threads > 0 ? std::vector{fmt::format("run.threads={}", cp.threads)}
-                                                          : std::vector<std::string>{};
-  Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), threads, cp.scene_directory);
+  // Set after reading, not as a --set override, which the scene's messages would count as the user's.
+  Scene scene = Scene::from_string(cp.scene_toml, fmt::format("the scene stored in {}", path), {}, cp.scene_directory);
+  if (cp.threads > 0) scene.set_value("run.threads", fmt::format("{}", cp.threads));
   scene.accept_unread_keys();
   return scene;
 }

@@ -82,14 +82,22 @@ void SimulationImpl<D>::warn_damped_packing_step(double tc) {
 // need not touch each other).
 template <int D>
 void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc) {
-  const auto stable_step = [](double k, double c, double m) { return 4 * m / (c + std::sqrt(c * c + 4 * k * m)); };
+  // (written so that c^2 does not overflow: friction.damping_ratio takes any value up to 1e300)
+  const auto stable_step = [](double k, double c, double m) {
+    return c > 0 ? 4 * m / c / (1 + std::sqrt(1 + 4 * k * m / c / c)) : 2 * std::sqrt(m / k);
+  };
   const double kappa = D == 3 ? 0.4 : 0.5;
   const auto say = [&](const std::string& what, double limit, const std::string& mode) {
-    if (dt_ > limit)
-      warn(fmt::format("{}: time.dt = {:.6g} exceeds {:.6g}, the largest step at which {} are stable (the lightest pair; "
-                       "the normal time-step rule does not see it): above it that motion grows every step and collisions "
-                       "gain energy; lower the ratio or the step (time.steps_per_contact {:.0f} or more, without time.dt)",
-                       what, dt_, limit, mode, std::ceil(tc / limit)));
+    if (!(dt_ > limit)) return;
+    // Beyond a billion steps per contact no run reaches the bound: only the ratio can be lowered.
+    const double steps = std::ceil(tc / limit);
+    const std::string remedy = steps <= 1e9 ? fmt::format("lower the ratio or the step (time.steps_per_contact {:.0f} or more, "
+                                                          "without time.dt)", steps)
+                                            : fmt::format("lower the ratio (no practical step is below it: "
+                                                          "time.steps_per_contact {:.3g} or more)", steps);
+    warn(fmt::format("{}: time.dt = {:.6g} exceeds {:.6g}, the largest step at which {} are stable (the lightest pair; "
+                     "the normal time-step rule does not see it): above it that motion grows every step and collisions "
+                     "gain energy; {}", what, dt_, limit, mode, remedy));
   };
   const auto& P = sys_.particles;
   if (scene.boolean("contact.enabled") && scene.real("friction.coefficient") > 0) {

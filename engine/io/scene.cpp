@@ -13,6 +13,7 @@
 
 #include "io/file_kind.hpp"
 #include "io/file_name.hpp"
+#include "io/printable.hpp"
 
 namespace grains {
 
@@ -357,7 +358,12 @@ long Scene::integer(std::string_view path) const {
     auto x = n.value<int64_t>();
     if (!n.is_integer() || !x)
       fail(path, fmt::format("expected an integer, got {}: allowed {}", render(n), describe_allowed(e)));
-    if (!in_range(e, double(*x))) fail(path, fmt::format("value {} is out of range: allowed {}", *x, describe_allowed(e)));
+    // Compared as doubles, 9200000000000000001 rounds onto a bound of 9.2e18: the bounds within int64's range are
+    // compared as integers too.
+    const bool past_max = std::abs(e.max) <= 9.2e18 && *x > static_cast<std::int64_t>(e.max);
+    const bool past_min = std::abs(e.min) <= 9.2e18 && *x < static_cast<std::int64_t>(e.min);
+    if (!in_range(e, double(*x)) || past_max || past_min)
+      fail(path, fmt::format("value {} is out of range: allowed {}", *x, describe_allowed(e)));
     return long(*x);
   });
 }
@@ -375,6 +381,10 @@ std::string Scene::text(std::string_view path) const {
   return with_default(*this, node(path), e, [&](const toml::node& n) {
     if (!n.is_string()) fail(path, fmt::format("expected a string, got {}: allowed {}", render(n), describe_allowed(e)));
     std::string v = *n.value<std::string>();
+    // TOML's "\u0000" and the like: a NUL would end a file name where the operating system reads it, silently.
+    if (const auto c = std::find_if(v.begin(), v.end(), [](unsigned char b) { return b < 0x20 || b == 0x7f; }); c != v.end())
+      fail(path, fmt::format("value \"{}\" holds a control character (byte 0x{:02x} at position {}): allowed text without "
+                             "control characters", printable(v), static_cast<unsigned char>(*c), c - v.begin() + 1));
     if (!e.choices.empty()) {
       std::string_view c = e.choices;
       bool ok = false;

@@ -1,6 +1,7 @@
 #include "protocols/initial_state.hpp"
 #include "core/morton.hpp"
 #include "io/file_kind.hpp"
+#include "io/printable.hpp"
 #include "protocols/initial_overlaps.hpp"
 
 #include <algorithm>
@@ -195,7 +196,9 @@ InitialState<D> make_initial_state(const Scene& s) {
       s.fail("particles.file", fmt::format("'{}' is {}: name a file of particle rows (a regular file or a pipe)",
                                            path.string(), *kind));
     std::ifstream in(path);
-    if (!in) s.fail("particles.file", fmt::format("cannot read '{}'", path.string()));
+    if (!in)
+      s.fail("particles.file", fmt::format("cannot read '{}' ({})", printable(path.string()),
+                                           std::filesystem::exists(path, ec) ? "it exists, but could not be opened for reading" : "no such file"));
     std::string line;
     int first_row_line = 0;
     for (int lineno = 1; std::getline(in, line); ++lineno) {
@@ -205,13 +208,14 @@ InitialState<D> make_initial_state(const Scene& s) {
       for (std::string word; ls >> word;) {   // every word a number: a stray one is an error, not the row's end
         char* end = nullptr;
         const double v = std::strtod(word.c_str(), &end);
-        if (end == word.c_str() || *end != '\0')
-          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is not a number", path.string(), lineno,
-                                               r.size() + 1, word));
+        // strtod reads C's hexadecimal numbers too ("0x10" = 16), which a table of decimal numbers does not hold
+        if (end == word.c_str() || *end != '\0' || word.find_first_of("xX") != std::string::npos)
+          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is not a decimal number", printable(path.string()),
+                                               lineno, r.size() + 1, printable(word)));
         // strtod reads "nan", "inf" and overflowing literals such as 1e999 too
         if (!std::isfinite(v))
-          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is {}, expected a finite number", path.string(),
-                                               lineno, r.size() + 1, word, v));
+          s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is {}, expected a finite number",
+                                               printable(path.string()), lineno, r.size() + 1, printable(word), v));
         r.push_back(v);
       }
       if (r.empty()) continue;

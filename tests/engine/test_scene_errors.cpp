@@ -132,6 +132,10 @@ TEST_CASE("scene errors: a scene name that cannot be a file name is refused", "[
                             Contains("A-Z a-z 0-9 . _ -, not starting with '.'"));
   }
   REQUIRE_NOTHROW(build(good, {"scene.name=\"gas-2_run.v1\""}));
+  // A NUL (TOML's \u0000) in any text value: a file name would end there where the system reads it (found by an
+  // adversarial review, 2026-12-07: particles.file = "p.txt\u0000junk" read p.txt).
+  for (const std::string& set : {std::string("output.file=\"o.h5\\u0000zz\""), std::string("particles.layout=\"file\\u0007\"")})
+    REQUIRE_THROWS_WITH(build(good, {set}), Contains("holds a control character") && Contains("allowed text without control"));
   REQUIRE_NOTHROW(build(good, {"scene.name=\"" + std::string(100, 'a') + "\""}));
 }
 
@@ -229,7 +233,20 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
   const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
                                          "box.periodic=false"};
   REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
-                                             Contains("column 5") && Contains("'np.float64(1.0)' is not a number"));
+                                             Contains("column 5") && Contains("'np.float64(1.0)' is not a decimal number"));
+  // C's hexadecimal numbers, which strtod reads (0x10 = 16), and control bytes, shown escaped (a NUL ended the message,
+  // an escape sequence drove the terminal; found by an adversarial review, 2026-12-07).
+  for (const auto& [word, shown] : {std::pair<std::string, std::string>{"0x10", "'0x10'"},
+                                    std::pair<std::string, std::string>{std::string("\0\x01", 2), "'\\x00\\x01'"},
+                                    std::pair<std::string, std::string>{"\x1b[31mRED", "'\\x1b[31mRED'"}}) {
+    {
+      std::ofstream f(path);
+      f << "0 0 0 1 1\n2 " << word << " 0 1 1\n";
+    }
+    INFO(shown);
+    REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("grains-bad-rows.txt:2: column 2") &&
+                                                         Contains(shown + " is not a decimal number"));
+  }
   // Words strtod reads as non-finite numbers failed only later, naming neither the file nor the line.
   for (const auto& [word, value] : {std::pair{"nan", "nan"}, std::pair{"-inf", "-inf"}, std::pair{"1e999", "inf"}}) {
     {
@@ -700,4 +717,12 @@ TEST_CASE("scene errors: defaults are never refused as unread, and the resolved 
   REQUIRE_THROWS_WITH(Scene(stored).validate(), Contains("particles.kinetic_energy: value 1.5 is not used"));
   stored.accept_unread_keys();
   REQUIRE_NOTHROW(Simulation::create(stored));
+}
+
+TEST_CASE("scene errors: an integer just past its bound is refused, not rounded onto it", "[scene][errors]") {
+  // As a double 9200000000000000001 is 9.2e18, the bound itself (found by an adversarial review, 2026-12-07).
+  REQUIRE_NOTHROW(build(good, {"particles.seed=9200000000000000000"}));
+  REQUIRE_THROWS_WITH(build(good, {"particles.seed=9200000000000000001"}),
+                      Contains("particles.seed") && Contains("9200000000000000001 is out of range"));
+  REQUIRE_THROWS_WITH(build(good, {"output.observables_every=0"}), Contains("output.observables_every") && Contains("out of range"));
 }

@@ -50,6 +50,13 @@ TEST_CASE("a tangential spring or dashpot too stiff for the step is warned about
   REQUIRE(damped->warnings().size() == 1);
   CHECK_THAT(damped->warnings()[0], Contains("friction.damping_ratio = 30"));
   CHECK(oblique(1, 3, 0.5)->warnings().empty());
+  CHECK_THAT(damped->warnings()[0], Contains("lower the ratio or the step (time.steps_per_contact"));
+  // A ratio no step can follow: the bound computed without overflow (it said "exceeds 0", with c_t^2 = inf), and only
+  // the ratio offered as the remedy (it offered "time.steps_per_contact inf or more"; an adversarial review, 2026-12-07).
+  auto absurd = oblique(1, 1e300, 0.5);
+  REQUIRE(absurd->warnings().size() == 1);
+  CHECK_THAT(absurd->warnings()[0], Contains("friction.damping_ratio = 1e+300") && !Contains("exceeds 0,") &&
+                                        Contains("lower the ratio (no practical step is below it") && !Contains("inf"));
 }
 
 TEST_CASE("a rolling spring too stiff for the step is warned about", "[extremes][rolling]") {

@@ -632,6 +632,12 @@ def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_t
     (folder / "pair.txt").write_text("-0.7 0 0 1 1 0.5 0 0\n0.6 0 0 1 1 -0.5 0 0\n")
     moved = run(grains_bin, "resume", killed)
     assert moved.returncode == 1 and "another position than the run's first frame" in moved.stderr, moved.stderr
+    # The file gone: said so, and the stored scene named without a --set override the user never gave (the resume's
+    # own thread count was counted as one until 2026-12-07).
+    (folder / "pair.txt").unlink()
+    gone = run(grains_bin, "resume", killed)
+    assert gone.returncode == 1 and "pair.txt' (no such file)" in gone.stderr, gone.stderr
+    assert "override" not in gone.stderr and f"the scene stored in {killed}" in gone.stderr, gone.stderr
 
 
 def damage_the_newest_checkpoint(path):
