@@ -405,6 +405,16 @@ void SimulationImpl<D>::check_finite(const std::string& when) const {
 // found them broken.
 template <int D>
 std::string SimulationImpl<D>::blow_up_hint() const {
+  // A gravitational constant whose closest pair force overflows (gravity.G up to 1e308 is allowed, and a host may set
+  // it while stepping): named first, for every other reading of the failure would mislead.
+  if (gravity_ && !sys_.particles.mass.empty()) {
+    const double m = *std::max_element(sys_.particles.mass.begin(), sys_.particles.mass.end());
+    const double eps = gravity_->softening_length(), closest = gravity_->G() * m / eps * m / eps;
+    if (!std::isfinite(closest) || closest > 1e300)
+      return fmt::format("gravity.G = {:.6g}, with masses up to {:.6g} and softening length {:.6g}, makes the closest pair's "
+                         "force G m^2 / eps^2 = {:.3g}, past what doubles hold: lower gravity.G (or the masses)",
+                         gravity_->G(), m, eps, closest);
+  }
   return warnings_.empty()
              ? fmt::format("dt = {:.6g} passed the time-step checks at start-up, so look at the initial (or restored) "
                            "state (coincident or deeply overlapping particles) and the scene's parameters", dt_)

@@ -457,3 +457,17 @@ threads = 1
     CHECK(sim->particles().radius[0] == 0.5e-30);
   }
 }
+
+TEST_CASE("extremes: a gravitational constant whose closest pair force overflows is named as the cause", "[extremes][gravity]") {
+  // gravity.G = 1e308 is in range; the failure named only the particle and "coincident or deeply overlapping
+  // particles" (an adversarial review of the FMU, 2026-12-07).
+  const auto scene = [](const char* G) {
+    return Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/aggregation.toml",
+                            {"run.threads=1", fmt::format("gravity.G={}", G)});
+  };
+  REQUIRE_THROWS_WITH(Simulation::create(scene("1e308")),
+                      Contains("non-finite") && Contains("gravity.G = 1e+308") && Contains("lower gravity.G"));
+  auto fine = Simulation::create(scene("1.0"));
+  fine->step_n(10);
+  CHECK(std::isfinite(fine->get("kinetic_energy")));
+}
