@@ -312,17 +312,20 @@ def findings(damping, stiffness, fixed_stiffness, fixed_damping):
     lines.append(f"| t_agg / t_ff falls as damping grows (k* = {fixed_stiffness:.3g}) | {correlation} over "
                  f"{len(defined)} point(s) where the cloud aggregates; {listed(defined, 't_agg_over_t_ff', '.2f', 'zeta')} "
                  f"| {verdict(rho < -0.5, defined) if math.isfinite(rho) else TOO_FEW} |")
+    def enough(needed, points, holds, tested):   # a trend needs points enough to show one
+        return verdict(holds, tested) if len(points) >= needed else f"not decided: needs {needed} points or more"
+
     rises = max((b - a for a, b in zip(index, index[1:])), default=0.0)
     crossing = next((f"{z[i]:g}–{z[i + 1]:g}" for i in range(len(z) - 1) if index[i] > 0.5 >= index[i + 1]), "")
     lines.append(f"| N_c / N falls (logistically) from ~1 to ~0 with damping | {listed(damping, 'cluster_index', '.3f', 'zeta')}; "
                  f"{'crosses 0.5 between zeta ' + crossing if crossing else 'does not cross 0.5'}; "
                  f"{f'largest rise between neighbours {rises:+.3f}' if rises > 0 else 'no rise between neighbours'} "
-                 f"| {verdict(index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05, damping)} |")
+                 f"| {enough(3, damping, index[0] > 0.5 and index[-1] < 0.1 and rises <= 0.05, damping)} |")
     second = [p["q_second_peak"] > 0 for p in damping]
     lines.append(f"| Q: a first peak in every run, a second for all but the strongest damping | first peaks "
                  f"{min(p['q_first_peak'] for p in damping):.3g}–{max(p['q_first_peak'] for p in damping):.3g}; "
                  f"a second peak at zeta {', '.join(marked(p, format(p['zeta'], 'g')) for p, s in zip(damping, second) if s) or 'none'} "
-                 f"| {verdict(all(second[:-1]) and not second[-1], damping)} |")
+                 f"| {enough(2, damping, all(second[:-1]) and not second[-1], damping)} |")
     def intermediate(holds, tested):   # a minimum at an intermediate k* needs a point on either side of it
         return verdict(holds, tested) if len(stiffness) >= 3 else "not decided: an intermediate k* needs 3 points or more"
 
@@ -335,7 +338,7 @@ def findings(damping, stiffness, fixed_stiffness, fixed_damping):
                      f"| {listed(stiffness, 'cluster_index', '.3f', 'k_star')} "
                      f"| {intermediate(0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] > ki[low], [soft, stiffness[low], stiff])} |")
         lines.append(f"| ... and rising toward ~0.6 for very stiff contacts | {marked(stiff, format(ki[-1], '.3f'))} at k* "
-                     f"{stiff['k_star']:.3g} | {verdict(ki[-1] >= 0.3, [stiff])} |")
+                     f"{stiff['k_star']:.3g} | {enough(2, stiffness, ki[-1] >= 0.3, [stiff])} |")
         finite = [p for p in stiffness if math.isfinite(p["t_agg_over_t_ff"])]
         best = min(range(len(kt)), key=lambda i: kt[i] if math.isfinite(kt[i]) else math.inf)
         minimum = bool(finite) and 0 < best < len(kt) - 1 and math.isfinite(kt[0]) and math.isfinite(kt[-1])
@@ -384,6 +387,8 @@ def plot_sweep(points, x_key, title, path):
             ax.set_xscale("symlog", linthresh=0.01)   # zeta = 0 and the small zeta of the transition both visible
         else:
             ax.set_xscale("log")
+        if len(set(x)) == 1 and x[0] > 0:   # one point (a report on a sweep in part): a range around it, not none
+            ax.set_xlim(x[0] / 3, x[0] * 3)
     if damping:
         plot_q(axes[2], points, dict(zip(x, plt.cm.viridis(np.linspace(0, 0.9, len(points))))))
         axes[2].set_ylabel("Q = K / |W| (first seed)")
@@ -435,6 +440,8 @@ def stiffness_shapes(grid, damping, stiffness):
     rows, counted = [], 0
     for z in dict.fromkeys(damping):
         row = sorted((p for p in grid if p["zeta"] == z), key=lambda p: p["k_star"])
+        if not row:   # a report on a map in part
+            continue
         ki = [p["cluster_index"] for p in row]
         low = int(np.argmin(ki))
         if 0 < low < len(ki) - 1 and ki[0] > 0.5 and ki[-1] >= 0.3:
@@ -557,7 +564,16 @@ def main(argv=None):
             print(f"note: k* = {k:g} names its runs as k* = {kept:g} does: taken as that point", flush=True)
         return kept
     fixed_stiffness = one_per_name(fixed_stiffness)
-    args.stiffness = [one_per_name(k) for k in args.stiffness]
+    # The findings read the sweeps in order (the weakest damping first, the strongest last; the softest contacts
+    # first): values are taken sorted, each once (a given order decided the verdicts; a value given twice was announced
+    # as two points and run as one).
+    def in_order(values, name):
+        kept = sorted(dict.fromkeys(values))
+        if len(kept) < len(values):
+            print(f"note: {name} values given more than once are one point each: {len(kept)} points", flush=True)
+        return kept
+    args.damping = in_order(args.damping, "--damping")
+    args.stiffness = in_order([one_per_name(k) for k in args.stiffness], "--stiffness")
     threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     seeds = range(1, args.seeds + 1)
     def setting(key):   # the scene's value of a [section] key, with the overrides
@@ -597,10 +613,14 @@ def main(argv=None):
         occupied = [problem for problem in map(not_a_run_name, files.values()) if problem]
         if occupied:   # before any run: the sweep would stop at the first of them, its other runs under way
             ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
-        if args.report:
-            missing = [str(f) for f in files.values() if not reuse.ended(f)]
+        if args.report:   # what is complete; a point without a complete run is left out, and said so
+            missing = [f for f in files.values() if not reuse.ended(f)]
             if missing:
-                ap.error(f"--report: no complete run {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
+                print(f"note: --report: {len(missing)} of {len(files)} run(s) are not complete (left out; their points "
+                      f"too, where no seed is complete): {', '.join(map(str, missing[:3]))}{' ...' if len(missing) > 3 else ''}",
+                      flush=True)
+            files = {key: f for key, f in files.items() if reuse.ended(f)}
+            pairs = [(z, k) for z, k in pairs if any((z, k, s) in files for s in seeds)]
         stale = []   # complete runs are taken as they are only if they ran what would run now
         for (z, k, s), h5 in files.items():
             if reuse.ended(h5):
@@ -619,7 +639,7 @@ def main(argv=None):
             files = dict(zip(tasks, dask.compute(*tasks.values(), scheduler="threads", num_workers=args.jobs)))
         measured = []
         for z, k in pairs:
-            point = median_point([measure(files[(z, k, s)], k) for s in seeds])
+            point = median_point([measure(files[(z, k, s)], k) for s in seeds if (z, k, s) in files])
             measured.append({"zeta": z, "restitution": restitution(z), "k_star": k,
                              "steps_per_contact": own[(z, k)].get("time.steps_per_contact", scene_steps),
                              "analysis_every": own[(z, k)].get("analysis.every", setting("analysis.every")), **point})
@@ -644,6 +664,8 @@ def main(argv=None):
     reuse.make_out(ap, out)   # only now, so that a sweep refused above leaves no folder behind
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
     damping = points([(z, fixed_stiffness) for z in args.damping])
+    if not damping:   # --report, with no complete run of the damping sweep
+        ap.exit(2, f"{ap.prog}: error: --report: no complete run of the damping sweep in {out}\n")
     if not args.stiffness:
         fixed_damping = None
     elif args.fixed_damping == "auto":

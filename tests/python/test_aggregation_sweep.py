@@ -150,6 +150,14 @@ def test_a_trend_over_two_points_is_not_decided_and_a_curve_that_stays_high_does
     assert "does not cross 0.5" in lines[3] and "none" not in lines[3]
 
 
+def test_a_trend_over_one_point_is_not_decided():
+    """Found by a review (2026-12-07): one damping point gave "no" for the logistic fall and "yes" for Q's peaks."""
+    lines = sweep.findings([point(0.1, 100, 0.9, 2.0)], [point(0.1, 1e4, 0.6, 2.5)], 100, 0.1)
+    assert lines[3].endswith("| not decided: needs 3 points or more |"), lines[3]
+    assert lines[4].endswith("| not decided: needs 2 points or more |"), lines[4]
+    assert lines[6].endswith("| not decided: needs 2 points or more |"), lines[6]
+
+
 def test_findings_that_turn_on_runs_that_heated_up_are_not_decided():
     energy = "energy check: at t = 6.6 (1.77 t_ff, step 400) the total energy E = K + W + elastic = -38040 is 234762 above ..."
     base = {"cluster_index": 0.7, "largest_cluster_fraction": 0.3, "fractal_dimension": math.nan, "q_first_peak": 1.4,
@@ -199,6 +207,20 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
         assert (tmp_path / name).stat().st_size > 100
     again = subprocess.run(cmd + ["--report"], capture_output=True, text=True)   # nothing rerun (the same --set)
     assert again.returncode == 0 and "finished" not in again.stdout
+    # The values in another order, or given twice, are the same sweep: its verdicts read it from the weakest damping
+    # (found by a review, 2026-12-07: "--damping 0.2 0.1 0.01" reversed two verdicts).
+    reordered = [a if a not in ("0.1", "0.5") else {"0.1": "0.5", "0.5": "0.1"}[a] for a in cmd] + ["--damping", "0.5", "0.1", "0.5"]
+    report = subprocess.run(reordered + ["--report"], capture_output=True, text=True)
+    assert report.returncode == 0, report.stderr
+    assert "given more than once" in report.stdout
+    assert (tmp_path / "summary.md").read_text() == summary
+    # A report summarises what is complete, and says what is not (it refused to, naming three runs).
+    (tmp_path / "z0p9-k100-n92a3o9-s1.h5").rename(tmp_path / "elsewhere.h5")
+    partial = subprocess.run(cmd + ["--report"], capture_output=True, text=True)
+    assert partial.returncode == 0, partial.stderr
+    assert "1 of 2 run(s) are not complete" in partial.stdout and "z0p9-k100-n92a3o9-s1.h5" in partial.stdout
+    rows = list(csv.DictReader((tmp_path / "sweep.csv").open()))
+    assert [(r["sweep"], float(r["k_star"])) for r in rows][2:] == [("stiffness", 1000.0)]
     for args, message in ((["--damping", "1.0"], "--damping: 1.0"), (["--stiffness", "0"], "k* must be positive"),
                           (["--fixed-damping", "soft"], "--fixed-damping: 'soft'")):
         bad = subprocess.run([sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin,
