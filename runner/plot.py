@@ -104,16 +104,23 @@ def stage_window(f, group, path, stage):
 
 def observables_of(f, path, wanted, x_name, stage=None):
     import h5py
+    def series_in(g):   # H5MD's time-dependent elements (step, time, value); a time-independent one, a plain dataset,
+        # or an element without its step has no course to draw (they ended the plot in a traceback)
+        if not isinstance(g, h5py.Group):
+            return []
+        return [k for k, e in g.items() if isinstance(e, h5py.Group) and all(
+            isinstance(e.get(part), h5py.Dataset) for part in ("step", "time", "value"))]
+
     group = f.get("observables")
-    available = list(group.keys()) if isinstance(group, h5py.Group) else []
+    available = series_in(group)
     traces = f.get("grains/trace")
-    available += [TRACE + k for k in traces] if isinstance(traces, h5py.Group) else []
+    available += [TRACE + k for k in series_in(traces)]
 
     def element(name):   # observables/<name>, or grains/trace/<name> for trace/<name>
         return f["grains/" + name] if name.startswith(TRACE) else group[name]
 
     if not available:
-        fail(f"'{path}' has no observables")
+        fail(f"'{path}' has no observables with a course in time (step, time and value)")
     names = wanted
     if not wanted:
         traced = [n[len(TRACE):] for n in available if n.startswith(TRACE)]
@@ -127,7 +134,10 @@ def observables_of(f, path, wanted, x_name, stage=None):
     companions += [n[len(TRACE):] for n in names if n.startswith(TRACE) and n[len(TRACE):] in available]
     missing = [n for n in names + ([x_name] if x_name else []) if n not in available]
     if missing:
-        fail(f"'{path}' has no observable {', '.join(missing)} (available: time, {', '.join(available)})")
+        others = [n for n in missing if isinstance(group, h5py.Group) and n in group]
+        fail(f"'{path}' has no observable {', '.join(missing)}"
+             f"{' with a course in time (step, time and value): ' + ', '.join(others) + ' has none' if others else ''} "
+             f"(available: time, {', '.join(available)})")
     # A run killed inside a flush may leave a series rows ahead of the others, and a run still writing leaves a
     # series' steps, times and values of different lengths: keep the records every series holds whole.
     rows = {}

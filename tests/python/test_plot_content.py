@@ -262,3 +262,24 @@ def test_a_finished_programme_has_no_stage_under_way(tmp_path, monkeypatch):
     with h5py.File(path, "r+") as f:
         f["grains"].attrs["status"] = np.bytes_("running")
     assert panel(drawn(path, monkeypatch, "--stage", "2"), "solid fraction").lines[1].get_xdata().tolist() == [150.0]
+
+
+def test_an_element_without_a_course_in_time_is_left_out_and_named_when_asked_for(tmp_path, monkeypatch):
+    """H5MD's time-independent element (a plain dataset) and a group without its step ended the plot in a traceback
+    (a review, 2026-12-07). They are not offered; asked for by name, the refusal says why."""
+    path = run_file(tmp_path / "odd.h5", {"kinetic_energy": [1, 2, 3, 4]})
+    with h5py.File(path, "r+") as f:
+        f["observables/constant"] = np.arange(3.0)
+        f["observables/stepless/value"] = np.arange(3.0)
+        f["observables/stepless/time"] = np.arange(3.0)
+    fig = drawn(path, monkeypatch)
+    assert [ax.get_title() for ax in fig.axes] == ["kinetic energy K"]
+    asked = subprocess.run([sys.executable, ROOT / "runner/plot.py", path, "--observables", "constant,stepless", "-o",
+                            tmp_path / "odd.png"], capture_output=True, text=True)
+    assert asked.returncode == 2 and "Traceback" not in asked.stderr, asked.stderr
+    assert "no observable constant, stepless with a course in time" in asked.stderr, asked.stderr
+    with h5py.File(path, "r+") as f:
+        del f["observables/kinetic_energy"]
+    alone = subprocess.run([sys.executable, ROOT / "runner/plot.py", path, "-o", tmp_path / "odd.png"], capture_output=True,
+                           text=True)
+    assert alone.returncode == 2 and "has no observables with a course in time" in alone.stderr, alone.stderr
