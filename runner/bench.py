@@ -63,11 +63,13 @@ def lammps_rate(peers, steps, threads, friction, workdir):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=3000)
-    ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
+    ap.add_argument("--peers", type=pathlib.Path, default=None,
+                    help="folder of the LAMMPS peer inputs (default: the workspace's shared/peers; without them, grains only)")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     ap.add_argument("--no-lammps", action="store_true", help="grains only")
     ap.add_argument("--repeat", type=int, default=1, help="runs of every configuration (medians reported)")
     args = ap.parse_args()
+    args.peers = reuse.peers_folder(ap, args.peers, "gas.lmp", ROOT.parent / "shared" / "peers")
     reuse.require_binary(ap, "--binary", args.binary)
     reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
     have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()

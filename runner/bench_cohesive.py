@@ -157,12 +157,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--cells", type=int, default=35, help="hexagonal cells along x (x 20 along y, 2 disks each)")
-    ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
+    ap.add_argument("--peers", type=pathlib.Path, default=None,
+                    help="folder of the LAMMPS peer inputs (default: the workspace's shared/peers; without them, grains only)")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     ap.add_argument("--threads", default="1,2")
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds (each grains law right after a LAMMPS run, each round); medians and the range of the ratios")
     args = ap.parse_args()
+    args.peers = reuse.peers_folder(ap, args.peers, "disks2d.lmp", ROOT.parent / "shared" / "peers")
     reuse.require_binary(ap, "--binary", args.binary)
     reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
     if args.cells < MIN_CELLS:

@@ -52,7 +52,13 @@ def main(argv=None):
     with f:
         if "grains/collisions" not in f:
             fail(f"'{args.run}' has no /grains/collisions table (run the scene with analysis.collision_log = true)")
-        print(summary(f["grains/collisions"][()]))
+        table = f["grains/collisions"]
+        # seven numeric columns, as grains writes it (a group, or a table of another shape, ended in a traceback)
+        if not (hasattr(table, "shape") and len(table.shape) == 2 and table.shape[1] == 7 and table.dtype.kind == "f"):
+            shape = f"a dataset of shape {table.shape} and type {table.dtype}" if hasattr(table, "shape") else "a group"
+            fail(f"'{args.run}': /grains/collisions is {shape}, not grains' table of 7 numeric columns (i, j, start, end, "
+                 "impact_speed, rebound_speed, adhesive)")
+        print(summary(table[()]))
     return 0
 
 

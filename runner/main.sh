@@ -2,6 +2,20 @@
 # The main job: install what is missing, build, run the default scene, plot it.
 #   bash runner/main.sh [SCENE.toml] [grains run options...]   (options alone: the default scene with them)
 set -euo pipefail
+# Help first, before any setup or run (--help went on to grains run's help, then plotted an old output).
+for arg in "$@"; do
+  case "$arg" in
+    -h|--help)
+      cat <<'USAGE'
+usage: bash runner/main.sh [SCENE.toml] [grains run options...]
+  Installs what is missing, builds, runs SCENE (default models/aggregation.toml) and plots it:
+  out/SCENE.h5, .xdmf and .png (or --out FILE.h5, the plot beside it as FILE.png). The same command after an
+  interruption resumes the unfinished run; --overwrite starts it again. grains run's options: grains run --help
+  (build/runner/grains once built); the plot: runner/plot.py --help.
+USAGE
+      exit 0 ;;
+  esac
+done
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 grains_setup
 # The default scene runs two threads. Threads waiting between parallel regions spin (libgomp's default):

@@ -263,6 +263,14 @@ def difference(now, h5):
     return "; ".join(differs[:4]) + (f" and {len(differs) - 4} more" if len(differs) > 4 else "")
 
 
+def peers_folder(ap, given, name, default):
+    """The LAMMPS peer inputs' folder: a --peers the user gave must hold `name` (a wrong one ran grains alone, with a
+    table of NaN ratios, and exit status 0); the default may lack it (then grains runs alone, with a note)."""
+    if given is not None and not (given / name).is_file():
+        ap.error(f"--peers {given}: no {name} there (the LAMMPS peer input); give the folder that holds it")
+    return given if given is not None else default
+
+
 def peer_missing(peers, name):
     """What keeps a benchmark from running LAMMPS beside grains, in words: the program or the peer input (the
     LAMMPS inputs live beside the repository, in the workspace's shared/peers, not in it)."""

@@ -1,6 +1,7 @@
 """The Python tools name an output path in a missing folder, or an unreadable input, in one line instead
 of a traceback after their work (plot.py, consolidation_fit.py, density_correlations.py)."""
 import os
+import shutil
 import subprocess
 import sys
 
@@ -158,3 +159,39 @@ def test_a_run_file_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, 
     r = subprocess.run([sys.executable, str(ROOT / "runner" / name), *map(fill, args)], capture_output=True, text=True,
                        timeout=60)
     refused(r, f"{fill(lead)} is a {kind}: name a regular file, the HDF5 file grains wrote")
+
+
+def test_collisions_names_a_table_of_another_shape(tmp_path):
+    """A /grains/collisions that is not grains' table (a group, a 1-D dataset) ended in a traceback (a review, 2026-12-07)."""
+    import h5py
+    for name, make in (("flat", lambda f: f.create_dataset("grains/collisions", data=[1, 2, 3])),
+                       ("group", lambda f: f.create_group("grains/collisions"))):
+        path = tmp_path / f"{name}.h5"
+        with h5py.File(path, "w") as f:
+            make(f)
+        r = tool("collisions.py", path)
+        refused(r, "/grains/collisions is", "not grains' table of 7 numeric columns")
+
+
+@pytest.mark.parametrize("script, peer", [("bench.py", "gas.lmp"), ("bench_cohesive.py", "disks2d.lmp")])
+def test_a_benchmark_refuses_a_peers_folder_given_without_its_input(tmp_path, script, peer):
+    """A --peers the user gave without the LAMMPS input ran grains alone, printed NaN ratios and exited 0 (a review,
+    2026-12-07); only the default folder may lack it."""
+    r = tool(script, "--peers", tmp_path, "--steps", "10")
+    refused(r, f"--peers {tmp_path}: no {peer} there")
+
+
+def test_the_shell_entry_points_answer_help_and_a_missing_script_before_any_setup(tmp_path):
+    """main.sh --help ran the setup and the build, then grains run's help, then plotted an old output;
+    with_lammps.sh without a script failed on an unbound variable after installing LAMMPS (a review, 2026-12-07)."""
+    tools = tmp_path / "bin"   # only what the answers need: any setup step (cmake, apt, python) would fail
+    tools.mkdir()
+    for name in ("cat", "dirname", "ls", "tr"):
+        (tools / name).symlink_to(shutil.which(name))
+    env = dict(os.environ, PATH=str(tools))
+    shell = "/bin/bash"
+    helped = subprocess.run([shell, ROOT / "runner/main.sh", "--help"], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert helped.returncode == 0 and helped.stdout.startswith("usage: bash runner/main.sh"), helped.stderr
+    for args in ([], ["nope.py"]):
+        r = subprocess.run([shell, ROOT / "runner/with_lammps.sh", *args], capture_output=True, text=True, env=env)
+        assert r.returncode == 2 and "usage: bash runner/with_lammps.sh SCRIPT.py" in r.stderr, r.stderr
