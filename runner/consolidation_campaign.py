@@ -87,6 +87,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
         if reuse.ended(h5):   # it ended, but the table was not renamed (the tool stopped just then)
             finish(partial, table, h5)
             return table
+        print(f"  resuming {label} from its last checkpoint (log: {stem.with_suffix('.log')})", flush=True)
         with stem.with_suffix(".log").open("a") as log:
             code = reuse.run_child([grains, "resume", h5], stdout=log, stderr=subprocess.STDOUT)
         if code == reuse.INTERRUPTED:   # its checkpoint is kept for the next try
@@ -101,6 +102,7 @@ def consolidate(grains, scene_file, overrides, stem, label):
     cmd = [grains, "consolidate", scene_file, "--table", partial, "--out", h5, "--overwrite"]
     for o in overrides:
         cmd += ["--set", o]
+    print(f"  started {label} (log: {stem.with_suffix('.log')})", flush=True)
     with stem.with_suffix(".log").open("w") as log:
         code = reuse.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
     if code == reuse.INTERRUPTED:
@@ -116,6 +118,9 @@ def finish(partial, table, h5):
     """A programme ended: its table takes its final name, and the HDF5 file names that one (the tools reading the
     file find the table by it)."""
     import h5py
+    if not partial.is_file():   # a grains that ended well without writing it (another program given as --grains)
+        raise reuse.RunFailed(f"{table.stem}: the programme ended without its stage table {partial}; see "
+                              f"{table.with_suffix('.log')}")
     partial.rename(table)
     with h5py.File(h5, "r+") as f:
         f["grains"].attrs["stage_table"] = np.bytes_(table.name.encode())   # fixed length, as grains writes it
@@ -265,14 +270,17 @@ def mean_curve(results):
     return p, phi, [len(stages[k]) for k in kept]
 
 
-def resampled_spread(results, resamples, seed=1):
+def resampled_spread(results, resamples, seed=1, label=None):
     """The standard deviation of the mean curve's fitted values over resamples of the samples (drawn with
     replacement, the mean curve rebuilt and refitted each time): the spread between samples, which the fit's
     own error on one mean curve leaves out (on ten samples per law it was 2.5-4 times the fit's error).
-    Returns ({key: sd}, fits that converged)."""
+    Returns ({key: sd}, fits that converged). With `label`, says how far it got (a fit takes seconds: 40 of them
+    on two laws were minutes with nothing printed)."""
     rng = np.random.default_rng(seed)
     fits = []
-    for _ in range(resamples):
+    for k in range(resamples):
+        if label and k % 10 == 0:
+            print(f"  {label}: resample {k + 1}-{min(k + 10, resamples)} of {resamples}", file=sys.stderr, flush=True)
         pick = [results[i] for i in rng.integers(0, len(results), len(results))]
         try:
             fits.append(fit_loading(*mean_curve(pick)[:2]))
@@ -324,7 +332,7 @@ def mean_curve_lines(scene, results, resamples=0):
         fit = fit_loading(p, phi)
     except (ValueError, RuntimeError) as error:
         return [f"| {scene} | lambda, Phimax of the mean curve | no fit ({error}) | | |"]
-    spread, converged = resampled_spread(results, resamples) if resamples else ({}, 0)
+    spread, converged = resampled_spread(results, resamples, label=scene) if resamples else ({}, 0)
     lines = []
     for key in ("lambda", "phi_max"):
         value, bar = PAPER[scene][key]
@@ -525,6 +533,9 @@ if __name__ == "__main__":
     try:
         main()
     except (KeyboardInterrupt, reuse.Interrupted):
+        if "--report" in sys.argv:   # a report runs nothing: there is nothing to resume
+            print(f"{pathlib.Path(__file__).name}: interrupted; nothing was run", file=sys.stderr)
+            sys.exit(reuse.INTERRUPTED)
         sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished samples are kept, interrupted ones continue "
                                                           "from their last checkpoint"))
     except reuse.RunFailed as error:

@@ -318,7 +318,7 @@ def read_stages(path):
     if path.suffix in (".h5", ".hdf5"):   # the stage table grains consolidate wrote with it
         table = stage_table_of(path)
         if table is None:
-            raise TableError(f"'{path}' is an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
+            raise TableError(f"'{path}' is named as an HDF5 file: the fit reads the stage table (CSV) that `grains consolidate` "
                              f"writes with it (--table), and there is none at '{recorded_table(path) or path.with_suffix('.csv')}'")
         print(f"reading the stage table {table}", file=sys.stderr)
         path = table
@@ -424,4 +424,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(reuse.run_read_only(main, "consolidation_fit.py"))

@@ -193,9 +193,13 @@ def stage_targets(path, measured):
 
 def target_pressure(row):
     """A stage table row's target P* (so that a stage short of its target is found and drawn where the
-    programme meant it); its measured P* where the table has no target (older tables, the aggregation)."""
+    programme meant it); its measured P* where the table has no target (older tables); none (NaN) for the
+    aggregation, which runs in a fixed cell: its measured P* is no stage of the loading branch (in a short run it
+    came above the first loading targets and was taken as the branch's top, a review found, 2026-12-07)."""
     target = float(row.get("target_pressure") or "nan")
-    return target if math.isfinite(target) else float(row["P_star"])
+    if math.isfinite(target):
+        return target
+    return math.nan if row.get("phase") == "aggregation" else float(row["P_star"])
 
 
 def loading_frame(p_star, target):
@@ -400,4 +404,4 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(reuse.run_read_only(main, "density_correlations.py"))

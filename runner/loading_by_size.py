@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
+import reuse  # noqa: E402
 from consolidation_fit import TableError, fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
 
 
@@ -172,7 +173,7 @@ def fit_of_mean(scene, results, resamples):
         fit = campaign.fit_loading(p, phi)
     except (ValueError, RuntimeError):
         return None
-    spread = campaign.resampled_spread(results, resamples)[0] if len(results) >= 3 and resamples else {}
+    spread = (campaign.resampled_spread(results, resamples, label=scene)[0] if len(results) >= 3 and resamples else {})
     try:   # the regime II line alone: the slope, without how soon the curve bends to Phimax
         line = fit_regime_two(p, phi)
     except ValueError:
@@ -276,6 +277,8 @@ def main(argv=None):
             except TableError as error:   # one line naming the table, the line and the value
                 ap.exit(2, f"{ap.prog}: error: {error}\n")
             if results:
+                print(f"{scene}, {label}: {len(results)} finished sample(s); fitting the mean loading curve",
+                      file=sys.stderr, flush=True)
                 rows.append((scene, label, len(results), fit_of_mean(scene, results, args.resamples),
                              stage_rises(scene, results)))
     if not rows:
@@ -287,4 +290,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(reuse.run_read_only(main, "loading_by_size.py"))

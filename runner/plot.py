@@ -322,4 +322,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(reuse.run_read_only(main, "plot.py"))

@@ -46,6 +46,16 @@ def interrupted(prog, kept):
     return INTERRUPTED
 
 
+def run_read_only(main, prog):
+    """Runs a tool that only reads (a report, a plot, a fit): Ctrl-C ends it with one line, not a traceback, and
+    status 130; there is nothing to resume."""
+    try:
+        return main()
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted; nothing was written", file=sys.stderr)
+        return INTERRUPTED
+
+
 _children = set()   # the grains runs under way (run_child), for stop_children_on_term
 _children_lock = threading.Lock()
 

@@ -207,7 +207,8 @@ def plot_first_compressions(panels, path, reference=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="+", help="stages files of grains consolidate")
-    ap.add_argument("-o", "--out", default="first-compression.png", help="image to write")
+    ap.add_argument("-o", "--out", default="first-compression.png",
+                    help="image to write (default: first-compression.png in the current folder)")
     args = ap.parse_args(argv)
     for f in args.files:
         if problem := reuse.not_a_run_file(f):
@@ -228,4 +229,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(reuse.run_read_only(main, "stage_traces.py"))

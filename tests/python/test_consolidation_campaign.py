@@ -497,3 +497,14 @@ def test_a_folder_at_a_samples_name_is_refused_before_initial_states_runs_but_no
     r = subprocess.run(cmd + ["--report"], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "type1 seed 2: no table in" in r.stdout, r.stdout + r.stderr
     assert "| type1 | 0.7200 (1) |" in (tmp_path / "summary.md").read_text()
+
+
+def test_a_programme_that_ends_without_its_stage_table_is_named_not_a_traceback(tmp_path):
+    """A --grains that exits 0 without writing the table ended the campaign in FileNotFoundError (a review,
+    2026-12-07); and the console says when a sample starts."""
+    r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--grains", "/bin/true", "--out",
+                        str(tmp_path / "c"), "--samples", "1", "--scene", "consolidation"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "consolidation-seed1: the programme ended without its stage table" in r.stderr, r.stderr
+    assert "started consolidation seed 1 (log:" in r.stdout, r.stdout

@@ -298,3 +298,16 @@ def test_a_blob_fit_that_does_not_converge_finds_no_fractal_range(monkeypatch):
     fit = dc.fit_blob(k, (1 + (3 * k) ** 2) ** -0.8, np.full(k.size, 200), 0.4, 6.28)
     assert not fit["fractal_range"] and math.isnan(fit["d_F"]) and math.isnan(fit["xi"])
     assert fit["I0"] > 0
+
+
+def test_the_aggregation_is_no_stage_of_the_loading_branch():
+    """In a short run the aggregation's measured P* (a fixed cell: no target) came above the first loading targets and
+    was taken as the branch's top, so P* = 0.01 was "no loading stage" (a review, 2026-12-07)."""
+    rows = [{"phase": "aggregation", "target_pressure": "nan", "P_star": "0.0183"},
+            {"phase": "equilibrate", "target_pressure": "0", "P_star": "0.0146"},
+            {"phase": "equilibrate", "target_pressure": "0.01", "P_star": "0.0090"},
+            {"phase": "loading", "target_pressure": "0.0133352143", "P_star": "0.0052"}]
+    targets = np.array([0.0] + [dc.target_pressure(row) for row in rows])
+    assert math.isnan(targets[1])
+    assert dc.loading_frame(targets, 0.01) == 3 and dc.loading_frame(targets, 0) == 2
+    assert dc.target_pressure({"P_star": "0.5"}) == 0.5   # an older table without targets: the measured P*
