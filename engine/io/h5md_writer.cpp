@@ -417,8 +417,8 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     m.xdmf_path = xdmf_path_beside(path);
     m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
   }
-  // The views of the frames dropped go with them; the frames kept get theirs if an older grains wrote the file.
-  drop_xdmf_views_from(root, m.frames, path);
+  // Every view goes (xdmf_views.hpp: a kill may have left them damaged); the frames kept get theirs anew.
+  set_aside_xdmf_views(root, path);
   if (m.xdmf && m.frames > 0) {
     m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
     write_xdmf_vertices(root, m.max_count, path);

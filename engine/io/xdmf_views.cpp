@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
+#include <string>
 
 #include <fmt/format.h>
 
@@ -62,49 +63,13 @@ void write_xdmf_views(hid_t file, const std::vector<XdmfView>& views, std::size_
   for (const XdmfView& v : views) write_view(view_group(file, v.name, path).get(), v, frame, count, path);
 }
 
-namespace {
-
-// A kill while a frame's views were being written can leave their group damaged (HDF5 keeps no journal): a lookup or a
-// removal there fails ("bad heap free list", "address of object past end of allocation"). The views hold no data, so
-// such a group is set aside whole and the caller makes the views it keeps anew: its link is removed with its reference
-// count raised first, for HDF5 would otherwise free it, walking the damaged links, and fail there too. Its space stays
-// unused in the file, which no longer reaches it.
-void set_aside(hid_t parent, const std::string& name, const std::string& path) {
-  const std::string what = name == "xdmf" ? "/grains/xdmf" : "/grains/xdmf/" + name;
-  h5::Handle group(h5::check(H5Oopen(parent, name.c_str(), H5P_DEFAULT), path, "setting aside damaged " + what), H5Oclose);
-  h5::check(H5Oincr_refcount(group.get()), path, "setting aside damaged " + what);
-  h5::check(H5Ldelete(parent, name.c_str(), H5P_DEFAULT), path, "setting aside damaged " + what);
-}
-
-void drop_views_from(hid_t group, const std::string& name, std::size_t first, const std::string& path) {
-  for (std::size_t k = first; h5::exists(group, std::to_string(k), path); ++k)   // views are made in frame order
-    h5::check(H5Ldelete(group, std::to_string(k).c_str(), H5P_DEFAULT), path, "removing " + xdmf_view_path(name, k));
-}
-
-}  // namespace
-
-void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path) {
+void set_aside_xdmf_views(hid_t file, const std::string& path) {
   if (!h5::exists(file, "grains", path) || !h5::exists(file, "grains/xdmf", path)) return;
-  std::vector<std::string> arrays;
-  try {
-    h5::Handle xdmf = h5::open_group(file, "grains/xdmf", path);
-    auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
-      static_cast<std::vector<std::string>*>(out)->emplace_back(name);
-      return 0;
-    };
-    h5::check(H5Literate(xdmf.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &arrays), path, "listing /grains/xdmf");
-    for (const std::string& name : arrays) {
-      if (name == "vertices") continue;
-      try {
-        drop_views_from(h5::open_group(xdmf.get(), name, path).get(), name, first, path);
-      } catch (const std::exception&) {
-        set_aside(xdmf.get(), name, path);
-      }
-    }
-  } catch (const std::exception&) {   // the list of arrays itself, or setting one aside, failed: all of them go
-    h5::Handle grains = h5::open_group(file, "grains", path);
-    set_aside(grains.get(), "xdmf", path);
-  }
+  h5::Handle grains = h5::open_group(file, "grains", path);
+  const std::string what = "setting aside the XDMF views (/grains/xdmf)";
+  h5::Handle views(h5::check(H5Oopen(grains.get(), "xdmf", H5P_DEFAULT), path, what), H5Oclose);
+  h5::check(H5Oincr_refcount(views.get()), path, what);
+  h5::check(H5Ldelete(grains.get(), "xdmf", H5P_DEFAULT), path, what);
 }
 
 void write_xdmf_vertices(hid_t file, std::size_t count, const std::string& path) {

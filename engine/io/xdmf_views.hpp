@@ -27,8 +27,13 @@ std::string xdmf_vertices_path();
 // Makes the views of frame `frame` (its first `count` particles), where they do not exist yet.
 void write_xdmf_views(hid_t file, const std::vector<XdmfView>& views, std::size_t frame, std::size_t count,
                       const std::string& path);
-// Removes the views of frames `first` and later, of every array (a resumed run rewrites them).
-void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path);
+// Sets every view aside, for a resumed run to make those of the frames it keeps anew. A kill while HDF5 wrote the
+// views can leave their groups damaged: a lookup or a removal there failed ("bad heap free list", "address of object
+// past end of allocation"), or, with no call failing, later views went missing from the group's listing (12 of 36
+// after a resume). The views hold no data, so the whole group is unlinked, its reference count raised first, for
+// HDF5 would otherwise free it, walking the damaged links (and fail there too); its space stays unused in the file,
+// which no longer reaches it. Found by killing runs at chosen writes of HDF5 (2026-12-07).
+void set_aside_xdmf_views(hid_t file, const std::string& path);
 // Makes the connectivity dataset hold at least `count` indices.
 void write_xdmf_vertices(hid_t file, std::size_t count, const std::string& path);
 
