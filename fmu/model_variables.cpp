@@ -123,12 +123,14 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
   pos.name = "particles.position";
   pos.role = Role::particle_array;
   pos.field = ParticleField::position;
-  pos.description = fmt::format("particle centres, {} x {} (row = particle), wrapped into the box", t.particle_count, t.dimension);
+  // Rows: the structural parameter where the scene sets the count (the packaged count is only its start value).
+  const std::string rows = t.count_reference != no_index ? "particles.count" : fmt::format("{}", t.particle_count);
+  pos.description = fmt::format("particle centres, {} x {} (row = particle), wrapped into the box", rows, t.dimension);
   t.variables.push_back(pos);
   FmuVariable rad = pos;
   rad.name = "particles.radius";
   rad.field = ParticleField::radius;
-  rad.description = fmt::format("particle radii, {}", t.particle_count);
+  rad.description = fmt::format("particle radii, {}", rows);
   t.variables.push_back(rad);
   return t;
 }

@@ -117,6 +117,9 @@ class Barostat {
         w.put(advanced_cap_);
     w.put(restart_), w.put_vector(since_restart_), w.put(ode_.statistics());
     w.put(previous_);
+    // The rates' tolerance unit, from the start pressure of the run that saved (a host may start another instance at
+    // another pressure and restore this state there: the history replays, and the run continues, only with it).
+    w.put(ode_.parameters().time_unit);
   }
   void load(ByteReader& r) {
     length_ = r.get<Vec<D>>(), rate_ = r.get<Vec<D>>(), target_ = r.get<double>(), reset_pending_ = r.get<bool>();
@@ -124,6 +127,10 @@ class Barostat {
     restart_ = r.get<Restart>(), r.get_vector(since_restart_);
     const auto statistics = r.get<CellLengthStatistics>();
     previous_ = r.get<Previous>();
+    const double time_unit = r.get<double>();
+    if (!(std::isfinite(time_unit) && time_unit > 0))
+      throw std::runtime_error(fmt::format("the saved barostat's time unit is {}: a finite number > 0", time_unit));
+    ode_.set_time_unit(time_unit);
     if (since_restart_.size() > replay_limit) throw std::runtime_error("saved barostat history is longer than this build keeps");
     check_loaded(statistics);   // before the replay: a negative cap or length reached std::clamp with its bounds reversed
     // Replayed with the forcing each advance had; the last advance's damping and cap stay, as they did.

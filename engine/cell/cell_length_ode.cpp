@@ -60,6 +60,13 @@ CellLengthOde::CellLengthOde(const CellLengthParameters& p) : p_(p), cv_(std::ma
 
 CellLengthOde::~CellLengthOde() = default;
 
+void CellLengthOde::set_time_unit(double time_unit) {
+  p_.time_unit = time_unit;
+  double* tol = N_VGetArrayPointer(cv_->abstol);
+  for (int a = 0; a < p_.axes; ++a) tol[p_.axes + a] = p_.atol_length / time_unit;
+  check(CVodeSVtolerances(cv_->memory, p_.rtol, cv_->abstol), "tolerances");   // CVODE keeps its own copy
+}
+
 int CellLengthOde::rhs(double, void* yv, void* ydv, void* self_) {
   const auto* self = static_cast<const CellLengthOde*>(self_);
   const auto& p = self->p_;

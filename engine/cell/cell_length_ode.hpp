@@ -47,6 +47,9 @@ class CellLengthOde {
 
   // The cap is part of the right-hand side: change it together with a reset().
   void set_rate_cap(double cap) { p_.rate_cap = cap; }
+  // The rates' absolute tolerance is atol_length over this (a restored state's: it was the saving run's start
+  // pressure's); takes effect at once, so set it before a reset().
+  void set_time_unit(double time_unit);
   double length(int a) const;
   double rate(int a) const;         // dL_a/dt, within the cap
   double state_rate(int a) const;   // the integrated rate variable (may exceed the cap by one step's acceleration)

@@ -20,9 +20,9 @@ namespace grains {
 // images, after their orientations; 13: whether the clamp warning was given, after the barostat's stress; 14: whether a
 // gravity scene's pass-through warning was given, after the energy check's record; 15: whether its softened-core
 // warning was given, after that; 16: whether its orbit-step warning was given, at the start-up or a host's gravity.G,
-// after that).
+// after that; 17: the barostat's time unit, after its last stress).
 // States of builds before the word start with D (2, 3).
-constexpr std::uint32_t state_format = 0x47524e10;
+constexpr std::uint32_t state_format = 0x47524e11;
 
 // GCC 12 inlines the writer's first insert into its empty vector here and wrongly flags it as overflowing
 // (-Wstringop-overflow); in the one file the class once was, it inlined less and said nothing.
