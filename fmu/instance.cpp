@@ -441,21 +441,33 @@ Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::s
     dirty_ = dirty_before, snapshots_every_ = snapshots_before;
     return s;
   };
-  for (std::size_t i = 0; i < refs.size(); ++i) {
-    const std::uint32_t ref = refs[i];
-    if (ref >= table_.variables.size())
-      return refuse(error(fmt::format("unknown value reference {}: this FMU's references are 0 to {}", ref, table_.variables.size() - 1)));
-    const FmuVariable& v = table_.variables[ref];
-    if (v.type != type)
-      return refuse(error(fmt::format("variable '{}' (reference {}) has type {}; it was set as {}", v.name, ref, type_name(v.type),
-                                      type_name(type))));
-    if (Status s = set_one(v, ref, values[i], to_simulation); s != Status::ok) return refuse(s);
-  }
-  try {   // each value was checked against its range already: this does not throw but on an internal error
-    for (const auto& [index, value] : to_simulation) sim_->set(index, value);
+  std::vector<std::pair<std::size_t, double>> replaced;   // the simulation's values before the call's
+  try {
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+      const std::uint32_t ref = refs[i];
+      if (ref >= table_.variables.size())
+        return refuse(error(fmt::format("unknown value reference {}: this FMU's references are 0 to {}", ref, table_.variables.size() - 1)));
+      const FmuVariable& v = table_.variables[ref];
+      if (v.type != type)
+        return refuse(error(fmt::format("variable '{}' (reference {}) has type {}; it was set as {}", v.name, ref, type_name(v.type),
+                                        type_name(type))));
+      if (Status s = set_one(v, ref, values[i], to_simulation); s != Status::ok) return refuse(s);
+    }
+    // The engine may still refuse a value its range allows (a cohesionless cell at P* = 0): those it took before go back.
+    for (const auto& [index, value] : to_simulation) {
+      replaced.emplace_back(index, sim_->get(index));
+      sim_->set(index, value);
+    }
   } catch (const std::exception& e) {
-    return error(e.what());
+    for (auto it = replaced.rbegin(); it != replaced.rend(); ++it) {
+      try {
+        sim_->set(it->first, it->second);   // a value the simulation held: taken again
+      } catch (const std::exception&) {
+      }
+    }
+    return refuse(error(e.what()));
   }
+  log_new_warnings();   // raised by the values set (a pressure past the contacts' clamp, G past the orbit step rule)
   return Status::ok;
 }
 

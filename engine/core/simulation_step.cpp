@@ -407,7 +407,7 @@ template <int D>
 std::string SimulationImpl<D>::blow_up_hint() const {
   // A gravitational constant whose closest pair force overflows (gravity.G up to 1e308 is allowed, and a host may set
   // it while stepping): named first, for every other reading of the failure would mislead.
-  if (gravity_ && !sys_.particles.mass.empty()) {
+  if (gravity_ && !sys_.particles.mass.empty() && gravity_->softening_length() > 0 && gravity_->G() > 0) {
     const double m = *std::max_element(sys_.particles.mass.begin(), sys_.particles.mass.end());
     const double eps = gravity_->softening_length(), closest = gravity_->G() * m / eps * m / eps;
     if (!std::isfinite(closest) || closest > 1e300)

@@ -82,10 +82,8 @@ void SimulationImpl<D>::warn_damped_packing_step(double tc) {
 // need not touch each other).
 template <int D>
 void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc) {
-  // (written so that c^2 does not overflow: friction.damping_ratio takes any value up to 1e300)
-  const auto stable_step = [](double k, double c, double m) {
-    return c > 0 ? 4 * m / c / (1 + std::sqrt(1 + 4 * k * m / c / c)) : 2 * std::sqrt(m / k);
-  };
+  // (sqrt(c^2 + 4 k m) as a hypot: neither overflows nor underflows, friction.damping_ratio taking 0 to 1e300)
+  const auto stable_step = [](double k, double c, double m) { return 4 * m / (c + std::hypot(c, 2 * std::sqrt(k * m))); };
   const double kappa = D == 3 ? 0.4 : 0.5;
   const auto say = [&](const std::string& what, double limit, const std::string& mode) {
     if (!(dt_ > limit)) return;

@@ -417,8 +417,12 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     m.xdmf_path = xdmf_path_beside(path);
     m.xdmf = std::make_unique<XdmfWriter>(m.xdmf_path, std::filesystem::path(path).filename().string());
   }
-  // Every view goes (xdmf_views.hpp: a kill may have left them damaged); the frames kept get theirs anew.
-  set_aside_xdmf_views(root, path);
+  // The views of the frames dropped go. A run stopped by Ctrl-C or SIGTERM ("interrupted ...") closed its file whole: its
+  // views are cut back. One killed ("running", "resumed at step N") or stopped by an output error may have left them
+  // damaged without any call failing (xdmf_views.hpp): every view goes, each resume then costing the views' space (about
+  // 2.6 kB a frame). The frames kept get their views anew (also where an older grains wrote none).
+  if (resume.status.rfind("interrupted", 0) == 0) drop_xdmf_views_from(root, m.frames, path);
+  else set_aside_xdmf_views(root, path);
   if (m.xdmf && m.frames > 0) {
     m.register_xdmf_fields(m.has_angular, m.has_angular ? m.series.at("angular_velocity").components : 0);
     write_xdmf_vertices(root, m.max_count, path);

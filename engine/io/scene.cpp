@@ -381,10 +381,13 @@ std::string Scene::text(std::string_view path) const {
   return with_default(*this, node(path), e, [&](const toml::node& n) {
     if (!n.is_string()) fail(path, fmt::format("expected a string, got {}: allowed {}", render(n), describe_allowed(e)));
     std::string v = *n.value<std::string>();
-    // TOML's "\u0000" and the like: a NUL would end a file name where the operating system reads it, silently.
-    if (const auto c = std::find_if(v.begin(), v.end(), [](unsigned char b) { return b < 0x20 || b == 0x7f; }); c != v.end())
+    // TOML's "\u0000" and the like: a NUL would end a file name where the operating system reads it, silently, and an
+    // escape drives the terminal the value is printed on. Tabs and line ends stay (a description of several lines).
+    const auto control = [](unsigned char b) { return (b < 0x20 && b != '\t' && b != '\n' && b != '\r') || b == 0x7f; };
+    if (const auto c = std::find_if(v.begin(), v.end(), control); c != v.end())
       fail(path, fmt::format("value \"{}\" holds a control character (byte 0x{:02x} at position {}): allowed text without "
-                             "control characters", printable(v), static_cast<unsigned char>(*c), c - v.begin() + 1));
+                             "control characters (but tabs and line ends)", printable(v), static_cast<unsigned char>(*c),
+                             c - v.begin() + 1));
     if (!e.choices.empty()) {
       std::string_view c = e.choices;
       bool ok = false;

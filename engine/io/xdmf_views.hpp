@@ -27,7 +27,10 @@ std::string xdmf_vertices_path();
 // Makes the views of frame `frame` (its first `count` particles), where they do not exist yet.
 void write_xdmf_views(hid_t file, const std::vector<XdmfView>& views, std::size_t frame, std::size_t count,
                       const std::string& path);
-// Sets every view aside, for a resumed run to make those of the frames it keeps anew. A kill while HDF5 wrote the
+// Removes the views of frames `first` and later, of every array: for a file its run closed whole (stopped by Ctrl-C or
+// SIGTERM). Where that fails, it sets them all aside (below).
+void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path);
+// Sets every view aside, for a resumed run to make those of the frames it keeps anew: for a file whose run was killed. A kill while HDF5 wrote the
 // views can leave their groups damaged: a lookup or a removal there failed ("bad heap free list", "address of object
 // past end of allocation"), or, with no call failing, later views went missing from the group's listing (12 of 36
 // after a resume). The views hold no data, so the whole group is unlinked, its reference count raised first, for

@@ -470,4 +470,19 @@ TEST_CASE("extremes: a gravitational constant whose closest pair force overflows
   auto fine = Simulation::create(scene("1.0"));
   fine->step_n(10);
   CHECK(std::isfinite(fine->get("kinetic_energy")));
+  // Without softening the closest pair's force has no bound: coincident grains under a tiny G are not G's doing (the
+  // hint blamed G there for a while; a code review, 2026-12-07).
+  const auto unsoftened = Scene::from_string(
+      "[scene]\nname = \"nosoft\"\ndimension = 3\n[particles]\nlayout = \"list\"\n"
+      "positions = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]\ndiameter = 1.0\nmass = 1.0\n"
+      "[box]\nperiodic = false\n[contact]\nenabled = false\n[gravity]\nenabled = true\nG = 1e-30\nsoftening = 0.0\n"
+      "[time]\ndt = 0.001\nduration = 0.01\n",
+      "nosoft");
+  try {
+    auto sim = Simulation::create(unsoftened);
+    sim->step_n(10);
+    FAIL("coincident unsoftened grains did not fail");
+  } catch (const SimulationError& e) {
+    CHECK_THAT(e.what(), Contains("non-finite") && !Contains("lower gravity.G"));
+  }
 }

@@ -136,6 +136,8 @@ TEST_CASE("scene errors: a scene name that cannot be a file name is refused", "[
   // adversarial review, 2026-12-07: particles.file = "p.txt\u0000junk" read p.txt).
   for (const std::string& set : {std::string("output.file=\"o.h5\\u0000zz\""), std::string("particles.layout=\"file\\u0007\"")})
     REQUIRE_THROWS_WITH(build(good, {set}), Contains("holds a control character") && Contains("allowed text without control"));
+  // Tabs and line ends stay: a description of several lines (refused for a while on 2026-12-07, found by a code review).
+  REQUIRE_NOTHROW(build(good, {"scene.description=\"First line.\\nSecond\\tline.\\r\""}));
   REQUIRE_NOTHROW(build(good, {"scene.name=\"" + std::string(100, 'a') + "\""}));
 }
 

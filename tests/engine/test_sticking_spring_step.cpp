@@ -57,6 +57,8 @@ TEST_CASE("a tangential spring or dashpot too stiff for the step is warned about
   REQUIRE(absurd->warnings().size() == 1);
   CHECK_THAT(absurd->warnings()[0], Contains("friction.damping_ratio = 1e+300") && !Contains("exceeds 0,") &&
                                         Contains("lower the ratio (no practical step is below it") && !Contains("inf"));
+  // And a vanishing ratio is no ratio: 4 k m / c^2 overflowed there for a while (a code review, 2026-12-07).
+  CHECK(oblique(1, 1e-200, 0.5)->warnings().empty());
 }
 
 TEST_CASE("a rolling spring too stiff for the step is warned about", "[extremes][rolling]") {

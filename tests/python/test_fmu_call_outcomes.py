@@ -176,3 +176,39 @@ def test_a_state_restores_where_the_pressure_input_started_elsewhere_and_runs_on
         assert outputs(other) == outputs(saver), (saved_at, restored_at)
         saver.free()
         other.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_value_the_engine_refuses_takes_back_those_set_before_it_in_the_call(version):
+    """A value within its declared range that the engine refuses (P* = 0 in a cohesionless cell) left the values before
+    it in the call applied (a code review, 2026-12-07)."""
+    unit = Unit(fmu_path("consolidation", version))
+    unit.initialize({"particles.count": 30, "adhesion.force": 0.0, "cell.pressure": 0.5})
+    set_real = unit.fmu.setReal if version == 2 else unit.fmu.setFloat64
+    rate, pressure = (unit.variables[n].valueReference for n in ("drag.rate", "cell.pressure"))
+    before = unit.get("drag.rate")
+    with pytest.raises(FMICallException):
+        set_real([rate, pressure], [before + 7.0, 0.0])
+    assert "cohesionless" in unit.errors()[-1], unit.errors()[-1]
+    assert (unit.get("drag.rate"), unit.get("cell.pressure")) == (before, 0.5)
+    unit.free()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_set_call_that_raises_a_warning_returns_it_itself(version):
+    """A pressure past what the contacts' clamp holds is warned of as it is set: that call returned OK and the next,
+    unrelated one Warning (a code review, 2026-12-07)."""
+    unit = Unit(fmu_path("consolidation", version)).initialize({"particles.count": 30})
+    c, pressure = unit.fmu.component, unit.variables["cell.pressure"].valueReference
+    if version == 2:
+        status = unit.fmu.dll.fmi2SetReal(c, (ctypes.c_uint * 1)(pressure), 1, (ctypes.c_double * 1)(1e5))
+    else:
+        status = unit.fmu.dll.fmi3SetFloat64(c, (ctypes.c_uint * 1)(pressure), 1, (ctypes.c_double * 1)(1e5), 1)
+    assert status == WARNING
+    assert any("cell.pressure = 100000" in m for s, _, m in unit.messages if s == WARNING)
+    rate = unit.variables["drag.rate"].valueReference
+    if version == 2:
+        assert unit.fmu.dll.fmi2GetReal(c, (ctypes.c_uint * 1)(rate), 1, (ctypes.c_double * 1)()) == OK
+    else:
+        assert unit.fmu.dll.fmi3GetFloat64(c, (ctypes.c_uint * 1)(rate), 1, (ctypes.c_double * 1)(), 1) == OK
+    unit.free()

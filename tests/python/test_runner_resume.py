@@ -372,11 +372,25 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
     assert code == 130, "the run ended before the signal: make it longer\n" + err
     assert "grains resume" in out and status(stopped).startswith("interrupted at step ")
     step = int(status(stopped).split()[-1])
+    views_before = view_group(stopped)
+    killed = killed_copy(stopped, tmp_path / "killed.h5")   # the same file as a kill would leave it
     resumed = run(grains_bin, "resume", stopped, "--quiet")
     assert resumed.returncode == 0, resumed.stderr
     assert f"resumed      at step {step}" in resumed.stdout
     # The records of the step it stopped at, between its scheduled ones, are dropped on resuming.
     assert_same_records(whole, stopped)
+    # A run stopped by the signal closed its file whole: its XDMF views are cut back, not set aside (each resume cost
+    # their space for a while on 2026-12-07, a code review found); a killed one's are set aside and made anew.
+    assert view_group(stopped) == views_before
+    assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
+    assert view_group(killed) != views_before
+    assert_same_records(whole, killed)
+
+
+def view_group(path):
+    """Where /grains/xdmf's object lies in the file (a group set aside and made anew lies elsewhere)."""
+    with h5py.File(path, "r") as f:
+        return h5py.h5o.get_info(f["grains/xdmf"].id).addr
 
 
 @pytest.mark.parametrize("command", ["run", "consolidate"])
