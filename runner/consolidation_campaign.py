@@ -64,6 +64,9 @@ PAPER_P1 = {"consolidation": (0.271, 0.033), "consolidation-rr": (0.900, 0.064)}
 RELATIVE_WHEN_NO_BAR = {"phi_0.01": 0.02, "z_0.01": 0.05, "lambda": 0.05, "phi_max": 0.02, "d_F_0": 0.05, "d_F_0.01": 0.05}
 
 
+REPORTING = False   # main(): --report given
+
+
 def consolidate(grains, scene_file, overrides, stem, label):
     """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
     written as STEM.partial.csv and renamed when the programme ends, the output goes to STEM.h5 and the
@@ -451,6 +454,8 @@ def main():
     ap.add_argument("--report", action="store_true",
                     help="run nothing: summarise the tables already in --out, unfinished ones included")
     args = ap.parse_args()
+    global REPORTING
+    REPORTING = args.report   # for the interruption's message (argparse takes --rep for --report too)
     if args.resamples < 0:
         ap.error(f"--resamples = {args.resamples}: must be 0 (none) or more")
     check_arguments(ap, args)
@@ -533,7 +538,7 @@ if __name__ == "__main__":
     try:
         main()
     except (KeyboardInterrupt, reuse.Interrupted):
-        if "--report" in sys.argv:   # a report runs nothing: there is nothing to resume
+        if REPORTING:   # a report runs nothing: there is nothing to resume
             print(f"{pathlib.Path(__file__).name}: interrupted; nothing was run", file=sys.stderr)
             sys.exit(reuse.INTERRUPTED)
         sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished samples are kept, interrupted ones continue "

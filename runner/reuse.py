@@ -47,12 +47,12 @@ def interrupted(prog, kept):
 
 
 def run_read_only(main, prog):
-    """Runs a tool that only reads (a report, a plot, a fit): Ctrl-C ends it with one line, not a traceback, and
-    status 130; there is nothing to resume."""
+    """Runs a tool that only reads its inputs (a report, a plot, a fit): Ctrl-C ends it with one line, not a traceback,
+    and status 130; there is nothing to resume."""
     try:
         return main()
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted; nothing was written", file=sys.stderr)
+        print(f"{prog}: interrupted; its inputs are unchanged (an output it was writing may be incomplete)", file=sys.stderr)
         return INTERRUPTED
 
 
