@@ -257,7 +257,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "velocities) at `cell.pressure`; `type2` first holds the cell fixed until the grains form one bonded cluster "
        "(give them Maxwell velocities V0 / V* = 9.5), equilibrates at P* = 0, then at `cell.pressure`; `none` only "
        "equilibrates at `cell.pressure` (the cohesionless reference)."},
-      {"programme.top_pressure", K::real, pure, "13.33", 0, inf, true, false, "", "P* of the last loading stage."},
+      {"programme.top_pressure", K::real, pure, "13.33", 0, 1e6, true, false, "",
+       "P* of the last loading stage (at most cell.pressure's largest value, which each stage sets)."},
       {"programme.stages_per_decade", K::integer, pure, "8", 1, 1000, false, false, "",
        "Loading: P* is multiplied by 10^(1/value) per stage (8: the paper's factor 1.334)."},
       {"programme.unload_stages_per_decade", K::integer, pure, "2", 1, 1000, false, false, "",

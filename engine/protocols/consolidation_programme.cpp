@@ -41,6 +41,12 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
     scene.fail("cell.pressure_final", fmt::format("value {} ramps the pressure, which the programme sets stage by stage: "
                                                   "drop it (a ramp is for `grains run` and hosts)",
                                                   scene.real("cell.pressure_final")));
+  // The loading ladder multiplies the start pressure: from 0 it never rises, and stages were planned until memory ran
+  // out (an outside review, 2026-12-07).
+  if (p.load && !(p.start_pressure > 0))
+    scene.fail("cell.pressure", fmt::format("value {} starts the loading stages (P* times 10^(k / "
+                                            "programme.stages_per_decade)), which never rise from 0: allowed a value > 0 "
+                                            "with programme.load = true (or programme.load = false)", p.start_pressure));
   if (p.load && p.top_pressure < p.start_pressure)
     scene.fail("programme.top_pressure", fmt::format("value {} is below the start pressure cell.pressure = {}: allowed "
                                                      ">= cell.pressure", p.top_pressure, p.start_pressure));

@@ -105,6 +105,15 @@ preparation = "type1"
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(forceless), Catch::Contains("cell.force_unit"));
   auto low_top = Scene::from_string(small_programme(10), "bad", {"programme.top_pressure=1e-4"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(low_top), Catch::Contains("programme.top_pressure"));
+  // Found by an outside review (2026-12-07): a loading ladder from P* = 0 planned stages until memory ran out; a top
+  // pressure past what a stage can set failed at that stage, after the others. Both are refused up front now.
+  auto from_zero = Scene::from_string(small_programme(10000), "bad", {"cell.pressure=0", "cell.force_unit=1"});
+  CHECK_THROWS_WITH(ProgrammeSettings::from_scene(from_zero), Catch::Contains("cell.pressure") && Catch::Contains("never rise from 0"));
+  from_zero.set_value("programme.load", "false");
+  from_zero.set_value("programme.unload", "false");
+  CHECK_NOTHROW(ProgrammeSettings::from_scene(from_zero));
+  auto too_high = Scene::from_string(small_programme(10000), "bad", {"programme.top_pressure=1e9"});
+  CHECK_THROWS_WITH(ProgrammeSettings::from_scene(too_high), Catch::Contains("programme.top_pressure") && Catch::Contains("out of range"));
 }
 
 TEST_CASE("bonded clusters: connected components of the contact and bond graph", "[programme]") {
