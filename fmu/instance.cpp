@@ -57,8 +57,8 @@ double scene_value(const Scene& scene, const FmuVariable& v) {
 }
 
 // A state: this word, the parameters' fingerprint, the start and host times, the token's hash and the fixed
-// parameters' values (to name those that differ), the engine's bytes, then a check sum over all of them (the engine's own sum leaves the header out, and a damaged host time would make the
-// next step run the gap).
+// parameters' values (to name those that differ), the engine's bytes, then a check sum over all of them (the
+// engine's own sum leaves the header out, and a damaged host time would make the next step run the gap).
 constexpr std::uint64_t state_magic = 0x34534d4649524721ull;           // "!GRIFMS4"
 constexpr std::uint64_t state_magic_unnamed = 0x33534d4649524721ull;   // "!GRIFMS3": before the parameters' values
 constexpr std::uint64_t state_magic_unsummed = 0x32534d4649524721ull;  // "!GRIFMS2": before the check sum
@@ -429,7 +429,7 @@ Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::s
     return error(fmt::format("the call passes {} values for {} scalar variables", values.size(), refs.size()));
   // All or nothing: a call with one refused value leaves every variable as it was, those listed before it too. The
   // scene is copied only where a value may go into it (before the steps: a host setting inputs each step pays nothing).
-  const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
+  const bool before_steps = before_the_steps();
   std::optional<Scene> scene_before;
   if (before_steps) scene_before = scene_;
   const bool dirty_before = dirty_;
@@ -473,7 +473,7 @@ Status Instance::set(std::span<const std::uint32_t> refs, ValueType type, std::s
 
 Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value,
                          std::vector<std::pair<std::size_t, double>>& to_simulation) {
-  const bool before_steps = phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
+  const bool before_steps = before_the_steps();
   if (v.role != Role::scene_parameter && v.role != Role::control && v.role != Role::snapshot_option)
     return error(fmt::format("'{}' (reference {}) is {}: it cannot be set", v.name, ref, role_name(v.role)));
   // FMI 3, Configuration Mode: structural parameters only (the others from ExitConfigurationMode on).
@@ -588,7 +588,7 @@ Status Instance::save(const char* function, SavedState& state) {
 // state replaces the whole simulation, and stepping may go on. Not before the end of initialization: the
 // start time given there, and parameters set until then, would replace the restored simulation and its time.
 Status Instance::restore(const char* function, const SavedState& state) {
-  if (phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization)
+  if (before_the_steps())
     return error(fmt::format("{} is not allowed in {}: a state is set from the end of initialization on "
                              "(after ExitInitializationMode), when the start time and the fixed parameters are final "
                              "(initialization would replace the restored simulation and its time)", function,

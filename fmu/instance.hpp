@@ -132,6 +132,10 @@ class Instance {
   Instance(std::string name, Logger logger, bool logging_on, bool fmi3)
       : name_(std::move(name)), logger_(std::move(logger)), logging_on_(logging_on), fmi3_(fmi3) {}
   Status ensure_built();
+  // Before Step Mode: instantiated, in Configuration or in Initialization Mode (the fixed parameters still open).
+  bool before_the_steps() const {
+    return phase_ == Phase::instantiated || phase_ == Phase::configuration || phase_ == Phase::initialization;
+  }
   Status check_phase(const char* function, std::initializer_list<Phase> allowed);
   // Applies one value to the instance (scene_, pending controls, the snapshot option); a control for the built
   // simulation is appended to `to_simulation`, which set() applies once every value of the call is accepted.
