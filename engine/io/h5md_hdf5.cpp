@@ -290,6 +290,16 @@ bool exists(hid_t parent, const std::string& name, const std::string& file) {
   return check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up " + name) > 0;
 }
 
+std::vector<std::string> link_names(hid_t group, const std::string& file, const std::string& what) {
+  std::vector<std::string> names;
+  auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+    return 0;
+  };
+  check(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), file, "listing " + what);
+  return names;
+}
+
 // Found by tests/fuzz/corrupt_resume.py: one flipped bit made a chunk 1024 rows long 67,109,888 in the layout (the
 // stored chunks stayed 1024 rows), and H5Dset_extent's pruning wrote past its buffer; one made a float's precision
 // 2112 bits of its 64, or an integer's offset lie past its 8 bytes, and the conversion of a read or write wrote past

@@ -95,6 +95,8 @@ Handle append_access(hid_t type, const std::vector<hsize_t>& chunk, const std::s
 void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what,
                       bool checksum = false);
 bool exists(hid_t parent, const std::string& name, const std::string& file);
+// The names of a group's links, in name order (`what` names the group in the message of a failure).
+std::vector<std::string> link_names(hid_t group, const std::string& file, const std::string& what);
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);
 std::vector<long long> read_int64s(hid_t dataset, const std::string& file, const std::string& what);
 std::vector<double> read_doubles(hid_t dataset, const std::string& file, const std::string& what);

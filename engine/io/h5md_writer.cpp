@@ -377,15 +377,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
-  auto members = [&](hid_t group, const std::string& what) {
-    std::vector<std::string> names;
-    auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
-      static_cast<std::vector<std::string>*>(out)->emplace_back(name);
-      return 0;
-    };
-    h5::check(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), path, "listing " + what);
-    return names;
-  };
+  auto members = [&](hid_t group, const std::string& what) { return h5::link_names(group, path, what); };
   for (const auto& name : members(m.particles.get(), "/particles/all")) {
     if (name == "box") continue;
     Series& s = m.series.emplace(name, m.reopen_series(m.particles.get(), name, resume_step, frame_at_step)).first->second;

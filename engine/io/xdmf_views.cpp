@@ -67,13 +67,7 @@ void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path
   if (!h5::exists(file, "grains", path) || !h5::exists(file, "grains/xdmf", path)) return;
   try {
     h5::Handle xdmf = h5::open_group(file, "grains/xdmf", path);
-    std::vector<std::string> arrays;
-    auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
-      static_cast<std::vector<std::string>*>(out)->emplace_back(name);
-      return 0;
-    };
-    h5::check(H5Literate(xdmf.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &arrays), path, "listing /grains/xdmf");
-    for (const std::string& name : arrays) {
+    for (const std::string& name : h5::link_names(xdmf.get(), path, "/grains/xdmf")) {
       if (name == "vertices") continue;
       h5::Handle g = h5::open_group(xdmf.get(), name, path);
       for (std::size_t k = first; h5::exists(g.get(), std::to_string(k), path); ++k)   // views are made in frame order
