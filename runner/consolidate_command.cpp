@@ -299,6 +299,12 @@ int consolidate_scene(const ConsolidateOptions& opt) {
     if (scene.has(key))
       warnings.push_back(fmt::format("{} is not used by grains consolidate: each stage runs until equilibrium or its budget "
                                      "(programme.stage_budget, programme.aggregation_budget)", key));
+  // Not refused: tests and quick looks run tiny budgets on purpose; but every such stage ends NOT REACHED.
+  if (settings.confirm_checks_steps() > settings.stage_budget)
+    warnings.push_back(fmt::format("programme.stage_budget = {} is less than the {} steps that programme.confirm_checks = {} "
+                                   "checks every programme.check_every = {} steps take: no stage can reach equilibrium",
+                                   settings.stage_budget, settings.confirm_checks_steps(), settings.quench.confirm_checks,
+                                   settings.check_every));
   // A type-2 sample starts in the aggregation's fixed cell: no target yet (NaN, as that stage's record says),
   // whatever cell.pressure holds for the stages after it.
   const double initial_target = settings.preparation == "type2" ? std::nan("") : sim->get("pressure_target");

@@ -300,7 +300,8 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"programme.quench_drag_min", K::real, pure, "0.125", 0, inf, false, false, "",
        "gamma T to which the quench's drag may step down: while a stage is quenched, the smallest force ratio "
        "(`equilibrium_force`) of each window of `quench_patience` checks is compared with the previous window's, and "
-       "if it has not fallen by a fifth the drag halves, down to this value. A network still creeping to a denser state creeps "
+       "if it has not fallen by a fifth the drag halves, down to this value (refused above `quench_drag`; the default, above a "
+       "smaller `quench_drag`, leaves the drag at that value). A network still creeping to a denser state creeps "
        "as fast as the drag lets it, its largest net force steady near gamma m v, while ringing modes decay under "
        "the drag; the stage table's `quench_drag` gives the value a stage ended with."},
       {"programme.quench_patience", K::integer, pure, "1000", 0, 9.2e18, false, false, "",

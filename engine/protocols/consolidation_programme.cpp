@@ -59,6 +59,14 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   refuse_both("rolling.damping_ratio", "rolling dashpot", "programme.quench_damping", p.quench.damping);
   refuse_both("drag.rate", "drag", "programme.quench_drag", p.quench.drag);
   refuse_both("drag.rate", "drag", "programme.background_drag", p.quench.background);
+  // A floor above the start would be no step-down at all; said, not clamped silently (the default floor stays
+  // quiet under a smaller quench_drag: the drag then keeps that value).
+  if (scene.has("programme.quench_drag_min") && p.quench.drag > 0 && p.quench.patience > 0 &&
+      p.quench.drag_min > p.quench.drag)
+    scene.fail("programme.quench_drag_min",
+               fmt::format("value {} is above programme.quench_drag = {}, from which the drag steps down: allowed "
+                           "<= programme.quench_drag (or programme.quench_patience = 0 to keep the drag)",
+                           p.quench.drag_min, p.quench.drag));
   if (p.first_compression_time > 0 && p.preparation == "none")
     scene.fail("programme.first_compression_time", fmt::format("value {} ramps the first compression of a type 1 or type 2 "
                                                                "preparation, and programme.preparation is \"none\": set it "

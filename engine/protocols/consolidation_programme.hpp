@@ -7,6 +7,7 @@
 // slow modes are quenched (protocols/stage_quench.hpp: the drag drag.rate, optionally the rolling dashpot).
 #pragma once
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +32,11 @@ struct ProgrammeSettings {
   QuenchSettings quench;              // the drag (and rolling dashpot) switched on once a stage has settled
 
   static ProgrammeSettings from_scene(const Scene& scene);
+  // The fewest steps in which a stage can reach equilibrium: confirm_checks checks in a row (saturated, not wrapped).
+  long confirm_checks_steps() const {
+    long steps;
+    return __builtin_mul_overflow(quench.confirm_checks, check_every, &steps) ? std::numeric_limits<long>::max() : steps;
+  }
   // What needs the simulation's time step dt: a first compression of more steps than a run may take is refused
   // naming programme.first_compression_time (SceneError).
   void check_time_step(const Scene& scene, double dt) const;

@@ -38,6 +38,9 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
     assert all(row["reached"] == "0" and row["steps"] == "300" for row in rows)
     assert r.stderr.count("did not reach equilibrium") == 3
     assert "3 not reached" in r.stdout and "CVODE" in r.stdout
+    # Said up front (2026-12-07): 300 steps cannot hold the 5 confirming checks of 100 steps each
+    assert ("programme.stage_budget = 300 is less than the 500 steps that programme.confirm_checks = 5 checks every "
+            "programme.check_every = 100 steps take") in r.stderr
     for key in ("solid_fraction", "pressure_reduced", "coordination", "rattler_fraction", "contacts_kept",
                 "force_histogram_00"):
         assert key in rows[0]
@@ -82,6 +85,7 @@ def test_each_stage_record_in_the_output_equals_its_table_row(grains_bin, root, 
             "--set", "particles.count=100", "--set", "run.threads=1", "--set", "programme.stage_budget=20000",
             "--set", "programme.aggregation_budget=200000", "--set", "programme.top_pressure=0.05", "--quiet")
     assert r.returncode == 0, r.stderr
+    assert "no stage can reach" not in r.stderr
     rows = list(csv.DictReader(table.open()))
     assert len(rows) >= 4
     lost = 0
