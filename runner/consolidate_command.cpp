@@ -1,5 +1,6 @@
 #include "consolidate_command.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -47,6 +48,34 @@ std::vector<std::string> table_up_to(const std::string& table, int last) {
     throw std::runtime_error(fmt::format("'{}' has {} stage rows, fewer than the {} finished before the checkpoint", table,
                                          std::max(0L, long(kept.size()) - 1), last + 1));
   return kept;
+}
+
+// A kept table's rows repeat the file's stage records (P_star and phi as the rows print them): else another run has
+// rewritten the table since, and a resume would go on below its rows (an outside review, 2026-12-07).
+void check_rows_match_records(const std::string& table, const std::vector<std::string>& kept, const RunCheckpoint& cp,
+                              const std::string& path) {
+  if (kept.empty() || cp.stage_pressure.size() != kept.size() || cp.stage_solid_fraction.size() != kept.size()) return;
+  const auto fields = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::size_t from = 0;
+    for (std::size_t comma; (comma = line.find(',', from)) != std::string::npos; from = comma + 1)
+      out.push_back(line.substr(from, comma - from));
+    out.push_back(line.substr(from));
+    return out;
+  };
+  const auto header = fields(kept[0]);
+  const auto column = [&](const char* name) { return std::find(header.begin(), header.end(), name) - header.begin(); };
+  const std::size_t p = column("P_star"), phi = column("phi");
+  for (std::size_t row = 1; row < kept.size(); ++row) {
+    const auto f = fields(kept[row]);
+    const std::string want_p = fmt::format("{:.9g}", cp.stage_pressure[row]), want_phi = fmt::format("{:.9g}", cp.stage_solid_fraction[row]);
+    if (p >= f.size() || phi >= f.size() || f[p] != want_p || f[phi] != want_phi)
+      throw std::runtime_error(fmt::format(
+          "'{}': its stage table '{}' is not the one the programme wrote: stage {}'s row has P_star = {}, phi = {} where "
+          "the file's stage record has {}, {} (another run has written the table since?); restore the table, or run "
+          "the programme again", path, table, row - 1, p < f.size() ? f[p] : "(none)", phi < f.size() ? f[phi] : "(none)",
+          want_p, want_phi));
+  }
 }
 
 // The outputs `grains consolidate` traces within stages (programme.trace_every): what shows a stage's course, each
@@ -337,6 +366,7 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   if (!std::filesystem::is_regular_file(table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
   const std::vector<std::string> kept = table_up_to(table, cp.stage);
+  check_rows_match_records(table, kept, cp, path);
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();
   if (stop_requested()) return 130;

@@ -69,6 +69,19 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     cp.status = status;
     cp.scene_directory = h5::read_attr_string(g.get(), "scene_directory", "", path);
     cp.stage_table = stage_table;
+    // The records up to the checkpoint's stage only: what a kill left after them may not read back (the resume
+    // repairs it); those before were flushed with the checkpoint. Unreadable, they are not compared.
+    if (!stage_table.empty()) try {
+        for (auto [name, values] : {std::pair{"pressure_reduced", &cp.stage_pressure},
+                                    std::pair{"solid_fraction", &cp.stage_solid_fraction}}) {
+          const std::string record = std::string("observables/") + name + "/value";
+          const h5::Handle v = h5::open_dataset(fid, record, path);
+          for (int row = 0; row <= cp.stage + 1; ++row) values->push_back(h5::read_row(v.get(), row, path, record).at(0));
+        }
+      } catch (const std::exception&) {
+        H5Eclear2(H5E_DEFAULT);
+        cp.stage_pressure.clear(), cp.stage_solid_fraction.clear();
+      }
     for (auto [name, values] :
          {std::pair{"radius", &cp.radius}, std::pair{"mass", &cp.mass}, std::pair{"position", &cp.position}}) {
       const std::string element = std::string("particles/all/") + name + "/value";

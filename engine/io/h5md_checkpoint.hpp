@@ -31,6 +31,9 @@ struct RunCheckpoint {
   std::string scene_toml;                 // the resolved scene the run was started with
   std::string scene_directory;            // where the scene's relative file paths lie (particles.file)
   std::string stage_table;                // `grains consolidate`: the stage table, relative to the file's folder
+  // `grains consolidate`: P* and Phi of the stage records, the initial state's first (what the table's rows must
+  // repeat, so that a resume does not go on from a table another run has rewritten).
+  std::vector<double> stage_pressure, stage_solid_fraction;
   std::vector<double> radius, mass, position;   // the run's first frame: what a rebuilt simulation must have
   // A newer checkpoint whose bytes did not read back (their checksum failed), passed over for this one: its step and
   // stage (-1: none passed over).

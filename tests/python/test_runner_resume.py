@@ -518,6 +518,29 @@ def test_an_xdmf_beside_that_is_not_a_file_is_refused_before_anything_is_rewritt
                                                                   "killed.csv", "killed.xdmf"])
 
 
+def test_a_stage_table_another_run_has_rewritten_is_refused_not_continued(grains_bin, root, tmp_path):
+    """The resume kept any table whose rows were numbered 0, 1, ... (an outside review, 2026-12-07): one that another
+    programme had written since was continued below that programme's rows. Its rows must repeat the stage records."""
+    _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
+                                                        lambda rows: rows[:3])
+    header = rows[0].split(",")
+    other = rows[2].split(",")
+    phi = header.index("phi")
+    recorded = other[phi]
+    other[phi] = f"{float(recorded) * 1.01:.9g}"   # another sample's stage 1
+    killed_table.write_text("\n".join(rows[:2] + [",".join(other)]) + "\n")
+    file_before, table_before = killed.read_bytes(), killed_table.read_text()
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"its stage table '{killed_table}' is not the one the programme wrote: stage 1's row has P_star = "
+            f"{other[header.index('P_star')]}, phi = {other[phi]} where the file's stage record has "
+            f"{other[header.index('P_star')]}, {recorded}") in resumed.stderr, resumed.stderr
+    assert killed.read_bytes() == file_before and killed_table.read_text() == table_before
+    # The table as the programme wrote it resumes
+    killed_table.write_text("\n".join(rows[:3]) + "\n")
+    assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
+
+
 def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(grains_bin, root, tmp_path):
     """A checkpoint ends every stage but the last; the resumed programme's table and records are those of the
     programme that was never stopped, bit for bit (CVODE's own counters aside: they count from the resume)."""
