@@ -89,6 +89,11 @@ void check_hdf5_output_path(const std::string& hdf5, const std::string& scene_fi
     if (same_file(*xdmf, input))
       throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', {} itself: name "
                                    "another output file (or set output.xdmf = false)", source, hdf5, *xdmf, what));
+  // XDMF 2 readers (ParaView's, VTK's) cut a data item's "file:dataset" at its first colon: 'a:b.h5' read as 'b.h5'.
+  if (const std::string name = std::filesystem::path(hdf5).filename().string(); name.find(':') != std::string::npos)
+    throw SceneError(fmt::format("{}: output file '{}': its name holds ':', which the XDMF file written beside it cannot "
+                                 "name (ParaView's XDMF readers take ':' as the end of the file name); name the file "
+                                 "without ':' (or set output.xdmf = false)", source, hdf5));
   if (const auto kind = not_a_regular_file(*xdmf))
     throw SceneError(fmt::format("{}: the XDMF file written beside output file '{}' would be '{}', which is {}: name "
                                  "another output file (or set output.xdmf = false)", source, hdf5, *xdmf, *kind));

@@ -289,6 +289,8 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
     throw OutputError(fmt::format("cannot create output file '{}': renaming '{}' to it failed ({})", path, creating,
                                   ec.message()));
   }
+  // A companion an earlier run of this name left would show that run's frames, or none (an outside review, 2026-12-07).
+  if (!write_xdmf) remove_stale_xdmf_beside(path);
 }
 
 void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic, const std::string& creator_version,

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -21,6 +22,16 @@ namespace grains {
 
 std::string xdmf_path_beside(const std::string& hdf5_path) {
   return std::filesystem::path(hdf5_path).replace_extension(".xdmf").string();
+}
+
+void remove_stale_xdmf_beside(const std::string& hdf5_path) {
+  const std::string xdmf = xdmf_path_beside(hdf5_path);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(xdmf, ec) || std::filesystem::file_size(xdmf, ec) > (std::uintmax_t(1) << 30)) return;
+  std::ifstream in(xdmf);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string reference = "Format=\"HDF\">" + xml_escape(std::filesystem::path(hdf5_path).filename().string()) + ":/";
+  if (in && text.find(reference) != std::string::npos) std::filesystem::remove(xdmf, ec);
 }
 
 XdmfWriter::XdmfWriter(std::string xdmf_path, std::string h5_name)

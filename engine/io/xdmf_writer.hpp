@@ -11,6 +11,10 @@ namespace grains {
 // The XDMF companion's path: the HDF5 file's with the extension .xdmf.
 std::string xdmf_path_beside(const std::string& hdf5_path);
 
+// Removes the XDMF file beside `hdf5_path` if it describes a file of that name: an earlier run's companion, whose
+// arrays the new file (written without one) does not hold. A file there that names no such arrays is left alone.
+void remove_stale_xdmf_beside(const std::string& hdf5_path);
+
 class XdmfWriter {
  public:
   // `h5_name` is written as given (a bare file name keeps the pair relocatable).

@@ -540,6 +540,28 @@ def test_xdmf_beside_the_output_may_not_overwrite_it_or_an_input(grains_bin, roo
     assert rows_xdmf.read_text().startswith("-0.6 0 1 1")
 
 
+def test_an_earlier_runs_xdmf_goes_when_the_new_file_writes_none_and_a_colon_is_refused(grains_bin, root, tmp_path):
+    """Found by an outside review (2026-12-07): a run with output.xdmf = false over an earlier run's file left that
+    run's .xdmf beside it, naming arrays the new file lacks (ParaView failed on it); and a ':' in the file's name made
+    an .xdmf that ParaView's readers cut at the colon ('co:lon.h5' read as 'lon.h5')."""
+    short = [root / "models" / "aggregation.toml", "--set", "particles.count=20", "--set", "time.steps=200",
+             "--set", "output.snapshots_every=100", "--set", "run.threads=1", "--quiet"]
+    out = tmp_path / "again.h5"
+    assert run(grains_bin, "run", *short, "--out", out).returncode == 0
+    assert (tmp_path / "again.xdmf").exists()
+    unrelated = tmp_path / "other.xdmf"
+    unrelated.write_text("<Xdmf>not about other.h5</Xdmf>\n")
+    for name in ("again", "other"):
+        r = run(grains_bin, "run", *short, "--out", tmp_path / f"{name}.h5", "--overwrite", "--set", "output.xdmf=false")
+        assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["again.h5", "other.h5", "other.xdmf"]   # a file of its own stays
+    r = run(grains_bin, "run", *short, "--out", tmp_path / "co:lon.h5")
+    assert r.returncode == 1, r.stderr
+    assert f"--out: output file '{tmp_path / 'co:lon.h5'}': its name holds ':'" in r.stderr, r.stderr
+    assert not (tmp_path / "co:lon.h5").exists()
+    assert run(grains_bin, "run", *short, "--out", tmp_path / "co:lon.h5", "--set", "output.xdmf=false").returncode == 0
+
+
 @pytest.mark.parametrize("command, model, option", [
     ("run", "collision-2d", "--out"), ("consolidate", "cohesionless", "--out"), ("consolidate", "cohesionless", "--table")])
 def test_an_empty_or_unusable_output_name_is_refused_naming_the_option(grains_bin, root, tmp_path, command, model, option):
