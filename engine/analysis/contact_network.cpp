@@ -12,13 +12,14 @@ ContactNetwork analyse_contact_network(std::size_t particle_count, const std::ve
   const int bins = std::max(1, options.histogram_bins);
   net.histogram.assign(bins + 1, 0.0);
   if (particle_count == 0) return net;
-  std::vector<char> carries_force(particle_count, 0);
+  std::vector<char> carries_force(particle_count, 0);   // not a rattler
   long plus = 0, minus = 0, zero = 0;
   for (const auto& c : interactions) {
     (c.gap < 0 ? net.contacts : net.distant_bonds) += 1;
     const double f = c.normal_force;
     if (std::abs(f) <= options.zero_force) {
       ++zero;
+      if (options.bonds_hold) carries_force[c.i] = carries_force[c.j] = 1;
     } else {
       (f > 0 ? plus : minus) += 1;
       carries_force[c.i] = carries_force[c.j] = 1;

@@ -21,6 +21,11 @@ struct ContactNetworkOptions {
   double histogram_lower = -1;    // first bin edge, in units of force_scale
   double histogram_width = 0.5;   // bin width, in units of force_scale
   int histogram_bins = 20;        // plus one last bin for everything above the top edge
+  // Adhesion (F0 > 0): a bond at zero force still holds its grains (it resists parting up to F0), so a rattler is a
+  // grain with no interaction at all, as the consolidation paper defines them in cohesive samples ("isolated, free
+  // grains with no interactions", absent after aggregation). Without: a grain none of whose interactions carries
+  // a force, as in its cohesionless packings ("particles that transmit no force").
+  bool bonds_hold = false;
 };
 
 struct ContactNetwork {
@@ -28,7 +33,7 @@ struct ContactNetwork {
   long distant_bonds = 0;    // pairs attracting across a gap 0 <= h < D0, none with F0 = 0 (counted in z and, being tensile, in z-)
   double z = 0;              // 2 (contacts + distant bonds) / N
   double z_plus = 0, z_minus = 0, z_zero = 0;   // the part of z carried by compressive / tensile / zero forces
-  double rattler_fraction = 0;                  // x0: grains none of whose interactions carries a force
+  double rattler_fraction = 0;                  // x0: rattlers per grain (ContactNetworkOptions::bonds_hold)
   double z_star = 0;                            // z / (1 - x0), the backbone's coordination (NaN if all rattle)
   // Fraction of interactions per bin of F_N / force_scale: bins below histogram_lower are folded into
   // the first bin, the last entry holds everything at or above the top edge. Sums to 1 (0 if empty).

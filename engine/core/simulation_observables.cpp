@@ -196,6 +196,7 @@ void SimulationImpl<D>::refresh_network() const {
   opt.zero_force = zero_force_ * scale;
   opt.force_scale = attraction_ > 0 ? attraction_ : (mean_force > 0 ? mean_force : 1.0);
   opt.histogram_bins = network_bins_;
+  opt.bonds_hold = attraction_ > 0;
   const ContactNetwork net = analyse_contact_network(P.size(), list, opt);
   o["coordination"] = net.z;
   o["coordination_compressive"] = net.z_plus;

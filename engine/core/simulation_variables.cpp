@@ -147,7 +147,7 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
     out("coordination_compressive", "", "z+: the part of z carried by compressive forces");
     out("coordination_tensile", "", "z-: the part of z carried by tensile forces (distant bonds included)");
     out("coordination_zero", "", "z0: the part of z carrying no force (|F_N| <= analysis.zero_force * max(F0, mean |F_N|))");
-    out("rattler_fraction", "", "x0: fraction of grains none of whose interactions carries a force");
+    out("rattler_fraction", "", "x0: fraction of rattlers: with adhesion grains with no interaction, without grains none of whose interactions carries a force");
     out("backbone_coordination", "", "z* = z / (1 - x0)");
     out("distant_bonds", "", "pairs attracting across a gap 0 <= h < D0");
     describing_ = OutputGroup::bonds;   // alone: a type-2 aggregation asks for it at every check

@@ -30,11 +30,18 @@ TEST_CASE("contact network: coordination split, rattlers, distant bonds and forc
   CHECK(net.histogram[2] == 0.25);   // 0 in [0, 0.5)
   CHECK(net.histogram[6] == 0.25);   // 2 in [2, 2.5)
 
-  // Only zero-force interactions: every grain rattles.
+  // Only zero-force interactions: every grain rattles, unless bonds hold (adhesion), where only a grain with no
+  // interaction does.
   const auto idle = analyse_contact_network(2, {{0, 1, -1e-5, 1e-7}}, opt);
   CHECK(idle.rattler_fraction == 1.0);
   CHECK(std::isnan(idle.z_star));
   CHECK(idle.z_zero == 1.0);
+  ContactNetworkOptions bonds = opt;
+  bonds.bonds_hold = true;
+  const auto held = analyse_contact_network(3, {{0, 1, -1e-5, 1e-7}}, bonds);
+  CHECK(held.rattler_fraction == Approx(1.0 / 3));
+  CHECK(held.z_star == Approx(1.0));
+  CHECK(analyse_contact_network(5, list, bonds).rattler_fraction == Approx(1.0 / 5));   // grain 4 all the same
   // Forces beyond the top edge, and below the bottom one, land in the end bins.
   const auto wide = analyse_contact_network(2, {{0, 1, -1e-5, 50.0}, {0, 1, -1e-5, -3.0}}, opt);
   CHECK(wide.histogram[20] == 0.5);
@@ -73,8 +80,10 @@ TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[n
   CHECK(s->get("coordination_zero") == Approx(0.5));
   CHECK(s->get("coordination_tensile") == Approx(0.5));
   CHECK(s->get("coordination_compressive") == 0);
-  CHECK(s->get("rattler_fraction") == Approx(0.5));
-  CHECK(s->get("backbone_coordination") == Approx(2.0));
+  // Grain 3 alone is a rattler: grain 0's bond at zero force still holds it (the paper's cohesive samples have none;
+  // until 2026-12-07 grain 0 counted too, x0 = 0.5)
+  CHECK(s->get("rattler_fraction") == Approx(0.25));
+  CHECK(s->get("backbone_coordination") == Approx(4.0 / 3));
   CHECK(s->get("distant_bonds") == 1);
   // -0.5 F0 in [-0.5, 0); the zero force sits on the edge at 0, within round-off on either side.
   CHECK(s->get("force_histogram_01") >= 0.5);

@@ -785,3 +785,20 @@ def test_a_count_the_memory_cannot_hold_is_refused_before_it_is_allocated(grains
                        capture_output=True, text=True, preexec_fn=cap)
     assert r.returncode != 0 and "particles.count" in r.stderr and "needs at least" in r.stderr, r.stderr
     assert f"value {count} needs at least" in r.stderr and "GB of memory" in r.stderr
+
+
+def test_a_warning_the_initial_state_raises_is_shown_and_kept(grains_bin, tmp_path):
+    """The initial state's observables run the contact check: its warning was counted in the summary but written
+    neither to stderr nor to the file (an outside review, 2026-12-07)."""
+    scene = tmp_path / "deep.toml"
+    scene.write_text('[scene]\nname = "deep"\n[particles]\nlayout = "list"\npositions = [[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]]\n'
+                     'diameter = 1.0\nmass = 1.0\n[box]\nperiodic = false\n[contact]\nrestitution = 0.5\nduration = 0.02\n'
+                     '[gravity]\nenabled = true\n[time]\nsteps = 10\n[run]\nthreads = 1\n')
+    r = run(grains_bin, "run", scene, "--out", tmp_path / "deep.h5", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "warning: contact check: at t = 0" in r.stderr, r.stderr
+    shown = r.stderr.count("warning: ")
+    assert shown == 2 and "  warnings     2" in r.stdout, (r.stderr, r.stdout)
+    with h5py.File(tmp_path / "deep.h5") as f:
+        kept = [text(w) for w in f["grains/warnings"][()]]
+    assert len(kept) == 2 and kept[1].startswith("contact check: at t = 0"), kept
