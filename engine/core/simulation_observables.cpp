@@ -127,7 +127,7 @@ void SimulationImpl<D>::refresh_general() const {
     if (kn_ > 0) o["normalised_stiffness"] = kn_ / gravity_stiffness_;
   }
   if (energy_check_) check_energy(kt + kr);
-  if (energy_check_ && kn_ > 0) check_pass_through();
+  check_pass_through();   // every contact law (it reads max_overlap_ratio; none without contacts)
   if (analysis_) check_softened_core();
   if (collisions_) {
     const double n = double(collisions_->collisions()), a = double(collisions_->adhesive());

@@ -137,7 +137,9 @@ struct Kernel : W {
     // turn_into_tangent_plane(xi, n_before, n): the rotation that takes n_before to n, then the rounding's part along n off.
     V xi[3];
     c.vector_per_entry(in.tangential, xi);
-    const V turn = div(dot(xi, n), add(all(1.0), dot(nb, n)));
+    const V cosine_plus_one = add(all(1.0), dot(nb, n));
+    const Mask turnable = greater(cosine_plus_one, all(1e-12));   // ContactForces::turnable: else projected only
+    const V turn = blend(turnable, zero(), div(dot(xi, n), blend(turnable, all(1.0), cosine_plus_one)));
     for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(turn, add(nb[a], n[a])));
     const V along = dot(xi, n);
     for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(along, n[a]));
