@@ -262,6 +262,7 @@ class SimulationImpl final : public Simulation {
   bool has_ramp_ = false;                           // the scene has one (its state is then saved)
   double clamp_force_ = 0;                          // K_N f_max R_min: the most a contact's spring pushes
   bool pressure_clamp_warned_ = false;              // a target at or above clamp_force_ was warned about
+  bool cell_too_light_ = false;                     // cell.mass below k_cell dt^2, warned at set-up
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;

@@ -302,9 +302,12 @@ void SimulationImpl<D>::resize_cell(const Vec<D>& scale) {
           "step {}: the cell has shrunk to {:.6g} on axis {}, no longer than twice the interaction reach "
           "(2 R_max + skin = {:.6g}): too few particles for a periodic cell at this density; use more particles{}",
           sys_.step + 1, sys_.box.length[a], a, cell_list_reach_,
-          clamped > 0 ? fmt::format(" (or, since {} contacts are clamped now, overlapping past contact.overlap_limit, "
-                                    "a lower pressure: the contacts cannot carry this one)", clamped)
-                      : std::string()));
+          // the light cell first: known from the start, it also crushes contacts past the clamp as it collapses
+          cell_too_light_ ? std::string(" (or, as warned at the start, a heavier cell.mass: a cell too light for the "
+                                        "step breathes ever wider until it collapses)")
+          : clamped > 0 ? fmt::format(" (or, since {} contacts are clamped now, overlapping past contact.overlap_limit, "
+                                      "a lower pressure: the contacts cannot carry this one)", clamped)
+                        : std::string()));
     }
 }
 
