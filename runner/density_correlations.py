@@ -14,6 +14,8 @@ any H5MD file of 2D disks. For the loading stage at each of --pressures (default
     The paper fits the form of its "paper I", which its text does not give; this one has the paper's two
     features (plateau below k = 2 pi / xi, power law k^-d_F for a << 2 pi / k << xi), so d_F is
     comparable, while xi carries the form's own constant.
+Beside them xi', the pores' mass-averaged radius of gyration (runner/pore_sizes.py), the paper's other blob size
+(xi' ~ xi at P* = 0.01, below xi under higher pressures).
 The paper's values (1400 disks, type 2): d_F ~ 1.52-1.55 with rolling resistance at P* = 0 and 0.01
 (xi = 9.3 +- 0.4 a and 5.1 +- 0.2 a there), ~ 1.9 without; no fractal range left at P* = 1.
 """
@@ -31,6 +33,8 @@ from scipy.optimize import OptimizeWarning, curve_fit
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
 from consolidation_fit import stage_table_of  # noqa: E402
+from disk_grid import density_field  # noqa: E402
+from pore_sizes import pore_sizes  # noqa: E402
 
 # A grid finer than this resolves nothing the fit sees: at 16 points per diameter I(k) is within 5 % of a disk's
 # closed form below k R = 2 and each doubling cuts that threefold (tests/python/test_density_correlations.py),
@@ -44,24 +48,6 @@ GRID_MEMORY = 4 * 2 ** 30
 
 class FitRangeError(ValueError):
     """The fit's range, 2 pi / L to k_max, holds too few shells (the one error --k-max answers for)."""
-
-
-def density_field(positions, radii, edges, spacing):
-    """chi on a periodic grid covering the cell [0, L_x) x [0, L_y): 1 where a grid point's centre
-    lies inside a disk. Returns chi (n_x by n_y) and the grid's actual spacings (L / n per axis)."""
-    edges = np.asarray(edges, float)
-    n = np.maximum(np.ceil(edges / spacing).astype(int), 1)
-    h = edges / n
-    chi = np.zeros(n, dtype=bool)
-    wrapped = np.mod(positions, edges)
-    for (x, y), r in zip(wrapped, radii):
-        ix = np.arange(math.floor((x - r) / h[0] - 0.5), math.ceil((x + r) / h[0] - 0.5) + 1)
-        iy = np.arange(math.floor((y - r) / h[1] - 0.5), math.ceil((y + r) / h[1] - 0.5) + 1)
-        dx = (ix + 0.5) * h[0] - x
-        dy = (iy + 0.5) * h[1] - y
-        inside = dx[:, None] ** 2 + dy[None, :] ** 2 <= r * r
-        chi[np.ix_(np.mod(ix, n[0]), np.mod(iy, n[1]))] |= inside
-    return chi, h
 
 
 def scattering_intensity(chi, h):
@@ -280,7 +266,7 @@ def largest_grid(samples, pressures, points_per_diameter):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description="Scattering intensity I(k), fractal dimension d_F and blob size xi of 2D disk packings (physics.md section 9).")
+    ap = argparse.ArgumentParser(description="Scattering intensity I(k), fractal dimension d_F and blob size xi of 2D disk packings, and their pores' radius of gyration xi' (physics.md section 9).")
     ap.add_argument("h5", nargs="+", help="stages files of `grains consolidate` (samples of one programme: their I(k) are pooled)")
     ap.add_argument("--pressures", type=float, nargs="+", default=[0.0, 0.01, 0.178, 1.0],
                     help="reduced pressures of the loading branch to analyse (default: 0 0.01 0.178 1, the paper's)")
@@ -379,15 +365,26 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
         single = [analyse([c], points_per_diameter, k_max / a)["d_F"] for c in configurations] if len(states) > 1 else []
         finite = [d for d in single if np.isfinite(d)]   # samples with no fractal range of their own are left out
         spread = float(np.std(finite, ddof=1)) if len(finite) > 1 else math.nan
+        # xi', the pores' mass-averaged radius of gyration, pooled as I(k) is: over every enclosed pore of the samples
+        pores = [pore_sizes(*c, points_per_diameter) for c in configurations]
+        areas = np.concatenate([p["areas"] for p in pores])
+        gyration = np.concatenate([p["radii_of_gyration"] for p in pores])
+        xi_prime = float(np.sum(areas * gyration) / np.sum(areas)) if len(areas) else math.nan
         rows.append({"P_star": target, "samples": len(states), "phi_mean": float(np.mean([p for _, p in states])),
                      "fractal_range": r["fractal_range"], "d_F": r["d_F"], "d_F_error": r["d_F_error"],
-                     "d_F_sample_sd": spread, "xi_over_a": r["xi"] / a, "xi_error_over_a": r["xi_error"] / a})
+                     "d_F_sample_sd": spread, "xi_over_a": r["xi"] / a, "xi_error_over_a": r["xi_error"] / a,
+                     "xi_prime_over_a": xi_prime / a, "pores": len(areas),
+                     "percolating_pore_share": float(np.mean([p["percolating_share"] for p in pores]))})
+        pore_text = (f"  xi'/a {xi_prime / a:.2f} ({len(areas)} pores"
+                     + (f"; {rows[-1]['percolating_pore_share']:.0%} of the free area percolates, left out"
+                        if rows[-1]["percolating_pore_share"] > 0 else "") + ")")
         if r["fractal_range"]:
             print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  d_F {r['d_F']:.3f} +- {r['d_F_error']:.3f}"
                   + (f" (sd of the samples' own fits {spread:.3f})" if math.isfinite(spread) else "")
-                  + f"  xi/a {r['xi'] / a:.2f} +- {r['xi_error'] / a:.2f}")
+                  + f"  xi/a {r['xi'] / a:.2f} +- {r['xi_error'] / a:.2f}" + pore_text)
         else:
-            print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  no fractal range (flat I(k))")
+            print(f"P* {target:<6g} {len(states)} sample(s), Phi {rows[-1]['phi_mean']:.4f}:  no fractal range (flat I(k))"
+                  + pore_text)
     if not rows:
         return rows
     default_table, default_plot = default_outputs(samples[0][0])
