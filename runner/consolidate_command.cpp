@@ -299,6 +299,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   Scene scene = Scene::from_file(opt.scene, opt.overrides);
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
+  ProgrammeSettings::refuse_floor_above_drag(scene);
   const std::string name = scene.text("scene.name");
   const auto [path, source] = hdf5_output_name(scene, opt.output, "-stages.h5");
   // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
@@ -329,11 +330,11 @@ int consolidate_scene(const ConsolidateOptions& opt) {
       warnings.push_back(fmt::format("{} is not used by grains consolidate: each stage runs until equilibrium or its budget "
                                      "(programme.stage_budget, programme.aggregation_budget)", key));
   // Not refused: tests and quick looks run tiny budgets on purpose; but every such stage ends NOT REACHED.
-  if (settings.confirm_checks_steps() > settings.stage_budget)
-    warnings.push_back(fmt::format("programme.stage_budget = {} is less than the {} steps that programme.confirm_checks = {} "
-                                   "checks every programme.check_every = {} steps take: no stage can reach equilibrium",
-                                   settings.stage_budget, settings.confirm_checks_steps(), settings.quench.confirm_checks,
-                                   settings.check_every));
+  if (!settings.budget_can_confirm())
+    warnings.push_back(fmt::format("programme.stage_budget = {} holds fewer than the programme.confirm_checks = {} "
+                                   "checks (one every programme.check_every = {} steps, and one at the budget's end) that "
+                                   "confirm an equilibrium: no stage can reach equilibrium",
+                                   settings.stage_budget, settings.quench.confirm_checks, settings.check_every));
   // A type-2 sample starts in the aggregation's fixed cell: no target yet (NaN, as that stage's record says),
   // whatever cell.pressure holds for the stages after it.
   const double initial_target = settings.preparation == "type2" ? std::nan("") : sim->get("pressure_target");

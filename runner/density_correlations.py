@@ -366,7 +366,9 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
         finite = [d for d in single if np.isfinite(d)]   # samples with no fractal range of their own are left out
         spread = float(np.std(finite, ddof=1)) if len(finite) > 1 else math.nan
         # xi', the pores' mass-averaged radius of gyration, pooled as I(k) is: over every enclosed pore of the samples
-        pores = [pore_sizes(*c, points_per_diameter) for c in configurations]
+        # (on a grid of at least 16 points per diameter: the seal's share of the pores is a quarter cell, and at 8 the
+        # interstices of a square lattice read 18 % small, at 16 10 %, at 64 4 %)
+        pores = [pore_sizes(*c, max(points_per_diameter, 16)) for c in configurations]
         areas = np.concatenate([p["areas"] for p in pores])
         gyration = np.concatenate([p["radii_of_gyration"] for p in pores])
         xi_prime = float(np.sum(areas * gyration) / np.sum(areas)) if len(areas) else math.nan

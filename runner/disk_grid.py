@@ -19,5 +19,9 @@ def density_field(positions, radii, edges, spacing):
         dx = (ix + 0.5) * h[0] - x
         dy = (iy + 0.5) * h[1] - y
         inside = dx[:, None] ** 2 + dy[None, :] ** 2 <= r * r
-        chi[np.ix_(np.mod(ix, n[0]), np.mod(iy, n[1]))] |= inside
+        where = np.ix_(np.mod(ix, n[0]), np.mod(iy, n[1]))
+        if len(ix) > n[0] or len(iy) > n[1]:   # a disk reaching round the cell onto itself: |= kept one write a point
+            np.logical_or.at(chi, where, inside)
+        else:
+            chi[where] |= inside
     return chi, h

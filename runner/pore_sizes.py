@@ -89,7 +89,7 @@ def pore_sizes(positions, radii, edges, points_per_diameter=16):
     points = np.bincount(index).astype(float)
     mean_x, mean_y = np.bincount(index, x) / points, np.bincount(index, y) / points
     spread = np.bincount(index, (x - mean_x[index]) ** 2 + (y - mean_y[index]) ** 2) / points
-    enclosed = np.array([int(p) not in percolating for p in order])
+    enclosed = np.array([int(p) not in percolating for p in order], dtype=bool)   # (empty: no free space at all)
     area = points * h[0] * h[1]
     gyration = np.sqrt(spread)
     free_area = float(area.sum())

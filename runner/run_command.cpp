@@ -147,6 +147,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   if (!given_programme_keys(scene).empty()) {
     try {
       ProgrammeSettings::from_scene(scene);
+      ProgrammeSettings::refuse_floor_above_drag(scene);
     } catch (const SceneError& e) {
       fmt::print(stderr, "warning: grains consolidate would refuse this scene: {}\n", e.what());
     }

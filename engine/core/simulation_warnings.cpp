@@ -303,7 +303,11 @@ void SimulationImpl<D>::check_pass_through() const {
   const std::string what = fmt::format("contact check: {} two grains overlap by {:.4g} times the smaller one's radius "
                                        "(max_overlap_ratio): they are passing through each other. The contact force "
                                        "stops growing at contact.overlap_limit times that radius, ", when, overlap->second);
-  if (gravity_ && kn_ > 0)
+  if (network_)   // the adhesive law (cohesionless F0 = 0 too): its stiffness is adhesion.stiffness, gravity or not
+    warn(what + "which cannot stop grains that meet with more energy than the clamped spring stores or that the step "
+                "misses: what follows is an artefact; raise adhesion.stiffness or contact.overlap_limit, or lower the "
+                "grains' speeds");
+  else if (gravity_ && kn_ > 0)
     warn(what + fmt::format("which cannot hold grains that gravity presses together harder than that (k* = {:.3g}, from "
                             "the lightest pair's k_n and the mean grain's k_g) or that meet faster than the step resolves "
                             "(the start-up warning on unresolved approaches says so): the clusters, D_f and aggregation time "
@@ -311,10 +315,6 @@ void SimulationImpl<D>::check_pass_through() const {
                             "time.steps_per_contact", o.at("normalised_stiffness")));
   // Without gravity too (an outside review, 2026-12-07): a head-on pair at a contact time of 3 swapped sides, and
   // a heavy pair under the lightest pair's k_n passed through, both unwarned.
-  else if (attraction_ > 0 || !(kn_ > 0))
-    warn(what + "which cannot stop grains that meet with more energy than the clamped spring stores or that the step "
-                "misses: what follows is an artefact; raise adhesion.stiffness or contact.overlap_limit, or lower the "
-                "grains' speeds");
   else
     warn(what + "which cannot stop grains that meet with more energy than the clamped spring stores (the global "
                 "calibration takes k_n from the lightest pair: heavier pairs meet it softer) or that the step misses: "

@@ -826,11 +826,11 @@ class ContactForces final : public ForceModule<D> {
   // old length: that turns it towards the rotation axis by (w h)^2 / 2 a step, first order in a turning contact
   // (docs/accuracy.md, "Order of whole scenes").
   // A normal turned by (nearly) half a turn in one step, a pair whose centres crossed, has no such rotation (0 / 0 gave
-  // NaN, 2026-12-07): v is then only projected into the new plane. Elsewhere the turn is well-conditioned.
-  static constexpr double turnable = 1e-12;   // 1 + n_before . n above this: the rotation is defined
+  // NaN, 2026-12-07): v is then only projected into the new plane (linear_contacts::spring_turnable). Elsewhere the
+  // turn is well-conditioned.
   static void turn_into_tangent_plane(Vec<3>& v, const Vec<3>& n_before, const Vec<3>& n) {
     const double c = 1 + n_before.dot(n);
-    if (c > turnable) v -= v.dot(n) / c * (n_before + n);
+    if (c > linear_contacts::spring_turnable) v -= v.dot(n) / c * (n_before + n);
     v -= v.dot(n) * n;
   }
 

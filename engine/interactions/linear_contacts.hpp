@@ -14,6 +14,10 @@
 
 namespace grains::linear_contacts {
 
+// A 3D spring is turned with its contact by the rotation taking n_before to n when 1 + n_before . n exceeds this;
+// a normal reversed within one step (centres crossed) has no such rotation (0 / 0): the spring is only projected.
+inline constexpr double spring_turnable = 1e-12;
+
 struct Input {
   const double *position, *radius, *mass, *velocity_predicted;   // positions and velocities as x, y, z triples
   const std::uint32_t* partner;                                    // each list entry's j

@@ -138,7 +138,7 @@ struct Kernel : W {
     V xi[3];
     c.vector_per_entry(in.tangential, xi);
     const V cosine_plus_one = add(all(1.0), dot(nb, n));
-    const Mask turnable = greater(cosine_plus_one, all(1e-12));   // ContactForces::turnable: else projected only
+    const Mask turnable = greater(cosine_plus_one, all(spring_turnable));   // else projected only
     const V turn = blend(turnable, zero(), div(dot(xi, n), blend(turnable, all(1.0), cosine_plus_one)));
     for (int a = 0; a < 3; ++a) xi[a] = sub(xi[a], mul(turn, add(nb[a], n[a])));
     const V along = dot(xi, n);

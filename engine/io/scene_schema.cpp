@@ -179,7 +179,8 @@ const std::vector<SchemaEntry>& scene_schema() {
        "host decides its own stop (`aggregation_time` turns finite)."},
       {"analysis.zero_force", K::real, pure, "1e-5", 0, inf, false, false, "",
        "Contact-network outputs (adhesion scenes): an interaction whose static normal force is below "
-       "value * max(F0, mean |F_N|) in magnitude counts as carrying no force (z0, rattlers)."},
+       "value * max(F0, mean |F_N|) in magnitude counts as carrying no force (z0; and the rattlers where F0 = 0: with "
+       "adhesion a rattler is a grain with no interaction at all, a bond at zero force still holding its grains)."},
       {"analysis.elastic_moduli", K::boolean, not_a_quantity, "false", 0, 0, false, false, "",
        "Elastic-moduli outputs (adhesion scenes in a periodic box, physics.md section 9): `B`, `G`, `C11`, `C12`, ..., "
        "`B_Voigt`, `G_Voigt`, `B_Reuss`, `Z2` and the `moduli_*` diagnostics from the stiffness matrix of the contact "

@@ -59,14 +59,6 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
   refuse_both("rolling.damping_ratio", "rolling dashpot", "programme.quench_damping", p.quench.damping);
   refuse_both("drag.rate", "drag", "programme.quench_drag", p.quench.drag);
   refuse_both("drag.rate", "drag", "programme.background_drag", p.quench.background);
-  // A floor above the start would be no step-down at all; said, not clamped silently (the default floor stays
-  // quiet under a smaller quench_drag: the drag then keeps that value).
-  if (scene.has("programme.quench_drag_min") && p.quench.drag > 0 && p.quench.patience > 0 &&
-      p.quench.drag_min > p.quench.drag)
-    scene.fail("programme.quench_drag_min",
-               fmt::format("value {} is above programme.quench_drag = {}, from which the drag steps down: allowed "
-                           "<= programme.quench_drag (or programme.quench_patience = 0 to keep the drag)",
-                           p.quench.drag_min, p.quench.drag));
   if (p.first_compression_time > 0 && p.preparation == "none")
     scene.fail("programme.first_compression_time", fmt::format("value {} ramps the first compression of a type 1 or type 2 "
                                                                "preparation, and programme.preparation is \"none\": set it "
@@ -84,6 +76,17 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
                "value 0 leaves type2's relaxation at P* = 0 without a force scale (cohesionless cells need P* > 0): "
                "allowed a value > 0");
   return p;
+}
+
+// A floor above the start would be no step-down at all; said, not clamped silently (the default floor stays quiet
+// under a smaller quench_drag: the drag then keeps that value). Only for the scene a user gives: a resumed
+// programme's stored scene spells out the default, and a review found the check refusing such resumes.
+void ProgrammeSettings::refuse_floor_above_drag(const Scene& scene) {
+  const double drag = scene.real("programme.quench_drag"), floor = scene.real("programme.quench_drag_min");
+  if (scene.has("programme.quench_drag_min") && drag > 0 && scene.integer("programme.quench_patience") > 0 && floor > drag)
+    scene.fail("programme.quench_drag_min",
+               fmt::format("value {} is above programme.quench_drag = {}, from which the drag steps down: allowed "
+                           "<= programme.quench_drag (or programme.quench_patience = 0 to keep the drag)", floor, drag));
 }
 
 void ProgrammeSettings::check_time_step(const Scene& scene, double dt) const {

@@ -32,11 +32,15 @@ struct ProgrammeSettings {
   QuenchSettings quench;              // the drag (and rolling dashpot) switched on once a stage has settled
 
   static ProgrammeSettings from_scene(const Scene& scene);
-  // The fewest steps in which a stage can reach equilibrium: confirm_checks checks in a row (saturated, not wrapped).
-  long confirm_checks_steps() const {
-    long steps;
-    return __builtin_mul_overflow(quench.confirm_checks, check_every, &steps) ? std::numeric_limits<long>::max() : steps;
+  // Whether a stage's budget holds the confirm_checks checks in a row that confirm an equilibrium: a stage checks
+  // every check_every steps and once more at its budget's end.
+  bool budget_can_confirm() const {
+    const long checks = stage_budget / check_every + (stage_budget % check_every != 0);
+    return checks >= quench.confirm_checks;
   }
+  // A scene's own quench_drag_min above its quench_drag (refused for a new programme: the drag could not step
+  // down; not on resuming, whose stored scene spells out every default): the SceneError naming it, or nothing.
+  static void refuse_floor_above_drag(const Scene& scene);
   // What needs the simulation's time step dt: a first compression of more steps than a run may take is refused
   // naming programme.first_compression_time (SceneError).
   void check_time_step(const Scene& scene, double dt) const;

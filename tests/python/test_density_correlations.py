@@ -311,3 +311,15 @@ def test_the_aggregation_is_no_stage_of_the_loading_branch():
     assert math.isnan(targets[1])
     assert dc.loading_frame(targets, 0.01) == 3 and dc.loading_frame(targets, 0) == 2
     assert dc.target_pressure({"P_star": "0.5"}) == 0.5   # an older table without targets: the measured P*
+
+
+def test_a_disk_reaching_round_a_small_cell_onto_itself_is_drawn_whole():
+    """Where a disk's index range wraps onto itself (2 R + 2 h > L), the grid's |= kept one write per point, and a
+    point the disk covers through one image but not the other could end free (a review, 2026-12-07)."""
+    edge, radius, spacing = 2.0, 0.95, 0.2
+    chi, h = dc.density_field(np.array([[1.0, 1.0]]), np.array([radius]), np.array([edge, edge]), spacing)
+    centres = (np.arange(10) + 0.5) * h[0]
+    gap = np.abs(centres - 1.0)
+    nearest = np.minimum(gap, edge - gap)   # the nearest image, per axis
+    expected = nearest[:, None] ** 2 + nearest[None, :] ** 2 <= radius ** 2
+    assert np.array_equal(chi, expected)

@@ -52,3 +52,17 @@ def test_a_frictional_pair_whose_normal_reverses_in_a_step_stays_finite_and_alik
         with h5py.File(portable) as f:
             for s, n in zip(state, ("position", "velocity", "angular_velocity")):
                 assert np.array_equal(s, f[f"particles/all/{n}/value"][()]), n
+
+
+def test_the_adhesive_law_gets_its_own_advice(grains_bin, root, tmp_path):
+    """The cohesionless reference (the adhesive law with F0 = 0) was told to shorten contact.duration, a key that law
+    does not read (a review, 2026-12-07): it is told adhesion.stiffness."""
+    scene = tmp_path / "deep.toml"
+    scene.write_text('[scene]\nname = "deep"\ndimension = 2\n[particles]\nlayout = "list"\n'
+                     'positions = [[5.0, 5.0], [5.2, 5.0]]\ndiameter = 1.0\nmass = 1.0\n[box]\nlengths = [10.0, 10.0]\n'
+                     'periodic = true\n[adhesion]\nenabled = true\nforce = 0.0\n[time]\nsteps = 10\n[run]\nthreads = 1\n')
+    r = subprocess.run([str(grains_bin), "run", str(scene), "--out", str(tmp_path / "deep.h5"), "--quiet"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert "passing through each other" in r.stderr and "raise adhesion.stiffness" in r.stderr, r.stderr
+    assert "contact.duration" not in r.stderr.split("contact check")[1]

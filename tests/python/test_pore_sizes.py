@@ -81,3 +81,10 @@ def test_free_space_that_percolates_has_no_size():
     walls = np.array([[i + 0.5, y] for i in range(10) for y in (2.0, 7.0)])
     r = ps.pore_sizes(walls, np.full(20, 0.5), [10.0, 10.0], 16)
     assert r["pores"] == 0 and r["percolating_share"] == 1.0
+
+
+def test_a_cell_with_no_free_space_has_no_pores():
+    """Disks that cover the cell: no free point at all (the empty selection was a float array, an IndexError)."""
+    centres = [[i + 0.5, j + 0.5] for i in range(4) for j in range(4)]
+    r = ps.pore_sizes(centres, np.full(16, 0.75), [4.0, 4.0], 16)
+    assert r["pores"] == 0 and math.isnan(r["xi_prime"]) and r["percolating_share"] == 0

@@ -541,6 +541,16 @@ def test_a_stage_table_another_run_has_rewritten_is_refused_not_continued(grains
     assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
 
 
+def test_a_programme_with_a_drag_below_the_default_floor_resumes(grains_bin, root, tmp_path):
+    """The refusal of a quench_drag_min above quench_drag read the stored scene, which spells out the default floor
+    (0.125): every programme run with quench_drag = 0.1 was refused on resuming (a review, 2026-12-07)."""
+    programme = cohesionless_programme(root, 1.8e-5, 1000) + ["--set", "programme.quench_drag=0.1"]
+    whole, whole_table, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, programme, lambda rows: rows[:3])
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert killed_table.read_text() == whole_table.read_text()
+
+
 def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(grains_bin, root, tmp_path):
     """A checkpoint ends every stage but the last; the resumed programme's table and records are those of the
     programme that was never stopped, bit for bit (CVODE's own counters aside: they count from the resume)."""
