@@ -138,17 +138,19 @@ def analyse(configurations, points_per_diameter=8, k_max=None):
     return {"k": k_s, "I": i_s, "counts": c_s, "a": a, "L": length, "k_max": k_max, **fit}
 
 
-def read_frames(path):
+def read_frames(path, dimensions=(2,), need="density correlations need 2D disks"):
     """Snapshots of an H5MD file: positions, radii and cell edges per frame, with each frame's reduced
-    pressure and solid fraction where the file records them (else NaN)."""
+    pressure and solid fraction where the file records them (else NaN). `dimensions`: those the caller
+    takes (`need` says so in the error)."""
     import h5py
     with h5py.File(path, "r") as f:
         group = f["particles/all"]
         positions = group["position/value"][()]
-        if positions.ndim != 3 or positions.shape[2] != 2:
-            raise ValueError(f"{path}: particles/all/position has shape {positions.shape}; density correlations need 2D disks")
+        if positions.ndim != 3 or positions.shape[2] not in dimensions:
+            raise ValueError(f"{path}: particles/all/position has shape {positions.shape}; {need}")
         radii = group["radius/value"][()] if "value" in group["radius"] else np.broadcast_to(group["radius"][()], positions.shape[:2])
-        edges = group["box/edges/value"][()] if "value" in group["box/edges"] else np.broadcast_to(group["box/edges"][()], (len(positions), 2))
+        edges = (group["box/edges/value"][()] if "value" in group["box/edges"]
+                 else np.broadcast_to(group["box/edges"][()], (len(positions), positions.shape[2])))
         steps = group["position/step"][()]
 
         def observable(name):
