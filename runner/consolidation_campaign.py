@@ -22,7 +22,8 @@ none, within 2 % for Phi and 5 % for z, lambda and d_F). The
 table goes to OUT/summary.md, a plot of every sample's Phi(P*), the mean curve and its fit to OUT/campaign.png, every
 sample's first compression (Phi against time in the P* = 0.01 stage, from its trace) to OUT/first-compression.png, and the finished
 samples' scattering intensity I(k) at P* = 0, 0.01, 0.178 and 1, pooled per scene, to
-OUT/SCENE-intensity.png and .csv.
+OUT/SCENE-intensity.png and .csv, and their normal-force distributions (runner/force_distribution.py, the paper's
+Figs. 18 and 19) to OUT/SCENE-forces.png and .csv.
 
 With --report nothing is run: the summary is made from the tables already in --out, the finished ones and
 the unfinished ones (SCENE-seedN.partial.csv, written stage by stage), which the table marks as partial;
@@ -42,6 +43,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import (BRANCH, FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRACTION, TEXT, StageTable, TableError,  # noqa: E402
                                fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then)
 import density_correlations  # noqa: E402
+import force_distribution  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
 import reuse  # noqa: E402
 from stage_traces import first_compressions, plot_first_compressions  # noqa: E402
@@ -531,6 +533,11 @@ def main():
         if samples:
             density_correlations.report(samples, [0.0, 0.01, 0.178, 1.0], out=out / f"{scene}-intensity.png",
                                         table=out / f"{scene}-intensity.csv")
+            try:   # and their normal-force distributions: OUT/SCENE-forces.{csv,png}
+                force_distribution.report([h5 for h5, *_ in samples], [0.01, 0.178, 1.0, 2.37], [2.37, 5.62, 13.3],
+                                          out / f"{scene}-forces.png", out / f"{scene}-forces.csv")
+            except (OSError, KeyError, ValueError) as error:
+                print(f"  no force distributions ({error})", flush=True)
 
 
 if __name__ == "__main__":

@@ -103,16 +103,30 @@ def main(argv=None):
             ap.error(f"{option}: the folder '{path.parent}' of '{path}' does not exist")
         if any(same_file(path, p) for p in paths):
             ap.error(f"{option} '{path}' is an input, which it would overwrite: name another file")
+    try:
+        rows = report(paths, args.pressures, args.scaled, out, table)
+    except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as err:
+        ap.error(f"h5: not a stages file of the consolidation law ({err})")
+    if not rows:
+        ap.error(f"--pressures, --scaled: none of {args.pressures + args.scaled} is a loading stage of the input")
+    return 0
+
+
+def report(paths, pressures, scaled, out, table):
+    """The pooled distributions of the stages files `paths` at the loading-branch P* `pressures` (over F0) and `scaled`
+    (over P* F0): prints a line each, writes the table (CSV) and the plot, and returns the table's rows ([] and nothing
+    written when no input has any of the pressures). An input that is no stages file of the consolidation law raises
+    ValueError (or OSError, KeyError) naming it."""
     samples = []
     for path in paths:
         try:
             samples.append((path, read_frames(path, (2, 3), "need 2D disks or 3D spheres"), law_of(path)))
-        except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as err:
-            ap.error(f"h5: {path}: not a stages file of the consolidation law ({err})")
+        except (KeyError, ValueError, tomllib.TOMLDecodeError) as err:
+            raise ValueError(f"{path}: {err}") from err
     rows = []
     panels = {"F0": [], "P*F0": []}
-    for kind, pressures in (("F0", args.pressures), ("P*F0", args.scaled)):
-        for target in pressures:
+    for kind, targets in (("F0", pressures), ("P*F0", scaled)):
+        for target in targets:
             forces, phis = [], []
             for path, (positions, radii, edges, p_star, phi), law in samples:
                 i = loading_frame(p_star, target)
@@ -140,14 +154,14 @@ def main(argv=None):
             print(f"P* {target:<6g} F_N / {kind}: {len(forces)} sample(s), {len(pooled)} interactions, mean "
                   f"{np.mean(pooled):.3f}, beyond the last bin {fractions[-1]:.1%}")
     if not rows:
-        ap.error(f"--pressures, --scaled: none of {args.pressures + args.scaled} is a loading stage of the input")
+        return rows
     with open(table, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    plot(panels, out, paths[0].name + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""))
+    plot(panels, out, pathlib.Path(paths[0]).name + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""))
     print(f"wrote {table} and {out}")
-    return 0
+    return rows
 
 
 def plot(panels, out, title):
