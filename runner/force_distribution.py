@@ -66,10 +66,14 @@ def normal_forces(positions, radii, edges, law):
     return force[interacting]
 
 
-def histogram(forces, scale, lower, width, bins):
+def histogram(forces, scale, lower, width, bins, fold_below=True):
     """Fractions of `forces / scale` in `bins` bins of `width` from `lower` (the first also takes what lies below, the
-    last everything from its lower edge on): the engine's force_histogram_* with lower -1, width 0.5, 21 bins."""
-    which = np.clip(np.floor((forces / scale - lower) / width), 0, bins - 1).astype(int)
+    last everything from its lower edge on): the engine's force_histogram_* with lower -1, width 0.5, 21 bins. Without
+    fold_below what lies below is left out (a wing), the fractions still of all forces."""
+    position = np.floor((forces / scale - lower) / width)
+    if not fold_below:
+        position = position[position >= 0]
+    which = np.clip(position, 0, bins - 1).astype(int)
     return np.bincount(which, minlength=bins) / max(len(forces), 1)
 
 
@@ -145,14 +149,14 @@ def report(paths, pressures, scaled, out, table):
                 print(f"P* = {target:g}: no interacting pair in its states (a gas); left out", file=sys.stderr)
                 continue
             lower, width, bins = (-1.0, 0.25, 40) if kind == "F0" else (0.0, 0.1, 40)
-            fractions = histogram(pooled, 1.0, lower, width, bins)
+            fractions = histogram(pooled, 1.0, lower, width, bins, fold_below=kind == "F0")   # P* F0: the compressive wing
             panels[kind].append((target, np.mean(phis), lower, width, fractions, len(pooled)))
             for b, fraction in enumerate(fractions):
                 rows.append({"panel": f"F_N / {kind}", "P_star": target, "samples": len(forces), "interactions": len(pooled),
                              "bin_low": lower + b * width, "bin_high": lower + (b + 1) * width if b < bins - 1 else math.inf,
                              "density": fraction / width})
             print(f"P* {target:<6g} F_N / {kind}: {len(forces)} sample(s), {len(pooled)} interactions, mean "
-                  f"{np.mean(pooled):.3f}, beyond the last bin {fractions[-1]:.1%}")
+                  f"{np.mean(pooled):.3f}, tensile {np.mean(pooled < 0):.1%}, in the last bin (open) {fractions[-1]:.1%}")
     if not rows:
         return rows
     with open(table, "w", newline="") as f:

@@ -59,13 +59,17 @@ def test_the_command_writes_both_panels_and_refuses_what_it_cannot_read(programm
     assert r.returncode == 0, r.stderr
     assert out.stat().st_size > 10_000
     rows = list(csv.DictReader(table.open()))
+    positions, radii, edges, p_star, _ = dc.read_frames(programmes["type2"], (2, 3))
+    frame = dc.loading_frame(p_star, 0.0316)
+    forces = fd.normal_forces(positions[frame], radii[frame], edges[frame], fd.law_of(programmes["type2"]))
     for panel, pressures in (("F_N / F0", {"0.01", "0.0316"}), ("F_N / P*F0", {"0.0316"})):
         mine = [row for row in rows if row["panel"] == panel]
         assert {row["P_star"] for row in mine} == pressures
-        for p in pressures:   # each distribution's density integrates to one
+        for p in pressures:   # each distribution's density integrates to one; the rescaled wing to the compressive share
             density = [(float(row["density"]), float(row["bin_low"])) for row in mine if row["P_star"] == p]
             width = density[1][1] - density[0][1]
-            assert sum(d for d, _ in density) * width == pytest.approx(1.0)
+            total = 1.0 if panel == "F_N / F0" else np.mean(forces >= 0)
+            assert sum(d for d, _ in density) * width == pytest.approx(total)
     bad = subprocess.run([sys.executable, str(ROOT / "runner/force_distribution.py"), str(programmes["type2"]),
                           "--pressures", "-1"], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "--pressures: [-1.0]; reduced pressures must be finite numbers > 0" in bad.stderr
