@@ -12,17 +12,17 @@ ContactNetwork analyse_contact_network(std::size_t particle_count, const std::ve
   const int bins = std::max(1, options.histogram_bins);
   net.histogram.assign(bins + 1, 0.0);
   if (particle_count == 0) return net;
-  std::vector<char> carries_force(particle_count, 0);   // not a rattler
+  std::vector<char> held(particle_count, 0);   // by a force, or with adhesion by any interaction: no rattler
   long plus = 0, minus = 0, zero = 0;
   for (const auto& c : interactions) {
     (c.gap < 0 ? net.contacts : net.distant_bonds) += 1;
     const double f = c.normal_force;
     if (std::abs(f) <= options.zero_force) {
       ++zero;
-      if (options.bonds_hold) carries_force[c.i] = carries_force[c.j] = 1;
+      if (options.bonds_hold) held[c.i] = held[c.j] = 1;
     } else {
       (f > 0 ? plus : minus) += 1;
-      carries_force[c.i] = carries_force[c.j] = 1;
+      held[c.i] = held[c.j] = 1;
     }
     const double bin = std::floor((f / options.force_scale - options.histogram_lower) / options.histogram_width);
     net.histogram[std::size_t(std::clamp(bin, 0.0, double(bins)))] += 1;
@@ -30,7 +30,7 @@ ContactNetwork analyse_contact_network(std::size_t particle_count, const std::ve
   const double N = double(particle_count);
   net.z = 2.0 * double(interactions.size()) / N;
   net.z_plus = 2.0 * double(plus) / N, net.z_minus = 2.0 * double(minus) / N, net.z_zero = 2.0 * double(zero) / N;
-  const long rattlers = long(std::count(carries_force.begin(), carries_force.end(), 0));
+  const long rattlers = long(std::count(held.begin(), held.end(), 0));
   net.rattler_fraction = double(rattlers) / N;
   // Every grain a rattler: no backbone, whose coordination is then undefined (not 0: z may be above 0).
   net.z_star = rattlers < long(particle_count) ? net.z / (1 - net.rattler_fraction)

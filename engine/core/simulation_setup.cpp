@@ -327,22 +327,22 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
   p.axes = D;
   // Default M_c = m (L / a)^(D-2): the contacts' damping of the cell (affine_contact_damping) and its
   // stiffness both grow like (L / a)^(D-2), so the cell's breathing mode stays about critically damped.
-  p.mass = scene.has("cell.mass") ? scene.real("cell.mass")
-                                  : grain_mass_ * std::pow(sys_.box.length.mean() / length_unit_, D - 2);
-  const double cell_stiffness = kn_ * std::pow(sys_.box.length.mean() / length_unit_, D - 2);
+  const double cells = std::pow(sys_.box.length.mean() / length_unit_, D - 2), default_mass = grain_mass_ * cells;
+  p.mass = scene.has("cell.mass") ? scene.real("cell.mass") : default_mass;
+  const double cell_stiffness = kn_ * cells;
   p.damping = scene.real("cell.damping_ratio") * 2 * std::sqrt(p.mass * cell_stiffness);
   // The cell's breathing against the contacts, stepped with the particles' forces frozen over a step, grows every
   // step when the cell is too light for it (an outside review, 2026-12-07: cell.mass = 1e-4 m blew a 100-disk cell
   // up to Phi = 0.07, unwarned). Measured thresholds: 3-4e-4 in a 50-disk 2D cell, 2-5e-4 in a 100-sphere 3D cell,
   // where M_c >= k_cell dt^2 asks 5.1e-4 and 1.1e-3 (k_cell = K_N (L / a)^(D-2), the cell's stiffness scale above).
-  cell_too_light_ = p.mass < cell_stiffness * dt_ * dt_;
-  if (const double lightest = cell_stiffness * dt_ * dt_; cell_too_light_)
+  const double lightest = cell_stiffness * dt_ * dt_;
+  cell_too_light_ = p.mass < lightest;
+  if (cell_too_light_)
     warn(fmt::format("cell.mass = {:.6g} is below {:.6g} = k_cell dt^2 (k_cell = K_N (L / a)^(D-2) = {:.6g}, time.dt = "
                      "{:.6g}), the lightest cell the step follows: the cell's breathing against the contacts grows every "
                      "step, held only by the strain-rate cap (cell.inertia_number) to a jitter that slows the compression, "
                      "and without it the cell blows up; raise cell.mass (unset: m (L / a)^(D-2) = {:.6g}) or lower the "
-                     "step (time.steps_per_contact)", p.mass, lightest, cell_stiffness, dt_,
-                     grain_mass_ * std::pow(sys_.box.length.mean() / length_unit_, D - 2)));
+                     "step (time.steps_per_contact)", p.mass, lightest, cell_stiffness, dt_, default_mass));
   p.rate_cap = rate_cap(target_reduced_);
   p.rtol = scene.real("cell.rtol");
   p.atol_length = scene.real("cell.atol") * length_unit_;

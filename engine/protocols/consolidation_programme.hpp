@@ -7,7 +7,6 @@
 // slow modes are quenched (protocols/stage_quench.hpp: the drag drag.rate, optionally the rolling dashpot).
 #pragma once
 #include <functional>
-#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
