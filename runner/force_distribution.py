@@ -25,11 +25,13 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
+from consolidation_fit import stage_table_of  # noqa: E402
 from density_correlations import loading_frame, read_frames, same_file  # noqa: E402
 
 
-def law_of(path):
-    """(K_N, F0, D0, f_max) of the adhesive law in the run's stored scene (parameters/scene.toml)."""
+def law_of(path, largest_diameter):
+    """(K_N, F0, D0, f_max) of the adhesive law in the run's stored scene (parameters/scene.toml); D0 defaults, as in the
+    engine, to 1e-3 of the size distribution's largest diameter, or of the largest given one (`largest_diameter`)."""
     import h5py
     with h5py.File(path, "r") as f:
         text = f["parameters/scene.toml"][()]
@@ -39,7 +41,7 @@ def law_of(path):
         raise ValueError("its scene has no adhesive law (adhesion.enabled = false): the force distribution is the "
                          "consolidation law's")
     particles = scene.get("particles", {})
-    a = particles.get("diameter_max", particles.get("diameter", math.nan))
+    a = particles.get("diameter_max", particles.get("diameter", largest_diameter))
     force = float(adhesion.get("force", 1.0))
     return (float(adhesion.get("stiffness", 1e5)), force, float(adhesion.get("range", 1e-3 * a)),
             float(scene.get("contact", {}).get("overlap_limit", 0.1)))
@@ -105,15 +107,26 @@ def main(argv=None):
             ap.error(f"{option} '{path}' is {kind}: name a file to write")
         if not path.resolve().parent.is_dir():
             ap.error(f"{option}: the folder '{path.parent}' of '{path}' does not exist")
-        if any(same_file(path, p) for p in paths):
-            ap.error(f"{option} '{path}' is an input, which it would overwrite: name another file")
+        for source in paths:
+            for read, what in ((source, "an input"), (stage_table_of(source), f"the stage table of the input '{source}'"),
+                               (source.with_suffix(".xdmf"), f"the XDMF file of the input '{source}'")):
+                if read is not None and same_file(path, read):
+                    ap.error(f"{option} '{path}' is {what}, which it would overwrite: name another file")
+    if table.resolve() == out.resolve():
+        ap.error(f"--table and -o/--out both name '{table}': the plot would overwrite the table")
     try:
         rows = report(paths, args.pressures, args.scaled, out, table)
-    except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as err:
+    except UnreadableInput as err:
         ap.error(f"h5: not a stages file of the consolidation law ({err})")
+    except OSError as err:
+        ap.error(f"cannot write the table '{table}' or the plot '{out}' ({err})")
     if not rows:
         ap.error(f"--pressures, --scaled: none of {args.pressures + args.scaled} is a loading stage of the input")
     return 0
+
+
+class UnreadableInput(ValueError):
+    """An input that is no stages file of the consolidation law (named in the message)."""
 
 
 def report(paths, pressures, scaled, out, table):
@@ -124,11 +137,16 @@ def report(paths, pressures, scaled, out, table):
     samples = []
     for path in paths:
         try:
-            samples.append((path, read_frames(path, (2, 3), "need 2D disks or 3D spheres"), law_of(path)))
-        except (KeyError, ValueError, tomllib.TOMLDecodeError) as err:
-            raise ValueError(f"{path}: {err}") from err
+            frames = read_frames(path, (2, 3), "need 2D disks or 3D spheres")
+            samples.append((path, frames, law_of(path, 2 * float(np.max(frames[1])))))
+        except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as err:
+            raise UnreadableInput(f"{path}: {err}") from err
+    if len({law[1] > 0 for *_, law in samples}) > 1:
+        raise UnreadableInput("the inputs mix cohesive (F0 > 0) and cohesionless (F0 = 0) samples: pool one programme's")
+    cohesive = samples[0][2][1] > 0
     rows = []
     panels = {"F0": [], "P*F0": []}
+    names = {"F0": "F0", "P*F0": "P*F0"} if cohesive else {"F0": "mean|F_N|", "P*F0": "mean|F_N|"}   # the scale used
     for kind, targets in (("F0", pressures), ("P*F0", scaled)):
         for target in targets:
             forces, phis = [], []
@@ -152,10 +170,10 @@ def report(paths, pressures, scaled, out, table):
             fractions = histogram(pooled, 1.0, lower, width, bins, fold_below=kind == "F0")   # P* F0: the compressive wing
             panels[kind].append((target, np.mean(phis), lower, width, fractions, len(pooled)))
             for b, fraction in enumerate(fractions):
-                rows.append({"panel": f"F_N / {kind}", "P_star": target, "samples": len(forces), "interactions": len(pooled),
+                rows.append({"panel": f"F_N / {names[kind]}", "P_star": target, "samples": len(forces), "interactions": len(pooled),
                              "bin_low": lower + b * width, "bin_high": lower + (b + 1) * width if b < bins - 1 else math.inf,
                              "density": fraction / width})
-            print(f"P* {target:<6g} F_N / {kind}: {len(forces)} sample(s), {len(pooled)} interactions, mean "
+            print(f"P* {target:<6g} F_N / {names[kind]}: {len(forces)} sample(s), {len(pooled)} interactions, mean "
                   f"{np.mean(pooled):.3f}, tensile {np.mean(pooled < 0):.1%}, in the last bin (open) {fractions[-1]:.1%}")
     if not rows:
         return rows
@@ -163,21 +181,23 @@ def report(paths, pressures, scaled, out, table):
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    plot(panels, out, pathlib.Path(paths[0]).name + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""))
+    plot(panels, out, pathlib.Path(paths[0]).name + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""), cohesive)
     print(f"wrote {table} and {out}")
     return rows
 
 
-def plot(panels, out, title):
+def plot(panels, out, title, cohesive=True):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
-    for ax, (kind, label) in zip(axes, (("F0", "F_N / F0"), ("P*F0", "F_N / (P* F0)"))):
+    labels = (("F0", "F_N / F0"), ("P*F0", "F_N / (P* F0)")) if cohesive else \
+        (("F0", "F_N / mean |F_N|"), ("P*F0", "F_N / mean |F_N|"))
+    for ax, (kind, label) in zip(axes, labels):
         for (target, phi, lower, width, fractions, n), colour in zip(
                 panels[kind], plt.cm.viridis(np.linspace(0, 0.85, max(len(panels[kind]), 1)))):
-            edges = lower + width * np.arange(len(fractions))   # the last bin is open: drawn to its lower edge + width
-            ax.step(edges, fractions / width, where="post", color=colour, label=f"P* = {target:g} (Φ {phi:.3f}, {n})")
+            edges = lower + width * np.arange(len(fractions) + 1)   # the last bin is open: drawn one width wide
+            ax.stairs(fractions / width, edges, color=colour, label=f"P* = {target:g} (Φ {phi:.3f}, {n})")
         ax.set_xlabel(label)
         ax.set_ylabel("probability density")
         if kind == "P*F0":

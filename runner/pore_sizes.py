@@ -6,7 +6,7 @@ A pore is a connected region of the space the disks leave free, in the periodic 
 (a / points_per_diameter, a the largest diameter) a point is solid when its centre lies within R + h / 4 of a
 disk's centre (disk_grid.py's field of the disks grown by h / 4): the quarter cell seals every contact (two
 touching disks leave a cusp of free space at their contact point, and a grid point there joined the pores on
-either side), and closes only gaps narrower than h / 2. Free points are joined to their four neighbours, across the cell's edges
+either side), and closes gaps narrower than h / 2 and, as the grid falls, some up to about h. Free points are joined to their four neighbours, across the cell's edges
 too. Each pore's radius of gyration Rg is taken about its own centre of mass, its points unwrapped across the
 edges; xi' = sum(A Rg) / sum(A) over the pores, A a pore's area. A pore that joins itself across the cell (the
 free space percolates, as in a loose gas) has no centre and no size: it is left out of xi' and its share of

@@ -38,7 +38,7 @@ def programmes(grains_bin, tmp_path_factory):
 @pytest.mark.parametrize("name", ["type2", "cohesionless"])
 def test_the_forces_found_from_the_geometry_give_the_engines_histogram_at_every_stage(programmes, name):
     positions, radii, edges, p_star, phi = dc.read_frames(programmes[name], (2, 3))
-    law = fd.law_of(programmes[name])
+    law = fd.law_of(programmes[name], 2 * float(np.max(radii)))
     with h5py.File(programmes[name]) as f:
         recorded = np.array([f[f"observables/force_histogram_{b:02}/value"][()] for b in range(21)]).T
         interactions = f["observables/coordination/value"][()] * positions.shape[1] / 2
@@ -61,7 +61,8 @@ def test_the_command_writes_both_panels_and_refuses_what_it_cannot_read(programm
     rows = list(csv.DictReader(table.open()))
     positions, radii, edges, p_star, _ = dc.read_frames(programmes["type2"], (2, 3))
     frame = dc.loading_frame(p_star, 0.0316)
-    forces = fd.normal_forces(positions[frame], radii[frame], edges[frame], fd.law_of(programmes["type2"]))
+    law = fd.law_of(programmes["type2"], 2 * float(np.max(radii)))
+    forces = fd.normal_forces(positions[frame], radii[frame], edges[frame], law)
     for panel, pressures in (("F_N / F0", {"0.01", "0.0316"}), ("F_N / P*F0", {"0.0316"})):
         mine = [row for row in rows if row["panel"] == panel]
         assert {row["P_star"] for row in mine} == pressures
@@ -77,3 +78,26 @@ def test_the_command_writes_both_panels_and_refuses_what_it_cannot_read(programm
                            "--pressures", "50", "--scaled", "60", "--table", str(tmp_path / "n.csv"), "-o",
                            str(tmp_path / "n.png")], capture_output=True, text=True, timeout=60)
     assert none.returncode == 2 and "none of [50.0, 60.0] is a loading stage" in none.stderr, none.stderr
+
+
+def test_outputs_that_would_overwrite_what_the_programme_wrote_are_refused(programmes, tmp_path):
+    """The documented command once named the programme's own stage table as --table, which the tool overwrote (a review,
+    2026-12-07); the table and the plot naming one file, the plot replaced the table."""
+    h5 = programmes["type2"]
+    for args, said in ((["--table", str(h5.with_suffix(".csv"))], "is the stage table of the input"),
+                       (["-o", str(tmp_path / "x.png"), "--table", str(tmp_path / "x.png")], "both name")):
+        before = h5.with_suffix(".csv").read_text()
+        r = subprocess.run([sys.executable, str(ROOT / "runner/force_distribution.py"), str(h5), *args],
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2 and said in r.stderr, r.stderr
+        assert h5.with_suffix(".csv").read_text() == before
+
+
+def test_the_attraction_range_defaults_to_the_largest_given_diameters(tmp_path):
+    """Listed particles have no size distribution: D0 was NaN, and every interaction was lost (a review, 2026-12-07).
+    The engine's default is 1e-3 of the largest given diameter."""
+    h5 = tmp_path / "listed.h5"
+    with h5py.File(h5, "w") as f:
+        f["parameters/scene.toml"] = ('[adhesion]\nenabled = true\nforce = 2.0\nstiffness = 1e4\n[contact]\noverlap_limit = 0.5\n'
+                                      '[particles]\nlayout = "list"\n').encode()
+    assert fd.law_of(h5, 3.0) == (1e4, 2.0, 3e-3, 0.5)
