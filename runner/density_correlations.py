@@ -252,6 +252,27 @@ def same_file(a, b):
         return False
 
 
+def refuse_overwriting(ap, outputs, given, inputs):
+    """ap.error for an output ({option: path}, a table and a plot) that is a folder or in a folder that is not there
+    (a traceback came after the table was written), an input, its stage table or its XDMF file (--table cons.h5
+    overwrote the input; a tool's documented --table its programme's table), or the other output. `given`: the
+    options the user named (the others are defaults beside the first input, and the message says so)."""
+    for option, path in outputs.items():
+        default = "" if given[option] else f" (the default; give {option})"
+        if kind := reuse.not_a_regular_file(path):
+            ap.error(f"{option} '{path}' is {kind}: name a file to write{default}")
+        if not path.resolve().parent.is_dir():
+            ap.error(f"{option}: the folder '{path.parent}' of '{path}' does not exist")
+        for source in inputs:
+            for read, what in ((source, "an input"), (stage_table_of(source), f"the stage table of the input '{source}'"),
+                               (source.with_suffix(".xdmf"), f"the XDMF file of the input '{source}'")):
+                if read is not None and same_file(path, read):
+                    ap.error(f"{option} '{path}' is {what}, which it would overwrite: name another file{default}")
+    first, second = outputs.values()
+    if same_file(first, second) or first.resolve() == second.resolve():
+        ap.error(f"--table and -o/--out both name '{first}': the plot would overwrite the table")
+
+
 def largest_grid(samples, pressures, points_per_diameter):
     """(grid points, P*) of the pressure whose states' density grids (density_field's) hold the most points in all."""
     largest = (0, math.nan)
@@ -290,8 +311,6 @@ def main(argv=None):
     from plot import image_name_problem
     if args.out and (problem := image_name_problem("-o/--out", args.out)):
         ap.error(problem)
-    if args.table and not pathlib.Path(args.table).resolve().parent.is_dir():
-        ap.error(f"--table: the folder '{pathlib.Path(args.table).parent}' of '{args.table}' does not exist")
     names = {}   # path -> the name given
     for name in args.h5:
         path = pathlib.Path(name)
@@ -302,22 +321,11 @@ def main(argv=None):
         else:
             names[path] = name
     paths = list(names)
-    # The outputs, named or beside the first input, before any work: not a folder (a traceback came after the table
-    # was written), not an input or its stage table (--table cons.h5 overwrote the input), not each other.
+    # The outputs, named or beside the first input, before any work.
     table, out = default_outputs(paths[0])
-    given = {"--table": args.table, "-o/--out": args.out}
     outputs = {"--table": pathlib.Path(args.table) if args.table else table,
                "-o/--out": pathlib.Path(args.out) if args.out else out}
-    for option, path in outputs.items():
-        default = "" if given[option] else f" (the default; give {option})"
-        if kind := reuse.not_a_regular_file(path):
-            ap.error(f"{option} '{path}' is {kind}: name a file to write{default}")
-        for source in paths:
-            for read, what in ((source, "an input"), (stage_table_of(source), f"the stage table of the input '{source}'")):
-                if read is not None and same_file(path, read):
-                    ap.error(f"{option} '{path}' is {what}, which it would overwrite: name another file{default}")
-    if same_file(*outputs.values()) or outputs["--table"].resolve() == outputs["-o/--out"].resolve():
-        ap.error(f"--table and -o/--out both name '{outputs['--table']}': the plot would overwrite the table")
+    refuse_overwriting(ap, outputs, {"--table": args.table, "-o/--out": args.out}, paths)
     samples = []
     for path in paths:
         try:

@@ -25,8 +25,7 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from consolidation_fit import stage_table_of  # noqa: E402
-from density_correlations import loading_frame, read_frames, same_file  # noqa: E402
+from density_correlations import loading_frame, read_frames, refuse_overwriting  # noqa: E402
 
 
 def law_of(path, largest_diameter):
@@ -102,18 +101,7 @@ def main(argv=None):
     stem = paths[0].with_suffix("")
     table = pathlib.Path(args.table) if args.table else stem.parent / f"{stem.name}-forces.csv"
     out = pathlib.Path(args.out) if args.out else stem.parent / f"{stem.name}-forces.png"
-    for option, path in (("--table", table), ("-o/--out", out)):
-        if kind := reuse.not_a_regular_file(path):
-            ap.error(f"{option} '{path}' is {kind}: name a file to write")
-        if not path.resolve().parent.is_dir():
-            ap.error(f"{option}: the folder '{path.parent}' of '{path}' does not exist")
-        for source in paths:
-            for read, what in ((source, "an input"), (stage_table_of(source), f"the stage table of the input '{source}'"),
-                               (source.with_suffix(".xdmf"), f"the XDMF file of the input '{source}'")):
-                if read is not None and same_file(path, read):
-                    ap.error(f"{option} '{path}' is {what}, which it would overwrite: name another file")
-    if table.resolve() == out.resolve():
-        ap.error(f"--table and -o/--out both name '{table}': the plot would overwrite the table")
+    refuse_overwriting(ap, {"--table": table, "-o/--out": out}, {"--table": args.table, "-o/--out": args.out}, paths)
     try:
         rows = report(paths, args.pressures, args.scaled, out, table)
     except UnreadableInput as err:
@@ -133,7 +121,7 @@ def report(paths, pressures, scaled, out, table):
     """The pooled distributions of the stages files `paths` at the loading-branch P* `pressures` (over F0) and `scaled`
     (over P* F0): prints a line each, writes the table (CSV) and the plot, and returns the table's rows ([] and nothing
     written when no input has any of the pressures). An input that is no stages file of the consolidation law raises
-    ValueError (or OSError, KeyError) naming it."""
+    UnreadableInput naming it; a table or plot that cannot be written, OSError."""
     samples = []
     for path in paths:
         try:
@@ -146,7 +134,7 @@ def report(paths, pressures, scaled, out, table):
     cohesive = samples[0][2][1] > 0
     rows = []
     panels = {"F0": [], "P*F0": []}
-    names = {"F0": "F0", "P*F0": "P*F0"} if cohesive else {"F0": "mean|F_N|", "P*F0": "mean|F_N|"}   # the scale used
+    names = {"F0": "F0", "P*F0": "P*F0"} if cohesive else {"F0": "mean|F_N|", "P*F0": "mean|F_N|"}   # the scales used
     for kind, targets in (("F0", pressures), ("P*F0", scaled)):
         for target in targets:
             forces, phis = [], []
@@ -181,24 +169,22 @@ def report(paths, pressures, scaled, out, table):
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    plot(panels, out, pathlib.Path(paths[0]).name + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""), cohesive)
+    plot(panels, out, pathlib.Path(paths[0]).name + (f" and {len(paths) - 1} more" if len(paths) > 1 else ""), names)
     print(f"wrote {table} and {out}")
     return rows
 
 
-def plot(panels, out, title, cohesive=True):
+def plot(panels, out, title, names):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
-    labels = (("F0", "F_N / F0"), ("P*F0", "F_N / (P* F0)")) if cohesive else \
-        (("F0", "F_N / mean |F_N|"), ("P*F0", "F_N / mean |F_N|"))
-    for ax, (kind, label) in zip(axes, labels):
+    for ax, kind in zip(axes, ("F0", "P*F0")):
         for (target, phi, lower, width, fractions, n), colour in zip(
                 panels[kind], plt.cm.viridis(np.linspace(0, 0.85, max(len(panels[kind]), 1)))):
             edges = lower + width * np.arange(len(fractions) + 1)   # the last bin is open: drawn one width wide
             ax.stairs(fractions / width, edges, color=colour, label=f"P* = {target:g} (Φ {phi:.3f}, {n})")
-        ax.set_xlabel(label)
+        ax.set_xlabel(f"F_N / {names[kind]}")
         ax.set_ylabel("probability density")
         if kind == "P*F0":
             ax.set_yscale("log")
