@@ -12,6 +12,7 @@
 
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "warnings_of.hpp"
 
 using namespace grains;
 using Catch::Matchers::Contains;
@@ -44,11 +45,6 @@ steps_per_contact = 30
 [run]
 threads = 1
 )", duration);
-}
-
-long warnings_of(const Simulation& sim, const std::string& check) {
-  return std::count_if(sim.warnings().begin(), sim.warnings().end(),
-                       [&](const std::string& w) { return w.find(check) != std::string::npos; });
 }
 
 long energy_warnings(const Simulation& sim) { return warnings_of(sim, "energy check"); }

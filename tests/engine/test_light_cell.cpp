@@ -12,15 +12,13 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "packed_cell_scene.hpp"
+#include "warnings_of.hpp"
 
 using namespace grains;
 using Catch::Contains;
 
 namespace {
-long light_cell_warnings(const Simulation& s) {
-  const auto& w = s.warnings();
-  return std::count_if(w.begin(), w.end(), [](const std::string& m) { return m.find("the lightest cell the step follows") != m.npos; });
-}
+long light_cell_warnings(const Simulation& s) { return warnings_of(s, "the lightest cell the step follows"); }
 }  // namespace
 
 TEST_CASE("a cell lighter than the step can follow is warned about, and is unstable", "[barostat][extremes]") {

@@ -10,15 +10,13 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "packed_cell_scene.hpp"
+#include "warnings_of.hpp"
 
 using namespace grains;
 using Catch::Contains;
 
 namespace {
-long clamp_warnings(const Simulation& s) {
-  const auto& w = s.warnings();
-  return std::count_if(w.begin(), w.end(), [](const std::string& m) { return m.find("clamped contact gives") != m.npos; });
-}
+long clamp_warnings(const Simulation& s) { return warnings_of(s, "clamped contact gives"); }
 }  // namespace
 
 // Cohesionless, so P* = P a^(D-2) / k_n and P a^(D-1) = P* k_n a; the cap k_n 0.1 R_min with R_min near a / 4
