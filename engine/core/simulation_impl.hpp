@@ -202,6 +202,7 @@ class SimulationImpl final : public Simulation {
   // --- observables (simulation_observables.cpp) ---
   void refresh(OutputGroup group) const;
   void refresh_general() const;
+  [[noreturn]] void refuse_overflowing_sums() const;
   void refresh_cell_observables() const;
   EquilibriumMeasures equilibrium_ratios() const;
   void refresh_bonds() const;
@@ -229,7 +230,7 @@ class SimulationImpl final : public Simulation {
   // A pair's k and c are kn_ (m* / m*_min)^first and cn_ (m* / m*_min)^second (global calibration: 0, 0).
   std::pair<double, double> pair_law_scaling_{0.0, 0.0};
   bool analysis_ = false;   // gravity scenes only
-  double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0, gravity_stiffness_ = 0;
+  double cluster_tol_ = 0, aggregation_threshold_ = 0.9, free_fall_time_ = 0, gravity_stiffness_per_G_ = 0;
   long analysis_every_ = 100;
   bool network_ = false;   // adhesion scenes: contact-network outputs
   double attraction_ = 0, adhesion_range_ = 0, zero_force_ = 1e-5, network_mark_ = 0;

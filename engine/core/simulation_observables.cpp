@@ -73,6 +73,24 @@ void SimulationImpl<D>::refresh(OutputGroup group) const {
   stamp = {sys_.step, sys_.time};
 }
 
+// Every particle's state is finite (the step checks that), yet a sum over them can overflow: a run that gained
+// energy without bound (a step too long for its encounters) stops here, naming the particle with the largest
+// share, rather than write inf into the outputs.
+template <int D>
+void SimulationImpl<D>::refuse_overflowing_sums() const {
+  const auto& P = sys_.particles;
+  std::size_t top = 0;
+  double top_energy = -1;
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    const double e = 0.5 * P.mass[i] * P.velocity[i].squaredNorm() + 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
+    if (!(e <= top_energy)) top = i, top_energy = e;
+  }
+  throw SimulationError(fmt::format(
+      "the kinetic energy, momentum or gravitational potential energy overflows a double at step {} (t = {:.9g}); the "
+      "largest share is particle {}'s (mass {:.6g}, velocity ({}), kinetic energy {:.6g}); {}",
+      sys_.step, sys_.time, top, P.mass[top], fmt::join(P.velocity[top], ", "), top_energy, blow_up_hint()));
+}
+
 template <int D>
 void SimulationImpl<D>::refresh_general() const {
   const auto& P = sys_.particles;
@@ -94,6 +112,7 @@ void SimulationImpl<D>::refresh_general() const {
               P.inertia[i] * P.angular_velocity[i][0];
     }
   }
+  if (!std::isfinite(kt + kr) || !p.allFinite() || !L.allFinite()) refuse_overflowing_sums();
   o["time"] = sys_.time;
   o["step"] = double(sys_.step);
   o["kinetic_energy"] = kt + kr;
@@ -109,6 +128,8 @@ void SimulationImpl<D>::refresh_general() const {
   std::vector<std::pair<std::string, double>> module_obs;
   for (const auto& m : modules_) m->observe(sys_, module_obs);
   for (const auto& [name, value] : module_obs) o[name] = value;
+  if (const auto w = o.find("gravity_potential_energy"); w != o.end() && !std::isfinite(w->second))
+    refuse_overflowing_sums();
   if (analysis_) {
     const ClusterStats cs = clusters();
     const double N = double(P.size());
@@ -124,7 +145,7 @@ void SimulationImpl<D>::refresh_general() const {
       if (cs.label[i] == cs.largest) x.push_back(P.position[i]), r.push_back(P.radius[i]), m.push_back(P.mass[i]);
     o["fractal_dimension"] = fractal_dimension<D>(x, r, m);
     o["aggregation_time"] = aggregation_time_;
-    if (kn_ > 0) o["normalised_stiffness"] = kn_ / gravity_stiffness_;
+    if (kn_ > 0) o["normalised_stiffness"] = kn_ / (gravity_stiffness_per_G_ * (gravity_ ? gravity_->G() : 0.0));
   }
   if (energy_check_) check_energy(kt + kr);
   check_pass_through();   // every contact law (it reads max_overlap_ratio; none without contacts)

@@ -375,12 +375,13 @@ void SimulationImpl<D>::setup_aggregation_analysis(const Scene& scene, double rm
   for (std::size_t i = 0; i < P.size(); ++i) R0 = std::max(R0, (P.position[i] - c).norm());
   free_fall_time_ = std::sqrt(R0 * R0 * R0 / (scene.real("gravity.G") * M));
   // Gravitational stiffness scale k_g = G m^2 / (4 R^3) (physics.md section 2) of the mean grain: the
-  // contact-point attraction G m^2 / (2R)^2 of two such grains over a deformation R.
+  // contact-point attraction G m^2 / (2R)^2 of two such grains over a deformation R. Kept per unit G: a host may
+  // change G while stepping, and k* follows it (t_ff, a property of the initial cloud, keeps the initial G).
   double mean_radius = 0;
   for (std::size_t i = 0; i < P.size(); ++i) mean_radius += P.radius[i];
   mean_radius /= double(P.size());
   const double mean_mass = M / double(P.size());
-  gravity_stiffness_ = scene.real("gravity.G") * mean_mass * mean_mass / (4 * std::pow(mean_radius, 3));
+  gravity_stiffness_per_G_ = mean_mass * mean_mass / (4 * std::pow(mean_radius, 3));
 }
 
 // This file's members, instantiated one by one: each of the Simulation's files instantiates its own

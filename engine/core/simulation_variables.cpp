@@ -133,13 +133,13 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
     out("cluster_index", "", "N_c / N: 1 = all isolated, 1/N = one aggregate");
     out("largest_cluster_fraction", "", "f_max: mass fraction of the largest cluster");
     out("virial_ratio", "", "Q = K / |W| (0.5 at virial equilibrium)");
-    out("free_fall_time", "s", "t_ff = sqrt(R0^3 / (G M)), R0 = largest initial distance from the centre of mass");
+    out("free_fall_time", "s", "t_ff = sqrt(R0^3 / (G M)), R0 = largest initial distance from the centre of mass, G the initial one");
     out("time_over_free_fall", "", "t / t_ff");
     out("fractal_dimension", "", "mass-radius D_f of the largest cluster (NaN when it is too small)");
     out("aggregation_time", "s", "first time f_max >= analysis.aggregation_threshold, checked every analysis.every steps; NaN until then");
     if (kn_ > 0)
-      out("normalised_stiffness", "", "k* = k_n / k_g, k_g = G m^2 / (4 R^3) of the mean grain (m, R), k_n the calibration's "
-                                      "(the lightest pair's in per-pair mode)");
+      out("normalised_stiffness", "", "k* = k_n / k_g, k_g = G m^2 / (4 R^3) of the mean grain (m, R) at the present G, k_n the "
+                                      "calibration's (the lightest pair's in per-pair mode)");
   }
   if (network_) {
     describing_ = OutputGroup::network;

@@ -486,3 +486,40 @@ TEST_CASE("extremes: a gravitational constant whose closest pair force overflows
     CHECK_THAT(e.what(), Contains("non-finite") && !Contains("lower gravity.G"));
   }
 }
+
+TEST_CASE("extremes: energies that overflow while every particle stays finite stop the run, not inf in the outputs",
+          "[extremes][gravity]") {
+  // Two heavy, wide spheres falling through each other's softened core at a step 30 times their orbit's: each pass
+  // gains energy until ½ m v² overflows while v does not. The outputs read inf and the run went on (a review, 2026-12-07).
+  auto sim = make(R"(
+[scene]
+dimension = 3
+[particles]
+layout = "list"
+positions = [[0, 0, 0], [3e10, 0, 0]]
+diameters = [1e10, 1e10]
+masses = [1e150, 1e150]
+[box]
+periodic = false
+[contact]
+enabled = false
+[gravity]
+enabled = true
+G = 5e17
+[time]
+dt = 1e-70
+)");
+  CHECK(std::isfinite(sim->get("kinetic_energy")));
+  try {
+    for (int k = 0; k < 20; ++k) {
+      sim->step_n(100);
+      const double K = sim->get("kinetic_energy"), W = sim->get("gravity_potential_energy");   // or the error below
+      INFO("after " << sim->step_count() << " steps");
+      REQUIRE((std::isfinite(K) && std::isfinite(W)));
+    }
+    FAIL("the energy stayed finite for 2000 steps: the case no longer overflows");
+  } catch (const SimulationError& e) {
+    INFO(e.what());
+    CHECK_THAT(e.what(), Contains("overflows a double at step") && Contains("particle 0") && Contains("kinetic energy inf"));
+  }
+}

@@ -257,3 +257,16 @@ TEST_CASE("orbit rule: a host's G moves its step and whether contacts hold grain
   set_G(*coarse, 1000.0);
   CHECK(coarse->warnings().size() == 1);
 }
+
+TEST_CASE("a host's G moves k* with it, and t_ff keeps the initial cloud's G", "[gravity]") {
+  // k* stayed at the initial G's value after a host changed G (found in the forty-third session), so the energy
+  // check's "contacts too soft (k* = ...)" quoted a k* a thousand times too stiff after G was raised a thousandfold.
+  auto sim = Simulation::create(
+      Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/aggregation.toml", {"run.threads=1", "particles.count=50"}));
+  const double G = sim->get(sim->index_of("gravity.G")), k_star = sim->get("normalised_stiffness");
+  const double t_ff = sim->get("free_fall_time");
+  set_G(*sim, 1000 * G);
+  sim->step_n(1);
+  CHECK(sim->get("normalised_stiffness") == Approx(k_star / 1000).epsilon(1e-12));
+  CHECK(sim->get("free_fall_time") == t_ff);
+}
