@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -798,7 +799,7 @@ class ContactForces final : public ForceModule<D> {
       Vec<3> ft = -kt * xi - ct * vt;
       const double mag2 = ft.squaredNorm();
       if (mag2 > bound * bound) {   // sliding (so |F_t| > 0): cap the force, and the spring at |k_t xi| = mu F_n (see above)
-        ft *= bound / std::sqrt(mag2);
+        ft *= bound / length_from_square(ft, mag2);
         const double reach = bound / kt, stretch2 = xi.squaredNorm();
         if (stretch2 > reach * reach) xi *= reach / std::sqrt(stretch2);
       }
@@ -806,6 +807,12 @@ class ContactForces final : public ForceModule<D> {
       ti += (Ri * n).cross(-ft);
       return ft;
     }
+  }
+
+  // |v| from its square, also where that square overflows (linear_contacts::overflow_rescale).
+  static double length_from_square(const Vec<3>& v, double square) {
+    if (square <= std::numeric_limits<double>::max()) return std::sqrt(square);
+    return std::sqrt((v * linear_contacts::overflow_rescale).squaredNorm()) / linear_contacts::overflow_rescale;
   }
 
   // x / d and r / d for a pair at distance d. In 2D through the reciprocal: the cohesive kernels take one
@@ -887,7 +894,7 @@ class ContactForces final : public ForceModule<D> {
         moment = -rolling_.stiffness * theta;
         const double mag2 = moment.squaredNorm();
         if (mag2 > bound * bound) {
-          moment *= bound / std::sqrt(mag2);
+          moment *= bound / length_from_square(moment, mag2);
           theta = moment / -rolling_.stiffness;
         }
       }

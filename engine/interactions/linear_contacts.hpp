@@ -18,6 +18,11 @@ namespace grains::linear_contacts {
 // a normal reversed within one step (centres crossed) has no such rotation (0 / 0): the spring is only projected.
 inline constexpr double spring_turnable = 1e-12;
 
+// A tangential force's |F_t|^2 overflows a double from |F_t| ~ 1.3e154 (a friction.stiffness_ratio of 1e160, say),
+// where |F_t| itself is finite; the Coulomb cap bound / sqrt(inf) then zeroed the force, friction off unsaid. There the
+// length is taken from the force scaled by this power of two (exactly), and scaled back.
+inline constexpr double overflow_rescale = 0x1p-600;
+
 struct Input {
   const double *position, *radius, *mass, *velocity_predicted;   // positions and velocities as x, y, z triples
   const std::uint32_t* partner;                                    // each list entry's j

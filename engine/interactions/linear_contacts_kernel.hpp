@@ -11,6 +11,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #include "interactions/linear_contacts.hpp"
 
@@ -164,7 +165,13 @@ struct Kernel : W {
     const V mag2 = dot(ft, ft);
     if (const Mask slides = both(m, greater(mag2, mul(bound, bound))); any(slides)) {
       // Cap the force; shorten the spring only if it alone passes the bound.
-      const V cap = blend(slides, all(1.0), div(bound, blend(slides, all(1.0), sqrt(mag2))));
+      V mag = sqrt(mag2);
+      if (const Mask overflows = both(slides, greater(mag2, all(std::numeric_limits<double>::max()))); any(overflows)) {
+        V scaled_ft[3];   // as the portable code's length_from_square
+        for (int a = 0; a < 3; ++a) scaled_ft[a] = mul(ft[a], all(overflow_rescale));
+        mag = blend(overflows, mag, div(sqrt(dot(scaled_ft, scaled_ft)), all(overflow_rescale)));
+      }
+      const V cap = blend(slides, all(1.0), div(bound, blend(slides, all(1.0), mag)));
       for (int a = 0; a < 3; ++a) ft[a] = blend(slides, ft[a], mul(ft[a], cap));
       const V reach = blend(slides, all(1.0), div(bound, kt)), stretch2 = dot(xi, xi);
       if (const Mask shortened = both(slides, greater(stretch2, mul(reach, reach))); any(shortened)) {

@@ -87,6 +87,21 @@ TEST_CASE("rolling resistance, rolling regime: the moment is capped at mu_R K_N 
   }
 }
 
+// A rolling spring so stiff that its moment squared overflows a double (3D; 2D takes no square): the cap divided by
+// sqrt(inf) and zeroed the moment, rolling resistance off unsaid (found with friction by a review, 2026-12-07).
+TEST_CASE("rolling resistance: a spring whose moment squared overflows still rolls at the bound", "[rolling]") {
+  const double inertia = 0.4 * 1.0 * 0.25, mu_r = 0.005, w0 = 1.0;
+  std::string scene = spinning_pair(3, w0, mu_r);
+  const auto at = scene.find("[rolling]\n");
+  REQUIRE(at != std::string::npos);
+  scene.insert(at + 10, "stiffness_ratio = 1e160\n");
+  auto s = Simulation::create(Scene::from_string(scene, "rolling"));
+  s->step(0.2);
+  const double t1 = s->time(), w1 = relative_spin(*s);
+  s->step(0.8);
+  CHECK((relative_spin(*s) - w1) / (s->time() - t1) == Approx(-mu_r * F0 * 2 / inertia).epsilon(1e-9));
+}
+
 TEST_CASE("rolling resistance ignores twisting about the normal (3D)", "[rolling]") {
   auto s = Simulation::create(Scene::from_string(spinning_pair(3, 1.0, 0.005, {1, 0, 0}), "twist"));
   s->step(0.5);
