@@ -177,6 +177,8 @@ class SimulationImpl final : public Simulation {
   // --- warnings of a scene that will run badly (simulation_warnings.cpp) ---
   void warn_damped_packing_step(double tc);
   void warn_sticking_spring_step(const Scene& scene, double tc);
+  // setting: what set beta, for the message (the scene's keys, or a host's or the programme's new value)
+  void warn_rolling_step(double beta, const std::string& setting) const;
   void warn_coarse_coordinates(const Scene& scene, double rmin);
   void warn_unresolved_approach(const Scene& scene, double rmin);
   void warn_gravity_step(const Scene& scene, double rmin, bool contacts);
@@ -222,6 +224,7 @@ class SimulationImpl final : public Simulation {
   // The gravity time-step rule's inputs (warn_gravity_step; gravity scenes of two grains or more), evaluated at the G
   // in effect by the core check and when a host sets gravity.G.
   std::optional<OrbitStepRule> orbit_rule_;
+  mutable bool rolling_step_warned_ = false;   // warn_rolling_step has warned (once per run; not saved)
   bool orbit_rule_warned_ = false;   // the step exceeded the rule's, at the start-up or a host's G (once per run; saved)
   // The clock (time_after): the time of the last step that was not a whole dt (or of the start), and the
   // whole steps since.

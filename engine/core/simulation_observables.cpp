@@ -87,8 +87,9 @@ void SimulationImpl<D>::refuse_overflowing_sums() const {
   }
   throw SimulationError(fmt::format(
       "the kinetic energy, momentum or gravitational potential energy overflows a double at step {} (t = {:.9g}); the "
-      "largest share is particle {}'s (mass {:.6g}, velocity ({}), kinetic energy {:.6g}); {}",
-      sys_.step, sys_.time, top, P.mass[top], fmt::join(P.velocity[top], ", "), top_energy, blow_up_hint()));
+      "largest share is particle {}'s (mass {:.6g}, velocity ({}), angular velocity ({}), kinetic energy {:.6g}); {}",
+      sys_.step, sys_.time, top, P.mass[top], fmt::join(P.velocity[top], ", "), fmt::join(P.angular_velocity[top], ", "),
+      top_energy, blow_up_hint()));
 }
 
 template <int D>

@@ -143,7 +143,14 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
                  Variability::tunable,
                  "beta = c_r / (c_n R_i R_j) of the rolling dashpot on the relative spin (tunable: takes effect at "
                  "the next step; 0 is the paper's law)", 0.0, 1.0},
-                [r = rolling_] { return r->damping; }, [r = rolling_](double beta) { r->damping = beta; });
+                [r = rolling_] { return r->damping; },
+                [this](double beta) {
+                  rolling_->damping = beta;
+                  // A restored state's own value is no new setting.
+                  if (!loading_controls_ && beta > 0)
+                    warn_rolling_step(beta, fmt::format("rolling.damping_ratio = {:.6g} (set at t = {:.6g}, step {})", beta,
+                                                        sys_.time, sys_.step));
+                });
   drag_ = scene.real("drag.rate");
   add_control({"drag.rate", scene_key_unit("drag.rate", D), Causality::parameter, Variability::tunable,
                "gamma: every step multiplies velocities (relative to the cell's affine flow) and spins by "

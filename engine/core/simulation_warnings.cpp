@@ -97,7 +97,6 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
                      "the normal time-step rule does not see it): above it that motion grows every step and collisions "
                      "gain energy; {}", what, dt_, limit, mode, remedy));
   };
-  const auto& P = sys_.particles;
   if (scene.boolean("contact.enabled") && scene.real("friction.coefficient") > 0) {
     // (+ 0: c_n is -0 at e = 1, -2 m* ln e / t_c)
     const double kt = scene.real("friction.stiffness_ratio") * kn_, ct = scene.real("friction.damping_ratio") * cn_ + 0.0;
@@ -105,17 +104,54 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
                     scene.real("friction.stiffness_ratio"), kt, scene.real("friction.damping_ratio"), ct),
         stable_step(kt, ct, smallest_reduced_mass() / (1 + 1 / kappa)), "a sticking contact's tangential spring and dashpot");
   }
-  if (rolling_ && rolling_->stiffness > 0) {
-    std::vector<std::pair<double, std::size_t>> inertia;   // the two smallest moments of inertia
-    for (std::size_t i = 0; i < P.size(); ++i) inertia.emplace_back(kappa * P.mass[i] * P.radius[i] * P.radius[i], i);
-    std::partial_sort(inertia.begin(), inertia.begin() + std::min<std::size_t>(2, inertia.size()), inertia.end());
-    const auto [I1, i1] = inertia[0];
-    const auto [I2, i2] = inertia.size() > 1 ? inertia[1] : inertia[0];
-    const double cr = rolling_->damping * cn_ * P.radius[i1] * P.radius[i2];
-    say(fmt::format("rolling.stiffness_ratio = {:.6g} (K_R = {:.6g}) with rolling.damping_ratio = {:.6g}",
-                    scene.real("rolling.stiffness_ratio"), rolling_->stiffness, rolling_->damping),
-        stable_step(rolling_->stiffness, cr, I1 * I2 / (I1 + I2)), "a sticking contact's rolling spring and dashpot");
-  }
+  if (rolling_ && (rolling_->stiffness > 0 || rolling_->damping > 0))
+    warn_rolling_step(rolling_->damping,
+                      rolling_->stiffness > 0
+                          ? fmt::format("rolling.stiffness_ratio = {:.6g} (K_R = {:.6g}) with rolling.damping_ratio = {:.6g}",
+                                        scene.real("rolling.stiffness_ratio"), rolling_->stiffness, rolling_->damping)
+                          : fmt::format("rolling.damping_ratio = {:.6g} (no rolling spring: rolling.coefficient = 0)",
+                                        rolling_->damping));
+}
+
+// The rolling spring and dashpot on a pair's relative spin (rule above): the mode's mass is the pair's reduced moment
+// of inertia I*, its dashpot c_r = beta c_n R_i R_j with the pair's c_n. The worst pair is not the two smallest grains:
+// a small grain against a large one has c_r / I* larger by about R_large / R_small (a 200-disk packing of diameters
+// 0.05-1 blew up at beta = 1, unwarned, since the rule looked at the smallest pair only and only with a rolling
+// spring; a review, 2026-12-07). Each grain is paired with the few partners that could be worst for it: the two of
+// the smallest inertia, the largest and the heaviest grain. Also checked when a host or the programme's quench sets
+// beta (once per run, as the setting's own warning).
+template <int D>
+void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& setting) const {
+  const auto& P = sys_.particles;
+  if (P.size() < 2 || rolling_step_warned_) return;
+  const double K = rolling_->stiffness, mstar_min = smallest_reduced_mass();
+  std::vector<std::size_t> partners(P.size());
+  std::iota(partners.begin(), partners.end(), std::size_t(0));
+  std::partial_sort(partners.begin(), partners.begin() + 2, partners.end(),
+                    [&](std::size_t a, std::size_t b) { return P.inertia[a] < P.inertia[b]; });
+  partners.resize(2);
+  const auto largest = [&](const std::vector<double>& v) { return std::size_t(std::max_element(v.begin(), v.end()) - v.begin()); };
+  partners.push_back(largest(P.radius)), partners.push_back(largest(P.mass));
+  struct Worst { double step = std::numeric_limits<double>::infinity(), inertia = 0, dashpot_per_beta = 0; std::size_t i = 0, j = 0; } worst;
+  for (std::size_t i = 0; i < P.size(); ++i)
+    for (const std::size_t j : partners) {
+      if (i == j) continue;
+      const double inertia = P.inertia[i] * P.inertia[j] / (P.inertia[i] + P.inertia[j]);
+      const double mstar = P.mass[i] * P.mass[j] / (P.mass[i] + P.mass[j]);
+      const double per_beta = cn_ * std::sqrt(mstar / mstar_min) * P.radius[i] * P.radius[j];
+      const double c = beta * per_beta, step = 4 * inertia / (c + std::hypot(c, 2 * std::sqrt(K * inertia)));
+      if (step < worst.step) worst = {step, inertia, per_beta, i, j};
+    }
+  if (!(dt_ > worst.step)) return;
+  rolling_step_warned_ = true;
+  // k h^2 + 2 c h <= 4 I*: the largest beta this step holds (none when the spring alone exceeds it)
+  const double beta_max = (2 * worst.inertia / dt_ - 0.5 * K * dt_) / worst.dashpot_per_beta;
+  warn(fmt::format("{}: time.dt = {:.6g} exceeds {:.6g}, the largest step at which a sticking contact's rolling "
+                   "spring and dashpot are stable for the worst pair (particles {} and {}, radii {:.6g} and {:.6g}; the "
+                   "normal time-step rule does not see it): above it their relative spin grows every step; {}",
+                   setting, dt_, worst.step, worst.i, worst.j, P.radius[worst.i], P.radius[worst.j],
+                   beta_max > 0 ? fmt::format("keep rolling.damping_ratio at or below {:.3g}, or lower the step", beta_max)
+                                : std::string("lower rolling.stiffness_ratio or the step")));
 }
 
 // Positions are doubles: far from the origin their spacing, |x| 2^-52, grows past the overlaps the contacts
@@ -365,6 +401,7 @@ void SimulationImpl<D>::check_softened_core() const {
 #define GRAINS_SIMULATION_WARNINGS_MEMBERS(D) \
   template void SimulationImpl<D>::warn_damped_packing_step(double); \
   template void SimulationImpl<D>::warn_sticking_spring_step(const Scene&, double); \
+  template void SimulationImpl<D>::warn_rolling_step(double, const std::string&) const; \
   template void SimulationImpl<D>::warn_coarse_coordinates(const Scene&, double); \
   template void SimulationImpl<D>::warn_unresolved_approach(const Scene&, double); \
   template void SimulationImpl<D>::warn_gravity_step(const Scene&, double, bool); \
