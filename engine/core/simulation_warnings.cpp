@@ -80,10 +80,20 @@ void SimulationImpl<D>::warn_damped_packing_step(double tc) {
 // pair (the smallest moments) is the fastest: kn_ and cn_ are its. For rolling the bound is cautious: in a
 // 64-disk gas the spins grew from rolling.stiffness_ratio 45-100, where it says 32 (the smallest grains
 // need not touch each other).
+namespace {
+// 4 m / (c + sqrt(c^2 + 4 k m)), the root scaled by the larger term so that it neither overflows nor underflows
+// (friction.damping_ratio takes c from 0 to 1e300). Not std::hypot: glibc 2.35 versioned it anew, and the FMUs
+// must load with glibc 2.34 (a review, 2026-12-07, found GLIBC_2.35 in them).
+double sticking_stable_step(double k, double c, double m) {
+  const double s = 2 * std::sqrt(k) * std::sqrt(m), g = std::max(c, s);
+  if (!(g > 0)) return std::numeric_limits<double>::infinity();
+  if (std::isinf(g)) return 0;
+  return 4 * m / (c + g * std::sqrt((c / g) * (c / g) + (s / g) * (s / g)));
+}
+}  // namespace
+
 template <int D>
 void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc) {
-  // (sqrt(c^2 + 4 k m) as a hypot: neither overflows nor underflows, friction.damping_ratio taking 0 to 1e300)
-  const auto stable_step = [](double k, double c, double m) { return 4 * m / (c + std::hypot(c, 2 * std::sqrt(k * m))); };
   const double kappa = D == 3 ? 0.4 : 0.5;
   const auto say = [&](const std::string& what, double limit, const std::string& mode) {
     if (!(dt_ > limit)) return;
@@ -102,7 +112,7 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
     const double kt = scene.real("friction.stiffness_ratio") * kn_, ct = scene.real("friction.damping_ratio") * cn_ + 0.0;
     say(fmt::format("friction.stiffness_ratio = {:.6g} (k_t = {:.6g}) with friction.damping_ratio = {:.6g} (c_t = {:.6g})",
                     scene.real("friction.stiffness_ratio"), kt, scene.real("friction.damping_ratio"), ct),
-        stable_step(kt, ct, smallest_reduced_mass() / (1 + 1 / kappa)), "a sticking contact's tangential spring and dashpot");
+        sticking_stable_step(kt, ct, smallest_reduced_mass() / (1 + 1 / kappa)), "a sticking contact's tangential spring and dashpot");
   }
   if (rolling_ && (rolling_->stiffness > 0 || rolling_->damping > 0))
     warn_rolling_step(rolling_->damping,
@@ -139,7 +149,7 @@ void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& settin
       const double inertia = P.inertia[i] * P.inertia[j] / (P.inertia[i] + P.inertia[j]);
       const double mstar = P.mass[i] * P.mass[j] / (P.mass[i] + P.mass[j]);
       const double per_beta = cn_ * std::sqrt(mstar / mstar_min) * P.radius[i] * P.radius[j];
-      const double c = beta * per_beta, step = 4 * inertia / (c + std::hypot(c, 2 * std::sqrt(K * inertia)));
+      const double step = sticking_stable_step(K, beta * per_beta, inertia);
       if (step < worst.step) worst = {step, inertia, per_beta, i, j};
     }
   if (!(dt_ > worst.step)) return;

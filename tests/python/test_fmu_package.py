@@ -156,6 +156,29 @@ def test_binary_needs_only_the_c_and_cxx_runtimes(fmu, library):
     assert not any(bad in " ".join(needed) for bad in ("hdf5", "sundials", "fmt", "curl", "ssl"))
 
 
+# The newest symbol versions the README promises the FMUs need (Debian 12's build: glibc 2.34, GCC 11's libstdc++).
+NEWEST_VERSIONS = {"GLIBC": (2, 34), "GLIBCXX": (3, 4, 29), "CXXABI": (1, 3, 13)}
+
+
+@pytest.mark.parametrize("library", [binary_of, fork_guard_of], ids=["binary", "fork_guard"])
+def test_binary_needs_no_symbol_newer_than_glibc_2_34_and_gcc_11(fmu, library):
+    """std::hypot bound GLIBC_2.35 (glibc versioned hypot anew then), so the FMUs no longer loaded on RHEL 9, which the
+    README names (a review, 2026-12-07); the list of libraries above could not see it."""
+    _, version, path = fmu
+    listing = subprocess.run(["readelf", "-V", "-W", library(path, version)], capture_output=True, text=True,
+                             check=True).stdout
+    needs = listing.split("Version needs section")[1] if "Version needs section" in listing else ""
+    found = {}
+    for word in needs.split():
+        if "_" in word and word.split("_")[-1][:1].isdigit():
+            family, number = word.rsplit("_", 1)
+            found.setdefault(family, []).append(tuple(int(x) for x in number.split(".")))
+    assert "GLIBC" in found, listing
+    for family, newest in NEWEST_VERSIONS.items():
+        too_new = [v for v in found.get(family, []) if v > newest]
+        assert not too_new, f"{family} versions newer than {newest}: {sorted(too_new)}"
+
+
 def test_fork_guard_stays_loaded_and_exports_nothing(fmu):
     """The FMU binary finds an already loaded guard by its SONAME; -z nodelete keeps it loaded, with its fork handler."""
     _, version, path = fmu
