@@ -76,6 +76,7 @@ class Barostat {
     return r;
   }
   CellLengthStatistics statistics() const { return ode_.statistics(); }
+  const CellLengthParameters& parameters() const { return ode_.parameters(); }
 
   // The contacts' damping of the cell's strain rate (see affine_contact_damping), per axis.
   void set_contact_damping(const Vec<D>& eta) { ode_.set_extra_damping(eta.data()); }

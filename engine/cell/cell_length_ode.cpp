@@ -118,11 +118,26 @@ void CellLengthOde::advance(double t_end, const double* stress_excess) {
     char* name = CVodeGetReturnFlagName(flag);   // malloc'ed by CVODE
     const std::string reason = name ? name : "unknown";
     std::free(name);
+    // Name the likeliest cause from the terms of the equation (a review, 2026-12-07: every failure blamed the mass,
+    // the pressure and the contacts, and quoted a damping without the contacts' share).
+    const double h = t_end - t_, extra = *std::max_element(extra_damping_.begin(), extra_damping_.begin() + p_.axes);
+    const double damping_steps = (p_.damping + extra) / p_.mass * h;   // the damping's rate times the step
+    const bool finite_excess = std::all_of(excess_.begin(), excess_.begin() + p_.axes, [](double x) { return std::isfinite(x); });
+    const std::string cause =
+        !finite_excess ? "the stress excess is not finite: the pressure's scale overflowed (look at cell.pressure, "
+                         "cell.force_unit or adhesion.force, the unit of P*)"
+        : damping_steps > 1e3
+            ? fmt::format("the damping makes the equation stiff: (eta_c + eta_contacts) / M_c times the step is {:.3g}, and "
+                          "CVODE's non-stiff method needs about that many steps per particle step (at most 100000); lower "
+                          "{} or raise cell.mass", damping_steps,
+                          extra > p_.damping ? "cell.contact_damping" : "cell.damping_ratio")
+            : "the cell's equation is non-finite or too stiff for the step; look at cell.mass, cell.pressure (and its "
+              "unit, cell.force_unit), the contacts' stiffness and time.dt";
     throw std::runtime_error(fmt::format(
-        "barostat: CVODE integration to t = {} failed ({}, flag {}) with stress excess ({}) on a cell of mass "
-        "cell.mass = {:.6g} and damping {:.6g}: the cell's equation is non-finite or too stiff for the step; look at "
-        "cell.mass, cell.pressure and the contacts' stiffness", t_end, reason, flag,
-        fmt::join(excess_.begin(), excess_.begin() + p_.axes, ", "), p_.mass, p_.damping));
+        "barostat: CVODE integration to t = {} (a step of {:.6g}) failed ({}, flag {}) with stress excess ({}) on a cell "
+        "of mass cell.mass = {:.6g}, damping eta_c = {:.6g} (cell.damping_ratio) and eta_contacts = {:.6g} at most "
+        "(cell.contact_damping): {}", t_end, h, reason, flag, fmt::join(excess_.begin(), excess_.begin() + p_.axes, ", "),
+        p_.mass, p_.damping, extra, cause));
   }
   t_ = t_end;
 }

@@ -267,6 +267,8 @@ class SimulationImpl final : public Simulation {
   double clamp_force_ = 0;                          // K_N f_max R_min: the most a contact's spring pushes
   bool pressure_clamp_warned_ = false;              // a target at or above clamp_force_ was warned about
   bool cell_too_light_ = false;                     // cell.mass below k_cell dt^2, warned at set-up
+  bool stiff_cell_damping_warned_ = false;          // warn_stiff_cell_damping has warned (once per run; not saved)
+  void warn_stiff_cell_damping();
   double cell_list_reach_ = 0;
   EquilibriumTolerances tolerances_;
   bool cell_active_ = true;

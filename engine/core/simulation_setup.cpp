@@ -362,6 +362,7 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
   barostat_ = std::make_unique<Barostat<D>>(p, sys_.box.length, target_reduced_ * pressure_scale_, sys_.time);
   if (!cell_active_) barostat_->hold();
   barostat_->restart_every_step(scene.boolean("cell.restart_cvode_every_step"));
+  warn_stiff_cell_damping();
   cell_list_reach_ = list_reach;
   sys_.want_virial = true;
 }

@@ -93,8 +93,10 @@ void SimulationImpl<D>::one_step(double h, bool last, double end) {
   sys_.want_virial = barostat_ && (cell_moves || last);
   if (barostat_ && ramp_.on) follow_ramp();
   if (cell_moves) {   // the cell moves under the stress of the last force evaluation (operator splitting)
-    if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0)
+    if (contact_damping_ > 0 && sys_.step % contact_damping_every_ == 0) {
       barostat_->set_contact_damping(contact_damping_ * affine_contact_damping<D>(sys_, cn_));
+      warn_stiff_cell_damping();
+    }
     const Tensor<D> sigma = stress_between_steps();   // outside the clock: cvode_seconds is the integrator's own time
     const auto start = std::chrono::steady_clock::now();
     scale = barostat_->advance(sys_.time, t_end, sigma);

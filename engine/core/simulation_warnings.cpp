@@ -164,6 +164,29 @@ void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& settin
                                 : std::string("lower rolling.stiffness_ratio or the step")));
 }
 
+// The cell's damping, eta_c (cell.damping_ratio) and the contacts' eta_a (cell.contact_damping), relaxes its strain
+// rate in M_c / eta. CVODE's non-stiff (Adams) method must resolve that time: where it is far below the particle step
+// it takes about 1.3 eta / M_c dt steps per particle step (measured, 200 disks, M_c = 30: 11 at cell.damping_ratio
+// 1000, 21 at 2000, 103 at 1e4, where eta / M_c dt is 8.2, 16 and 82; about 0.5 without damping in a cycle, 1.2 % of its
+// time), and fails beyond 100000. A review (2026-12-07) found a run 470 times slower at cell.contact_damping = 1e6,
+// unwarned. Warned once, where eta / M_c dt passes 10.
+constexpr double stiff_cell_damping = 10;
+template <int D>
+void SimulationImpl<D>::warn_stiff_cell_damping() {
+  if (stiff_cell_damping_warned_ || !barostat_) return;
+  const auto& p = barostat_->parameters();
+  const Vec<D> eta = barostat_->contact_damping();
+  const double contacts = eta.maxCoeff(), relaxations = (p.damping + contacts) / p.mass * dt_;
+  if (!(relaxations > stiff_cell_damping)) return;
+  stiff_cell_damping_warned_ = true;
+  warn(fmt::format("cell damping: at t = {:.6g} (step {}) the cell's damping, eta_c = {:.6g} (cell.damping_ratio) and "
+                   "eta_contacts = {:.6g} (cell.contact_damping), over cell.mass M_c = {:.6g} relaxes its strain rate {:.3g} "
+                   "times within one particle step: CVODE resolves that with about 1.3 times as many steps per particle "
+                   "step, slowing the run, and fails beyond 100000; lower {}, or raise cell.mass",
+                   sys_.time, sys_.step, p.damping, contacts, p.mass, relaxations,
+                   contacts > p.damping ? "cell.contact_damping" : "cell.damping_ratio"));
+}
+
 // Positions are doubles: far from the origin their spacing, |x| 2^-52, grows past the overlaps the contacts
 // work with, and below it nothing moves. Two grains 1e16 radii out kept their speeds but never moved (an
 // unchanged kinetic energy, no collision, nothing said); at 1e11 radii the collision's restitution was off by
@@ -413,6 +436,7 @@ void SimulationImpl<D>::check_softened_core() const {
   template void SimulationImpl<D>::warn_sticking_spring_step(const Scene&, double); \
   template void SimulationImpl<D>::warn_rolling_step(double, const std::string&) const; \
   template void SimulationImpl<D>::warn_coarse_coordinates(const Scene&, double); \
+  template void SimulationImpl<D>::warn_stiff_cell_damping(); \
   template void SimulationImpl<D>::warn_unresolved_approach(const Scene&, double); \
   template void SimulationImpl<D>::warn_gravity_step(const Scene&, double, bool); \
   template std::string SimulationImpl<D>::orbit_rule_terms(const OrbitStepRule::At&) const; \

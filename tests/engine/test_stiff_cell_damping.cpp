@@ -1,0 +1,47 @@
+// A cell damping whose relaxation time is far below the particle step: CVODE's non-stiff method resolves it with
+// about 1.3 eta / M_c dt steps per particle step (a review, 2026-12-07: a run 470 times slower at
+// cell.contact_damping = 1e6, unwarned, and every failure blamed cell.mass and the pressure). Warned once past 10;
+// a failure names the damping.
+#include <catch2/catch.hpp>
+
+#include <string>
+
+#include <fmt/format.h>
+
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "packed_cell_scene.hpp"
+#include "warnings_of.hpp"
+
+using namespace grains;
+using Catch::Contains;
+
+TEST_CASE("a cell damping stiffer than the step is warned about, costs CVODE steps, and is named when CVODE fails",
+          "[barostat][extremes]") {
+  const auto cell = [](double ratio) {
+    return Simulation::create(Scene::from_string(packed_cell_scene(2, 64, 0.01, fmt::format("damping_ratio = {}", ratio)), "cell"));
+  };
+  // CVODE steps per particle step over 200 steps
+  const auto cost = [](Simulation& s) {
+    const double before = s.get("cvode_steps");
+    s.step_n(200);
+    return (s.get("cvode_steps") - before) / 200;
+  };
+  auto mild = cell(50), stiff = cell(2000);
+  CHECK(warnings_of(*mild, "cell damping") == 0);
+  REQUIRE(warnings_of(*stiff, "cell damping") == 1);
+  CHECK_THAT(stiff->warnings().back(), Contains("(cell.damping_ratio)") && Contains("lower cell.damping_ratio"));
+  const double mild_cost = cost(*mild), stiff_cost = cost(*stiff);
+  INFO("CVODE steps per particle step: " << mild_cost << " and " << stiff_cost);
+  CHECK(mild_cost < 10);
+  CHECK(stiff_cost > 10);   // the warning is no false alarm
+  CHECK(warnings_of(*stiff, "cell damping") == 1);   // once
+  // Far beyond: CVODE gives up, and the error says why.
+  auto hopeless = cell(1e9);
+  try {
+    hopeless->step_n(10);
+    FAIL("CVODE integrated a damping 1e9 times critical");
+  } catch (const std::exception& e) {
+    CHECK_THAT(e.what(), Contains("the damping makes the equation stiff") && Contains("lower cell.damping_ratio"));
+  }
+}
