@@ -100,6 +100,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
   // The file holds the start-up warnings (begin_output, or the programme being resumed): only later ones are
   // written, after each stage (a stage's target pressure beyond what the clamped contacts carry).
   std::size_t warnings_written = sim.warnings().size();
+  bool clamp_warned = false;   // a stage ended with contacts past the overlap clamp (said once)
   fmt::print("grains {}: consolidation programme of '{}' ({}D, {} particles, preparation {})\n", GRAINS_VERSION, name,
              sim.dimension(), sim.particle_count(), settings.preparation);
   std::fflush(stdout);
@@ -178,6 +179,21 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     write_frame(out, sim);
     status.finish();
     write_new_warnings(out, sim, warnings_written);
+    // Contacts past the overlap clamp carry a capped force: the stage's equilibrium is that of another law. Counted
+    // in the outputs only, such stages went by unsaid (a review, 2026-12-07: "equilibrium" at P* = 2000 with the
+    // largest overlap twice the clamp). Said at the first such stage.
+    if (const double clamped = sim.has("clamped_contacts") ? sim.get("clamped_contacts") : 0.0; clamped > 0 && !clamp_warned) {
+      clamp_warned = true;
+      const std::string what = fmt::format(
+          "stage {} ({}{}) ended with {:.0f} contact(s) past the overlap clamp (max_overlap_ratio {:.4g} of the smaller "
+          "radius, contact.overlap_limit {:.4g}): their elastic force is capped, so this state is not an equilibrium of "
+          "the scene's law; raise adhesion.stiffness or contact.overlap_limit, or stay at lower pressures (later stages "
+          "are not warned of again: clamped_contacts in their records)",
+          r.index, r.phase, std::isnan(r.target) ? std::string() : fmt::format(", P* = {:.4g}", r.target), clamped,
+          sim.get("max_overlap_ratio"), scene.real("contact.overlap_limit"));
+      fmt::print(stderr, "warning: {}\n", what);
+      out.write_warning(what);
+    }
     if (!r.reached) {
       ++unreached;
       // A ramped first compression's budget counts from the ramp's end.

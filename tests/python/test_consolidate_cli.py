@@ -266,3 +266,22 @@ def test_the_trace_and_record_of_an_aggregation_in_its_fixed_cell_have_no_target
     assert np.isnan(recorded_target[0]) and np.isnan(table_target[0])
     assert np.array_equal(recorded_target, table_target, equal_nan=True)
     assert np.array_equal(target[at_end], recorded_target, equal_nan=True)
+
+
+def test_a_stage_ending_with_contacts_past_the_overlap_clamp_is_warned_about_once(grains_bin, root, tmp_path):
+    """Counted in the outputs only, a stage in "equilibrium" with contacts past the clamp went by unsaid (a review,
+    2026-12-07). 60 disks at kappa = 1e4 with the clamp at 0.2 R_min: P* = 100 holds (largest overlap 0.07 R_min),
+    P* = 1000 crushes the packing past it."""
+    out = tmp_path / "crushed.h5"
+    r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--out", out, "--table",
+            tmp_path / "crushed.csv", "--set", "particles.count=60", "--set", "programme.preparation=none",
+            "--set", "cell.pressure=100", "--set", "programme.top_pressure=1000", "--set", "programme.stages_per_decade=1",
+            "--set", "programme.unload=false", "--set", "programme.stage_budget=300000", "--set", "adhesion.stiffness=1e4",
+            "--set", "contact.overlap_limit=0.2", "--set", "analysis.elastic_moduli=false", "--set", "run.threads=1")
+    assert r.returncode == 0, r.stderr
+    said = [line for line in r.stderr.splitlines() if "past the overlap clamp" in line]
+    assert len(said) == 1 and said[0].startswith("warning: stage 1 (loading, P* = 1000) ended with "), r.stderr
+    with h5py.File(out) as f:
+        clamped = f["observables/clamped_contacts/value"][()]
+        assert clamped[1] == 0 and clamped[2] > 0   # stage 0 held, stage 1 did not: the warning is no false alarm
+        assert sum("past the overlap clamp" in text(w) for w in f["grains/warnings"][()]) == 1
