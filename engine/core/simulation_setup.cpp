@@ -351,6 +351,16 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
                      "and without it the cell blows up; raise cell.mass (unset: m (L / a)^(D-2) = {:.6g}) or lower the "
                      "step (time.steps_per_contact)", p.mass, lightest, cell_stiffness, dt_, default_mass));
   p.rate_cap = rate_cap(target_reduced_);
+  // A cap so low that no run strains the cell: a force unit far below the scene's forces (T0 = sqrt(a m / F0) huge) or
+  // a vanishing inertia number held the cell still, with P* far from its target, unwarned (a review, 2026-12-07).
+  if (const double steps = 0.01 / (p.rate_cap * dt_); !(steps <= 1e9))
+    warn(fmt::format("cell.inertia_number = {:.6g} over T0 = sqrt(a m / F0) = {:.6g} (F0 = {:.6g}, {}) caps the cell's "
+                     "strain rate at {:.6g}: at most {:.3g} of strain a step, {:.3g} steps for 1 %, so the cell cannot "
+                     "follow its target pressure in any run; raise cell.inertia_number, or give the force unit the scale "
+                     "of the scene's forces", inertia_number_, inertia_number_ / p.rate_cap,
+                     force_unit_ > 0 ? force_unit_ : pressure_force(target_reduced_),
+                     force_unit_ > 0 ? "cell.force_unit, or adhesion.force by default" : "cohesionless: P a^(D-1)",
+                     p.rate_cap, p.rate_cap * dt_, steps));
   p.rtol = scene.real("cell.rtol");
   p.atol_length = scene.real("cell.atol") * length_unit_;
   p.time_unit = inertial_time(target_reduced_);

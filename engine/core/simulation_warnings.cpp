@@ -201,12 +201,22 @@ void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin)
   const double spacing = std::nextafter(far, std::numeric_limits<double>::infinity()) - far;
   const double depth = scene.real("contact.overlap_limit") * rmin;
   const std::string layout = scene.text("particles.layout");
-  const char* key = layout == "list" ? "particles.positions" : layout == "file" ? "particles.file" : "box.lower";
+  // What put the grains that far: their listed places, the box's corner, or its size (a box sized from a tiny
+  // particles.solid_fraction was blamed on an unset box.lower; a review, 2026-12-07).
+  double corner = 0, size = 0;
+  for (int a = 0; a < D; ++a)
+    corner = std::max(corner, std::abs(sys_.box.lower[a])), size = std::max(size, sys_.box.length[a]);
+  const bool placed = scene.has("box.lower") && corner >= size;
+  const char* key = layout == "list"           ? "particles.positions"
+                    : layout == "file"         ? "particles.file"
+                    : placed                   ? "box.lower"
+                    : scene.has("box.lengths") ? "box.lengths"
+                                               : "particles.solid_fraction";
   if (spacing > 1e-3 * depth)
     warn(fmt::format("{}: coordinates reach {:.6g}, where doubles are {:.3g} apart, more than 1e-3 of the clamp depth "
                      "contact.overlap_limit R_min = {:.6g}: overlaps are resolved no finer than that, and moves below it "
-                     "are lost to rounding (grains 1e16 radii out never moved); place the scene near the origin "
-                     "(coordinates below {:.3g})", key, far, spacing, depth, depth * 1e-3 * std::pow(2.0, 52)));
+                     "are lost to rounding (grains 1e16 radii out never moved); keep every coordinate below {:.3g} (a scene "
+                     "near the origin, and no larger)", key, far, spacing, depth, depth * 1e-3 * std::pow(2.0, 52)));
 }
 
 // Two of the fastest initial grains approaching head-on close 2 v_max dt in a step. Beyond the clamp depth

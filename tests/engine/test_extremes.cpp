@@ -20,6 +20,7 @@
 
 using namespace grains;
 using Catch::Contains;
+using Catch::StartsWith;
 
 namespace {
 
@@ -400,8 +401,24 @@ TEST_CASE("extremes: coordinates too far out for the contacts' overlaps are warn
   auto far = pair_at(5e15);   // doubles 1 apart
   REQUIRE(far->warnings().size() == 1);
   CHECK_THAT(far->warnings()[0], Contains("particles.positions: coordinates reach 5e+15, where doubles are 1 apart") &&
-                                     Contains("place the scene near the origin"));
+                                     Contains("a scene near the origin, and no larger"));
   CHECK(collide(*far) == 1.0);   // what it warns about: they never met
+  // A random gas whose box a tiny solid fraction makes enormous: the fraction is named, not the unset box.lower.
+  auto sparse = make(R"(
+[scene]
+dimension = 2
+[particles]
+layout = "random"
+count = 20
+diameter = 1.0
+mass = 1.0
+solid_fraction = 1e-30
+[contact]
+restitution = 0.5
+duration = 0.1
+)");
+  REQUIRE(sparse->warnings().size() == 1);
+  CHECK_THAT(sparse->warnings()[0], StartsWith("particles.solid_fraction: coordinates reach"));
 }
 
 // At a fixed t_c the spring stiffens as ln^2 e: at e = 1e-20 and 50 steps per contact the head-on pair parted at
