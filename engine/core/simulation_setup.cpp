@@ -311,6 +311,12 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
     scene.fail("cell.force_unit", "missing: without adhesion, give the force unit of P* in the scene's units, a value "
                                   "> 0 (P* = P a^(D-1) / value), or 0 (P* = P a^(D-2) / k_n)");
   force_unit_ = cell_force_unit(scene);
+  // A subnormal unit: P* = P a^(D-1) / F0 and the time unit sqrt(a m / F0) overflow, and inf reached the outputs.
+  if (force_unit_ > 0 && force_unit_ < std::numeric_limits<double>::min())
+    scene.fail(scene.has("cell.force_unit") ? "cell.force_unit" : "adhesion.force",
+               fmt::format("value {:.6g} as the force unit of P* is below the smallest normal double {:.6g}, where the "
+                           "reduced pressure and the inertial time overflow: allowed 0 (cohesionless) or at least {:.6g}",
+                           force_unit_, std::numeric_limits<double>::min(), std::numeric_limits<double>::min()));
   pressure_scale_ = force_unit_ > 0 ? force_unit_ / std::pow(length_unit_, D - 1) : kn_ / std::pow(length_unit_, D - 2);
   inertia_number_ = scene.real("cell.inertia_number");
   target_reduced_ = scene.real("cell.pressure");

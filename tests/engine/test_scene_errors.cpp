@@ -574,6 +574,10 @@ TEST_CASE("scene errors: a cell without adhesion names its force unit", "[scene]
                                "units, a value > 0") && Contains("or 0 (P* = P a^(D-2) / k_n)"));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=1", "cell.pressure=0.01"}));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=0", "cell.pressure=0.01"}));
+  // A subnormal unit overflowed P* and the time unit to inf, which reached the outputs (a review, 2026-12-07).
+  REQUIRE_THROWS_WITH(build(good, {"cell.enabled=true", "cell.force_unit=1e-320", "cell.pressure=0.01"}),
+                      Contains("cell.force_unit: value 9.99989e-321 as the force unit of P* is below the smallest normal "
+                               "double") && Contains("allowed 0 (cohesionless) or at least 2.22507e-308"));
 }
 
 TEST_CASE("scene errors: a key another given key replaces is warned about, not refused, and not resolved", "[scene][errors]") {
