@@ -109,8 +109,13 @@ Sums particle_sums_portable(const Lists& L, std::size_t self, double eps2) {
   return s;
 }
 
-// Monopole + quadrupole of the softened kernel: with r = com - x and h = sqrt(|r|^2 + eps^2),
-// phi = -(M / h + r.Q.r / (2 h^5)), a = (M / h^3 + 5/2 (r.Q.r) / h^7) r - Q r / h^5.
+// Monopole + quadrupole of the softened kernel: with r = com - x, h = sqrt(|r|^2 + eps^2), Q = 3 sum m d d^T (d from
+// the centre of mass; not traceless) and S = tr Q / 3 = sum m |d|^2,
+// phi = -(M / h + r.Q.r / (2 h^5) - S / (2 h^3)), a = (M / h^3 + 5/2 (r.Q.r) / h^7 - 3/2 S / h^5) r - Q r / h^5.
+// The S terms are the softening's part of the second order (the kernel's Hessian is -I / h^3 + 3 r r^T / h^5, not
+// traceless where eps > 0): until 2026-12-07 Q was traceless and they were missing, which a review found as
+// force errors of 1e-5 where 2e-7 was due (cells seen at 150 from a softening of 600) and a median of 1.2e-3 in a
+// ball at softening 10 (2.4e-4 expected). With eps = 0 they cancel the trace exactly.
 void cell_sums_portable(const Lists& L, double xi, double yi, double zi, double eps2, Sums& s) {
   const Columns<double>& c = L.cells64;
   for (std::size_t j = 0; j < L.cells; ++j) {
@@ -120,10 +125,10 @@ void cell_sums_portable(const Lists& L, double xi, double yi, double zi, double 
     const double qx = c.qxx[j] * dx + c.qxy[j] * dy + c.qxz[j] * dz;
     const double qy = c.qxy[j] * dx + c.qyy[j] * dy + c.qyz[j] * dz;
     const double qz = c.qxz[j] * dx + c.qyz[j] * dy + c.qzz[j] * dz;
-    const double rQr = dx * qx + dy * qy + dz * qz;
-    const double a = c.m[j] * inv3 + 2.5 * rQr * inv5 * inv2;
+    const double rQr = dx * qx + dy * qy + dz * qz, trace = c.qxx[j] + c.qyy[j] + c.qzz[j];   // trace = 3 S
+    const double a = c.m[j] * inv3 + 2.5 * rQr * inv5 * inv2 - 0.5 * trace * inv5;
     s.x += a * dx - inv5 * qx, s.y += a * dy - inv5 * qy, s.z += a * dz - inv5 * qz;
-    s.phi -= c.m[j] * inv + 0.5 * rQr * inv5;
+    s.phi -= c.m[j] * inv + 0.5 * rQr * inv5 - trace * inv3 / 6;
   }
 }
 
@@ -457,11 +462,10 @@ void Tree::build(int id, int begin, int end, int level, bool in_group, const std
 void Tree::moments(int id) {
   Cell& c = cells_[id];
   Quadrupole& Q = quad_[id];
-  // Adds m (3 d d^T - |d|^2 I) to Q.
+  // Adds 3 m d d^T to Q (see cell_sums_portable).
   auto add = [&Q](double m, double dx, double dy, double dz) {
-    const double d2 = dx * dx + dy * dy + dz * dz;
-    Q[0] += m * (3 * dx * dx - d2), Q[1] += m * 3 * dx * dy, Q[2] += m * 3 * dx * dz;
-    Q[3] += m * (3 * dy * dy - d2), Q[4] += m * 3 * dy * dz, Q[5] += m * (3 * dz * dz - d2);
+    Q[0] += m * 3 * dx * dx, Q[1] += m * 3 * dx * dy, Q[2] += m * 3 * dx * dz;
+    Q[3] += m * 3 * dy * dy, Q[4] += m * 3 * dy * dz, Q[5] += m * 3 * dz * dz;
   };
   double mass = 0, mx = 0, my = 0, mz = 0;
   if (c.children == 0) {
@@ -494,7 +498,10 @@ void Tree::moments(int id) {
   // Opening distance: s / theta with s the longest edge of the particles' box (tight: a cell holding a
   // small clump counts as small), but never less than b_max, the distance from the centre of mass to the
   // box's farthest corner, so that the target lies outside every particle of the cell (the expansion's
-  // convergence radius) even when the centre of mass sits near one edge.
+  // convergence radius) even when the centre of mass sits near one edge. For cells along the box's diagonal
+  // b_max is 0.87 s: from theta = 1.15 on b_max decides, and at theta = 1 a cell beside the group is used whole with
+  // b / d up to 0.87 (a line of grains along the diagonal: errors of 0.29 of the terms' scale at theta 1, 1.6e-3
+  // at 0.9; a review, 2026-12-07). The schema says so.
   double edge = 0, b2 = 0;
   for (int a = 0; a < 3; ++a) {
     edge = std::max(edge, c.hi[a] - c.lo[a]);
