@@ -252,10 +252,17 @@ void SimulationImpl<D>::warn_gravity_step(const Scene& scene, double rmin, bool 
   orbit_rule_ = OrbitStepRule{m[0] + m[1], m[0], M, scene.real("gravity.softening") * rmin,
                               contacts ? kn_ * scene.real("contact.overlap_limit") * rmin : 0.0, rmin, contacts};
   const double G = scene.real("gravity.G");
-  if (const auto rule = orbit_rule_->at(G); rule.orbit > 0 && dt_ > rule.step()) {   // orbit = 0: unsoftened, no bound
+  const auto rule = orbit_rule_->at(G);
+  if (rule.orbit > 0 && dt_ > rule.step()) {
     orbit_rule_warned_ = true;
     warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} ({}): close gravitational encounters are resolved by "
                      "fewer than 20 steps", dt_, rule.step(), orbit_rule_terms(rule)));
+  } else if (rule.orbit == 0) {   // unsoftened and nothing holding grains apart: the rule has no step (a review, 2026-12-07)
+    orbit_rule_warned_ = true;
+    warn(fmt::format("gravity.softening = 0 with {}: grains may come arbitrarily close, where the orbit a step must resolve "
+                     "(T_orb / 20 at distance d) shortens without end, so no time.dt resolves close encounters (orbits "
+                     "that stay wide, as a binary's, are unaffected; the energy check watches the run); give "
+                     "gravity.softening > 0", orbit_rule_->contacts ? "contacts that cannot keep grains apart" : "no contacts"));
   }
 }
 

@@ -80,3 +80,26 @@ TEST_CASE("gravity step rule: warns past T_orb / 20 and names both numbers", "[g
   CHECK(Simulation::create(Scene::from_string(scene("enabled = false", 1e-4), "quiet"))->warnings().empty());
   CHECK(Simulation::create(Scene::from_string(scene("enabled = true\nduration = 1.0", 1e-4), "quiet"))->warnings().empty());
 }
+
+TEST_CASE("gravity step rule: unsoftened gravity that nothing holds apart is warned about, held apart it is not",
+          "[gravity]") {
+  // With softening 0 the rule's closest approach d = 0 has no orbit to resolve: it said nothing, and a cloud whose
+  // grains met at softening 0 gained 101 % energy by step 200 (a review, 2026-12-07).
+  const auto unsoftened = [](const std::string& contact) {
+    std::string text = scene(contact, 1e-4);
+    text.replace(text.find("softening = 0.5"), 15, "softening = 0.0");
+    return Simulation::create(Scene::from_string(text, "unsoftened"));
+  };
+  const auto said = [](const Simulation& s) {
+    long n = 0;
+    for (const auto& w : s.warnings()) n += w.starts_with("gravity.softening = 0 with ");
+    return n;
+  };
+  auto none = unsoftened("enabled = false"), soft = unsoftened("restitution = 0.5\nduration = 1.0");
+  auto stiff = unsoftened("restitution = 0.5\nduration = 1e-3");
+  CHECK(said(*none) == 1);
+  CHECK_THAT(none->warnings().back(), Contains("with no contacts") && Contains("give gravity.softening > 0"));
+  CHECK(said(*soft) == 1);
+  CHECK_THAT(soft->warnings().back(), Contains("with contacts that cannot keep grains apart"));
+  CHECK(said(*stiff) == 0);   // held at 2 R_min: that orbit has a step, checked as before
+}
