@@ -188,7 +188,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
           "stage {} ({}{}) ended with {:.0f} contact(s) past the overlap clamp (max_overlap_ratio {:.4g} of the smaller "
           "radius, contact.overlap_limit {:.4g}): their elastic force is capped, so this state is not an equilibrium of "
           "the scene's law; raise adhesion.stiffness or contact.overlap_limit, or stay at lower pressures (later stages "
-          "are not warned of again: clamped_contacts in their records)",
+          "of this run are not warned of again: clamped_contacts in their records)",
           r.index, r.phase, std::isnan(r.target) ? std::string() : fmt::format(", P* = {:.4g}", r.target), clamped,
           sim.get("max_overlap_ratio"), scene.real("contact.overlap_limit"));
       fmt::print(stderr, "warning: {}\n", what);

@@ -126,7 +126,7 @@ void CellLengthOde::advance(double t_end, const double* stress_excess) {
     const std::string cause =
         !finite_excess ? "the stress excess is not finite: the pressure's scale overflowed (look at cell.pressure, "
                          "cell.force_unit or adhesion.force, the unit of P*)"
-        : damping_steps > 1e3
+        : damping_steps > 5e4   // CVODE takes about 1.3 steps per relaxation, at most 100000 a call
             ? fmt::format("the damping makes the equation stiff: (eta_c + eta_contacts) / M_c times the step is {:.3g}, and "
                           "CVODE's non-stiff method needs about that many steps per particle step (at most 100000); lower "
                           "{} or raise cell.mass", damping_steps,

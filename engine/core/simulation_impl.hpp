@@ -204,7 +204,13 @@ class SimulationImpl final : public Simulation {
   // --- observables (simulation_observables.cpp) ---
   void refresh(OutputGroup group) const;
   void refresh_general() const;
-  [[noreturn]] void refuse_overflowing_sums() const;
+  [[noreturn]] void refuse_overflowing_sums(const char* sum) const;
+  struct MotionSums {
+    double translational = 0, rotational = 0;
+    Vec<D> momentum = Vec<D>::Zero();
+    Eigen::Vector3d angular_momentum = Eigen::Vector3d::Zero();   // about the origin; 2D: z only
+  };
+  MotionSums motion_sums() const;
   void refresh_cell_observables() const;
   EquilibriumMeasures equilibrium_ratios() const;
   void refresh_bonds() const;

@@ -74,10 +74,11 @@ void SimulationImpl<D>::refresh(OutputGroup group) const {
 }
 
 // Every particle's state is finite (the step checks that), yet a sum over them can overflow: a run that gained
-// energy without bound (a step too long for its encounters) stops here, naming the particle with the largest
-// share, rather than write inf into the outputs.
+// energy without bound (a step too long for its encounters) stops, naming the sum and the particle with the largest
+// kinetic energy, rather than write inf into the outputs. Checked at the end of every stepping call (run_steps: a
+// host's step, the runner's stretch between records) and wherever the outputs are computed.
 template <int D>
-void SimulationImpl<D>::refuse_overflowing_sums() const {
+void SimulationImpl<D>::refuse_overflowing_sums(const char* sum) const {
   const auto& P = sys_.particles;
   std::size_t top = 0;
   double top_energy = -1;
@@ -86,34 +87,44 @@ void SimulationImpl<D>::refuse_overflowing_sums() const {
     if (!(e <= top_energy)) top = i, top_energy = e;
   }
   throw SimulationError(fmt::format(
-      "the kinetic energy, momentum or gravitational potential energy overflows a double at step {} (t = {:.9g}); the "
-      "largest share is particle {}'s (mass {:.6g}, velocity ({}), angular velocity ({}), kinetic energy {:.6g}); {}",
-      sys_.step, sys_.time, top, P.mass[top], fmt::join(P.velocity[top], ", "), fmt::join(P.angular_velocity[top], ", "),
-      top_energy, blow_up_hint()));
+      "the {} overflows a double at step {} (t = {:.9g}); the particle of the largest kinetic energy is {} (mass {:.6g}, "
+      "velocity ({}), angular velocity ({}), kinetic energy {:.6g}); {}",
+      sum, sys_.step, sys_.time, top, P.mass[top], fmt::join(P.velocity[top], ", "),
+      fmt::join(P.angular_velocity[top], ", "), top_energy, blow_up_hint()));
+}
+
+// The kinetic energies and momenta, summed; refused where a sum overflows.
+template <int D>
+typename SimulationImpl<D>::MotionSums SimulationImpl<D>::motion_sums() const {
+  const auto& P = sys_.particles;
+  MotionSums s;
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    // About the origin from the positions as written (wrapped into the cell), so that the file's
+    // positions reproduce it; the engine's own may sit one cell outside between wraps.
+    const Vec<D> x = sys_.box.wrap(P.position[i]);
+    s.translational += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
+    s.rotational += 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
+    s.momentum += P.mass[i] * P.velocity[i];
+    if constexpr (D == 3) {
+      s.angular_momentum += P.mass[i] * x.cross(P.velocity[i]) + P.inertia[i] * P.angular_velocity[i];
+    } else {
+      s.angular_momentum[2] += P.mass[i] * (x[0] * P.velocity[i][1] - x[1] * P.velocity[i][0]) +
+                               P.inertia[i] * P.angular_velocity[i][0];
+    }
+  }
+  if (!std::isfinite(s.translational + s.rotational)) refuse_overflowing_sums("kinetic energy");
+  if (!s.momentum.allFinite() || !s.angular_momentum.allFinite()) refuse_overflowing_sums("momentum or angular momentum");
+  return s;
 }
 
 template <int D>
 void SimulationImpl<D>::refresh_general() const {
   const auto& P = sys_.particles;
   auto& o = observable_values_;
-  double kt = 0, kr = 0;
-  Vec<D> p = Vec<D>::Zero();
-  Eigen::Vector3d L = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < P.size(); ++i) {
-    // About the origin from the positions as written (wrapped into the cell), so that the file's
-    // positions reproduce it; the engine's own may sit one cell outside between wraps.
-    const Vec<D> x = sys_.box.wrap(P.position[i]);
-    kt += 0.5 * P.mass[i] * P.velocity[i].squaredNorm();
-    kr += 0.5 * P.inertia[i] * P.angular_velocity[i].squaredNorm();
-    p += P.mass[i] * P.velocity[i];
-    if constexpr (D == 3) {
-      L += P.mass[i] * x.cross(P.velocity[i]) + P.inertia[i] * P.angular_velocity[i];
-    } else {
-      L[2] += P.mass[i] * (x[0] * P.velocity[i][1] - x[1] * P.velocity[i][0]) +
-              P.inertia[i] * P.angular_velocity[i][0];
-    }
-  }
-  if (!std::isfinite(kt + kr) || !p.allFinite() || !L.allFinite()) refuse_overflowing_sums();
+  const MotionSums sums = motion_sums();
+  const double kt = sums.translational, kr = sums.rotational;
+  const Vec<D>& p = sums.momentum;
+  const Eigen::Vector3d& L = sums.angular_momentum;
   o["time"] = sys_.time;
   o["step"] = double(sys_.step);
   o["kinetic_energy"] = kt + kr;
@@ -130,7 +141,7 @@ void SimulationImpl<D>::refresh_general() const {
   for (const auto& m : modules_) m->observe(sys_, module_obs);
   for (const auto& [name, value] : module_obs) o[name] = value;
   if (const auto w = o.find("gravity_potential_energy"); w != o.end() && !std::isfinite(w->second))
-    refuse_overflowing_sums();
+    refuse_overflowing_sums("gravitational potential energy");
   if (analysis_) {
     const ClusterStats cs = clusters();
     const double N = double(P.size());
@@ -146,7 +157,9 @@ void SimulationImpl<D>::refresh_general() const {
       if (cs.label[i] == cs.largest) x.push_back(P.position[i]), r.push_back(P.radius[i]), m.push_back(P.mass[i]);
     o["fractal_dimension"] = fractal_dimension<D>(x, r, m);
     o["aggregation_time"] = aggregation_time_;
-    if (kn_ > 0) o["normalised_stiffness"] = kn_ / (gravity_stiffness_per_G_ * (gravity_ ? gravity_->G() : 0.0));
+    // NaN while a host holds G at 0: no gravity to compare the contacts with.
+    const double G = gravity_ ? gravity_->G() : 0.0;
+    if (kn_ > 0) o["normalised_stiffness"] = G > 0 ? kn_ / (gravity_stiffness_per_G_ * G) : std::nan("");
   }
   if (energy_check_) check_energy(kt + kr);
   check_pass_through();   // every contact law (it reads max_overlap_ratio; none without contacts)
@@ -283,6 +296,7 @@ void SimulationImpl<D>::mark_network(double value) {
   template BoxView SimulationImpl<D>::box() const; \
   template void SimulationImpl<D>::refresh(OutputGroup) const; \
   template void SimulationImpl<D>::refresh_general() const; \
+  template typename SimulationImpl<D>::MotionSums SimulationImpl<D>::motion_sums() const; \
   template void SimulationImpl<D>::refresh_cell_observables() const; \
   template EquilibriumMeasures SimulationImpl<D>::equilibrium_ratios() const; \
   template void SimulationImpl<D>::refresh_bonds() const; \

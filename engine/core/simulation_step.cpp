@@ -65,6 +65,7 @@ void SimulationImpl<D>::run_steps(Steps steps) {
     throw;
   }
   settle();
+  motion_sums();   // refuses sums that overflow (a host reading only positions, say, would not see them)
 }
 
 // Nothing is pending between runs: a run's last kick is done before it returns.

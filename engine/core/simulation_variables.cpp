@@ -138,7 +138,7 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
     out("fractal_dimension", "", "mass-radius D_f of the largest cluster (NaN when it is too small)");
     out("aggregation_time", "s", "first time f_max >= analysis.aggregation_threshold, checked every analysis.every steps; NaN until then");
     if (kn_ > 0)
-      out("normalised_stiffness", "", "k* = k_n / k_g, k_g = G m^2 / (4 R^3) of the mean grain (m, R) at the present G, k_n the "
+      out("normalised_stiffness", "", "k* = k_n / k_g, k_g = G m^2 / (4 R^3) of the mean grain (m, R) at the present G (NaN at G = 0), k_n the "
                                       "calibration's (the lightest pair's in per-pair mode)");
   }
   if (network_) {

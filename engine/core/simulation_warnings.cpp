@@ -123,13 +123,16 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
                                         rolling_->damping));
 }
 
-// The rolling spring and dashpot on a pair's relative spin (rule above): the mode's mass is the pair's reduced moment
-// of inertia I*, its dashpot c_r = beta c_n R_i R_j with the pair's c_n. The worst pair is not the two smallest grains:
-// a small grain against a large one has c_r / I* larger by about R_large / R_small (a 200-disk packing of diameters
-// 0.05-1 blew up at beta = 1, unwarned, since the rule looked at the smallest pair only and only with a rolling
-// spring; a review, 2026-12-07). Each grain is paired with the few partners that could be worst for it: the two of
-// the smallest inertia, the largest and the heaviest grain. Also checked when a host or the programme's quench sets
-// beta (once per run, as the setting's own warning).
+// The rolling spring and dashpot on a pair's relative spin (rule above): its dashpot c_r = beta c_n R_i R_j with the
+// pair's c_n. A grain's spin feels the dashpots of all its contacts: for grain i among z_ij grains like j, each of which
+// touches z_ji grains like i, the fastest mode's inertia is I* = 1 / (z_ij / I_i + z_ji / I_j), z the most such grains
+// that fit around one (2D: floor(pi / asin(R_j / (R_i + R_j))), 6 for equal disks; 3D: the caps' area bound
+// floor(2 / (1 - cos alpha)), 14 for equal spheres, where 12 fit). The worst pair is not the two smallest grains: a
+// small grain against a large one has c_r / I_i larger by about R_large / R_small (a 200-disk packing of diameters
+// 0.05-1 blew up at beta = 1, unwarned: the rule looked at the smallest pair only, one contact each, and only with
+// a rolling spring; two reviews, 2026-12-07). Each grain is paired with the few partners that could be worst for it:
+// the two of the smallest inertia, the largest and the heaviest grain. Also checked when a host or the programme's
+// quench sets beta (once per run, as the setting's own warning).
 template <int D>
 void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& setting) const {
   const auto& P = sys_.particles;
@@ -142,25 +145,40 @@ void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& settin
   partners.resize(2);
   const auto largest = [&](const std::vector<double>& v) { return std::size_t(std::max_element(v.begin(), v.end()) - v.begin()); };
   partners.push_back(largest(P.radius)), partners.push_back(largest(P.mass));
-  struct Worst { double step = std::numeric_limits<double>::infinity(), inertia = 0, dashpot_per_beta = 0; std::size_t i = 0, j = 0; } worst;
+  // Grains of radius `around` that fit about one of radius `centre`, touching it and not each other.
+  const auto fit = [](double centre, double around) {
+    const double half_angle = std::asin(around / (centre + around));
+    return std::floor((D == 2 ? std::numbers::pi / half_angle : 2 / (1 - std::cos(half_angle))) * (1 + 1e-12));   // 6 exactly
+  };
+  struct Worst {
+    double step = std::numeric_limits<double>::infinity(), inertia = 0, dashpot_per_beta = 0, z = 0;
+    std::size_t i = 0, j = 0;
+  } worst;
   for (std::size_t i = 0; i < P.size(); ++i)
     for (const std::size_t j : partners) {
       if (i == j) continue;
-      const double inertia = P.inertia[i] * P.inertia[j] / (P.inertia[i] + P.inertia[j]);
+      const double zij = fit(P.radius[i], P.radius[j]), zji = fit(P.radius[j], P.radius[i]);
+      const double inertia = 1 / (zij / P.inertia[i] + zji / P.inertia[j]);
       const double mstar = P.mass[i] * P.mass[j] / (P.mass[i] + P.mass[j]);
       const double per_beta = cn_ * std::sqrt(mstar / mstar_min) * P.radius[i] * P.radius[j];
       const double step = sticking_stable_step(K, beta * per_beta, inertia);
-      if (step < worst.step) worst = {step, inertia, per_beta, i, j};
+      // Named by the grain whose spin the mode moves (the larger share of 1 / I*)
+      if (step < worst.step)
+        worst = zij / P.inertia[i] >= zji / P.inertia[j] ? Worst{step, inertia, per_beta, zij, i, j}
+                                                        : Worst{step, inertia, per_beta, zji, j, i};
     }
   if (!(dt_ > worst.step)) return;
   rolling_step_warned_ = true;
   // k h^2 + 2 c h <= 4 I*: the largest beta this step holds (none when the spring alone exceeds it)
   const double beta_max = (2 * worst.inertia / dt_ - 0.5 * K * dt_) / worst.dashpot_per_beta;
-  warn(fmt::format("{}: time.dt = {:.6g} exceeds {:.6g}, the largest step at which a sticking contact's rolling "
-                   "spring and dashpot are stable for the worst pair (particles {} and {}, radii {:.6g} and {:.6g}; the "
-                   "normal time-step rule does not see it): above it their relative spin grows every step; {}",
-                   setting, dt_, worst.step, worst.i, worst.j, P.radius[worst.i], P.radius[worst.j],
-                   beta_max > 0 ? fmt::format("keep rolling.damping_ratio at or below {:.3g}, or lower the step", beta_max)
+  warn(fmt::format("{}: time.dt = {:.6g} exceeds {:.6g}, the largest step at which sticking contacts' rolling springs and "
+                   "dashpots are stable about the worst grain (particle {}, radius {:.6g}, with up to {:.0f} contacts to "
+                   "grains like particle {}, radius {:.6g}; the normal time-step rule does not see it): above it the "
+                   "spins grow every step; {}",
+                   setting, dt_, worst.step, worst.i, P.radius[worst.i], worst.z, worst.j, P.radius[worst.j],
+                   beta_max > 0 ? fmt::format("keep the rolling dashpot's beta (rolling.damping_ratio, or "
+                                              "programme.quench_damping where the programme's quench sets it) at or "
+                                              "below {:.3g}, or lower the step", beta_max)
                                 : std::string("lower rolling.stiffness_ratio or the step")));
 }
 

@@ -136,10 +136,12 @@ const std::vector<SchemaEntry>& scene_schema() {
        "motion only). Without it rolling mechanisms of a loose network, which no normal or sliding motion "
        "reveals, stay undamped and the equilibrium criteria are not met; with it they are, but it also slows the "
        "rolling rearrangements of a compaction and lowers Phi (docs/history/speed-and-reproduction-log.md: the rolling quench), so `grains consolidate` "
-       "switches it on only in settled stages (`programme.quench_damping`). At most 1: the explicit dashpot is "
-       "stable while c_r dt (1 / I_i + 1 / I_j) < 2 for every pair, as at 1 for the paper's diameters a/2 to a; with "
-       "wider sizes (a small grain on a large one) the start-up check, and a check when a host or the programme sets it, "
-       "warns and names the largest stable value. In a pressure-controlled cell also the tunable parameter `rolling.damping_ratio`, "
+       "switches it on only in settled stages (`programme.quench_damping`). At most 1, and less where the explicit "
+       "dashpot is not stable: a grain's spin feels the dashpots of all its contacts, stable while about z c_r dt / I "
+       "< 2. The paper's disks (diameters a/2 to a) hold 1; dense 3D packings only about 0.6 (an FCC of equal spheres "
+       "blew up at 1, its spin energy 1e206 times in 20,000 steps), and a small grain among large ones less. The "
+       "start-up check, and a check when a host or the programme sets it, warns and names the largest stable value "
+       "(cautiously: it counts as many contacts as fit about a grain). In a pressure-controlled cell also the tunable parameter `rolling.damping_ratio`, "
        "which a host may change between steps."},
 
       // --- drag ---

@@ -269,4 +269,7 @@ TEST_CASE("a host's G moves k* with it, and t_ff keeps the initial cloud's G", "
   sim->step_n(1);
   CHECK(sim->get("normalised_stiffness") == Approx(k_star / 1000).epsilon(1e-12));
   CHECK(sim->get("free_fall_time") == t_ff);
+  set_G(*sim, 0.0);   // gravity off: no k*, rather than inf in the outputs (a review, 2026-12-07)
+  sim->step_n(1);
+  CHECK(std::isnan(sim->get("normalised_stiffness")));
 }

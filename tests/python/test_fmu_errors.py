@@ -136,6 +136,16 @@ def test_simulation_going_non_finite_is_an_error_then_reset_recovers(unit):
     assert unit.get("step") == 3
 
 
+def test_a_step_whose_kinetic_energy_overflows_is_an_error_though_every_grain_stays_finite(unit):
+    """Heavy, wide grains falling through each other's softened cores at far too long a step gain energy until
+    1/2 m v^2 overflows while v does not: the step returned OK and the outputs read inf (a review, 2026-12-07)."""
+    unit.initialize({"particles.count": 50, "particles.mass": 1e150, "particles.diameter": 1e10})
+    unit.set("gravity.G", 5e17)
+    dt = unit.get("time.dt")
+    fails(unit, lambda: [unit.step(100 * dt) for _ in range(50)], "DoStep", "the kinetic energy overflows a double")
+    fails(unit, lambda: unit.step(dt), "DoStep", "error state")
+
+
 def test_wrong_instantiation_token_is_refused(tmp_path):
     from fmpy.fmi2 import FMU2Slave
     path = fmu_path("collision", 2)

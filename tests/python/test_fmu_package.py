@@ -160,7 +160,11 @@ def test_binary_needs_only_the_c_and_cxx_runtimes(fmu, library):
 NEWEST_VERSIONS = {"GLIBC": (2, 34), "GLIBCXX": (3, 4, 29), "CXXABI": (1, 3, 13)}
 
 
-@pytest.mark.parametrize("library", [binary_of, fork_guard_of], ids=["binary", "fork_guard"])
+def snapshots_of(path, version):
+    return f"{extracted(path)}/binaries/{PLATFORM[version]}/grains_snapshots.so"
+
+
+@pytest.mark.parametrize("library", [binary_of, fork_guard_of, snapshots_of], ids=["binary", "fork_guard", "snapshots"])
 def test_binary_needs_no_symbol_newer_than_glibc_2_34_and_gcc_11(fmu, library):
     """std::hypot bound GLIBC_2.35 (glibc versioned hypot anew then), so the FMUs no longer loaded on RHEL 9, which the
     README names (a review, 2026-12-07); the list of libraries above could not see it."""
