@@ -211,6 +211,8 @@ class SimulationImpl final : public Simulation {
     Eigen::Vector3d angular_momentum = Eigen::Vector3d::Zero();   // about the origin; 2D: z only
   };
   MotionSums motion_sums() const;
+  void check_kinetic_sums() const;
+  long kinetic_sums_checked_ = 0;   // the step of run_steps' last check_kinetic_sums (not saved: a check, no state)
   void refresh_cell_observables() const;
   EquilibriumMeasures equilibrium_ratios() const;
   void refresh_bonds() const;

@@ -112,9 +112,38 @@ typename SimulationImpl<D>::MotionSums SimulationImpl<D>::motion_sums() const {
                                P.inertia[i] * P.angular_velocity[i][0];
     }
   }
-  if (!std::isfinite(s.translational + s.rotational)) refuse_overflowing_sums("kinetic energy");
-  if (!s.momentum.allFinite() || !s.angular_momentum.allFinite()) refuse_overflowing_sums("momentum or angular momentum");
+  if (!std::isfinite(s.translational + s.rotational)) {   // refused, or a square overflowed where the energy did not
+    check_kinetic_sums();
+    s.translational = s.rotational = 0;
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      s.translational += 0.5 * (std::sqrt(P.mass[i]) * P.velocity[i]).squaredNorm();
+      s.rotational += 0.5 * (std::sqrt(P.inertia[i]) * P.angular_velocity[i]).squaredNorm();
+    }
+  }
+  if (!s.momentum.allFinite()) refuse_overflowing_sums("momentum");
+  if (!s.angular_momentum.allFinite()) refuse_overflowing_sums("angular momentum about the origin");
   return s;
+}
+
+// The kinetic energy and momentum alone, as cheaply as they come (no wrap, no angular momentum): what the end of a
+// stepping call checks (run_steps). A sum that overflows as computed is summed again with each term formed without
+// the overflowing square (a grain of 1e-150 kg at 1e154 m/s has a finite energy) before it is refused.
+template <int D>
+void SimulationImpl<D>::check_kinetic_sums() const {
+  const auto& P = sys_.particles;
+  double kinetic = 0;
+  Vec<D> momentum = Vec<D>::Zero();
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    kinetic += P.mass[i] * P.velocity[i].squaredNorm() + P.inertia[i] * P.angular_velocity[i].squaredNorm();
+    momentum += P.mass[i] * P.velocity[i];
+  }
+  if (!momentum.allFinite()) refuse_overflowing_sums("momentum");
+  if (std::isfinite(kinetic)) return;
+  kinetic = 0;
+  for (std::size_t i = 0; i < P.size(); ++i)
+    kinetic += (std::sqrt(P.mass[i]) * P.velocity[i]).squaredNorm() +
+               (std::sqrt(P.inertia[i]) * P.angular_velocity[i]).squaredNorm();
+  if (!std::isfinite(0.5 * kinetic)) refuse_overflowing_sums("kinetic energy");
 }
 
 template <int D>
@@ -297,6 +326,7 @@ void SimulationImpl<D>::mark_network(double value) {
   template void SimulationImpl<D>::refresh(OutputGroup) const; \
   template void SimulationImpl<D>::refresh_general() const; \
   template typename SimulationImpl<D>::MotionSums SimulationImpl<D>::motion_sums() const; \
+  template void SimulationImpl<D>::check_kinetic_sums() const; \
   template void SimulationImpl<D>::refresh_cell_observables() const; \
   template EquilibriumMeasures SimulationImpl<D>::equilibrium_ratios() const; \
   template void SimulationImpl<D>::refresh_bonds() const; \

@@ -126,8 +126,10 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
 // The rolling spring and dashpot on a pair's relative spin (rule above): its dashpot c_r = beta c_n R_i R_j with the
 // pair's c_n. A grain's spin feels the dashpots of all its contacts: for grain i among z_ij grains like j, each of which
 // touches z_ji grains like i, the fastest mode's inertia is I* = 1 / (z_ij / I_i + z_ji / I_j), z the most such grains
-// that fit around one (2D: floor(pi / asin(R_j / (R_i + R_j))), 6 for equal disks; 3D: the caps' area bound
-// floor(2 / (1 - cos alpha)), 14 for equal spheres, where 12 fit). The worst pair is not the two smallest grains: a
+// that fit around one (2D: floor(pi / asin(R_j / (R_i + R_j))), 6 for equal disks; 3D: the caps' area over the
+// densest packing of circles, floor(2 / (1 - cos alpha) pi / sqrt(12)), 13 for equal spheres, where 12 fit). Cautious:
+// the mode it bounds has alternating spins on every contact, which a lattice that is not bipartite lacks (a second
+// review: the named beta was stable everywhere, 1.2-2.3 times below the measured limits). The worst pair is not the two smallest grains: a
 // small grain against a large one has c_r / I_i larger by about R_large / R_small (a 200-disk packing of diameters
 // 0.05-1 blew up at beta = 1, unwarned: the rule looked at the smallest pair only, one contact each, and only with
 // a rolling spring; two reviews, 2026-12-07). Each grain is paired with the few partners that could be worst for it:
@@ -148,7 +150,9 @@ void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& settin
   // Grains of radius `around` that fit about one of radius `centre`, touching it and not each other.
   const auto fit = [](double centre, double around) {
     const double half_angle = std::asin(around / (centre + around));
-    return std::floor((D == 2 ? std::numbers::pi / half_angle : 2 / (1 - std::cos(half_angle))) * (1 + 1e-12));   // 6 exactly
+    // 3D: the caps' area times the densest packing of circles in a plane, pi / sqrt(12) (13 equal spheres, where 12 fit)
+    return std::floor((D == 2 ? std::numbers::pi / half_angle : 2 / (1 - std::cos(half_angle)) * std::numbers::pi / std::sqrt(12.0)) *
+                      (1 + 1e-12));   // 6 exactly
   };
   struct Worst {
     double step = std::numeric_limits<double>::infinity(), inertia = 0, dashpot_per_beta = 0, z = 0;
@@ -275,12 +279,15 @@ void SimulationImpl<D>::warn_gravity_step(const Scene& scene, double rmin, bool 
     orbit_rule_warned_ = true;
     warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} ({}): close gravitational encounters are resolved by "
                      "fewer than 20 steps", dt_, rule.step(), orbit_rule_terms(rule)));
-  } else if (rule.orbit == 0) {   // unsoftened and nothing holding grains apart: the rule has no step (a review, 2026-12-07)
+  } else if (rule.orbit == 0 && !orbit_rule_->contacts) {
+    // Unsoftened without contacts: nothing bounds the closest approach, and the rule has no step (a review, 2026-12-07:
+    // the collapse scene at softening 0 ended at Q = 2380, said only by the energy check). With contacts the rule's
+    // "cannot keep grains apart" compares the whole cloud's pull on one grain, the usual case, and the aggregation
+    // scene at softening 0 ran sound (energy falling, overlaps 0.16 R): not warned.
     orbit_rule_warned_ = true;
-    warn(fmt::format("gravity.softening = 0 with {}: grains may come arbitrarily close, where the orbit a step must resolve "
-                     "(T_orb / 20 at distance d) shortens without end, so no time.dt resolves close encounters (orbits "
-                     "that stay wide, as a binary's, are unaffected; the energy check watches the run); give "
-                     "gravity.softening > 0", orbit_rule_->contacts ? "contacts that cannot keep grains apart" : "no contacts"));
+    warn("gravity.softening = 0 with no contacts: grains may come arbitrarily close, where the orbit a step must resolve "
+         "(T_orb / 20 at distance d) shortens without end, so no time.dt resolves close encounters (orbits that stay "
+         "wide, as a binary's, are unaffected; the energy check watches the run); give gravity.softening > 0");
   }
 }
 
