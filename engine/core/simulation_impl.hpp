@@ -212,6 +212,7 @@ class SimulationImpl final : public Simulation {
   };
   MotionSums motion_sums() const;
   void check_kinetic_sums() const;
+  std::pair<double, double> kinetic_energies_scaled() const;
   long kinetic_sums_checked_ = 0;   // the step of run_steps' last check_kinetic_sums (not saved: a check, no state)
   void refresh_cell_observables() const;
   EquilibriumMeasures equilibrium_ratios() const;

@@ -1,6 +1,8 @@
 // The outputs, computed in groups when read (refresh), and the particle and box views the writers take.
 #include <cmath>
 #include <limits>
+#include <tuple>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -75,8 +77,9 @@ void SimulationImpl<D>::refresh(OutputGroup group) const {
 
 // Every particle's state is finite (the step checks that), yet a sum over them can overflow: a run that gained
 // energy without bound (a step too long for its encounters) stops, naming the sum and the particle with the largest
-// kinetic energy, rather than write inf into the outputs. Checked at the end of every stepping call (run_steps: a
-// host's step, the runner's stretch between records) and wherever the outputs are computed.
+// kinetic energy, rather than write inf into the outputs. Checked at the end of a stepping call once 64 steps have
+// passed since the last check (run_steps: a host's step, the runner's stretch between records) and wherever the outputs
+// are computed.
 template <int D>
 void SimulationImpl<D>::refuse_overflowing_sums(const char* sum) const {
   const auto& P = sys_.particles;
@@ -114,11 +117,7 @@ typename SimulationImpl<D>::MotionSums SimulationImpl<D>::motion_sums() const {
   }
   if (!std::isfinite(s.translational + s.rotational)) {   // refused, or a square overflowed where the energy did not
     check_kinetic_sums();
-    s.translational = s.rotational = 0;
-    for (std::size_t i = 0; i < P.size(); ++i) {
-      s.translational += 0.5 * (std::sqrt(P.mass[i]) * P.velocity[i]).squaredNorm();
-      s.rotational += 0.5 * (std::sqrt(P.inertia[i]) * P.angular_velocity[i]).squaredNorm();
-    }
+    std::tie(s.translational, s.rotational) = kinetic_energies_scaled();
   }
   if (!s.momentum.allFinite()) refuse_overflowing_sums("momentum");
   if (!s.angular_momentum.allFinite()) refuse_overflowing_sums("angular momentum about the origin");
@@ -139,11 +138,20 @@ void SimulationImpl<D>::check_kinetic_sums() const {
   }
   if (!momentum.allFinite()) refuse_overflowing_sums("momentum");
   if (std::isfinite(kinetic)) return;
-  kinetic = 0;
-  for (std::size_t i = 0; i < P.size(); ++i)
-    kinetic += (std::sqrt(P.mass[i]) * P.velocity[i]).squaredNorm() +
-               (std::sqrt(P.inertia[i]) * P.angular_velocity[i]).squaredNorm();
-  if (!std::isfinite(0.5 * kinetic)) refuse_overflowing_sums("kinetic energy");
+  const auto [translational, rotational] = kinetic_energies_scaled();
+  if (!std::isfinite(translational + rotational)) refuse_overflowing_sums("kinetic energy");
+}
+
+// Sum 1/2 m v^2 and 1/2 I w^2 as |sqrt(m) v|^2 / 2: no square of a speed that overflows where the energy does not.
+template <int D>
+std::pair<double, double> SimulationImpl<D>::kinetic_energies_scaled() const {
+  const auto& P = sys_.particles;
+  double translational = 0, rotational = 0;
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    translational += 0.5 * (std::sqrt(P.mass[i]) * P.velocity[i]).squaredNorm();
+    rotational += 0.5 * (std::sqrt(P.inertia[i]) * P.angular_velocity[i]).squaredNorm();
+  }
+  return {translational, rotational};
 }
 
 template <int D>
@@ -327,6 +335,7 @@ void SimulationImpl<D>::mark_network(double value) {
   template void SimulationImpl<D>::refresh_general() const; \
   template typename SimulationImpl<D>::MotionSums SimulationImpl<D>::motion_sums() const; \
   template void SimulationImpl<D>::check_kinetic_sums() const; \
+  template std::pair<double, double> SimulationImpl<D>::kinetic_energies_scaled() const; \
   template void SimulationImpl<D>::refresh_cell_observables() const; \
   template EquilibriumMeasures SimulationImpl<D>::equilibrium_ratios() const; \
   template void SimulationImpl<D>::refresh_bonds() const; \

@@ -69,17 +69,6 @@ void SimulationImpl<D>::warn_damped_packing_step(double tc) {
                      dt_, limit, lightest, int(z), worst_zeta, std::ceil(tc / limit), pair));
 }
 
-// The tangential spring and dashpot of a sticking contact (and the rolling ones) act on the half-step
-// velocity: x += h v, v += h (-k x - c v) / m is stable only for k h^2 / m + 2 c h / m <= 4, i.e. h below
-// 4 m / (c + sqrt(c^2 + 4 k m)). The time-step rule sees only the normal spring, and friction.stiffness_ratio
-// and damping_ratio (rolling.stiffness_ratio) are open-ended: an oblique collision of two unit spheres at
-// mu = 1e3 left with 1430 times its kinetic energy at k_t = 1e6 k_n, 1.9 times at c_t = 1e3 c_n, unwarned
-// (it grows from k_t = 330 k_n at 50 steps per contact, where this bound says 289). The mass of the tangential
-// mode is the pair's reduced mass with the grains' rotation: 1 / m_t = (1 + 1 / kappa) / m*, I = kappa m R^2
-// (kappa = 2/5 spheres, 1/2 disks); of the rolling mode the pair's reduced moment of inertia. The lightest
-// pair (the smallest moments) is the fastest: kn_ and cn_ are its. For rolling the bound is cautious: in a
-// 64-disk gas the spins grew from rolling.stiffness_ratio 45-100, where it says 32 (the smallest grains
-// need not touch each other).
 namespace {
 // 4 m / (c + sqrt(c^2 + 4 k m)), the root scaled by the larger term so that it neither overflows nor underflows
 // (friction.damping_ratio takes c from 0 to 1e300). Not std::hypot: glibc 2.35 versioned it anew, and the FMUs
@@ -92,6 +81,15 @@ double sticking_stable_step(double k, double c, double m) {
 }
 }  // namespace
 
+// The tangential spring and dashpot of a sticking contact (and the rolling ones) act on the half-step
+// velocity: x += h v, v += h (-k x - c v) / m is stable only for k h^2 / m + 2 c h / m <= 4, i.e. h below
+// 4 m / (c + sqrt(c^2 + 4 k m)). The time-step rule sees only the normal spring, and friction.stiffness_ratio
+// and damping_ratio (rolling.stiffness_ratio) are open-ended: an oblique collision of two unit spheres at
+// mu = 1e3 left with 1430 times its kinetic energy at k_t = 1e6 k_n, 1.9 times at c_t = 1e3 c_n, unwarned
+// (it grows from k_t = 330 k_n at 50 steps per contact, where this bound says 289). The mass of the tangential
+// mode is the pair's reduced mass with the grains' rotation: 1 / m_t = (1 + 1 / kappa) / m*, I = kappa m R^2
+// (kappa = 2/5 spheres, 1/2 disks), the same with any contacts; the lightest pair is the fastest: kn_ and cn_ are
+// its. The rolling mode's is warn_rolling_step's.
 template <int D>
 void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc) {
   const double kappa = D == 3 ? 0.4 : 0.5;
@@ -129,10 +127,10 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
 // that fit around one (2D: floor(pi / asin(R_j / (R_i + R_j))), 6 for equal disks; 3D: the caps' area over the
 // densest packing of circles, floor(2 / (1 - cos alpha) pi / sqrt(12)), 13 for equal spheres, where 12 fit). Cautious:
 // the mode it bounds has alternating spins on every contact, which a lattice that is not bipartite lacks (a second
-// review: the named beta was stable everywhere, 1.2-2.3 times below the measured limits). The worst pair is not the two smallest grains: a
-// small grain against a large one has c_r / I_i larger by about R_large / R_small (a 200-disk packing of diameters
-// 0.05-1 blew up at beta = 1, unwarned: the rule looked at the smallest pair only, one contact each, and only with
-// a rolling spring; two reviews, 2026-12-07). Each grain is paired with the few partners that could be worst for it:
+// review: the named beta was stable everywhere, 1.2-2.3 times below the measured limits). The worst pair is not the
+// two smallest grains: a small grain against a large one has c_r / I_i larger by about R_large / R_small (a 200-disk
+// packing of diameters 0.05-1 blew up at beta = 1, unwarned: the rule looked at the smallest pair only, one contact
+// each, and only with a rolling spring; two reviews, 2026-12-07). Each grain is paired with the few partners that could be worst for it:
 // the two of the smallest inertia, the largest and the heaviest grain. Also checked when a host or the programme's
 // quench sets beta (once per run, as the setting's own warning).
 template <int D>
