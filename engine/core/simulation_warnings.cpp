@@ -377,18 +377,25 @@ void SimulationImpl<D>::check_energy(double kinetic) const {
   const double scale = std::max({kinetic, std::abs(W), std::abs(w.first)}), rise = E - w.minimum;
   if (!(rise > energy_rise_limit * scale)) return;
   w.warned = 1;
+  // A host may hold G at 0 (k* NaN): then the contacts alone made the energy, and t_ff means nothing.
+  const bool pulling = gravity_ && gravity_->G() > 0;
   const std::string cause =
-      kn_ > 0 ? fmt::format("contacts too soft for the gravitational load (k* = {:.3g}; largest overlap now {:.3g} R_min): "
+      kn_ > 0 && !pulling
+          ? "a step too coarse for the contacts, or grains meeting with more energy than the clamped spring stores "
+            "(G is 0 now): raise time.steps_per_contact or contact.overlap_limit"
+      : kn_ > 0 ? fmt::format("contacts too soft for the gravitational load (k* = {:.3g}; largest overlap now {:.3g} R_min): "
                             "the capped contact force k_n delta_max cannot stop grains that gravity pulls together, they "
                             "pass through each other and the step misses the close encounter at the softening length; "
                             "raise k* (a shorter contact.duration) or contact.overlap_limit, or time.steps_per_contact",
                             o.at("normalised_stiffness"), o.count("max_overlap_ratio") ? o.at("max_overlap_ratio") : 0.0)
               : "a step too coarse for close encounters at the softening length: lower time.dt or raise gravity.softening";
-  warn(fmt::format("energy check: at t = {:.6g} ({:.3g} t_ff, step {}) the total energy E = K + W + elastic = {:.6g} is "
+  const std::string when = pulling ? fmt::format("t = {:.6g} ({:.3g} t_ff, step {})", sys_.time, sys_.time / free_fall_time_, sys_.step)
+                                   : fmt::format("t = {:.6g} (step {})", sys_.time, sys_.step);
+  warn(fmt::format("energy check: at {} the total energy E = K + W + elastic = {:.6g} is "
                    "{:.6g} above its lowest value {:.6g} (at t = {:.6g}), {:.3g} % of the energy scale "
                    "max(K, |W|, |E_0|) = {:.6g} (the check's limit: {:g} %); nothing in this scene adds energy, so the "
                    "integration is making it and what follows (virial ratio, clusters) is an artefact. Likely cause: {}",
-                   sys_.time, sys_.time / free_fall_time_, sys_.step, E, rise, w.minimum, w.minimum_time,
+                   when, E, rise, w.minimum, w.minimum_time,
                    100 * rise / scale, scale, 100 * energy_rise_limit, cause));
 }
 
@@ -407,7 +414,8 @@ void SimulationImpl<D>::check_pass_through() const {
   const auto overlap = o.find("max_overlap_ratio");
   if (pass_through_warned_ || overlap == o.end() || !(overlap->second > pass_through_overlap)) return;
   pass_through_warned_ = true;
-  const std::string when = gravity_ ? fmt::format("at t = {:.6g} ({:.3g} t_ff, step {})", sys_.time, sys_.time / free_fall_time_, sys_.step)
+  const bool pulling = gravity_ && gravity_->G() > 0;   // a host may hold G at 0: k* is NaN, t_ff means nothing
+  const std::string when = pulling ? fmt::format("at t = {:.6g} ({:.3g} t_ff, step {})", sys_.time, sys_.time / free_fall_time_, sys_.step)
                                     : fmt::format("at t = {:.6g} (step {})", sys_.time, sys_.step);
   const std::string what = fmt::format("contact check: {} two grains overlap by {:.4g} times the smaller one's radius "
                                        "(max_overlap_ratio): they are passing through each other. The contact force "
@@ -416,7 +424,7 @@ void SimulationImpl<D>::check_pass_through() const {
     warn(what + "which cannot stop grains that meet with more energy than the clamped spring stores or that the step "
                 "misses: what follows is an artefact; raise adhesion.stiffness or contact.overlap_limit, or lower the "
                 "grains' speeds");
-  else if (gravity_ && kn_ > 0)
+  else if (pulling && kn_ > 0)
     warn(what + fmt::format("which cannot hold grains that gravity presses together harder than that (k* = {:.3g}, from "
                             "the lightest pair's k_n and the mean grain's k_g) or that meet faster than the step resolves "
                             "(the start-up warning on unresolved approaches says so): the clusters, D_f and aggregation time "
