@@ -254,7 +254,7 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
                 if ((v == 1) == cell_active_) return;   // unchanged (a restored state sets every control)
                 cell_active_ = v == 1;
                 if (loading_controls_) return;   // the restored barostat is held or released already
-                if (cell_active_) barostat_->release();
+                if (cell_active_) barostat_->release(), warn_stiff_cell_damping();
                 else barostat_->hold();
               });
 }

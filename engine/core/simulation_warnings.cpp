@@ -189,11 +189,12 @@ void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& settin
 // it takes about 1.3 eta / M_c dt steps per particle step (measured, 200 disks, M_c = 30: 11 at cell.damping_ratio
 // 1000, 21 at 2000, 103 at 1e4, where eta / M_c dt is 8.2, 16 and 82; about 0.5 without damping in a cycle, 1.2 % of its
 // time), and fails beyond 100000. A review (2026-12-07) found a run 470 times slower at cell.contact_damping = 1e6,
-// unwarned. Warned once, where eta / M_c dt passes 10.
+// unwarned. Warned once, where eta / M_c dt passes 10, and only while the cell moves: a held cell (a type-2 sample
+// aggregating) runs no CVODE, and is checked when released.
 constexpr double stiff_cell_damping = 10;
 template <int D>
 void SimulationImpl<D>::warn_stiff_cell_damping() {
-  if (stiff_cell_damping_warned_ || !barostat_) return;
+  if (stiff_cell_damping_warned_ || !barostat_ || !cell_active_) return;
   const auto& p = barostat_->parameters();
   const Vec<D> eta = barostat_->contact_damping();
   const double contacts = eta.maxCoeff(), relaxations = (p.damping + contacts) / p.mass * dt_;

@@ -45,3 +45,14 @@ TEST_CASE("a cell damping stiffer than the step is warned about, costs CVODE ste
     CHECK_THAT(e.what(), Contains("the damping makes the equation stiff") && Contains("lower cell.damping_ratio"));
   }
 }
+
+// A held cell runs no CVODE (a type-2 sample aggregates in a fixed cell): warned when the host releases it, not before.
+TEST_CASE("a stiff cell damping is warned about when the held cell is released, not while it is held",
+          "[barostat][extremes]") {
+  auto held = Simulation::create(Scene::from_string(packed_cell_scene(2, 64, 0.01, "damping_ratio = 2000\nactive = false"), "held"));
+  held->step_n(20);
+  CHECK(warnings_of(*held, "cell damping") == 0);
+  held->set("cell.active", 1);
+  REQUIRE(warnings_of(*held, "cell damping") == 1);
+  CHECK_THAT(held->warnings().back(), Contains("lower cell.damping_ratio"));
+}
