@@ -534,10 +534,7 @@ def main(argv=None):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
     out = pathlib.Path(args.out)
-    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
-        ap.error(f"--report: no folder {out}")
-    if out.exists() and not out.is_dir():
-        ap.error(f"--out {out}: not a folder")
+    reuse.check_out(ap, out, args.report)
     if args.threads < 0:
         ap.error(f"--threads = {args.threads}: must be 0 (automatic) or more")
     reuse.refuse_controlled(ap, args.set, {"contact.restitution": "--damping, --fixed-damping",

@@ -174,10 +174,7 @@ def check_arguments(ap, args):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
     out = pathlib.Path(args.out)
-    if args.report and not out.is_dir():   # nothing to summarise: say so, and leave no empty folder behind
-        ap.error(f"--report: no folder {out}")
-    if out.exists() and not out.is_dir():
-        ap.error(f"--out {out}: not a folder")
+    reuse.check_out(ap, out, args.report)
     if not args.report:
         reuse.require_binary(ap, "--grains", args.grains)
 

@@ -104,6 +104,15 @@ def require_binary(ap, option, path):
         ap.error(f"{option} {path}: not executable")
 
 
+def check_out(ap, out, report):
+    """Refuses an --out that names a file, or, with --report, a folder that is not there (nothing to summarise; an
+    empty folder is not left behind)."""
+    if report and not Path(out).is_dir():
+        ap.error(f"--report: no folder {out}")
+    if Path(out).exists() and not Path(out).is_dir():
+        ap.error(f"--out {out}: not a folder")
+
+
 def make_out(ap, out):
     """Makes the --out folder, once nothing is left to refuse (a refused --set left an empty folder behind)."""
     try:
