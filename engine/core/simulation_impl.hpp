@@ -179,7 +179,7 @@ class SimulationImpl final : public Simulation {
   void warn_sticking_spring_step(const Scene& scene, double tc);
   // setting: what set beta, for the message (the scene's keys, or a host's or the programme's new value)
   void warn_rolling_step(double beta, const std::string& setting) const;
-  void warn_coarse_coordinates(const Scene& scene, double rmin);
+  void warn_coarse_coordinates(const Scene& scene, double rmin, bool contacts);
   void warn_unresolved_approach(const Scene& scene, double rmin);
   void warn_gravity_step(const Scene& scene, double rmin, bool contacts);
   std::string orbit_rule_terms(const OrbitStepRule::At& rule) const;

@@ -98,7 +98,7 @@ SimulationImpl<D>::SimulationImpl(const Scene& scene) {
   if (tc > 0) warn_damped_packing_step(tc);
   if (tc > 0) warn_unresolved_approach(scene, rmin);
   if (tc > 0) warn_sticking_spring_step(scene, tc);
-  if (tc > 0) warn_coarse_coordinates(scene, rmin);
+  if (tc > 0 || scene.boolean("gravity.enabled")) warn_coarse_coordinates(scene, rmin, tc > 0);
   if (scene.boolean("gravity.enabled")) warn_gravity_step(scene, rmin, tc > 0);
   // The energy check (check_energy): gravity scenes, where W is computed, without the adhesive law (whose
   // attraction's energy and parting charges it does not follow).

@@ -208,19 +208,28 @@ void SimulationImpl<D>::warn_stiff_cell_damping() {
                    contacts > p.damping ? "cell.contact_damping" : "cell.damping_ratio"));
 }
 
-// Positions are doubles: far from the origin their spacing, |x| 2^-52, grows past the overlaps the contacts
-// work with, and below it nothing moves. Two grains 1e16 radii out kept their speeds but never moved (an
-// unchanged kinetic energy, no collision, nothing said); at 1e11 radii the collision's restitution was off by
-// 4e-4, at 1e8 by 1e-6. Warned where the spacing passes a thousandth of the clamp depth f_max R_min.
+// Positions are doubles: far from the origin their spacing, |x| 2^-52, grows past the lengths the run resolves, and
+// below it nothing moves. Two grains 1e16 radii out kept their speeds but never moved (an unchanged kinetic energy, no
+// collision, nothing said); at 1e11 radii the collision's restitution was off by 4e-4, at 1e8 by 1e-6. Warned where
+// the spacing passes a thousandth of the smallest such length: the contacts' overlaps (the clamp depth, taken at most
+// a tenth of R_min: the gas scenes' overlap_limit = 1 set it at half a radius, and an elastic gas 1e12 out gained 0.9 %
+// of its energy in 1e5 steps, 3e12 out 4.3 %, unwarned), the softening length, and the grains' radius (gravity
+// without contacts went unchecked: an eccentric binary 1e12 out lost its angular momentum; a review, 2026-12-07).
 template <int D>
-void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin) {
+void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin, bool contacts) {
   double far = 0;
   for (const auto& x : sys_.particles.position) far = std::max(far, x.cwiseAbs().maxCoeff());
   for (int a = 0; a < D; ++a)
     if (sys_.box.periodic[a])   // positions are wrapped into the box
       far = std::max({far, std::abs(sys_.box.lower[a]), std::abs(sys_.box.lower[a] + sys_.box.length[a])});
   const double spacing = std::nextafter(far, std::numeric_limits<double>::infinity()) - far;
-  const double depth = scene.real("contact.overlap_limit") * rmin;
+  double length = rmin;
+  std::string what = "the smallest radius R_min";
+  if (const double f = contacts ? std::min(scene.real("contact.overlap_limit"), 0.1) : 0; f > 0 && f * rmin < length)
+    length = f * rmin, what = fmt::format("the contacts' overlaps, min(contact.overlap_limit, 0.1) R_min");
+  if (scene.boolean("gravity.enabled"))
+    if (const double eps = scene.real("gravity.softening") * rmin; eps > 0 && eps < length)
+      length = eps, what = "the softening length gravity.softening R_min";
   const std::string layout = scene.text("particles.layout");
   // What put the grains that far: their listed places, the box's corner, or its size (a box sized from a tiny
   // particles.solid_fraction was blamed on an unset box.lower; a review, 2026-12-07).
@@ -233,11 +242,11 @@ void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin)
                     : placed                   ? "box.lower"
                     : scene.has("box.lengths") ? "box.lengths"
                                                : "particles.solid_fraction";
-  if (spacing > 1e-3 * depth)
-    warn(fmt::format("{}: coordinates reach {:.6g}, where doubles are {:.3g} apart, more than 1e-3 of the clamp depth "
-                     "contact.overlap_limit R_min = {:.6g}: overlaps are resolved no finer than that, and moves below it "
-                     "are lost to rounding (grains 1e16 radii out never moved); keep every coordinate below {:.3g} (a scene "
-                     "near the origin, and no larger)", key, far, spacing, depth, depth * 1e-3 * std::pow(2.0, 52)));
+  if (spacing > 1e-3 * length)
+    warn(fmt::format("{}: coordinates reach {:.6g}, where doubles are {:.3g} apart, more than 1e-3 of {} = {:.6g}: "
+                     "lengths are resolved no finer than that, and moves below it are lost to rounding (grains 1e16 "
+                     "radii out never moved); keep every coordinate below {:.3g} (a scene near the origin, and no larger)",
+                     key, far, spacing, what, length, length * 1e-3 * std::pow(2.0, 52)));
 }
 
 // Two of the fastest initial grains approaching head-on close 2 v_max dt in a step. Beyond the clamp depth
@@ -484,7 +493,7 @@ void SimulationImpl<D>::check_softened_core() const {
   template void SimulationImpl<D>::warn_damped_packing_step(double); \
   template void SimulationImpl<D>::warn_sticking_spring_step(const Scene&, double); \
   template void SimulationImpl<D>::warn_rolling_step(double, const std::string&) const; \
-  template void SimulationImpl<D>::warn_coarse_coordinates(const Scene&, double); \
+  template void SimulationImpl<D>::warn_coarse_coordinates(const Scene&, double, bool); \
   template void SimulationImpl<D>::warn_stiff_cell_damping(); \
   template void SimulationImpl<D>::warn_unresolved_approach(const Scene&, double); \
   template void SimulationImpl<D>::warn_gravity_step(const Scene&, double, bool); \
