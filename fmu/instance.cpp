@@ -162,6 +162,12 @@ Status Instance::error(const std::string& message) {
   return Status::error;
 }
 
+void Instance::warn(const std::string& message) {
+  if (enabled(log_warning))
+    logger_(Status::warning, log_warning, answering_ ? fmt::format("{}: {}", answering_, message) : message);
+  warned_ = true;
+}
+
 Status Instance::unsupported(const char* function, const char* why) {
   return error(fmt::format("{} is not supported by this FMU: {}", function, why));
 }
@@ -237,12 +243,15 @@ Status Instance::exit_initialization() {
   if (Status s = check_phase("ExitInitializationMode", {Phase::initialization}); s != Status::ok) return s;
   if (Status s = ensure_built(); s != Status::ok) return s;
   if (snapshots_every_ > 0) {
-    // The instance name is the host's string; it must not lead the file out of the working directory.
+    // The instance name is the host's string; it must not lead the file out of the working directory. A name that
+    // is no plain file name (a host's path to the FMU) is made one, and the host told where the snapshots go.
+    const std::string file = plain_file_name_from(name_) + ".h5";
     if (!is_plain_file_name(name_))
-      return error(fmt::format("fmu.snapshots_every: the snapshots go to <instance name>.h5, and instance name \"{}\" is "
-                               "not allowed there: allowed {} (or fmu.snapshots_every = 0)", name_, plain_file_name_rule));
+      warn(fmt::format("fmu.snapshots_every: the snapshots go to <instance name>.h5 in the working directory, and "
+                       "instance name \"{}\" is not a plain file name ({}): they go to \"{}\"", name_,
+                       plain_file_name_rule, file));
     try {
-      snapshots_ = std::make_unique<SnapshotOutput>(name_ + ".h5", *sim_, GRAINS_VERSION, scene_.resolved_toml());
+      snapshots_ = std::make_unique<SnapshotOutput>(file, *sim_, GRAINS_VERSION, scene_.resolved_toml());
     } catch (const std::exception& e) {
       return error(e.what());
     }

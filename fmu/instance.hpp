@@ -119,6 +119,7 @@ class Instance {
   // that call's name already: the host's log interleaves many calls, and "unknown value reference 9" alone does not
   // say which one was refused.
   Status error(const std::string& message);
+  void warn(const std::string& message);   // logged as the calls' warnings are; the call returns Warning
   // The call now answered (nullptr: none); returns the one before, for a call made inside another (a host's logger
   // calling back into the instance) to restore.
   const char* answering(const char* function) { return std::exchange(answering_, function); }

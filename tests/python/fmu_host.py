@@ -167,3 +167,6 @@ class Unit:
 
     def errors(self):
         return [m for s, c, m in self.messages if s >= 3]
+
+    def warnings(self):
+        return [m for s, c, m in self.messages if s == 1]
