@@ -197,9 +197,13 @@ Status Instance::ensure_built() {
                                fmt::join(changed, ", "), structure_change(now, table_)));
     }
     for (const auto& [index, value] : pending_controls_) sim->set(index, value);
+    // A rebuild (a parameter set again, in Initialization Mode too, as libcosim does) logs only the start-up
+    // warnings the host has not had from the simulation before (an outside review saw each twice).
+    std::vector<std::string> said;
+    if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + warnings_logged_);
     sim_ = std::move(sim);
-    warnings_logged_ = 0;   // a new simulation: its start-up warnings
-    log_new_warnings();
+    warnings_logged_ = 0;
+    log_new_warnings(said);
     dirty_ = false;
   } catch (const std::bad_alloc&) {
     return error(out_of_memory_message);
@@ -351,6 +355,7 @@ Status Instance::reset() {
   snapshots_.reset();
   snapshots_every_ = 0;
   phase_ = Phase::instantiated;
+  sim_.reset();   // a new experiment: its start-up warnings are logged again
   return ensure_built();
 }
 
@@ -419,10 +424,11 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
   return Status::ok;
 }
 
-void Instance::log_new_warnings() {
+void Instance::log_new_warnings(const std::vector<std::string>& said) {
   if (!sim_) return;
   const auto& w = sim_->warnings();
   for (; warnings_logged_ < w.size(); ++warnings_logged_) {
+    if (std::find(said.begin(), said.end(), w[warnings_logged_]) != said.end()) continue;
     if (enabled(log_warning)) logger_(Status::warning, log_warning, w[warnings_logged_]);
     warned_ = true;
   }

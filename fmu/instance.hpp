@@ -123,7 +123,7 @@ class Instance {
   // The call now answered (nullptr: none); returns the one before, for a call made inside another (a host's logger
   // calling back into the instance) to restore.
   const char* answering(const char* function) { return std::exchange(answering_, function); }
-  void log_new_warnings();   // sim_'s warnings not yet passed to the logger
+  void log_new_warnings(const std::vector<std::string>& said = {});   // sim_'s warnings not yet passed to the logger
   // Whether warnings were passed (logged, unless the host switched logStatusWarning off) since the last take: the
   // call that raised them returns fmi2Warning / fmi3Warning instead of OK (guarded_call).
   bool take_warned() { return std::exchange(warned_, false); }
