@@ -4,6 +4,7 @@
 #pragma once
 #include <exception>
 #include <new>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -16,6 +17,18 @@ template <class Body>
 Status guarded_call(const void* handle, const char* function, Body&& body) {
   Instance* in = live_instance(handle);
   if (!in) return Status::error;   // null, freed or not ours: nothing to log through
+  // One thread at a time; the same thread may call again from inside (a host's logger calling back).
+  const std::thread::id me = std::this_thread::get_id();
+  std::thread::id inside{};
+  const bool outermost = in->caller.compare_exchange_strong(inside, me);
+  if (!outermost && inside != me) return in->refuse_concurrent_call(function);
+  struct Leave {
+    Instance& in;
+    bool outermost;
+    ~Leave() {
+      if (outermost) in.caller.store(std::thread::id{});
+    }
+  } leave{*in, outermost};
   struct Answering {   // the instance's errors name this call until it returns
     Instance& in;
     const char* outer;

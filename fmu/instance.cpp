@@ -168,6 +168,14 @@ void Instance::warn(const std::string& message) {
   warned_ = true;
 }
 
+Status Instance::refuse_concurrent_call(const char* function) {
+  logger_(Status::error, log_error,
+          fmt::format("{}: called while another thread is inside a call on instance \"{}\": FMI 2 and 3 allow one call "
+                      "at a time on an instance; give each thread its own instance, or let one call end before the next",
+                      function, name_));
+  return Status::error;
+}
+
 Status Instance::unsupported(const char* function, const char* why) {
   return error(fmt::format("{} is not supported by this FMU: {}", function, why));
 }

@@ -4,6 +4,7 @@
 #include <map>
 #include <mutex>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include <fmt/format.h>
@@ -71,6 +72,12 @@ void free_instance(const void* handle) {
     std::lock_guard lock(registry().mutex);
     const auto it = registry().instances.find(reinterpret_cast<std::uintptr_t>(handle));
     if (it == registry().instances.end()) return;   // freed before, or never ours: nothing to do
+    // Not from under a call another thread is making (FMI forbids it): kept, and the host told, rather than freed
+    // under that call's feet.
+    if (const std::thread::id inside = it->second->caller.load(); inside != std::thread::id{} && inside != std::this_thread::get_id()) {
+      it->second->refuse_concurrent_call("FreeInstance");
+      return;
+    }
     gone = std::move(it->second);
     registry().instances.erase(it);
     // FMI: freeing an instance frees everything it allocated, the states the host did not free among them.

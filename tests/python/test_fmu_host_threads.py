@@ -60,3 +60,38 @@ def test_instances_stepped_from_host_threads_at_once_equal_each_alone():
         assert messages == messages_alone and len(messages) > 15, CASES[i]   # every logCalls message, its own
         assert messages.threads == {callers[i]}, CASES[i]   # the logger is called on the host's calling thread
         assert not [m for s, c, m in messages if s >= 3], CASES[i]
+
+
+def test_a_call_from_a_second_thread_while_one_is_inside_is_refused_not_raced():
+    """FMI allows one call at a time on an instance; a host that stepped one instance from two threads (Ecos, with two
+    slots loaded from one FMU path: an outside review, 2026-12-07) corrupted the heap, 1 run in 6 aborting the host.
+    A second thread's call, a free among them, now returns Error naming the rule, and the call inside goes on."""
+    for version in (2, 3):
+        unit = Unit(fmu_path("aggregation", version), name="shared")
+        unit.initialize({"particles.count": 1000, "run.threads": 1})
+        dt = unit.get("time.dt")
+        done = threading.Event()
+
+        def long_step():
+            unit.step(4000 * dt)   # seconds
+            done.set()
+
+        stepping = threading.Thread(target=long_step)
+        stepping.start()
+        refused = 0
+        while not done.is_set() and refused < 3:
+            try:
+                unit.get("kinetic_energy")
+            except Exception:
+                refused += 1
+                # refused too: the instance lives on under the step (fmpy's freeInstance would unload the library)
+                getattr(unit.fmu, f"fmi{version}FreeInstance")(unit.fmu.component)
+            done.wait(0.05)
+        stepping.join()
+        assert refused >= 1, "the long step ended before a second call could be made"
+        said = [m for m in unit.errors() if "while another thread is inside a call on instance \"shared\"" in m]
+        assert len(said) == 2 * refused, unit.errors()
+        assert any(m.startswith("FreeInstance: ") for m in said)
+        assert unit.time == 4000 * dt and unit.get("kinetic_energy") > 0   # the step inside went on, and the instance
+        unit.step(dt)                                                        # serves its thread after it
+        unit.free()
