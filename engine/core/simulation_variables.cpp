@@ -16,8 +16,8 @@ namespace {
 std::pair<const char*, const char*> module_observable_description(const std::string& name) {
   static const std::map<std::string, std::pair<const char*, const char*>> known = {
       {"contacts", {"", "pairs in contact (overlapping)"}},
-      {"elastic_energy", {"J", "energy in the contact springs: sum of k_n delta^2 / 2 + k_t xi^2 / 2 (a clamped overlap: "
-                                "the work of its clamped force)"}},
+      {"elastic_energy", {"J", "energy in the contact springs: sum of k_n delta^2 / 2 + k_t xi^2 / 2 + K_R theta_R^2 / 2 "
+                                "(normal, tangential and rolling springs; a clamped overlap: the work of its clamped force)"}},
       {"adhesion_energy", {"J", "potential of the adhesive attraction: -F0 D0/2 (1 - h/D0)^2 across a gap h < D0, "
                                 "-F0 D0/2 - F0 delta in contact"}},
       {"max_overlap_ratio", {"", "largest overlap over the smaller radius of its pair"}},

@@ -156,7 +156,9 @@ const std::vector<SchemaEntry>& scene_schema() {
 
       // --- self-gravity ---
       {"gravity.enabled", K::boolean, not_a_quantity, "false", 0, 0, false, false, "",
-       "Softened Newtonian self-gravity between all pairs (physics.md section 7). Open boxes only (`box.periodic = false`)."},
+       "Softened Newtonian self-gravity between all pairs (physics.md section 7). Open boxes only (`box.periodic = false`). "
+       "In 2D too the 3D law, G m_i m_j / (d^2 + eps^2), acts in the plane (not a 2D logarithmic potential): the 3D "
+       "references (cold collapse at pi / (2 sqrt 2) t_ff, D_f = 3 of a compact aggregate) do not apply there."},
       {"gravity.G", K::real, gravitational_constant, "1.0", 0, inf, true, false, "", "Gravitational constant G."},
       {"gravity.softening", K::real, pure, "0.1", 0, inf, false, false, "",
        "eps0: softening length eps = softening * R_min (R_min = smallest particle radius)."},

@@ -432,7 +432,8 @@ InitialState<D> make_initial_state(const Scene& s) {
     if (w.size() != N) s.fail("particles.angular_velocities", fmt::format("{} rows for {} particles", w.size(), N));
     for (std::size_t i = 0; i < N; ++i) {
       if (w[i].size() != comps)
-        s.fail("particles.angular_velocities", fmt::format("row {} has {} components; need {}", i, w[i].size(), comps));
+        s.fail("particles.angular_velocities", fmt::format("row {} has {} components; a {}D scene needs {} ({})", i, w[i].size(), D, comps,
+                                                         D == 2 ? "[w], the spin about the axis normal to the plane" : "[wx, wy, wz]"));
       for (std::size_t a = 0; a < comps; ++a) P.angular_velocity[i][a] = w[i][a];
     }
     double rotational = 0;

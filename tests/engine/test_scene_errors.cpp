@@ -732,3 +732,22 @@ TEST_CASE("scene errors: an integer just past its bound is refused, not rounded 
                       Contains("particles.seed") && Contains("9200000000000000001 is out of range"));
   REQUIRE_THROWS_WITH(build(good, {"output.observables_every=0"}), Contains("output.observables_every") && Contains("out of range"));
 }
+
+TEST_CASE("scene errors: a spin of the wrong width names the form the dimension needs", "[scene][errors]") {
+  const std::string pair = R"(
+[scene]
+dimension = 2
+[particles]
+layout = "list"
+positions = [[1.0, 1.0], [3.0, 1.0]]
+diameter = 1.0
+mass = 1.0
+angular_velocities = [[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]
+[box]
+lengths = [10.0, 10.0]
+[contact]
+restitution = 0.5
+duration = 0.1
+)";
+  REQUIRE_THROWS_WITH(build(pair), Contains("particles.angular_velocities: row 0 has 3 components; a 2D scene needs 1 ([w]"));
+}
