@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <hdf5.h>
+
 #define GRAINS_PLUGIN_EXPORT extern "C" __attribute__((visibility("default")))
 
 namespace {
@@ -19,6 +21,12 @@ void copy_error(const char* what, char* error, std::size_t size) {
 
 GRAINS_PLUGIN_EXPORT void* grains_snapshot_open(const char* path, int dimension, const bool* periodic, const char* version,
                                                 const char* scene_toml, char* error, std::size_t error_size) {
+  // Every HDF5 object is closed by its writer (at Terminate or FreeInstance). HDF5's own exit handler would close
+  // them again and crashed the host (SIGSEGV at its exit, after Terminate and FreeInstance had succeeded) where a
+  // write had failed (a full disk, a file-size limit; an outside review, 2026-12-07), as it did the runner. Asked
+  // before this library's first HDF5 call; a host that loaded the same HDF5 library itself keeps its own choice.
+  static const bool no_exit_handler = (H5dont_atexit(), true);
+  (void)no_exit_handler;
   try {
     std::vector<bool> axes(periodic, periodic + dimension);
     return new grains::H5mdWriter(path, dimension, axes, version, scene_toml, true);

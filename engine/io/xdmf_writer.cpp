@@ -81,7 +81,13 @@ void XdmfWriter::write() const {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     out << xml;
     out.flush();
-    if (!out) throw OutputError(fmt::format("XDMF output: cannot write '{}' ({})", temp, std::strerror(errno)));
+    if (!out) {
+      const int why = errno;
+      out.close();
+      std::error_code ignored;
+      std::filesystem::remove(temp, ignored);   // a truncated temporary helps no one (a full disk left one each time)
+      throw OutputError(fmt::format("XDMF output: cannot write '{}' ({})", temp, std::strerror(why)));
+    }
   }
   std::error_code ec;
   std::filesystem::rename(temp, path_, ec);

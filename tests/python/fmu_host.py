@@ -27,14 +27,14 @@ def fmu_path(model, version):
     return fmu_dir() / f"fmi{version}" / f"{model}.fmu"
 
 
-def host_process(script, *args, env=None, timeout=None):
+def host_process(script, *args, env=None, timeout=None, cwd=None):
     """Runs a host script in its own process (a crash there fails the test, not the suite) with fmu_host importable;
     `env` adds to the environment. `timeout` (seconds) only ends a host that hangs, with the processes it forked."""
     here = pathlib.Path(__file__).parent
     env = dict(os.environ, **(env or {}))
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(here), os.environ.get("PYTHONPATH")]))
     with subprocess.Popen([sys.executable, "-c", script, *map(str, args)], stdout=subprocess.PIPE,
-                          stderr=subprocess.PIPE, text=True, env=env, start_new_session=True) as host:
+                          stderr=subprocess.PIPE, text=True, env=env, start_new_session=True, cwd=cwd) as host:
         try:
             out, err = host.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
