@@ -4,7 +4,6 @@
 #pragma once
 #include <exception>
 #include <new>
-#include <thread>
 
 #include <fmt/format.h>
 
@@ -15,20 +14,22 @@ namespace grains::fmu {
 
 template <class Body>
 Status guarded_call(const void* handle, const char* function, Body&& body) {
-  Instance* in = live_instance(handle);
-  if (!in) return Status::error;   // null, freed or not ours: nothing to log through
-  // One thread at a time; the same thread may call again from inside (a host's logger calling back).
-  const std::thread::id me = std::this_thread::get_id();
-  std::thread::id inside{};
-  const bool outermost = in->caller.compare_exchange_strong(inside, me);
-  if (!outermost && inside != me) return in->refuse_concurrent_call(function);
-  struct Leave {
-    Instance& in;
+  // One call at a time on an instance (claim_instance): the same thread may call again from inside.
+  Claim claim;
+  try {
+    claim = claim_instance(handle, function);
+    if (!claim.busy.empty()) claim.busy_logger(Status::error, log_error, claim.busy);
+  } catch (...) {   // the refusal's message or the logger's copy out of memory: nothing may reach the host
+  }
+  if (!claim.instance) return Status::error;   // null, freed, not ours, or busy (said above)
+  Instance* in = claim.instance;
+  struct Release {   // declared before Answering: released after it has restored the instance
+    const void* handle;
     bool outermost;
-    ~Leave() {
-      if (outermost) in.caller.store(std::thread::id{});
+    ~Release() {
+      if (outermost) release_instance(handle);
     }
-  } leave{*in, outermost};
+  } release{handle, claim.outermost};
   struct Answering {   // the instance's errors name this call until it returns
     Instance& in;
     const char* outer;

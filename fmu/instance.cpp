@@ -168,14 +168,6 @@ void Instance::warn(const std::string& message) {
   warned_ = true;
 }
 
-Status Instance::refuse_concurrent_call(const char* function) {
-  logger_(Status::error, log_error,
-          fmt::format("{}: called while another thread is inside a call on instance \"{}\": FMI 2 and 3 allow one call "
-                      "at a time on an instance; give each thread its own instance, or let one call end before the next",
-                      function, name_));
-  return Status::error;
-}
-
 Status Instance::unsupported(const char* function, const char* why) {
   return error(fmt::format("{} is not supported by this FMU: {}", function, why));
 }
@@ -208,7 +200,7 @@ Status Instance::ensure_built() {
     // A rebuild (a parameter set again, in Initialization Mode too, as libcosim does) logs only the start-up
     // warnings the host has not had from the simulation before (an outside review saw each twice).
     std::vector<std::string> said;
-    if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + warnings_logged_);
+    if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + std::min(warnings_logged_, sim_->warnings().size()));
     sim_ = std::move(sim);
     warnings_logged_ = 0;
     log_new_warnings(said);
@@ -433,11 +425,13 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
 }
 
 void Instance::log_new_warnings(const std::vector<std::string>& said) {
-  if (!sim_) return;
-  const auto& w = sim_->warnings();
-  for (; warnings_logged_ < w.size(); ++warnings_logged_) {
-    if (std::find(said.begin(), said.end(), w[warnings_logged_]) != said.end()) continue;
-    if (enabled(log_warning)) logger_(Status::warning, log_warning, w[warnings_logged_]);
+  // The host's logger may call back into this instance: a read runs the checks, which may add warnings, and may
+  // rebuild the simulation. Each message is taken, and counted, before the logger sees it (a review, 2026-12-07: a
+  // logger reading an output had the first warning twice, and the next rebuild read past the list's end).
+  while (sim_ && warnings_logged_ < sim_->warnings().size()) {
+    const std::string message = sim_->warnings()[warnings_logged_++];
+    if (std::find(said.begin(), said.end(), message) != said.end()) continue;
+    if (enabled(log_warning)) logger_(Status::warning, log_warning, message);
     warned_ = true;
   }
 }

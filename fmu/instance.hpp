@@ -3,7 +3,6 @@
 // fmi2_functions.cpp and fmi3_functions.cpp translate the C calls into these methods. Nothing here
 // is global: every instance owns all its state, so many instances can live in one process.
 #pragma once
-#include <atomic>
 #include <cctype>
 #include <cstddef>
 #include <cstdint>
@@ -114,12 +113,13 @@ class Instance {
   Status deserialize(const char* function, std::span<const std::byte> bytes, SavedState& state);
 
   double time() const;
-  // The thread inside a call on this instance (none: no call). FMI 2 and 3 allow one call at a time per instance; a
-  // host that stepped one instance from two threads (Ecos, two slots loaded from one FMU path) corrupted the heap and
-  // aborted. guarded_call refuses a second thread's call with refuse_concurrent_call, which touches nothing the call
-  // inside uses but the host's logger.
-  std::atomic<std::thread::id> caller{};
-  Status refuse_concurrent_call(const char* function);
+  // The thread inside a call on this instance (none: no call), and whether the host asked to free it meanwhile; both
+  // read and written under the registry's lock only (live_instances.cpp). FMI 2 and 3 allow one call at a time per
+  // instance; a host that stepped one instance from two threads (Ecos, two slots loaded from one FMU path) corrupted
+  // the heap and aborted.
+  std::thread::id caller{};
+  bool free_asked = false;
+  const Logger& logger() const { return logger_; }
   Experiment fmi2_experiment;   // FMI 2: what fmi2SetupExperiment gave, for fmi2EnterInitializationMode
   // Errors for FMI functions this FMU does not support, with the reason.
   Status unsupported(const char* function, const char* why);

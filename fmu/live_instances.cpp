@@ -59,10 +59,61 @@ void* hand_out(std::unique_ptr<Instance> instance) {
   return reinterpret_cast<void*>(handle);
 }
 
-Instance* live_instance(const void* handle) {
+Claim claim_instance(const void* handle, const char* function) {
   std::lock_guard lock(registry().mutex);
   const auto it = registry().instances.find(reinterpret_cast<std::uintptr_t>(handle));
-  return it == registry().instances.end() ? nullptr : it->second.get();
+  if (it == registry().instances.end()) return {};
+  Instance& in = *it->second;
+  const std::thread::id me = std::this_thread::get_id();
+  if (in.caller == std::thread::id{}) {
+    in.caller = me;
+    return {&in, true, {}, {}};
+  }
+  if (in.caller == me) return {&in, false, {}, {}};
+  return {nullptr, false, in.logger(),
+          fmt::format("{}: called while another thread is inside a call on instance \"{}\": FMI 2 and 3 allow one call "
+                      "at a time on an instance; give each thread its own instance, or let one call end before the next",
+                      function, in.name())};
+}
+
+namespace {
+// Takes the instance and its states out of the registry (its mutex held by the caller), for deleting outside it.
+void take_out(std::map<std::uintptr_t, std::unique_ptr<Instance>>::iterator it, std::unique_ptr<Instance>& gone,
+              std::vector<std::unique_ptr<SavedState>>& its_states) {
+  gone = std::move(it->second);
+  registry().instances.erase(it);
+  // FMI: freeing an instance frees everything it allocated, the states the host did not free among them.
+  auto& states = registry().states;
+  for (auto s = states.begin(); s != states.end();)
+    if (s->second.owner == gone.get()) {
+      its_states.push_back(std::move(s->second.state));
+      s = states.erase(s);
+    } else {
+      ++s;
+    }
+}
+
+void delete_taken(std::unique_ptr<Instance>& gone, std::vector<std::unique_ptr<SavedState>>& its_states) {
+  its_states.clear();   // deleted outside the lock
+  gone.reset();
+  // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
+  // thread outlives the instance. Another instance's next step simply starts a new pool.
+  release_worker_pool();
+}
+}  // namespace
+
+void release_instance(const void* handle) {
+  std::unique_ptr<Instance> gone;
+  std::vector<std::unique_ptr<SavedState>> its_states;
+  {
+    std::lock_guard lock(registry().mutex);
+    const auto it = registry().instances.find(reinterpret_cast<std::uintptr_t>(handle));
+    if (it == registry().instances.end()) return;
+    it->second->caller = std::thread::id{};
+    if (!it->second->free_asked) return;
+    take_out(it, gone, its_states);
+  }
+  delete_taken(gone, its_states);
 }
 
 void free_instance(const void* handle) {
@@ -72,29 +123,14 @@ void free_instance(const void* handle) {
     std::lock_guard lock(registry().mutex);
     const auto it = registry().instances.find(reinterpret_cast<std::uintptr_t>(handle));
     if (it == registry().instances.end()) return;   // freed before, or never ours: nothing to do
-    // Not from under a call another thread is making (FMI forbids it): kept, and the host told, rather than freed
-    // under that call's feet.
-    if (const std::thread::id inside = it->second->caller.load(); inside != std::thread::id{} && inside != std::this_thread::get_id()) {
-      it->second->refuse_concurrent_call("FreeInstance");
+    // Not from under a call (another thread's, or this one's from inside it: FMI forbids both): done when it ends.
+    if (it->second->caller != std::thread::id{}) {
+      it->second->free_asked = true;
       return;
     }
-    gone = std::move(it->second);
-    registry().instances.erase(it);
-    // FMI: freeing an instance frees everything it allocated, the states the host did not free among them.
-    auto& states = registry().states;
-    for (auto s = states.begin(); s != states.end();)
-      if (s->second.owner == gone.get()) {
-        its_states.push_back(std::move(s->second.state));
-        s = states.erase(s);
-      } else {
-        ++s;
-      }
+    take_out(it, gone, its_states);
   }
-  its_states.clear();   // deleted outside the lock
-  gone.reset();
-  // OpenMP's worker pool belongs to the calling host thread (libgomp); release it so no engine
-  // thread outlives the instance. Another instance's next step simply starts a new pool.
-  release_worker_pool();
+  delete_taken(gone, its_states);
 }
 
 void* hand_out_state(const Instance& owner, std::unique_ptr<SavedState> state) {

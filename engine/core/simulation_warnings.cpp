@@ -213,7 +213,7 @@ void SimulationImpl<D>::warn_stiff_cell_damping() {
 // collision, nothing said); at 1e11 radii the collision's restitution was off by 4e-4, at 1e8 by 1e-6. Warned where
 // the spacing passes a thousandth of the smallest such length: the contacts' overlaps (the clamp depth, taken at most
 // a tenth of R_min: the gas scenes' overlap_limit = 1 set it at half a radius, and an elastic gas 1e12 out gained 0.9 %
-// of its energy in 1e5 steps, 3e12 out 4.3 %, unwarned), the softening length, and the grains' radius (gravity
+// of its energy in 1e5 steps, 3e12 out 4.3 %, unwarned), the softening length without contacts, and the grains' radius (gravity
 // without contacts went unchecked: an eccentric binary 1e12 out lost its angular momentum; a review, 2026-12-07).
 template <int D>
 void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin, bool contacts) {
@@ -227,9 +227,11 @@ void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin,
   std::string what = "the smallest radius R_min";
   if (const double f = contacts ? std::min(scene.real("contact.overlap_limit"), 0.1) : 0; f > 0 && f * rmin < length)
     length = f * rmin, what = fmt::format("the contacts' overlaps, min(contact.overlap_limit, 0.1) R_min");
-  if (scene.boolean("gravity.enabled"))
+  bool softening = false;   // the limit: then gravity.softening is the key to change (only without contacts, which
+                            // keep centres a diameter apart; a review, 2026-12-07)
+  if (!contacts && scene.boolean("gravity.enabled"))
     if (const double eps = scene.real("gravity.softening") * rmin; eps > 0 && eps < length)
-      length = eps, what = "the softening length gravity.softening R_min";
+      length = eps, what = "the softening length gravity.softening R_min", softening = true;
   const std::string layout = scene.text("particles.layout");
   // What put the grains that far: their listed places, the box's corner, or its size (a box sized from a tiny
   // particles.solid_fraction was blamed on an unset box.lower; a review, 2026-12-07).
@@ -237,7 +239,8 @@ void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin,
   for (int a = 0; a < D; ++a)
     corner = std::max(corner, std::abs(sys_.box.lower[a])), size = std::max(size, sys_.box.length[a]);
   const bool placed = scene.has("box.lower") && corner >= size;
-  const char* key = layout == "list"           ? "particles.positions"
+  const char* key = softening                  ? "gravity.softening"
+                    : layout == "list"         ? "particles.positions"
                     : layout == "file"         ? "particles.file"
                     : placed                   ? "box.lower"
                     : scene.has("box.lengths") ? "box.lengths"
@@ -245,8 +248,9 @@ void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin,
   if (spacing > 1e-3 * length)
     warn(fmt::format("{}: coordinates reach {:.6g}, where doubles are {:.3g} apart, more than 1e-3 of {} = {:.6g}: "
                      "lengths are resolved no finer than that, and moves below it are lost to rounding (grains 1e16 "
-                     "radii out never moved); keep every coordinate below {:.3g} (a scene near the origin, and no larger)",
-                     key, far, spacing, what, length, length * 1e-3 * std::pow(2.0, 52)));
+                     "radii out never moved); keep every coordinate below {:.3g} (a scene near the origin, and no larger){}",
+                     key, far, spacing, what, length, length * 1e-3 * std::pow(2.0, 52),
+                     softening ? ", or raise gravity.softening" : ""));
 }
 
 // Two of the fastest initial grains approaching head-on close 2 v_max dt in a step. Beyond the clamp depth

@@ -268,7 +268,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
   for (const std::string& p : {target, creating})
     if (h5::locked_by_another_process(p))
       throw std::runtime_error(fmt::format("cannot create output file '{}': another writer holds it (a run still going, or "
-                                           "an FMU instance of the same name not yet terminated?); choose another file, "
+                                           "an FMU instance not yet terminated whose name gives this file?); choose another file, "
                                            "or wait until that writer ends", path));
   hid_t fid = H5Fcreate(creating.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (fid < 0) h5::fail(path, fmt::format("creating the file (first as '{}'; is the folder writable?)", creating));

@@ -3,7 +3,7 @@ one callback for the process, the last one given: an error of one instance was f
 `errors() == []` of the first passed whatever it logged."""
 import pytest
 
-from fmu_host import Unit, fmu_path
+from fmu_host import Unit, fmu_path, host_process
 
 
 def test_each_fmi2_instance_logs_to_its_own_unit():
@@ -42,3 +42,53 @@ def test_a_parameter_set_again_does_not_repeat_the_start_up_warnings(version):
     unit.initialize({coarse: 10})
     assert said() == 2
     unit.free()
+
+
+REENTRANT_HOST = r"""
+import sys
+from fmu_host import Unit, fmu_path, host_process
+mode = sys.argv[1]
+unit = Unit(fmu_path("collision", 3), name="r")
+
+
+class CallingBack(list):
+    fired = False
+
+    def append(self, message):
+        super().append(message)
+        if message[0] == 1 and not CallingBack.fired:   # the first warning
+            CallingBack.fired = True
+            if mode == "read":
+                unit.get("kinetic_energy")   # runs the checks again, inside the call that logs
+            else:
+                unit.fmu.fmi3FreeInstance(unit.fmu.component)
+
+
+unit.messages = CallingBack()
+unit.set("time.steps_per_contact", 10)   # two start-up warnings
+unit.fmu.enterInitializationMode(startTime=0.0)
+print("warnings", sum(m[0] == 1 for m in unit.messages))
+if mode == "read":
+    unit.set("contact.restitution", 0.6)   # a rebuild: its warnings are those said already
+    unit.get("kinetic_energy")
+    print("after the rebuild", sum(m[0] == 1 for m in unit.messages))
+else:
+    try:
+        unit.get("kinetic_energy")
+        print("still there")
+    except Exception:
+        print("freed when the call ended")
+"""
+
+
+def test_a_logger_calling_back_into_its_instance_is_served_once_and_safely():
+    """A host's logger may call back into the instance it logs for, on the same thread (which is why a call claims its
+    instance for a thread, not for good). A logger reading an output had the first warning twice, and the next rebuild
+    read past the end of the warnings (SIGSEGV); a logger freeing the instance freed it under the call (an outside
+    review, 2026-12-07). Now each warning is said once, and such a free is done when the call ends."""
+    read = host_process(REENTRANT_HOST, "read", timeout=60)
+    assert read.returncode == 0, (read.returncode, read.stderr)
+    assert read.stdout.split() == ["warnings", "2", "after", "the", "rebuild", "2"], read.stdout
+    free = host_process(REENTRANT_HOST, "free", timeout=60)
+    assert free.returncode == 0, (free.returncode, free.stderr)
+    assert free.stdout.splitlines() == ["warnings 2", "freed when the call ended"], free.stdout
