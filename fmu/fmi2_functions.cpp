@@ -136,7 +136,12 @@ GRAINS_FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Ty
   return nullptr;
 }
 
-GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) { grains::fmu::free_instance(c); }
+GRAINS_FMI2_EXPORT void fmi2FreeInstance(fmi2Component c) {
+  try {
+    grains::fmu::free_instance(c);
+  } catch (...) {   // out of memory taking its states out: nothing may reach the host
+  }
+}
 
 GRAINS_FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                                   fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {

@@ -200,7 +200,12 @@ GRAINS_FMI3_EXPORT fmi3Instance fmi3InstantiateScheduledExecution(fmi3String ins
   return nullptr;
 }
 
-GRAINS_FMI3_EXPORT void fmi3FreeInstance(fmi3Instance c) { grains::fmu::free_instance(c); }
+GRAINS_FMI3_EXPORT void fmi3FreeInstance(fmi3Instance c) {
+  try {
+    grains::fmu::free_instance(c);
+  } catch (...) {   // out of memory taking its states out: nothing may reach the host
+  }
+}
 
 GRAINS_FMI3_EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean, fmi3Float64, fmi3Float64 startTime,
                                                           fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {

@@ -4,6 +4,7 @@
 #pragma once
 #include <exception>
 #include <new>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -11,6 +12,12 @@
 #include "live_instances.hpp"
 
 namespace grains::fmu {
+
+// The calls that change nothing of the instance: the Get functions (values, status, dependencies), not the FMU state's.
+inline bool reads_only(std::string_view function) {
+  return function.find("Get") != std::string_view::npos && function.find("FMUstate") == std::string_view::npos &&
+         function.find("FMUState") == std::string_view::npos;
+}
 
 template <class Body>
 Status guarded_call(const void* handle, const char* function, Body&& body) {
@@ -27,9 +34,19 @@ Status guarded_call(const void* handle, const char* function, Body&& body) {
     const void* handle;
     bool outermost;
     ~Release() {
-      if (outermost) release_instance(handle);
+      try {
+        if (outermost) release_instance(handle);
+      } catch (...) {   // out of memory taking the instance's states out: it stays, freed by nothing
+      }
     }
   } release{handle, claim.outermost};
+  // From inside another call on this instance (its host's logger calling back), only reads: a set, a reset or a
+  // state call there changed what the outer call was using (a review, 2026-12-07: a logger's set was lost to the
+  // rebuild around it, its snapshots_every = 0 divided by zero, its FreeFMUState freed the state being filled).
+  if (!claim.outermost && !reads_only(function))
+    return in->error(fmt::format("{}: called from inside another call on this instance (its logger calling back): only "
+                                 "reads (the Get functions, but for the FMU state's) and FreeInstance are allowed there",
+                                 function));
   struct Answering {   // the instance's errors name this call until it returns
     Instance& in;
     const char* outer;

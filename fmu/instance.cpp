@@ -202,9 +202,9 @@ Status Instance::ensure_built() {
     std::vector<std::string> said;
     if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + std::min(warnings_logged_, sim_->warnings().size()));
     sim_ = std::move(sim);
+    dirty_ = false;   // before the logger runs: a read it makes from inside finds the simulation built
     warnings_logged_ = 0;
     log_new_warnings(said);
-    dirty_ = false;
   } catch (const std::bad_alloc&) {
     return error(out_of_memory_message);
   } catch (const std::exception& e) {

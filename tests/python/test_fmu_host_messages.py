@@ -60,6 +60,11 @@ class CallingBack(list):
             CallingBack.fired = True
             if mode == "read":
                 unit.get("kinetic_energy")   # runs the checks again, inside the call that logs
+            elif mode == "set":
+                try:
+                    unit.set("time.steps_per_contact", 200)
+                except Exception:
+                    print("set refused")
             else:
                 unit.fmu.fmi3FreeInstance(unit.fmu.component)
 
@@ -72,6 +77,8 @@ if mode == "read":
     unit.set("contact.restitution", 0.6)   # a rebuild: its warnings are those said already
     unit.get("kinetic_energy")
     print("after the rebuild", sum(m[0] == 1 for m in unit.messages))
+elif mode == "set":
+    print("steps_per_contact", unit.get("time.steps_per_contact"), "dt", unit.get("time.dt"))
 else:
     try:
         unit.get("kinetic_energy")
@@ -85,10 +92,14 @@ def test_a_logger_calling_back_into_its_instance_is_served_once_and_safely():
     """A host's logger may call back into the instance it logs for, on the same thread (which is why a call claims its
     instance for a thread, not for good). A logger reading an output had the first warning twice, and the next rebuild
     read past the end of the warnings (SIGSEGV); a logger freeing the instance freed it under the call (an outside
-    review, 2026-12-07). Now each warning is said once, and such a free is done when the call ends."""
+    review, 2026-12-07). Now each warning is said once, and such a free is done when the call ends. A set from there
+    is refused (it had been lost to the rebuild around it: steps_per_contact read 200, the step was 10's)."""
     read = host_process(REENTRANT_HOST, "read", timeout=60)
     assert read.returncode == 0, (read.returncode, read.stderr)
     assert read.stdout.split() == ["warnings", "2", "after", "the", "rebuild", "2"], read.stdout
     free = host_process(REENTRANT_HOST, "free", timeout=60)
     assert free.returncode == 0, (free.returncode, free.stderr)
     assert free.stdout.splitlines() == ["warnings 2", "freed when the call ended"], free.stdout
+    nested_set = host_process(REENTRANT_HOST, "set", timeout=60)
+    assert nested_set.returncode == 0, (nested_set.returncode, nested_set.stderr)
+    assert nested_set.stdout.splitlines() == ["set refused", "warnings 2", "steps_per_contact 10.0 dt 0.01"], nested_set.stdout

@@ -1,6 +1,7 @@
 """A host that runs several instances at once, each from its own thread (fmpy's ctypes calls release the GIL): every
 instance gives bit for bit what it gives alone, and its messages reach its own logger on the calling thread."""
 import threading
+import time
 
 import pytest
 
@@ -76,12 +77,18 @@ def test_a_call_from_a_second_thread_while_one_is_inside_is_refused_not_raced():
         done, stepped = threading.Event(), []
 
         def long_step():
-            unit.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=4000 * dt)   # seconds; raises on Error
-            stepped.append(True)
-            done.set()
+            try:
+                started.set()
+                unit.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=4000 * dt)   # seconds; raises on Error
+                stepped.append(True)
+            finally:
+                done.set()
 
+        started = threading.Event()
         stepping = threading.Thread(target=long_step)
         stepping.start()
+        started.wait()
+        time.sleep(0.05)   # into the step
         refused = 0
         while not done.is_set() and refused < 3:
             try:
