@@ -200,7 +200,7 @@ Status Instance::ensure_built() {
     // A rebuild (a parameter set again, in Initialization Mode too, as libcosim does) logs only the start-up
     // warnings the host has not had from the simulation before (an outside review saw each twice).
     std::vector<std::string> said;
-    if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + std::min(warnings_logged_, sim_->warnings().size()));
+    if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + warnings_logged_);
     sim_ = std::move(sim);
     dirty_ = false;   // before the logger runs: a read it makes from inside finds the simulation built
     warnings_logged_ = 0;
@@ -425,9 +425,9 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
 }
 
 void Instance::log_new_warnings(const std::vector<std::string>& said) {
-  // The host's logger may call back into this instance: a read runs the checks, which may add warnings, and may
-  // rebuild the simulation. Each message is taken, and counted, before the logger sees it (a review, 2026-12-07: a
-  // logger reading an output had the first warning twice, and the next rebuild read past the list's end).
+  // The host's logger may call back into this instance to read, which runs the checks, which may add warnings. Each
+  // message is taken, and counted, before the logger sees it (a review, 2026-12-07: a logger reading an output had the
+  // first warning twice, and the next rebuild read past the list's end).
   while (sim_ && warnings_logged_ < sim_->warnings().size()) {
     const std::string message = sim_->warnings()[warnings_logged_++];
     if (std::find(said.begin(), said.end(), message) != said.end()) continue;
