@@ -185,6 +185,8 @@ class SimulationImpl final : public Simulation {
   std::string orbit_rule_terms(const OrbitStepRule::At& rule) const;
   void warn_orbit_step_at_G(double G);
   void warn_pressure_beyond_clamp(const char* key, double reduced_pressure);
+  bool gravity_pulls() const;   // gravity on, at a G above 0
+  std::string warning_time() const;   // the time of a check's warning
   void check_energy(double kinetic) const;
   void check_pass_through() const;
   void check_softened_core() const;

@@ -211,8 +211,10 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
   for (int a = 0; a < D; ++a) out(fmt::format("cell_strain_rate_{}", xyz[a]), "1/s", "(dL/dt) / L");
   for (int a = 0; a < D; ++a)
     for (int b = a; b < D; ++b)
-      out(fmt::format("stress_{}{}", xyz[a], xyz[b]), stress_unit<D>, "stress tensor, contact + kinetic, compressive positive: sum of F_a r_b / V over the contacts + sum of m v_a v_b / V (off the "
-                             "diagonal a < b only: the contacts' net moments, zero in equilibrium, can make the b-a entry differ in motion)");
+      out(fmt::format("stress_{}{}", xyz[a], xyz[b]), stress_unit<D>,
+          "stress tensor, contact + kinetic, compressive positive: sum of F_a r_b / V over the contacts + sum of "
+          "m v_a v_b / V (off the diagonal a < b only: the contacts' net moments, zero in equilibrium, can make the b-a "
+          "entry differ in motion)");
   out("pressure", stress_unit<D>, "trace(stress) / D, contact + kinetic");
   out("pressure_kinetic", stress_unit<D>, "kinetic part of the pressure (velocities relative to the affine flow)");
   // This scene's P*: a cohesionless cell (F0 = 0) reduces by k_n (setup_cell's pressure_scale_).
@@ -255,8 +257,12 @@ void SimulationImpl<D>::describe_cell_variables(Out& out) {
                 if ((v == 1) == cell_active_) return;   // unchanged (a restored state sets every control)
                 cell_active_ = v == 1;
                 if (loading_controls_) return;   // the restored barostat is held or released already
-                if (cell_active_) barostat_->release(), warn_stiff_cell_damping();
-                else barostat_->hold();
+                if (cell_active_) {
+                  barostat_->release();
+                  warn_stiff_cell_damping();
+                } else {
+                  barostat_->hold();
+                }
               });
 }
 

@@ -371,6 +371,19 @@ void SimulationImpl<D>::warn_pressure_beyond_clamp(const char* key, double reduc
 // 0.7 R) 1.4e-4; the collapse scene (no contacts) 3.6e-4; two grains passing through each other (k* = 10,
 // 30 steps per contact) 0.97, and the aggregation scene at k* = 10, zeta = 0.02, 2.7 (first above 1 % at
 // 0.34 t_ff). At k* = 100 the cloud's E rises 0.9-2.9 %: warned about, mildly, at most dampings.
+// A host may hold G at 0: then nothing pulls, k* is NaN and t_ff means nothing to the checks' texts.
+template <int D>
+bool SimulationImpl<D>::gravity_pulls() const {
+  return gravity_ && gravity_->G() > 0;
+}
+
+// The time of a check's warning: t, t / t_ff where gravity pulls, and the step.
+template <int D>
+std::string SimulationImpl<D>::warning_time() const {
+  return gravity_pulls() ? fmt::format("t = {:.6g} ({:.3g} t_ff, step {})", sys_.time, sys_.time / free_fall_time_, sys_.step)
+                         : fmt::format("t = {:.6g} (step {})", sys_.time, sys_.step);
+}
+
 constexpr double energy_rise_limit = 0.01;
 template <int D>
 void SimulationImpl<D>::check_energy(double kinetic) const {
@@ -391,8 +404,7 @@ void SimulationImpl<D>::check_energy(double kinetic) const {
   const double scale = std::max({kinetic, std::abs(W), std::abs(w.first)}), rise = E - w.minimum;
   if (!(rise > energy_rise_limit * scale)) return;
   w.warned = 1;
-  // A host may hold G at 0 (k* NaN): then the contacts alone made the energy, and t_ff means nothing.
-  const bool pulling = gravity_ && gravity_->G() > 0;
+  const bool pulling = gravity_pulls();   // else the contacts alone made the energy
   const std::string cause =
       kn_ > 0 && !pulling
           ? "a step too coarse for the contacts, or grains meeting with more energy than the clamped spring stores "
@@ -403,13 +415,11 @@ void SimulationImpl<D>::check_energy(double kinetic) const {
                             "raise k* (a shorter contact.duration) or contact.overlap_limit, or time.steps_per_contact",
                             o.at("normalised_stiffness"), o.count("max_overlap_ratio") ? o.at("max_overlap_ratio") : 0.0)
               : "a step too coarse for close encounters at the softening length: lower time.dt or raise gravity.softening";
-  const std::string when = pulling ? fmt::format("t = {:.6g} ({:.3g} t_ff, step {})", sys_.time, sys_.time / free_fall_time_, sys_.step)
-                                   : fmt::format("t = {:.6g} (step {})", sys_.time, sys_.step);
   warn(fmt::format("energy check: at {} the total energy E = K + W + elastic = {:.6g} is "
                    "{:.6g} above its lowest value {:.6g} (at t = {:.6g}), {:.3g} % of the energy scale "
                    "max(K, |W|, |E_0|) = {:.6g} (the check's limit: {:g} %); nothing in this scene adds energy, so the "
                    "integration is making it and what follows (virial ratio, clusters) is an artefact. Likely cause: {}",
-                   when, E, rise, w.minimum, w.minimum_time,
+                   warning_time(), E, rise, w.minimum, w.minimum_time,
                    100 * rise / scale, scale, 100 * energy_rise_limit, cause));
 }
 
@@ -428,17 +438,14 @@ void SimulationImpl<D>::check_pass_through() const {
   const auto overlap = o.find("max_overlap_ratio");
   if (pass_through_warned_ || overlap == o.end() || !(overlap->second > pass_through_overlap)) return;
   pass_through_warned_ = true;
-  const bool pulling = gravity_ && gravity_->G() > 0;   // a host may hold G at 0: k* is NaN, t_ff means nothing
-  const std::string when = pulling ? fmt::format("at t = {:.6g} ({:.3g} t_ff, step {})", sys_.time, sys_.time / free_fall_time_, sys_.step)
-                                    : fmt::format("at t = {:.6g} (step {})", sys_.time, sys_.step);
-  const std::string what = fmt::format("contact check: {} two grains overlap by {:.4g} times the smaller one's radius "
+  const std::string what = fmt::format("contact check: at {} two grains overlap by {:.4g} times the smaller one's radius "
                                        "(max_overlap_ratio): they are passing through each other. The contact force "
-                                       "stops growing at contact.overlap_limit times that radius, ", when, overlap->second);
+                                       "stops growing at contact.overlap_limit times that radius, ", warning_time(), overlap->second);
   if (network_)   // the adhesive law (cohesionless F0 = 0 too): its stiffness is adhesion.stiffness, gravity or not
     warn(what + "which cannot stop grains that meet with more energy than the clamped spring stores or that the step "
                 "misses: what follows is an artefact; raise adhesion.stiffness or contact.overlap_limit, or lower the "
                 "grains' speeds");
-  else if (pulling && kn_ > 0)
+  else if (gravity_pulls() && kn_ > 0)
     warn(what + fmt::format("which cannot hold grains that gravity presses together harder than that (k* = {:.3g}, from "
                             "the lightest pair's k_n and the mean grain's k_g) or that meet faster than the step resolves "
                             "(the start-up warning on unresolved approaches says so): the clusters, D_f and aggregation time "
@@ -504,6 +511,8 @@ void SimulationImpl<D>::check_softened_core() const {
   template std::string SimulationImpl<D>::orbit_rule_terms(const OrbitStepRule::At&) const; \
   template void SimulationImpl<D>::warn_orbit_step_at_G(double); \
   template void SimulationImpl<D>::warn_pressure_beyond_clamp(const char*, double); \
+  template bool SimulationImpl<D>::gravity_pulls() const; \
+  template std::string SimulationImpl<D>::warning_time() const; \
   template void SimulationImpl<D>::check_energy(double) const; \
   template void SimulationImpl<D>::check_pass_through() const; \
   template void SimulationImpl<D>::check_softened_core() const;
