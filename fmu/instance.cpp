@@ -187,14 +187,11 @@ Status Instance::ensure_built() {
   if (sim_ && !dirty_) return Status::ok;
   try {
     auto sim = Simulation::create(scene_);
-    if (const ModelTable now = describe_model(scene_, *sim); !same_structure(now, table_)) {
-      std::vector<std::string> changed;   // the fixed parameters the host moved from the packaged scene's values
-      for (const FmuVariable& v : table_.variables)
-        if (v.role == Role::scene_parameter && scene_value(scene_, v) != scene_value(packaged_, v))
-          changed.push_back(fmt::format("{} = {}", v.name, scene_value(scene_, v)));
+    const ModelTable now = describe_model(scene_, *sim);
+    if (!same_structure(now, table_)) {
       return error(fmt::format("the parameter values set ({}) change the FMU's set of variables (the simulation would be {}): "
                                "only values that keep the packaged scene's variables are allowed",
-                               fmt::join(changed, ", "), structure_change(now, table_)));
+                               fmt::join(moved_parameters(), ", "), structure_change(now, table_)));
     }
     for (const auto& [index, value] : pending_controls_) sim->set(index, value);
     // A rebuild (a parameter set again, in Initialization Mode too, as libcosim does) logs only the start-up
@@ -205,6 +202,7 @@ Status Instance::ensure_built() {
     dirty_ = false;   // before the logger runs: a read it makes from inside finds the simulation built
     warnings_logged_ = 0;
     log_new_warnings(said);
+    log_new_meanings(now);
   } catch (const std::bad_alloc&) {
     return error(out_of_memory_message);
   } catch (const std::exception& e) {
@@ -356,6 +354,7 @@ Status Instance::reset() {
   snapshots_every_ = 0;
   phase_ = Phase::instantiated;
   sim_.reset();   // a new experiment: its start-up warnings are logged again
+  meanings_said_.clear();
   return ensure_built();
 }
 
@@ -433,6 +432,30 @@ void Instance::log_new_warnings(const std::vector<std::string>& said) {
     if (std::find(said.begin(), said.end(), message) != said.end()) continue;
     if (enabled(log_warning)) logger_(Status::warning, log_warning, message);
     warned_ = true;
+  }
+}
+
+std::vector<std::string> Instance::moved_parameters() const {
+  std::vector<std::string> moved;
+  for (const FmuVariable& v : table_.variables)
+    if (v.role == Role::scene_parameter && scene_value(scene_, v) != scene_value(packaged_, v))
+      moved.push_back(fmt::format("{} = {}", v.name, scene_value(scene_, v)));
+  return moved;
+}
+
+void Instance::log_new_meanings(const ModelTable& now) {
+  // adhesion.force = 0 makes the consolidation cell cohesionless, and P* (the input cell.pressure) is then reduced by
+  // k_n, not F0: a host sweeping F0 down to 0 had its target jump by 11 orders of magnitude, with nothing said (an
+  // outside review, 2026-12-07).
+  const std::vector<std::string> changed = moved_parameters();   // named as the cause
+  for (std::size_t r = 0; r < now.variables.size() && r < table_.variables.size(); ++r) {
+    const FmuVariable &is = now.variables[r], &was = table_.variables[r];
+    if (is.role == Role::scene_parameter || is.description == was.description) continue;
+    const std::string meaning = is.name + ": " + is.description;
+    if (std::find(meanings_said_.begin(), meanings_said_.end(), meaning) != meanings_said_.end()) continue;
+    meanings_said_.push_back(meaning);
+    warn(fmt::format("with the parameter values set ({}), '{}' is: {} (the modelDescription says: {})",
+                     fmt::join(changed, ", "), is.name, is.description, was.description));
   }
 }
 

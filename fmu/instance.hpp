@@ -132,6 +132,11 @@ class Instance {
   // calling back into the instance) to restore.
   const char* answering(const char* function) { return std::exchange(answering_, function); }
   void log_new_warnings(const std::vector<std::string>& said = {});   // sim_'s warnings not yet passed to the logger
+  // The inputs and outputs whose description in `now` (the table of the scene with the host's values) differs from
+  // the modelDescription's, each logged once as a warning: a parameter can change what a variable means.
+  void log_new_meanings(const ModelTable& now);
+  // "name = value" of each fixed parameter the host moved from the packaged scene's value.
+  std::vector<std::string> moved_parameters() const;
   // Whether warnings were passed (logged, unless the host switched logStatusWarning off) since the last take: the
   // call that raised them returns fmi2Warning / fmi3Warning instead of OK (guarded_call).
   bool take_warned() { return std::exchange(warned_, false); }
@@ -169,6 +174,8 @@ class Instance {
   // reads the outputs (energy, pass-through), are logged at the end of that DoStep or read. Until 2026-12-05 a
   // read's warnings waited for the next DoStep, so those of the last read before Terminate never reached the host.
   std::size_t warnings_logged_ = 0;
+  // The inputs' and outputs' new meanings ("name: description") logged so far, each once until a reset.
+  std::vector<std::string> meanings_said_;
   bool warned_ = false;   // see take_warned()
   bool dirty_ = true;         // scene_ changed since sim_ was built
   ModelTable table_;          // of the packaged scene: references and types never change

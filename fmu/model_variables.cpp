@@ -19,7 +19,8 @@ namespace {
 bool exposed_scene_key(std::string_view path, ValueKind kind) {
   if (kind != ValueKind::real && kind != ValueKind::integer && kind != ValueKind::boolean) return false;
   if (path == "scene.dimension" || path == "box.periodic" || path == "time.duration" || path == "time.steps" ||
-      path == "time.free_fall_times" || path == "analysis.stop_at_aggregation")
+      path == "time.free_fall_times" || path == "analysis.stop_at_aggregation" ||
+      path == "analysis.elastic_moduli")   // false removes the moduli outputs: a host could only set it to true
     return false;
   if (path.ends_with(".enabled") || path.starts_with("output.")) return false;
   return true;

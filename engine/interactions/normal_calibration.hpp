@@ -10,12 +10,13 @@ struct SpringDashpot { double k, c; };
 // zeta = -ln e / sqrt(pi^2 + ln^2 e); k = m* (pi^2 + ln^2 e) / t_c^2; c = -2 m* ln e / t_c.
 inline SpringDashpot calibrate_linear(double e, double t_c, double reduced_mass) {
   const double le = std::log(e), pi2 = std::numbers::pi * std::numbers::pi;
-  return {reduced_mass * (pi2 + le * le) / (t_c * t_c), -2.0 * reduced_mass * le / t_c};
+  // + 0.0: an elastic contact (ln e = 0) gets c = 0, not -0, which the scene's echo printed as "c_n = -0"
+  return {reduced_mass * (pi2 + le * le) / (t_c * t_c), -2.0 * reduced_mass * le / t_c + 0.0};
 }
 
 inline double damping_ratio(double e) {
   const double le = std::log(e);
-  return -le / std::sqrt(std::numbers::pi * std::numbers::pi + le * le);
+  return -le / std::sqrt(std::numbers::pi * std::numbers::pi + le * le) + 0.0;   // + 0.0: e = 1 gives 0, not -0
 }
 
 // Exact head-on collision of the clamped (non-pulling) damped oscillator, zeta < 1, natural

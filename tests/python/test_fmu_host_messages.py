@@ -103,3 +103,30 @@ def test_a_logger_calling_back_into_its_instance_is_served_once_and_safely():
     nested_set = host_process(REENTRANT_HOST, "set", timeout=60)
     assert nested_set.returncode == 0, (nested_set.returncode, nested_set.stderr)
     assert nested_set.stdout.splitlines() == ["set refused", "warnings 2", "steps_per_contact 10.0 dt 0.01"], nested_set.stdout
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_parameter_that_changes_what_an_input_means_is_said(version):
+    """adhesion.force = 0 makes the cell cohesionless, where P* is reduced by k_n, not F0: the input cell.pressure's
+    target moved by orders of magnitude while the modelDescription still said a P / F0, and nothing was logged (an
+    outside review, 2026-12-07). Each new meaning is said once, naming the value that caused it."""
+    unit = Unit(fmu_path("consolidation", version))
+    meaning = lambda name: [m for m in unit.warnings() if f"'{name}' is:" in m]
+    unit.initialize({"particles.count": 100})
+    assert meaning("cell.pressure") == [] and meaning("pressure_reduced") == []
+    unit.reset()
+    unit.set("particles.count", 100)
+    unit.set("adhesion.force", 0.0)
+    if version == 2:
+        unit.fmu.setupExperiment(startTime=0.0)
+        unit.fmu.enterInitializationMode()
+    else:
+        unit.fmu.enterInitializationMode(startTime=0.0)
+    unit.set("friction.coefficient", 0.3)   # a rebuild in Initialization Mode: said once all the same
+    unit.fmu.exitInitializationMode()
+    unit.step(0.01)
+    said = meaning("cell.pressure")
+    assert len(said) == 1, unit.warnings()
+    assert "adhesion.force = 0" in said[0] and "P / k_n (cohesionless" in said[0] and "says: target reduced pressure P* = a P / F0" in said[0]
+    assert len(meaning("pressure_reduced")) == 1
+    unit.free()
