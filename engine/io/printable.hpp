@@ -18,4 +18,13 @@ inline std::string printable(std::string_view text) {
   return out;
 }
 
+// printable() of at most the first `limit` bytes, cut before a whole UTF-8 character, with the length when cut:
+// a 20 MB word in a particle file was echoed whole in its error message.
+inline std::string printable_excerpt(std::string_view text, std::size_t limit = 60) {
+  if (text.size() <= limit) return printable(text);
+  std::size_t cut = limit;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xc0) == 0x80) --cut;   // not inside a character
+  return fmt::format("{}... ({} bytes)", printable(text.substr(0, cut)), text.size());
+}
+
 }  // namespace grains

@@ -202,20 +202,23 @@ InitialState<D> make_initial_state(const Scene& s) {
     std::string line;
     int first_row_line = 0;
     for (int lineno = 1; std::getline(in, line); ++lineno) {
+      // A byte-order mark that some editors write before the first line: it is no part of the first number.
+      if (lineno == 1 && line.starts_with("\xef\xbb\xbf")) line.erase(0, 3);
       if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
       std::istringstream ls(line);
       std::vector<double> r;
       for (std::string word; ls >> word;) {   // every word a number: a stray one is an error, not the row's end
         char* end = nullptr;
         const double v = std::strtod(word.c_str(), &end);
-        // strtod reads C's hexadecimal numbers too ("0x10" = 16), which a table of decimal numbers does not hold
-        if (end == word.c_str() || *end != '\0' || word.find_first_of("xX") != std::string::npos)
+        // strtod reads C's hexadecimal numbers too ("0x10" = 16), which a table of decimal numbers does not hold, and
+        // stops at a NUL inside the word ("3\0" "77" read as 3: a crash's zero-filled block would pass)
+        if (end != word.c_str() + word.size() || word.empty() || word.find_first_of("xX") != std::string::npos)
           s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is not a decimal number", printable(path.string()),
-                                               lineno, r.size() + 1, printable(word)));
+                                               lineno, r.size() + 1, printable_excerpt(word)));
         // strtod reads "nan", "inf" and overflowing literals such as 1e999 too
         if (!std::isfinite(v))
           s.fail("particles.file", fmt::format("{}:{}: column {}: '{}' is {}, expected a finite number",
-                                               printable(path.string()), lineno, r.size() + 1, printable(word), v));
+                                               printable(path.string()), lineno, r.size() + 1, printable_excerpt(word), v));
         r.push_back(v);
       }
       if (r.empty()) continue;

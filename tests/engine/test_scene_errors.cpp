@@ -240,7 +240,13 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
   // an escape sequence drove the terminal; found by an adversarial review, 2026-12-07).
   for (const auto& [word, shown] : {std::pair<std::string, std::string>{"0x10", "'0x10'"},
                                     std::pair<std::string, std::string>{std::string("\0\x01", 2), "'\\x00\\x01'"},
-                                    std::pair<std::string, std::string>{"\x1b[31mRED", "'\\x1b[31mRED'"}}) {
+                                    std::pair<std::string, std::string>{"\x1b[31mRED", "'\\x1b[31mRED'"},
+                                    // a NUL inside a number: strtod stopped there and "3\077" was read as 3 (a review,
+                                    // 2026-12-07), as a crash's zero-filled block would be
+                                    std::pair<std::string, std::string>{std::string("3\0" "77", 4), "'3\\x0077'"},
+                                    // a 20 MB word was echoed whole: now its start and its length
+                                    std::pair<std::string, std::string>{std::string(100000, '7') + "z",
+                                                                        "'" + std::string(60, '7') + "... (100001 bytes)'"}}) {
     {
       std::ofstream f(path);
       f << "0 0 0 1 1\n2 " << word << " 0 1 1\n";
@@ -263,6 +269,13 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
     f << "0 0 0 1 1\n2 0 0 1 1\n";
   }
   REQUIRE_NOTHROW(build(good_uncounted, file));
+  // A byte-order mark before the first row (some editors write one) was "'\xef\xbb\xbf0' is not a decimal number",
+  // shown as "'0'": it is skipped.
+  {
+    std::ofstream f(path);
+    f << "\xef\xbb\xbf" "0 0 0 1 1\n2 0 0 1 1\n";
+  }
+  REQUIRE(Simulation::create(Scene::from_string(good_uncounted, "bad.toml", file))->particle_count() == 2);
   std::filesystem::remove(path);
 }
 
