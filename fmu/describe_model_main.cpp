@@ -1,7 +1,8 @@
 // Build-time generator: loads a packaged scene, builds its Simulation, and writes from the one
 // variable table everything an FMU carries besides the binary:
 //   OUT/fmi2/modelDescription.xml, OUT/fmi3/modelDescription.xml, OUT/documentation/index.html,
-//   OUT/extra/org.fmi-standard.fmi-ls-ref/ (reference results: <name>_ref.csv, <name>_ref.opt, manifest).
+//   OUT/extra/org.fmi-standard.fmi-ls-ref/ (reference results: <name>_ref.csv, <name>_ref.opt, manifest),
+//   OUT/resources.txt (the files besides the scene that resources/ must hold: its particles.file, relative to it).
 // Usage: grains_fmu_describe SCENE.toml MODEL_IDENTIFIER OUT_DIR VERSION
 #include <algorithm>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include "io/scene.hpp"
 #include "model_description.hpp"
 #include "model_variables.hpp"
+#include "protocols/initial_state.hpp"
 #include "protocols/run_length.hpp"
 
 namespace fs = std::filesystem;
@@ -58,6 +60,20 @@ void write_reference(const Scene& scene, const ModelTable& table, const ModelInf
         "  fmi-ls:fmi-ls-description=\"Reference results of this FMU (cross-check layout: CSV of every output and the run options)\"/>\n");
 }
 
+// The scene's particle file, as a path relative to the scene that resources/ will hold (empty: none). The FMU reads
+// the scene from resources/, and the file beside it; a path that leads out of the scene's folder would not travel.
+std::string packaged_particle_file(const Scene& scene) {
+  if (!particle_file(scene)) return "";
+  const fs::path given = scene.text("particles.file");
+  const fs::path inside = given.lexically_normal();
+  if (given.is_absolute() || inside.empty() || *inside.begin() == ".." || inside == "scene.toml")
+    throw std::runtime_error(fmt::format(
+        "particles.file = '{}': an FMU carries its scene's particle file in resources/, so it must be a relative path "
+        "inside the scene's folder (and not scene.toml): move the file beside the scene, or list the particles "
+        "(particles.layout = \"list\")", given.string()));
+  return inside.generic_string();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -89,6 +105,7 @@ int main(int argc, char** argv) {
     write(out / "fmi3" / "modelDescription.xml", fmi3_model_description(table, info));
     write(out / "documentation" / "index.html", documentation_html(table, info));
     write_reference(scene, table, info, out / "extra" / "org.fmi-standard.fmi-ls-ref");
+    write(out / "resources.txt", packaged_particle_file(scene));
   } catch (const std::exception& e) {
     std::cerr << "grains_fmu_describe: " << e.what() << "\n";
     return 1;
