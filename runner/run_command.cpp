@@ -275,7 +275,9 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
                            "gravity_potential_energy", "virial_ratio", "time_over_free_fall", "cluster_count",
                            "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension", "normalised_stiffness",
                            "collision_count", "adhesive_collision_count", "adhesive_collision_fraction",
-                           "open_collision_count"}) {
+                           "open_collision_count",
+                           // a pressure-controlled cell: where the barostat got to (only in the file until 2026-12-07)
+                           "pressure_target", "pressure_reduced", "solid_fraction", "equilibrium", "coordination"}) {
     try {
       fmt::print("  {:<27} {:.6g}\n", name, sim.get(name));
     } catch (const SimulationError&) {

@@ -802,3 +802,16 @@ def test_a_warning_the_initial_state_raises_is_shown_and_kept(grains_bin, tmp_pa
     with h5py.File(tmp_path / "deep.h5") as f:
         kept = [text(w) for w in f["grains/warnings"][()]]
     assert len(kept) == 2 and kept[1].startswith("contact check: at t = 0"), kept
+
+
+def test_the_summary_of_a_pressure_controlled_run_says_where_the_cell_got_to(grains_bin, root, tmp_path):
+    """A user running a cell scene found P*, its target and Phi only in the file (an outside review, 2026-12-07)."""
+    out = tmp_path / "cell.h5"
+    r = run(grains_bin, "run", root / "models" / "consolidation.toml", "--out", out, "--quiet", "--set", "particles.count=60",
+            "--set", "time.steps=300", "--set", "analysis.elastic_moduli=false", "--set", "run.threads=1")
+    assert r.returncode == 0, r.stderr
+    shown = dict(line.split(None, 1) for line in r.stdout.splitlines() if line.startswith("  ") and len(line.split()) == 2)
+    with h5py.File(out) as f:
+        for name in ("pressure_target", "pressure_reduced", "solid_fraction", "equilibrium", "coordination"):
+            assert float(shown[name]) == pytest.approx(f[f"observables/{name}/value"][-1], rel=1e-5), name
+    assert float(shown["pressure_target"]) == 0.01
