@@ -841,7 +841,8 @@ TEST_CASE("gravity: tree against direct summation", "[.gravity-bench]") {
   WARN(fmt::format("1-min load average {}", load_average()));
   // 1. Tree (theta = 0.5) against direct, 2 threads: the crossover N and the speed-up at 1e4, 3e4 and 1e5, with
   //    the tree's force error beside it.
-  WARN("tree (theta 0.5) against direct, 2 threads: seconds per force evaluation; tree force error median / 99th pct");
+  WARN(fmt::format("tree (theta 0.5) against direct, 2 threads, the {} kernels: seconds per force evaluation; tree force "
+                   "error median / 99th pct", gravity_direct::isa_name(gravity_direct::fastest_isa())));
   int crossover = -1;
   for (int n : {125, 250, 500, 1000, 2000, 4000, 10000, 30000, 100000}) {
     const auto P = particles_from<3>(uniform_ball(n, 1.0, 3), 1.0 / n);
