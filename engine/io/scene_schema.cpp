@@ -72,7 +72,8 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"particles.diameters", K::real_array, length, "", size_min, size_max, false, false, "", "Layout `list`: one diameter per particle (else `diameter`)."},
       {"particles.masses", K::real_array, mass, "", mass_min, mass_max, false, false, "", "Layout `list`: one mass per particle (else from density)."},
       {"particles.file", K::text, not_a_quantity, "", 0, 0, false, false, "",
-       "Layout `file`: path (relative to the scene) of a table with columns x y [z] diameter mass [vx vy [vz]]; `#` starts a comment. Diameters "
+       "Layout `file`: path (relative to the scene) of a table with columns x y [z] diameter mass [vx vy [vz] [w | wx wy wz]] "
+       "(the spin columns, [w] in 2D, only after the velocity columns, and not with `angular_velocities`); `#` starts a comment. Diameters "
        "within [1e-100, 1e100] and masses within [1e-150, 1e150], as `diameters` and `masses`."},
 
       // --- box ---

@@ -637,6 +637,37 @@ TEST_CASE("scene errors: drawn or listed velocities in place of a particle file'
   std::filesystem::remove(path);
 }
 
+TEST_CASE("scene errors: a particle file's spin columns spin the grains, in one place only", "[scene][errors]") {
+  // A spinning body could take its spins only from the scene's text, one row per grain (an outside review, 2026-12-07).
+  const auto path = std::filesystem::temp_directory_path() / "grains-spinning-rows.txt";
+  {
+    std::ofstream f(path);
+    f << "# x y z diameter mass vx vy vz wx wy wz\n0 0 0 1 1 0.5 0 0 0 0 2\n3 0 0 1 1 -0.5 0 0 1 0 0\n";
+  }
+  const std::vector<std::string> file = {"particles.layout=\"file\"", fmt::format("particles.file=\"{}\"", path.string()),
+                                         "box.periodic=false"};
+  const auto sim = Simulation::create(Scene::from_string(good_uncounted, "s.toml", file));
+  CHECK(sim->particles().velocity[3] == -0.5);   // flat: x y z of each particle in turn
+  CHECK(sim->particles().angular_velocity[2] == 2.0);
+  CHECK(sim->particles().angular_velocity[3] == 1.0);
+  auto twice = file;
+  twice.push_back("particles.angular_velocities=[[0,0,1],[0,0,1]]");
+  REQUIRE_THROWS_WITH(build(good_uncounted, twice), Contains("particles.angular_velocities") && Contains("gives spins too") &&
+                                                          Contains("in one place"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1 0.5 0 0 0 0 2 9\n";   // 12 columns: none of the forms
+  }
+  REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("12 columns; expected 5 (x.. diameter mass), 8 (with velocity) or "
+                                                            "11 (with velocity and spin wx wy wz)"));
+  {
+    std::ofstream f(path);
+    f << "0 0 0 1 1 0 0 0 1e200 0 0\n";   // a spin whose energy overflows, named by its line
+  }
+  REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("grains-spinning-rows.txt:1") && Contains("rotational energy"));
+  std::filesystem::remove(path);
+}
+
 TEST_CASE("scene errors: a wrong type is told the allowed values too", "[scene][errors]") {
   // An integer key said its range; a number, string or array key said only the type it expected.
   REQUIRE_THROWS_WITH(build(good, {"contact.restitution=\"high\""}),
