@@ -88,12 +88,16 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
         coef, *_ = np.linalg.lstsq(a, y, rcond=None)
         return coef, float(np.sum((a @ coef - y) ** 2)), a
 
-    fitted = 2 if p0 is not None else 3   # 1/Phi0 and lambda, and P0* when it is found too
-    if p0 is None:
+    scanned = p0 is None
+    if len(y) < (4 if scanned else 3):   # a fit with nothing left over has no error to give (it gave 7e-8)
+        raise ValueError(f"regime II fit: {len(y)} stages with P* <= {p_max:g}; need at least "
+                         f"{'4 (the line and its start P0* fitted)' if scanned else '3'}")
+    if scanned:
         p0 = best_kink(lambda c: line_fit(c)[1], np.geomspace(p[keep].min(), p[keep].max(), 400)[:-2])
     (inv_phi0, lam), residual, a = line_fit(p0)
-    dof = max(1, len(y) - fitted)
-    cov = np.linalg.pinv(a.T @ a) * residual / dof
+    if scanned:   # the scanned P0* is a fitted parameter too: its column dy/d(ln P0*) = lambda on the line, else 0
+        a = np.column_stack([a, lam * (x > math.log(p0))])
+    cov = np.linalg.pinv(a.T @ a) * residual / (len(y) - a.shape[1])
     return {"P0": float(p0), "phi0": 1.0 / inv_phi0, "lambda": lam, "lambda_err": math.sqrt(max(cov[1, 1], 0.0)),
             "stages": int(keep.sum()), "P_last": float(p[keep].max())}
 
@@ -134,26 +138,49 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
                 return math.inf
         p0 = best_kink(residual, np.geomspace(p.min(), p.max() / 10, 80))
     try:
-        params, cov, _ = fit_at(p0, guess)
+        params, cov, ssr = fit_at(p0, guess)
     except RuntimeError:
         if scanned:   # the best P0* did not converge: none did
             raise RuntimeError("regimes II-III fit did not converge for any P0*") from None
         raise
-    if scanned:   # curve_fit's covariance counts 4 fitted parameters; the scan fitted P0* too (len(p) >= 6)
-        cov = cov * (len(p) - 4) / (len(p) - 5)
+    if scanned:
+        # The scanned P0* is a fitted parameter too: the covariance of all five from the model's Jacobian. Scaling
+        # curve_fit's four-parameter covariance for the lost degree of freedom alone left out how P0* trades with
+        # lambda: 60 noisy curves of the paper's form scattered lambda 1.9 times, P1* 1.6 times the errors given (a
+        # review, 2026-12-07).
+        cov = _covariance_with_p0(fit_at, params, p0, p, y, ssr)
     inv_phi0, lam, phi_max, alpha = params
     finite = np.all(np.isfinite(cov))
-    err = np.sqrt(np.clip(np.diag(cov), 0, None)) if finite else np.full(4, np.nan)
+    err = np.sqrt(np.clip(np.diag(cov), 0, None)) if finite else np.full(len(cov), np.nan)
     p1 = p0 * math.exp((inv_phi0 - 1.0 / phi_max) / lam)
     if not 1.0 / inv_phi0 < phi_max:
         raise RuntimeError(f"regimes II-III fit degenerate (Phi0 {1 / inv_phi0:.4g}, Phimax {phi_max:.4g}, "
                            f"P0* {p0:.4g}, P1* {p1:.4g}): no plateau, line and crossover in these stages")
-    # P1* error by linear propagation through ln P1* = ln P0* + (1/Phi0 - 1/Phimax) / lambda.
-    grad = np.array([1.0 / lam, -(inv_phi0 - 1.0 / phi_max) / lam**2, 1.0 / (lam * phi_max**2), 0.0]) * p1
+    # P1* error by linear propagation through ln P1* = ln P0* + (1/Phi0 - 1/Phimax) / lambda (and ln P0* itself
+    # when it was fitted: the fifth entry).
+    grad = np.array([1.0 / lam, -(inv_phi0 - 1.0 / phi_max) / lam**2, 1.0 / (lam * phi_max**2), 0.0, 1.0][:len(cov)]) * p1
     p1_err = float(math.sqrt(max(grad @ cov @ grad, 0.0))) if finite else float("nan")
     return {"P0": float(p0), "phi0": 1.0 / inv_phi0, "phi0_err": err[0] / inv_phi0**2, "lambda": lam,
             "lambda_err": err[1], "phi_max": phi_max, "phi_max_err": err[2], "alpha": alpha, "alpha_err": err[3],
             "P1": p1, "P1_err": p1_err, "stages": int(np.sum(p >= p0))}
+
+
+def _covariance_with_p0(fit_at, params, p0, p, y, ssr):
+    """Covariance of (1/Phi0, lambda, Phimax, alpha, ln P0*) at the fit: (J^T J)^-1 SSR / (n - 5), J the model's
+    derivatives by central differences (ln P0* moves the plateau's end and the curve's origin together)."""
+    def model(theta):
+        *four, log_p0 = theta
+        c = math.exp(log_p0)
+        return plateau_then(p, c, four[0], lambda q: inverse_phi_crossover(q, *four, c))
+    theta = np.append(np.asarray(params, float), math.log(p0))
+    jac = np.empty((len(p), len(theta)))
+    for k in range(len(theta)):
+        h = 1e-6 * max(abs(theta[k]), 1.0)
+        up, down = theta.copy(), theta.copy()
+        up[k] += h
+        down[k] -= h
+        jac[:, k] = (model(up) - model(down)) / (2 * h)
+    return np.linalg.pinv(jac.T @ jac) * ssr / (len(p) - len(theta))
 
 
 class TableError(ValueError):
@@ -401,9 +428,13 @@ def main(argv=None):
         p, phi, branch = read_stages(args.table)
         loading = branch == "loading"
         regime2 = fit_regime_two(p[loading], phi[loading], args.p0, args.regime2_max)
-        try:
+        if not regime2["lambda"] > max(2 * regime2["lambda_err"], 1e-6):   # falling or flat Phi: lambda <= 0 (a review)
+            raise ValueError(f"regime II fit: lambda = {regime2['lambda']:.4g} +- {regime2['lambda_err']:.2g}: Phi does "
+                             f"not grow with P* in the loading stages up to P* = {args.regime2_max:g}, so they hold no "
+                             "regime II to fit")
+        try:   # started from the line's lambda, within the fit's bounds (a tiny one was scipy's "outside of bounds")
             crossover = fit_crossover(p[loading], phi[loading], args.p0,
-                                      guess=(1 / regime2["phi0"], regime2["lambda"], phi[loading].max() * 1.01, 1.0))
+                                      guess=(1 / regime2["phi0"], max(regime2["lambda"], 1e-3), phi[loading].max() * 1.01, 1.0))
         except (ValueError, RuntimeError) as e:
             print(f"regimes II-III fit not done: {e}", file=sys.stderr)
             crossover = None
