@@ -41,7 +41,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import (BRANCH, FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRACTION, TEXT, StageTable, TableError,  # noqa: E402
-                               fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then)
+                               fit_crossover, fit_regime_two, guess_from_line, inverse_phi_crossover, plateau_then)
 import density_correlations  # noqa: E402
 import force_distribution  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
@@ -254,7 +254,7 @@ def summarise(table):
 def fit_loading(p, phi):
     """The regimes II-III fit of a loading branch, started from the regime II line's values."""
     regime2 = fit_regime_two(p, phi)
-    return fit_crossover(p, phi, guess=(1 / regime2["phi0"], regime2["lambda"], phi.max() * 1.01, 1.0))
+    return fit_crossover(p, phi, guess=guess_from_line(regime2, phi))
 
 
 def mean_curve(results):

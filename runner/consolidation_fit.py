@@ -102,6 +102,12 @@ def fit_regime_two(p, phi, p0=None, p_max=0.1):
             "stages": int(keep.sum()), "P_last": float(p[keep].max())}
 
 
+def guess_from_line(line, phi):
+    """fit_crossover's start from a regime II line: its Phi0 and lambda (at least 1e-3, inside the fit's bounds: a flat
+    line's lambda stopped the fit with scipy's "outside of provided bounds"), Phimax just above the largest Phi."""
+    return 1 / line["phi0"], max(line["lambda"], 1e-3), float(np.max(phi)) * 1.01, 1.0
+
+
 def fit_crossover(p, phi, p0=None, guess=None, joined=False):
     """The regimes II-III form (with the flat regime I below P0*). P0* is held fixed when given, else
     found by a scan like fit_regime_two. Returns a dict with Phi0, lambda, Phimax, alpha, the derived
@@ -432,9 +438,8 @@ def main(argv=None):
             raise ValueError(f"regime II fit: lambda = {regime2['lambda']:.4g} +- {regime2['lambda_err']:.2g}: Phi does "
                              f"not grow with P* in the loading stages up to P* = {args.regime2_max:g}, so they hold no "
                              "regime II to fit")
-        try:   # started from the line's lambda, within the fit's bounds (a tiny one was scipy's "outside of bounds")
-            crossover = fit_crossover(p[loading], phi[loading], args.p0,
-                                      guess=(1 / regime2["phi0"], max(regime2["lambda"], 1e-3), phi[loading].max() * 1.01, 1.0))
+        try:
+            crossover = fit_crossover(p[loading], phi[loading], args.p0, guess=guess_from_line(regime2, phi[loading]))
         except (ValueError, RuntimeError) as e:
             print(f"regimes II-III fit not done: {e}", file=sys.stderr)
             crossover = None

@@ -29,7 +29,8 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
 import reuse  # noqa: E402
-from consolidation_fit import TableError, fit_crossover, fit_regime_two, inverse_phi_crossover, plateau_then  # noqa: E402
+from consolidation_fit import (TableError, fit_crossover, fit_regime_two, guess_from_line, inverse_phi_crossover,  # noqa: E402
+                               plateau_then)
 
 
 SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
@@ -150,7 +151,7 @@ def fit_at_paper_start(scene, p, phi):
     p0 = campaign.PAPER_FIT[scene][0]
     try:
         line = fit_regime_two(p, phi, p0=p0)
-        return fit_crossover(p, phi, p0=p0, guess=(1 / line["phi0"], line["lambda"], phi.max() * 1.01, 1.0))
+        return fit_crossover(p, phi, p0=p0, guess=guess_from_line(line, phi))
     except (ValueError, RuntimeError):
         return None
 
