@@ -212,3 +212,19 @@ def test_collisions_refuses_an_adhesive_flag_other_than_0_or_1(tmp_path):
         f["grains/collisions"] = table
     r = tool("collisions.py", path)
     assert r.returncode == 0 and "adhesive               1  (50.00 %)" in r.stdout, (r.stdout, r.stderr)
+
+
+def test_plot_names_an_observable_that_holds_no_numbers(tmp_path):
+    """A string-typed observable ended in matplotlib's AttributeError ("only works with the ScalarFormatter")."""
+    import h5py
+    path = tmp_path / "run.h5"
+    with h5py.File(path, "w") as f:
+        for name, value in (("kinetic_energy", np.array([b"a"] * 3)), ("pressure", np.arange(3.0))):
+            f[f"observables/{name}/step"] = np.arange(3)
+            f[f"observables/{name}/time"] = np.arange(3.0)
+            f[f"observables/{name}/value"] = value
+    r = tool("plot.py", path, "--observables", "kinetic_energy,pressure", "-o", tmp_path / "p.png")
+    refused(r, f"'{path}'", "observables/kinetic_energy/value", "|S1", "numbers")
+    assert r.stderr.count("\n") == 1 and not (tmp_path / "p.png").exists()
+    r = tool("plot.py", path, "--observables", "pressure", "-o", tmp_path / "p.png")
+    assert r.returncode == 0, r.stderr
