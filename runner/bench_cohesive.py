@@ -11,11 +11,17 @@ D0 = 1e-3, e_N = 0.015), friction mu = 0.5, K_T = K_N, and rolling resistance mu
 K_N a^2; then without rolling, and with the peer's own law (the frictional spring-dashpot, no adhesion:
 k_n = 1e5 and gamma_n = 50 as e = 0.839 and t_c = 0.00704, k_t = 2/7 k_n, no tangential dashpot), to show what
 each module costs. LAMMPS has neither adhesion nor rolling in gran/hooke/history, so its pair
-work per contact is smaller. Both codes on one core, then two. Machines here are shared and noisy:
+work per contact is smaller. Both codes on one core, then two (--threads: at most the machine's cores). Each
+code is timed after a warm-up of 1000 steps, the peer file's `run 1000` (grains: a run of 1000 + --steps steps
+less one of 1000; timed from its first step, a short run read 1.6-1.7 times LAMMPS at --steps 300, 2.0-2.3 at
+20000; grains' runs each taken three times, the fastest kept). The disks start on a lattice without contacts, which
+form over the first thousands of steps, and grains' work per step grows with them: a short run times the
+contact-free start (ratios of 5-10 at --steps 300); compare at the default 20000. Machines here are shared and noisy:
 compare ratios within one run.
 """
 import argparse
 import math
+import os
 import pathlib
 import re
 import shutil
@@ -48,6 +54,14 @@ def hex_lattice(cells_x, cells_y):
 # benchmark, after its first LAMMPS run, in grains' message about box lengths, which does not name --cells.
 REACH = 1.0 + 1e-3 + 0.1
 MIN_CELLS = math.floor(2 * REACH / hex_lattice(1, 1)[1][0]) + 1
+
+
+# disks2d.lmp's warm-up (`run 1000` before the timed `run 20000`): grains gets the same before its timed steps, or a
+# short benchmark counts its start (first neighbour lists, caches, threads) against it alone.
+WARMUP = 1000
+# Each grains run of a rate is taken this often and the fastest kept: a run's start varies by milliseconds here (1000
+# steps of 1400 disks took 8-17 ms), which is all a short benchmark's timed steps take (the host's noise only slows).
+TRIES = 3
 
 
 # disks2d.lmp's pair style; `peer_pair_style` reads the peer file's own line when it is there.
@@ -124,7 +138,8 @@ skin = 0.1
     return scene, len(centres)
 
 
-def grains_rate(binary, scene, steps, threads, work):
+def grains_run(binary, scene, steps, threads, work):
+    """(wall seconds of the stepping, contacts at the end, pair loop build) of a grains run of `steps` steps."""
     out = work / "run.h5"
     reuse.run_grains("bench_cohesive.py", [binary, "run", scene, "--quiet", "--out", out, "--set", f"time.steps={steps}",
                                            "--set", f"run.threads={threads}", "--set", "output.snapshots_every=0",
@@ -133,7 +148,20 @@ def grains_rate(binary, scene, steps, threads, work):
         contacts = float(f["observables/contacts/value"][-1])
         build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
         build = build.decode() if isinstance(build, bytes) else str(build)
-        return float(f["grains"].attrs["particle_steps_per_second"]), contacts, build
+        return float(f["grains"].attrs["wall_seconds"]), contacts, build
+
+
+def grains_rate(binary, scene, steps, threads, work, particles):
+    """grains' particle-steps per second over `steps` steps after WARMUP ones, as LAMMPS is timed: the wall time of a
+    run of WARMUP + steps less that of a run of WARMUP (grains times a run from its first step), each the fastest of
+    TRIES."""
+    warm = min(grains_run(binary, scene, WARMUP, threads, work)[0] for _ in range(TRIES))
+    runs = [grains_run(binary, scene, WARMUP + steps, threads, work) for _ in range(TRIES)]
+    total, contacts, build = min(runs)
+    if not total > warm:
+        sys.exit(f"bench_cohesive.py: grains' {steps} timed steps took no measurable time ({total:.3g} s with the "
+                 f"{WARMUP}-step warm-up, {warm:.3g} s without): give more --steps")
+    return steps * particles / (total - warm), contacts, build
 
 
 def lammps_rate(peers, cells_x, steps, threads, work):
@@ -145,7 +173,12 @@ def lammps_rate(peers, cells_x, steps, threads, work):
     cmd = ["lmp", "-in", str(inp), "-log", "none"]
     if threads > 1:
         cmd = ["mpirun", "--allow-run-as-root", "-np", str(threads)] + cmd
-    text = subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=work).stdout
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=work)
+    if done.returncode != 0:   # mpirun's reason (too few slots, say) was captured and hidden behind a traceback
+        said = "; ".join(line.strip() for line in (done.stderr + done.stdout).splitlines() if line.strip())[-600:]
+        sys.exit(f"bench_cohesive.py: {' '.join(cmd[:4] if threads > 1 else cmd[:1])} ended with status "
+                 f"{done.returncode}: {said or 'it said nothing'}")
+    text = done.stdout
     loops = re.findall(r"Loop time of ([0-9.eE+-]+) on \d+ procs for (\d+) steps with (\d+) atoms", text)
     if not loops:
         raise RuntimeError("could not read LAMMPS' loop time:\n" + text[-2000:])
@@ -174,6 +207,10 @@ def main():
         reuse.require_counts(ap, threads=min(int(t) for t in args.threads.split(",")))
     except ValueError:
         ap.error(f"--threads {args.threads}: give core counts separated by commas, such as 1,2")
+    # more ranks than cores: mpirun refuses them (after the runs before), and a rate on shared cores says nothing
+    cores = len(os.sched_getaffinity(0))
+    if (most := max(int(t) for t in args.threads.split(","))) > cores:
+        ap.error(f"--threads {args.threads}: {most} is more than the {cores} core(s) this machine gives the benchmark")
     have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
     if not have_lammps:
         print(f"note: {reuse.peer_missing(args.peers, 'disks2d.lmp')}: grains only, no ratios", file=sys.stderr)
@@ -188,12 +225,12 @@ def main():
                     # earlier can be half or twice the one of the moment.
                     lmp = lammps_rate(args.peers, args.cells, args.steps, threads, work) if have_lammps else float("nan")
                     scene, n = grains_scene(work, args.cells, variant, pair_style)
-                    g, contacts, build = grains_rate(args.binary, scene, args.steps, threads, work)
+                    g, contacts, build = grains_rate(args.binary, scene, args.steps, threads, work, n)
                     runs.setdefault((variant, threads), []).append((g, lmp, contacts))
                     print(f"{variant:26s} {threads} core(s), round {r + 1}: grains {g:.3g} (contacts at the end "
                           f"{contacts:.0f})  LAMMPS gran/hooke/history {lmp:.3g}  ratio {g / lmp:.2f}", flush=True)
     rounds = max(1, args.repeat)
-    print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps" +
+    print(f"\nparticle-steps per second, {n} periodic 2D disks, {args.steps} steps after a {WARMUP}-step warm-up" +
           (f", medians of {rounds} rounds" if rounds > 1 else "") + f"; grains' pair loop: {build}")
     # best / best: each code's fastest run (the host's noise only ever slows a run down).
     print("| grains law | cores | grains | LAMMPS gran/hooke/history | grains / LAMMPS | range | best / best |")

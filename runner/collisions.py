@@ -5,7 +5,7 @@
 Reads /grains/collisions (columns i, j, start, end, impact_speed, rebound_speed, adhesive) and prints
 the completed and open events, the adhesive count and fraction, and the realised normal restitution
 (rebound / impact speed) and impact speeds as mean and quartiles. Exits with code 2 and a message
-when the file or the table is missing.
+when the file or the table is missing, or an adhesive flag is other than 0 or 1.
 """
 import argparse
 import sys
@@ -58,7 +58,12 @@ def main(argv=None):
             shape = f"a dataset of shape {table.shape} and type {table.dtype}" if hasattr(table, "shape") else "a group"
             fail(f"'{args.run}': /grains/collisions is {shape}, not grains' table of 7 numeric columns (i, j, start, end, "
                  "impact_speed, rebound_speed, adhesive)")
-        print(summary(table[()]))
+        table = table[()]
+        # a flag other than 0 or 1 was summed as it stood ("adhesive 8 (200.00 %)")
+        if bad := np.flatnonzero((table[:, 6] != 0) & (table[:, 6] != 1)).tolist():
+            fail(f"'{args.run}': /grains/collisions column 'adhesive' (the 7th) holds {table[bad[0], 6]:g} at row "
+                 f"{bad[0]}" + (f" and {len(bad) - 1} more row(s)" if len(bad) > 1 else "") + ": the flag is 0 or 1")
+        print(summary(table))
     return 0
 
 

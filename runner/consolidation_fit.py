@@ -341,7 +341,8 @@ def read_stages(path):
     else the one beside it). Rows of `grains consolidate` that did not reach equilibrium (reached = 0), the aggregation stage
     and the relaxation at target P* = 0 are left out (and counted on stderr); its `equilibrate` stage at
     the start pressure is the first loading point. TableError names the line, column and value of a value that is
-    no number, a solid fraction outside (0, 1], or a P* of a stage the fit takes that is negative or not finite."""
+    no number, a solid fraction outside (0, 1], a P* of a stage the fit takes that is negative or not finite, or a
+    stage the fit takes given twice (the same P* and branch)."""
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
@@ -375,6 +376,14 @@ def read_stages(path):
     taken = reached & prepared & np.isin(branch, ["loading", "unloading"])
     table.check({pick["P_star"]: REDUCED_PRESSURE}, np.flatnonzero(taken))   # P* = 0 (a relaxation) is left out below
     keep = taken & (p > 0)
+    # a stage given twice (a row pasted again, two tables joined) was fitted as two and moved Phimax
+    first = {}
+    for i in np.flatnonzero(keep):
+        key = (p[i], branch[i])
+        if key in first:
+            raise TableError(f"stage table '{path}' lines {table.lines[first[key]]} and {table.lines[i]}: the same stage "
+                             f"twice ({pick['P_star']} = {rows[i][pick['P_star']]}, branch {branch[i]}); give each stage once")
+        first[key] = i
     if (~keep).any():
         print(f"{int((~reached).sum())} stage(s) without equilibrium and {int((~keep & reached).sum())} preparation "
               f"stage(s) left out", file=sys.stderr)

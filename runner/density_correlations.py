@@ -138,27 +138,93 @@ def analyse(configurations, points_per_diameter=8, k_max=None):
     return {"k": k_s, "I": i_s, "counts": c_s, "a": a, "L": length, "k_max": k_max, **fit}
 
 
+class FramesError(ValueError):
+    """Frames of a stages file that cannot be analysed as they stand: the message names the file, the dataset, the
+    value and what is allowed (a NaN position, a cell edge of 0, a string observable ended in tracebacks)."""
+
+
+def numbers(f, path, name, ndim=None):
+    """The dataset `name` of the open file f as an array of numbers (of `ndim` dimensions if given); FramesError
+    else."""
+    item = f[name]
+    if not hasattr(item, "dtype"):
+        raise FramesError(f"{path}: {name} is a group; need a dataset of numbers")
+    if item.dtype.kind not in "fiu":
+        raise FramesError(f"{path}: {name} holds values of type {item.dtype}; need numbers")
+    if ndim is not None and item.ndim != ndim:
+        raise FramesError(f"{path}: {name} has shape {item.shape}; need {ndim} dimension(s)")
+    return item[()]
+
+
+def increasing(path, name, steps):
+    """FramesError unless the steps are strictly increasing: frames and observables are matched by their step and
+    stages by their order (rotated steps had a tool take stage 1's state for P* = 0.01)."""
+    if (down := np.flatnonzero(np.diff(steps) <= 0)).size:
+        i = int(down[0])
+        raise FramesError(f"{path}: {name} is not strictly increasing ({steps[i]} at record {i}, then {steps[i + 1]}); "
+                          "grains writes each record at a later step than the one before")
+
+
+def positive(path, name, values, what, second="particle"):
+    """FramesError naming the first value that is not finite and > 0 (`what`: the quantity, plural; `second`: what
+    the second index counts)."""
+    if (bad := np.argwhere(~(np.isfinite(values) & (values > 0)))).size:
+        at = tuple(int(i) for i in bad[0])
+        raise FramesError(f"{path}: {name} holds {values[at]} (frame {at[0]}, {second} {at[1]}); {what} must be finite "
+                          "and > 0")
+
+
 def read_frames(path, dimensions=(2,), need="density correlations need 2D disks"):
     """Snapshots of an H5MD file: positions, radii and cell edges per frame, with each frame's reduced
     pressure and solid fraction where the file records them (else NaN). `dimensions`: those the caller
-    takes (`need` says so in the error)."""
+    takes (`need` says so in the error). The tools that read stages (density_correlations.py,
+    force_distribution.py, a campaign's reports) read them here, so that each takes the same frame for a stage and
+    refuses the same damage (FramesError): steps not strictly increasing, fewer frames than records, positions,
+    radii or edges that are not finite (edges and radii also > 0), observables that are no numbers."""
     import h5py
     with h5py.File(path, "r") as f:
         group = f["particles/all"]
-        positions = group["position/value"][()]
-        if positions.ndim != 3 or positions.shape[2] not in dimensions:
-            raise ValueError(f"{path}: particles/all/position has shape {positions.shape}; {need}")
-        radii = group["radius/value"][()] if "value" in group["radius"] else np.broadcast_to(group["radius"][()], positions.shape[:2])
-        edges = (group["box/edges/value"][()] if "value" in group["box/edges"]
+        positions = numbers(f, path, "particles/all/position/value") if "value" in group["position"] else None
+        if positions is None or positions.ndim != 3 or positions.shape[2] not in dimensions:
+            raise FramesError(f"{path}: particles/all/position has shape "
+                              f"{None if positions is None else positions.shape}; {need}")
+        radii = (numbers(f, path, "particles/all/radius/value", 2) if "value" in group["radius"]
+                 else np.broadcast_to(group["radius"][()], positions.shape[:2]))
+        edges = (numbers(f, path, "particles/all/box/edges/value", 2) if "value" in group["box/edges"]
                  else np.broadcast_to(group["box/edges"][()], (len(positions), positions.shape[2])))
-        steps = group["position/step"][()]
+        steps = numbers(f, path, "particles/all/position/step", 1)
+        # A killed run can leave the frames' records (their steps) ahead of the frames themselves.
+        for name, values in (("position/value", positions), ("radius/value", radii), ("box/edges/value", edges)):
+            if len(values) != len(steps):
+                raise FramesError(f"{path}: particles/all/{name} holds {len(values)} frame(s), particles/all/position/step "
+                                  f"records {len(steps)}: the file is cut short (a run killed while writing it?); "
+                                  "`grains resume` it, or analyse a complete file")
+        increasing(path, "particles/all/position/step", steps)
+        if edges.shape[1] != positions.shape[2]:
+            raise FramesError(f"{path}: particles/all/position/value has {positions.shape[2]} columns and "
+                              f"particles/all/box/edges/value {edges.shape[1]}: a {edges.shape[1]}D file's positions have "
+                              f"{edges.shape[1]}")
+        if (bad := np.argwhere(~np.isfinite(positions))).size:
+            i, j, _ = (int(v) for v in bad[0])
+            raise FramesError(f"{path}: particles/all/position/value holds {positions[tuple(bad[0])]} (frame {i}, particle "
+                              f"{j}); positions must be finite")
+        if radii.shape != positions.shape[:2]:
+            raise FramesError(f"{path}: particles/all/radius/value has shape {radii.shape}, the positions "
+                              f"{positions.shape[:2]} frames and particles")
+        positive(path, "particles/all/radius/value", radii, "radii")
+        positive(path, "particles/all/box/edges/value", edges, "cell edges", "axis")
 
         def observable(name):
             if f"observables/{name}/value" not in f:
                 return np.full(len(steps), np.nan)
-            obs_steps, values = f[f"observables/{name}/step"][()], f[f"observables/{name}/value"][()]
+            obs_steps = numbers(f, path, f"observables/{name}/step", 1)
+            values = numbers(f, path, f"observables/{name}/value", 1)
+            if len(values) != len(obs_steps):
+                raise FramesError(f"{path}: observables/{name}/value holds {len(values)} values, its step "
+                                  f"{len(obs_steps)}; need one value per step")
+            increasing(path, f"observables/{name}/step", obs_steps)
             lookup = dict(zip(obs_steps.tolist(), values.tolist()))
-            return np.array([lookup.get(s, np.nan) for s in steps.tolist()])
+            return np.array([lookup.get(s, np.nan) for s in steps.tolist()], float)
 
         p_star, phi = observable("pressure_reduced"), observable("solid_fraction")
     return positions, radii, edges, stage_targets(path, p_star), phi
@@ -288,6 +354,25 @@ def largest_grid(samples, pressures, points_per_diameter):
     return largest
 
 
+def largest_disk(samples, pressures, points_per_diameter):
+    """(grid points, P*, path, radius, edges) of the largest square a disk is drawn in on the density grids (pore_sizes'
+    at 16 points per diameter or more included): a disk wider than its cell is drawn over more points than the grid
+    holds (radius 1e6 asked for 241 GiB, past largest_grid's guard)."""
+    largest = (0, math.nan, None, math.nan, None)
+    for target in pressures:
+        for path, _, radii, edges, p_star, _ in samples:
+            i = loading_frame(p_star, target)
+            if i is None:
+                continue
+            r = float(np.max(radii[i]))
+            cell = np.asarray(edges[i], float)
+            h = cell / np.maximum(np.ceil(cell / (2 * r / max(points_per_diameter, 16))), 1)
+            points = int(np.prod(np.ceil(2 * (r + h / 4) / h) + 2))   # density_field's square, with the pores' seal
+            if points > largest[0]:
+                largest = (points, target, path, r, cell)
+    return largest
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Scattering intensity I(k), fractal dimension d_F and blob size xi of 2D disk packings, and their pores' radius of gyration xi' (physics.md section 9).")
     ap.add_argument("h5", nargs="+", help="stages files of `grains consolidate` (samples of one programme: their I(k) are pooled)")
@@ -330,6 +415,8 @@ def main(argv=None):
     for path in paths:
         try:
             samples.append((path, *read_frames(path)))
+        except FramesError as err:   # names the file itself
+            ap.error(f"h5: {err}")
         except (OSError, KeyError, ValueError) as err:
             ap.error(f"h5: {path}: not a 2D H5MD stages file ({err})")
         if not np.isfinite(samples[-1][4][1:]).any():
@@ -341,6 +428,11 @@ def main(argv=None):
         ap.error(f"--points-per-diameter: {ppd}; the density grids at P* = {target:g} would hold {points:.3g} points, "
                  f"about {points * BYTES_PER_GRID_POINT / 2 ** 30:.0f} GiB; at most about {fits} points per diameter "
                  f"keep them within {GRID_MEMORY // 2 ** 30} GiB")
+    points, target, path, radius, cell = largest_disk(samples, args.pressures, ppd)
+    if points * BYTES_PER_GRID_POINT > GRID_MEMORY:
+        ap.error(f"h5: {path}: at P* = {target:g} a disk of radius {radius:g} in a cell of edges {cell.tolist()} would be "
+                 f"drawn over {points:.3g} grid points, about {points * BYTES_PER_GRID_POINT / 2 ** 30:.0f} GiB, past the "
+                 f"{GRID_MEMORY // 2 ** 30} GiB allowed; a packing's disks are smaller than its cell")
     try:
         rows = report(samples, args.pressures, ppd, args.k_max, outputs["-o/--out"], outputs["--table"])
     except FitRangeError as err:   # the fit's range, 2 pi / L to --k-max, holds too few shells

@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from density_correlations import loading_frame, read_frames, refuse_overwriting  # noqa: E402
+from density_correlations import FramesError, loading_frame, read_frames, refuse_overwriting  # noqa: E402
 
 
 def law_of(path, largest_diameter):
@@ -105,7 +105,8 @@ def main(argv=None):
     try:
         rows = report(paths, args.pressures, args.scaled, out, table)
     except UnreadableInput as err:
-        ap.error(f"h5: not a stages file of the consolidation law ({err})")
+        ap.error(f"h5: {err}" if isinstance(err.__cause__, FramesError)
+                 else f"h5: not a stages file of the consolidation law ({err})")
     except OSError as err:
         ap.error(f"cannot write the table '{table}' or the plot '{out}' ({err})")
     if not rows:
@@ -127,6 +128,8 @@ def report(paths, pressures, scaled, out, table):
         try:
             frames = read_frames(path, (2, 3), "need 2D disks or 3D spheres")
             samples.append((path, frames, law_of(path, 2 * float(np.max(frames[1])))))
+        except FramesError as err:   # its message names the file and what is wrong in it
+            raise UnreadableInput(str(err)) from err
         except (OSError, KeyError, ValueError, tomllib.TOMLDecodeError) as err:
             raise UnreadableInput(f"{path}: {err}") from err
     if len({law[1] > 0 for *_, law in samples}) > 1:

@@ -143,6 +143,10 @@ def observables_of(f, path, wanted, x_name, stage=None):
     rows = {}
     for n in dict.fromkeys(names + companions + ([x_name] if x_name else [])):
         step, t, v = (element(n)[part][()] for part in ("step", "time", "value"))
+        for part, data in (("step", step), ("time", t), ("value", v)):   # strings ended in matplotlib's AttributeError
+            if data.dtype.kind not in "fiu":
+                fail(f"'{path}': {element(n).name.lstrip('/')}/{part} holds values of type {data.dtype}; a series to draw "
+                     "holds numbers")
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
     # Up to the step grains says every series is whole at, and the step every series read holds (a run still writing:

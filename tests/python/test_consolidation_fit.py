@@ -288,3 +288,21 @@ def test_stages_whose_phi_does_not_grow_hold_no_regime_two(tmp_path, shape):
                         str(tmp_path / "t.png")], capture_output=True, text=True)
     assert r.returncode == 2 and "Phi does not grow with P*" in r.stderr and "no regime II" in r.stderr, r.stderr
     assert not (tmp_path / "t.png").exists()
+
+
+def test_a_stage_given_twice_is_refused_naming_both_lines(tmp_path):
+    """A duplicated row (the same P* and branch twice) was fitted as two stages and moved Phimax (0.8814 -> 0.8859 in
+    a review, 2026-12-07); a loading and an unloading stage at one P* are two stages."""
+    p = programme()
+    phi = synthetic_phi(p)
+    rows = ["P_star,phi,branch"] + [f"{a:.17g},{b:.17g},loading" for a, b in zip(p, phi)]
+    rows += [f"{p[-3]:.17g},{phi[-1]:.17g},unloading"]
+    table = tmp_path / "stages.csv"
+    table.write_text("\n".join(rows + [rows[5]]) + "\n")
+    r = subprocess.run([sys.executable, str(ROOT / "runner" / "consolidation_fit.py"), str(table), "-o",
+                        str(tmp_path / "fit.png")], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert all(w in r.stderr for w in (str(table), "lines 6 and 29", f"P_star = {p[4]:.17g}", "loading")), r.stderr
+    assert not (tmp_path / "fit.png").exists()
+    table.write_text("\n".join(rows) + "\n")   # the same P* on both branches is no duplicate
+    assert len(cf.read_stages(table)[0]) == len(p) + 1

@@ -111,3 +111,38 @@ def test_a_failed_grains_command_is_told_in_one_line(tmp_path):
     with pytest.raises(SystemExit) as ended:
         reuse.run_grains("tool.py", [fake, "run", "scene.toml"])
     assert str(ended.value) == "tool.py: grains run ended with status 3: it said nothing"
+
+
+def test_bench_cohesive_refuses_more_threads_than_cores_before_running(grains_bin, tmp_path):
+    """--threads 3 on 2 cores ran LAMMPS on one core, then ended in a CalledProcessError traceback from mpirun -np 3,
+    whose reason (too few slots) was captured and never shown (a review, 2026-12-07)."""
+    import os
+    cores = len(os.sched_getaffinity(0))
+    refused(tool("bench_cohesive.py", "--binary", grains_bin, "--threads", f"1,{cores + 1}", "--steps", "10", cwd=tmp_path),
+            "bench_cohesive.py", f"--threads 1,{cores + 1}", f"{cores + 1} is more than the {cores} core(s)")
+    assert not any(tmp_path.iterdir())
+
+
+def test_bench_cohesive_times_grains_after_the_warm_up_lammps_has(tmp_path, monkeypatch):
+    """LAMMPS is timed after disks2d.lmp's 1000-step warm-up, grains was timed from step 1 (its whole run's rate):
+    at --steps 300 the ratio read 1.6-1.7 against 2.0-2.3 at 20000. grains' rate is now that of the steps after a
+    run of WARMUP steps: the difference of a run of WARMUP + steps and one of WARMUP."""
+    import h5py
+    sys.path.insert(0, str(ROOT / "runner"))
+    import bench_cohesive
+    import reuse
+    particles, asked = 1400, []
+
+    def fake_grains(prog, command):   # start-up 0.5 s, the first 1000 steps 0.2 s slower, then 1 ms a step
+        steps = int(next(a for a in command if str(a).startswith("time.steps=")).split("=")[1])
+        asked.append(steps)
+        wall = 0.5 + 0.2 * min(steps, 1000) / 1000 + 1e-3 * steps
+        with h5py.File(command[command.index("--out") + 1], "w") as f:
+            f["observables/contacts/value"] = [7.0]
+            f.create_group("grains").attrs.update({"wall_seconds": wall, "particle_steps_per_second": steps * particles / wall,
+                                                   "pair_loop_build": b"test"})
+        return ""
+    monkeypatch.setattr(reuse, "run_grains", fake_grains)
+    rate, contacts, build = bench_cohesive.grains_rate("grains", tmp_path / "s.toml", 300, 1, tmp_path, particles)
+    assert sorted(set(asked)) == [bench_cohesive.WARMUP, bench_cohesive.WARMUP + 300] and bench_cohesive.WARMUP == 1000
+    assert rate == pytest.approx(particles / 1e-3) and contacts == 7 and build == "test"

@@ -5,6 +5,7 @@ import shutil
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import ROOT
@@ -195,3 +196,35 @@ def test_the_shell_entry_points_answer_help_and_a_missing_script_before_any_setu
     for args in ([], ["nope.py"]):
         r = subprocess.run([shell, ROOT / "runner/with_lammps.sh", *args], capture_output=True, text=True, env=env)
         assert r.returncode == 2 and "usage: bash runner/with_lammps.sh SCRIPT.py" in r.stderr, r.stderr
+
+
+def test_collisions_refuses_an_adhesive_flag_other_than_0_or_1(tmp_path):
+    """An adhesive column of 2s was summed as it stood: "adhesive 8 (200.00 %)", exit 0 (a review, 2026-12-07)."""
+    import h5py
+    table = np.array([[0, 1, 0.1, 0.2, 1.0, 0.5, 0], [1, 2, 0.3, 0.4, 1.0, 0.5, 2], [2, 3, 0.5, np.nan, 1.0, 0.0, 0]])
+    path = tmp_path / "coll.h5"
+    with h5py.File(path, "w") as f:
+        f["grains/collisions"] = table
+    r = tool("collisions.py", path)
+    refused(r, str(path), "/grains/collisions", "adhesive", "row 1", "2", "0 or 1")
+    table[1, 6] = 1
+    with h5py.File(path, "w") as f:
+        f["grains/collisions"] = table
+    r = tool("collisions.py", path)
+    assert r.returncode == 0 and "adhesive               1  (50.00 %)" in r.stdout, (r.stdout, r.stderr)
+
+
+def test_plot_names_an_observable_that_holds_no_numbers(tmp_path):
+    """A string-typed observable ended in matplotlib's AttributeError ("only works with the ScalarFormatter")."""
+    import h5py
+    path = tmp_path / "run.h5"
+    with h5py.File(path, "w") as f:
+        for name, value in (("kinetic_energy", np.array([b"a"] * 3)), ("pressure", np.arange(3.0))):
+            f[f"observables/{name}/step"] = np.arange(3)
+            f[f"observables/{name}/time"] = np.arange(3.0)
+            f[f"observables/{name}/value"] = value
+    r = tool("plot.py", path, "--observables", "kinetic_energy,pressure", "-o", tmp_path / "p.png")
+    refused(r, f"'{path}'", "observables/kinetic_energy/value", "|S1", "numbers")
+    assert r.stderr.count("\n") == 1 and not (tmp_path / "p.png").exists()
+    r = tool("plot.py", path, "--observables", "pressure", "-o", tmp_path / "p.png")
+    assert r.returncode == 0, r.stderr
