@@ -541,6 +541,50 @@ def test_a_stage_table_another_run_has_rewritten_is_refused_not_continued(grains
     assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
 
 
+def moved_columns(rows, edit):
+    """rows (header and stage rows, as lines) with edit(fields) applied to each line's fields."""
+    out = []
+    for line in rows:
+        fields = line.split(",")
+        edit(fields)
+        out.append(",".join(fields))
+    return out
+
+
+def swap_p_star_and_phi(fields):
+    fields[4], fields[5] = fields[5], fields[4]
+
+
+def drop_quench_start(fields):
+    del fields[9]
+
+
+@pytest.mark.parametrize("edit, column", [(swap_p_star_and_phi, 5), (drop_quench_start, 10)], ids=["swapped", "dropped"])
+def test_a_stage_table_whose_columns_were_moved_or_removed_is_refused(grains_bin, root, tmp_path, edit, column):
+    """The resume appended its rows in grains' column order under whatever header the table had (an outside review,
+    2026-12-07): with P_star and phi swapped it wrote each under the other's name, with quench_start deleted 67
+    fields under a 66-field header. The header must be grains' own, or the file and table are left as they were."""
+    _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
+                                                        lambda rows: moved_columns(rows[:3], edit))
+    found = killed_table.read_text().splitlines()[0]
+    file_before, table_before = killed.read_bytes(), killed_table.read_text()
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"its stage table '{killed_table}' has the header '{found}', where grains writes '{rows[0]}' (they differ "
+            f"from column {column} on)") in resumed.stderr, resumed.stderr
+    assert killed.read_bytes() == file_before and killed_table.read_text() == table_before
+
+
+def test_a_stage_table_with_crlf_line_ends_keeps_them_in_the_rows_the_resume_writes(grains_bin, root, tmp_path):
+    """A table saved with CRLF line ends got its new rows with LF (an outside review, 2026-12-07)."""
+    whole, whole_table, killed, killed_table, rows = killed_programme(
+        grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000), lambda rows: rows[:3])
+    killed_table.write_bytes("".join(line + "\r\n" for line in rows[:3]).encode())
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert killed_table.read_bytes() == whole_table.read_bytes().replace(b"\n", b"\r\n")
+
+
 def test_a_programme_with_a_drag_below_the_default_floor_resumes(grains_bin, root, tmp_path):
     """The refusal of a quench_drag_min above quench_drag read the stored scene, which spells out the default floor
     (0.125): every programme run with quench_drag = 0.1 was refused on resuming (a review, 2026-12-07)."""
