@@ -390,6 +390,12 @@ int consolidate_scene(const ConsolidateOptions& opt) {
 int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpoint& cp, bool quiet) {
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
+  // A checkpoint ends every stage but the last: one after any later stage is no checkpoint this programme wrote.
+  const int stages = int(programme_stages(settings).size());
+  if (cp.stage > stages - 2)
+    throw std::runtime_error(fmt::format("H5MD output '{}': its checkpoint's attribute 'stage' is {}, where a programme of "
+                                         "{} stages writes one in [-1, {}]: the file is damaged and cannot be continued",
+                                         path, cp.stage, stages, stages - 2));
   auto sim = Simulation::create(scene);
   restore_checkpoint(*sim, path, cp);
   StageProgress from{cp.stage + 1, 0, {}};

@@ -357,7 +357,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   const hid_t root = m.file.get();
   m.particles = h5::open_group(root, "particles/all", path);
   m.box = h5::open_group(m.particles.get(), "box", path);
-  m.dim = int(h5::read_attr_double(m.box.get(), "dimension", 3, path));
+  m.dim = int(h5::read_attr_in(m.box.get(), "dimension", 3, 2, 3, true, path));
   m.observables = h5::open_group(root, "observables", path);
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));

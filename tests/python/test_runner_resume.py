@@ -193,6 +193,57 @@ def test_a_series_whose_extent_is_damaged_past_the_file_is_refused_not_cut_back_
             and "damaged" in resumed.stderr), resumed.stderr
 
 
+def set_checkpoint_1_attribute(name, value):
+    return lambda f: f["grains/checkpoint_1"].attrs.__setitem__(name, value)
+
+
+def checkpoint_1_of_two_axes(f):
+    state, attrs = f["grains/checkpoint_1"][()], dict(f["grains/checkpoint_1"].attrs)
+    del f["grains/checkpoint_1"]
+    f.create_dataset("grains/checkpoint_1", data=state[: len(state) // 2 * 2].reshape(-1, 2))
+    f["grains/checkpoint_1"].attrs.update(attrs)
+    return f"the shape {len(state) // 2} x 2"
+
+
+# An outside review, 2026-12-07: a checkpoint's attributes were converted as they stood (step 1e300 read as step
+# -9223372036854775808, a thread count of 1e12 or NaN converted with undefined behaviour and ignored), observables_at_step
+# = 0 dropped the record at the checkpoint's step for good, and an attribute or a slot of another shape than grains
+# writes was read into a buffer sized for grains' own (HDF5 crashed, said the child that reads first: it was grains).
+CP1 = "of /grains/checkpoint_1"
+@pytest.mark.parametrize("damage, message", [
+    (set_checkpoint_1_attribute("step", 1e300),
+     f"attribute 'step' {CP1} is 1e+300, where grains writes a whole number in [0, 1000000000000000]"),
+    (set_checkpoint_1_attribute("step", 400.5),
+     f"attribute 'step' {CP1} is 400.5, where grains writes a whole number in [0, 1000000000000000]"),
+    (set_checkpoint_1_attribute("threads", 1e12),
+     f"attribute 'threads' {CP1} is 1000000000000, where grains writes a whole number in [0, 1024]"),
+    (set_checkpoint_1_attribute("threads", np.nan), f"attribute 'threads' {CP1} is nan, where grains writes a whole number"),
+    (set_checkpoint_1_attribute("warnings", 1e15), f"attribute 'warnings' {CP1} is 1000000000000000, where grains writes a "
+                                                   "whole number in [-1, 0]"),
+    (set_checkpoint_1_attribute("time", np.inf), f"attribute 'time' {CP1} is inf, where grains writes a number in"),
+    (set_checkpoint_1_attribute("observables_at_step", 0.0),
+     "its checkpoint at step 400 has the attribute 'observables_at_step' = 0, where output.observables_every = 100 makes it 1"),
+    (set_checkpoint_1_attribute("frame_at_step", 1.0),
+     "its checkpoint at step 400 has the attribute 'frame_at_step' = 1, where output.snapshots_every = 1000 makes it 0"),
+    (set_checkpoint_1_attribute("step", np.array([400.0, 1.0])),
+     f"attribute 'step' {CP1} holds a float of 8 bytes, 64 bits of precision at bit 0 in the shape 2, where grains writes "
+     "one number (a scalar)"),
+    (checkpoint_1_of_two_axes, "/grains/checkpoint_1 holds values of {}, where grains writes one axis of bytes"),
+], ids=["step-1e300", "step-fraction", "threads-1e12", "threads-nan", "warnings-1e15", "time-inf", "observables_at_step-0",
+        "frame_at_step-1", "step-array", "slot-of-two-axes"])
+def test_a_checkpoint_whose_attributes_or_shape_are_not_what_grains_writes_is_refused_naming_them(grains_bin, root,
+                                                                                                  tmp_path, damage, message):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        message = message.format(damage(f))
+    before = killed.read_bytes()
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert f"'{killed}': {message}" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
+    assert "crashed" not in resumed.stderr and killed.read_bytes() == before
+
+
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
     """A resumed run wrote its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
     which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
