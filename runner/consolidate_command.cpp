@@ -434,6 +434,10 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   std::ofstream csv(table, std::ios::app);
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
+  // Each stage record holds the simulation's observables, the stage's target and its quench.
+  std::vector<std::string> recorded = observable_names(*sim);
+  recorded.insert(recorded.end(), {"pressure_target", "quench_start", "quench_drag"});
+  out.require_observables(recorded);
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);

@@ -256,6 +256,18 @@ unsigned link_count(hid_t parent, const std::string& name, const std::string& fi
   return info.rc;
 }
 
+std::string object_identity(hid_t object, const std::string& file, const std::string& what) {
+#if H5_VERSION_GE(1, 12, 0)
+  H5O_info2_t info;
+  check(H5Oget_info3(object, &info, H5O_INFO_BASIC), file, "looking up " + what);
+  return std::string(reinterpret_cast<const char*>(&info.token), sizeof info.token);
+#else
+  H5O_info_t info;
+  check(H5Oget_info2(object, &info, H5O_INFO_BASIC), file, "looking up " + what);
+  return std::string(reinterpret_cast<const char*>(&info.addr), sizeof info.addr);
+#endif
+}
+
 void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, const std::vector<hsize_t>& count,
                  const std::string& file, const std::string& what) {
   if (rows == 0) return;

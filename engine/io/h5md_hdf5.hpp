@@ -85,6 +85,10 @@ void hard_link(hid_t from, const std::string& name, hid_t to, const std::string&
 // How many hard links name the object `name` in `parent` (more than one: it is shared).
 unsigned link_count(hid_t parent, const std::string& name, const std::string& file);
 
+// What tells one object of the file from another (its address, or token), whatever links name it: two names of one
+// dataset give the same.
+std::string object_identity(hid_t object, const std::string& file, const std::string& what);
+
 // Reading back (a resumed run): opening, truncating to the first `rows` rows, whole datasets and attributes.
 Handle open_group(hid_t parent, const std::string& name, const std::string& file);
 Handle open_dataset(hid_t parent, const std::string& name, const std::string& file);

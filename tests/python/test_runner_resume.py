@@ -244,6 +244,35 @@ def test_a_checkpoint_whose_attributes_or_shape_are_not_what_grains_writes_is_re
     assert "crashed" not in resumed.stderr and killed.read_bytes() == before
 
 
+# An outside review, 2026-12-07: a series hard-linked to another (both appended into one dataset), steps out of order,
+# a series or the box's edges removed (made anew with the resumed rows alone) and a file without /h5md resumed to
+# "complete".
+@pytest.mark.parametrize("damage, message", [
+    (lambda f: (f.__delitem__("observables/kinetic_energy"), f.__setitem__("observables/kinetic_energy",
+                                                                           f["observables/rotational_energy"])),
+     "/observables/rotational_energy/value is the same dataset as /observables/kinetic_energy/value (two names of one "
+     "object), where grains writes each series its own"),
+    (lambda f: f["observables/kinetic_energy/step"].__setitem__(slice(None), f["observables/kinetic_energy/step"][()][::-1]),
+     "/observables/kinetic_energy/step is not increasing: its row 1 holds step 400 after step 450"),
+    (lambda f: f.__delitem__("observables/kinetic_energy"),
+     "/observables/kinetic_energy is missing, where the run records it with its other observables"),
+    (lambda f: f.__delitem__("particles/all/box/edges"),
+     "/particles/all/box/edges is missing, where grains writes it with every frame"),
+    (lambda f: f.__delitem__("particles/all/velocity"),
+     "/particles/all/velocity is missing, where grains writes it with every frame"),
+    (lambda f: f.__delitem__("h5md"), "/h5md, the H5MD root group grains writes first, is missing"),
+], ids=["series-linked", "steps-out-of-order", "series-removed", "edges-removed", "velocity-removed", "h5md-removed"])
+def test_a_file_whose_series_do_not_go_together_is_refused_naming_the_object(grains_bin, root, tmp_path, damage, message):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        f["grains"].attrs.modify("status", np.bytes_(b"interrupted at step 450"))   # frames kept as they are
+        damage(f)
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert message in resumed.stderr and str(killed) in resumed.stderr, resumed.stderr
+
+
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
     """A resumed run wrote its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
     which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
