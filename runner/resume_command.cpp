@@ -2,6 +2,7 @@
 // then the run or the programme goes on (run_command.cpp, consolidate_command.cpp).
 #include "resume_command.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -89,12 +90,20 @@ void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint&
   // times, its t_ff and everything after.
   const ParticleView p = sim.particles();
   for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass},
-                                       std::tuple{"position", &p.position, &cp.position}})
+                                       std::tuple{"position", &p.position, &cp.position}}) {
+    // Another count is no changed value: the frame's particles, or the scene's, are not the run's.
+    const std::size_t per_particle = rebuilt->size() / std::max<std::size_t>(1, sim.particle_count());
+    if (!stored->empty() && stored->size() != rebuilt->size())
+      throw std::runtime_error(fmt::format(
+          "H5MD output '{}': the run's first frame (/particles/all/{}/value) holds {} particles, where the stored scene "
+          "builds {}: the file is damaged and cannot be continued", path, name, stored->size() / std::max<std::size_t>(1, per_particle),
+          sim.particle_count()));
     if (!stored->empty() && *rebuilt != *stored)
       throw std::runtime_error(fmt::format(
           "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
           "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
           cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
+  }
   try {
     sim.restore_state(cp.state);
   } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one

@@ -102,11 +102,26 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
         H5Eclear2(H5E_DEFAULT);
         cp.stage_pressure.clear(), cp.stage_solid_fraction.clear();
       }
+    // The first frame, each element shaped as grains writes it (frames x particles, x the dimension for the position):
+    // another shape read as a row of another length, said to be a changed particle file.
+    const int dim = h5::exists(fid, "particles/all/box", path)
+        ? int(h5::read_attr_in(h5::open_group(fid, "particles/all/box", path).get(), "dimension", 3, 2, 3, true, path)) : 3;
     for (auto [name, values] :
          {std::pair{"radius", &cp.radius}, std::pair{"mass", &cp.mass}, std::pair{"position", &cp.position}}) {
-      const std::string element = std::string("particles/all/") + name + "/value";
+      const std::string element = std::string("/particles/all/") + name + "/value";
       if (h5::exists(fid, std::string("particles/all/") + name, path)) {
         const h5::Handle v = h5::open_dataset(fid, element, path);
+        const std::vector<hsize_t> shape = h5::shape(v.get(), path, element);
+        const h5::Handle type(h5::check(H5Dget_type(v.get()), path, "reading the type of " + element), H5Tclose);
+        const bool position = values == &cp.position;
+        const std::string expected = position ? fmt::format("frames x particles x {}", dim) : "frames x particles";
+        if (shape.size() != (position ? 3u : 2u) || (position && shape[2] != hsize_t(dim)) ||
+            H5Tget_class(type.get()) != H5T_FLOAT || shape[0] == 0)
+          throw std::runtime_error(fmt::format("H5MD output '{}': {} holds {} of the shape {}, where grains writes floats "
+                                               "of the shape {} (one frame at least): the file is damaged and cannot be "
+                                               "continued", path, element, H5Tget_class(type.get()) == H5T_FLOAT ? "floats" : "non-floats",
+                                               shape.empty() ? "of a scalar" : fmt::format("{}", fmt::join(shape, " x ")),
+                                               expected));
         *values = h5::read_row(v.get(), 0, path, element);
       }
     }

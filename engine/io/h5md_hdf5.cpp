@@ -292,7 +292,7 @@ void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, 
 }
 
 Handle open_group(hid_t parent, const std::string& name, const std::string& file) {
-  return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + name), H5Gclose);
+  return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + path_of(parent, name)), H5Gclose);
 }
 
 Handle open_extendable(hid_t parent, const std::string& name, const std::string& file) {
@@ -300,19 +300,28 @@ Handle open_extendable(hid_t parent, const std::string& name, const std::string&
   std::vector<hsize_t> chunk;
   {
     Handle d = open_dataset(parent, name, file);
-    type_id = check(H5Dget_type(d.get()), file, "reading the type of " + name);
-    Handle dcpl(check(H5Dget_create_plist(d.get()), file, "reading the layout of " + name), H5Pclose);
+    const std::string where = path_of(parent, name);
+    type_id = check(H5Dget_type(d.get()), file, "reading the type of " + where);
+    Handle dcpl(check(H5Dget_create_plist(d.get()), file, "reading the layout of " + where), H5Pclose);
+    // Rows are appended to chunked datasets only (a contiguous one said "reading the chunks of value failed").
+    if (H5Pget_layout(dcpl.get()) != H5D_CHUNKED) {
+      H5Tclose(type_id);
+      throw std::runtime_error(fmt::format("H5MD output '{}': {} is not stored in chunks, where grains writes a series in "
+                                           "chunked rows to append to: the file is damaged and cannot be continued", file,
+                                           where));
+    }
     chunk.resize(H5S_MAX_RANK);
-    chunk.resize(std::size_t(check(H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()), file, "reading the chunks of " + name)));
+    chunk.resize(std::size_t(check(H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()), file, "reading the chunks of " + where)));
   }
   Handle type(type_id, H5Tclose);
   return Handle(check(H5Dopen2(parent, name.c_str(), append_access(type.get(), chunk, file).get()), file,
-                      "opening dataset " + name),
+                      "opening dataset " + path_of(parent, name)),
                 H5Dclose);
 }
 
 Handle open_dataset(hid_t parent, const std::string& name, const std::string& file) {
-  return Handle(check(H5Dopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening dataset " + name), H5Dclose);
+  return Handle(check(H5Dopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening dataset " + path_of(parent, name)),
+                H5Dclose);
 }
 
 bool exists(hid_t parent, const std::string& name, const std::string& file) {

@@ -244,9 +244,18 @@ def test_a_checkpoint_whose_attributes_or_shape_are_not_what_grains_writes_is_re
     assert "crashed" not in resumed.stderr and killed.read_bytes() == before
 
 
+def replace_dataset(path, make):
+    """Replaces the dataset at path by make(its values)."""
+    def damage(f):
+        values = f[path][()]
+        del f[path]
+        make(f, values)
+    return damage
+
+
 # An outside review, 2026-12-07: a series hard-linked to another (both appended into one dataset), steps out of order,
 # a series or the box's edges removed (made anew with the resumed rows alone) and a file without /h5md resumed to
-# "complete".
+# "complete"; others were refused without the object's path, or as a changed particle file.
 @pytest.mark.parametrize("damage, message", [
     (lambda f: (f.__delitem__("observables/kinetic_energy"), f.__setitem__("observables/kinetic_energy",
                                                                            f["observables/rotational_energy"])),
@@ -261,7 +270,28 @@ def test_a_checkpoint_whose_attributes_or_shape_are_not_what_grains_writes_is_re
     (lambda f: f.__delitem__("particles/all/velocity"),
      "/particles/all/velocity is missing, where grains writes it with every frame"),
     (lambda f: f.__delitem__("h5md"), "/h5md, the H5MD root group grains writes first, is missing"),
-], ids=["series-linked", "steps-out-of-order", "series-removed", "edges-removed", "velocity-removed", "h5md-removed"])
+    (lambda f: f.__delitem__("observables/kinetic_energy/step"),
+     "opening dataset /observables/kinetic_energy/step failed"),
+    (lambda f: f.create_group("observables/bogus").create_dataset("value", data=np.zeros(3)),
+     "opening dataset /observables/bogus/step failed"),
+    (replace_dataset("observables/kinetic_energy/value", lambda f, v: f.create_dataset("observables/kinetic_energy/value",
+                                                                                     data=v)),
+     "/observables/kinetic_energy/value is not stored in chunks, where grains writes a series in chunked rows"),
+    (replace_dataset("particles/all/position/value", lambda f, v: f.create_dataset(
+        "particles/all/position/value", data=np.concatenate([v, v[:, :, :1]], 2), maxshape=(None, None, None), chunks=True)),
+     "/particles/all/position/value holds floats of the shape 2 x 64 x 4, where grains writes floats of the shape frames "
+     "x particles x 3"),
+    (replace_dataset("particles/all/radius/value", lambda f, v: f.create_dataset(
+        "particles/all/radius/value", data=v.astype(np.int64), maxshape=(None, None), chunks=True)),
+     "/particles/all/radius/value holds non-floats of the shape 2 x 64, where grains writes floats of the shape frames x "
+     "particles"),
+    (lambda f: f["particles/all/position/value"].resize(10, axis=1),
+     "the run's first frame (/particles/all/position/value) holds 10 particles, where the stored scene builds 64"),
+    (replace_dataset("grains/checkpoint_1", lambda f, v: f.create_group("grains/checkpoint_1").attrs.update(
+        {"valid": 1.0, "step": 400.0})), "opening dataset /grains/checkpoint_1 failed"),
+], ids=["series-linked", "steps-out-of-order", "series-removed", "edges-removed", "velocity-removed", "h5md-removed",
+        "step-removed", "extra-group", "contiguous-series", "position-of-4-columns", "integer-radius", "fewer-particles",
+        "checkpoint-a-group"])
 def test_a_file_whose_series_do_not_go_together_is_refused_naming_the_object(grains_bin, root, tmp_path, damage, message):
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
