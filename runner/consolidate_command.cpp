@@ -31,23 +31,52 @@ namespace grains {
 
 namespace {
 
-// The header and the rows of stages 0 .. last of a stage table (a resumed programme rewrites the rest); none
-// when no stage had finished (the header comes with stage 0's row).
-std::vector<std::string> table_up_to(const std::string& table, int last) {
-  std::vector<std::string> kept;
+// The columns grains writes to a stage table, in order (P_star, phi, branch: the columns runner/consolidation_fit.py
+// reads), for the outputs of `sim`.
+std::string stage_table_header(const Simulation& sim) {
+  std::string header = "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time,quench_start,quench_drag";
+  for (const auto& n : stage_record_names(sim)) header += ',' + n;
+  return header;
+}
+
+// The header and the rows of stages 0 .. last of a stage table (a resumed programme rewrites the rest), without their
+// line ends; none when no stage had finished (the header comes with stage 0's row).
+struct KeptTable {
+  std::vector<std::string> lines;
+  std::string eol = "\n";   // the header's line end, which the rows written on keep (a table saved with CRLF)
+};
+KeptTable table_up_to(const std::string& table, int last) {
+  KeptTable kept;
   if (last < 0) return kept;
   std::ifstream in(table);
   std::string line;
   for (int row = -1; row <= last && std::getline(in, line); ++row) {
+    const bool crlf = !line.empty() && line.back() == '\r';
+    if (crlf) line.pop_back();
+    if (row < 0 && crlf) kept.eol = "\r\n";
     if (row >= 0 && line.substr(0, line.find(',')) != std::to_string(row))
       throw std::runtime_error(fmt::format("'{}': line {} should be stage {}, and reads '{}'", table, row + 2, row,
                                            line.substr(0, 40)));
-    kept.push_back(line);
+    kept.lines.push_back(line);
   }
-  if (long(kept.size()) != last + 2)
+  if (long(kept.lines.size()) != last + 2)
     throw std::runtime_error(fmt::format("'{}' has {} stage rows, fewer than the {} finished before the checkpoint", table,
-                                         std::max(0L, long(kept.size()) - 1), last + 1));
+                                         std::max(0L, long(kept.lines.size()) - 1), last + 1));
   return kept;
+}
+
+// The new rows go in grains' column order: under a header with its columns moved or removed (a spreadsheet's edit)
+// they would put values under other names, or more fields than the header has (an outside review, 2026-12-07).
+void check_table_header(const std::string& table, const std::string& found, const std::string& written,
+                        const std::string& path) {
+  if (found == written) return;
+  std::size_t column = 0, at = 0;   // the first column that differs, counted from 1
+  while (at < found.size() && at < written.size() && found[at] == written[at])
+    if (found[at++] == ',') ++column;
+  throw std::runtime_error(fmt::format(
+      "'{}': its stage table '{}' has the header '{}', where grains writes '{}' (they differ from column {} on): the "
+      "resumed stages' rows would go under other columns; restore the header and the rows' columns as grains wrote "
+      "them, or run the programme again", path, table, found, written, column + 1));
 }
 
 // A kept table's rows repeat the file's stage records (P_star and phi as the rows print them): else another run has
@@ -92,7 +121,7 @@ std::vector<std::string> traced_outputs(const Simulation& sim) {
 // programme and a resumed one (which comes in with the stages that missed their budget and the wall time
 // before it).
 int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation& sim, H5mdWriter& out,
-               std::ofstream& csv, const std::string& table, bool quiet, const StageProgress& from, long unreached,
+               std::ofstream& csv, const std::string& table, const std::string& eol, bool quiet, const StageProgress& from, long unreached,
                double earlier_seconds, double earlier_cvode) {
   const std::string path = out.path(), name = scene.text("scene.name");
   const int stages = int(programme_stages(settings).size());
@@ -139,12 +168,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     out.write_trace("stage", step, sim.time(), double(r.index));
   };
   auto on_stage = [&](const StageRecord& r) {
-    if (r.index == 0) {
-      // P_star, phi, branch: the columns runner/consolidation_fit.py reads.
-      csv << "stage,phase,branch,target_pressure,P_star,phi,reached,steps,time,quench_start,quench_drag";
-      for (const auto& [n, v] : r.values) csv << ',' << n;
-      csv << '\n';
-    }
+    if (r.index == 0) csv << stage_table_header(sim) << eol;
     // The stage record: the programme's values, and the stage's target (not a table column: target_pressure is).
     auto recorded = r.values;
     recorded.emplace_back("pressure_target", target_now(r));
@@ -165,7 +189,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     csv << fmt::format("{},{},{},{:.9g},{:.9g},{:.9g},{},{},{:.9g},{}", r.index, r.phase, branch, r.target,
                        value("pressure_reduced"), value("solid_fraction"), int(r.reached), r.steps, r.time, quench);
     for (const auto& [n, v] : r.values) csv << fmt::format(",{:.9g}", v);
-    csv << '\n' << std::flush;
+    csv << eol << std::flush;
     if (!csv)
       throw OutputError(
           fmt::format("cannot write stage {}'s row to the stage table '{}' ({})", r.index, table, std::strerror(errno)));
@@ -360,12 +384,18 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   for (const char* name : {"quench_start", "quench_drag"}) out.write_observable(name, 0, sim->time(), std::nan(""));
   std::ofstream csv(table);
   if (!csv) throw SceneError(fmt::format("cannot write the stage table '{}'", table));
-  return run_stages(scene, settings, *sim, out, csv, table, opt.quiet, {}, 0, 0.0, 0.0);
+  return run_stages(scene, settings, *sim, out, csv, table, "\n", opt.quiet, {}, 0, 0.0, 0.0);
 }
 
 int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpoint& cp, bool quiet) {
   scene.validate();
   const ProgrammeSettings settings = ProgrammeSettings::from_scene(scene);
+  // A checkpoint ends every stage but the last: one after any later stage is no checkpoint this programme wrote.
+  const int stages = int(programme_stages(settings).size());
+  if (cp.stage > stages - 2)
+    throw std::runtime_error(fmt::format("H5MD output '{}': its checkpoint's attribute 'stage' is {}, where a programme of "
+                                         "{} stages writes one in [-1, {}]: the file is damaged and cannot be continued",
+                                         path, cp.stage, stages, stages - 2));
   auto sim = Simulation::create(scene);
   restore_checkpoint(*sim, path, cp);
   StageProgress from{cp.stage + 1, 0, {}};
@@ -382,8 +412,9 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
                                          "needs that file", path, table, *kind));
   if (!std::filesystem::is_regular_file(table))
     throw std::runtime_error(fmt::format("'{}': its stage table '{}' is gone; resuming needs it", path, table));
-  const std::vector<std::string> kept = table_up_to(table, cp.stage);
-  check_rows_match_records(table, kept, cp, path);
+  const KeptTable kept = table_up_to(table, cp.stage);
+  if (!kept.lines.empty()) check_table_header(table, kept.lines[0], stage_table_header(*sim), path);
+  check_rows_match_records(table, kept.lines, cp, path);
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();
   if (stop_requested()) return 130;
@@ -393,7 +424,7 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   const std::string target = std::filesystem::canonical(table).string(), rewritten = target + ".resuming";
   {
     std::ofstream part(rewritten, std::ios::trunc);
-    for (const auto& line : kept) part << line << '\n';
+    for (const auto& line : kept.lines) part << line << kept.eol;
     part.close();
     if (!part) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", rewritten));
   }
@@ -403,10 +434,14 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   std::ofstream csv(table, std::ios::app);
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
+  // Each stage record holds the simulation's observables, the stage's target and its quench.
+  std::vector<std::string> recorded = observable_names(*sim);
+  recorded.insert(recorded.end(), {"pressure_target", "quench_start", "quench_drag"});
+  out.require_observables(recorded);
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);
-  return run_stages(scene, settings, *sim, out, csv, table, quiet, from, cp.unreached, cp.wall_seconds, cp.cvode_seconds);
+  return run_stages(scene, settings, *sim, out, csv, table, kept.eol, quiet, from, cp.unreached, cp.wall_seconds, cp.cvode_seconds);
 }
 
 }  // namespace grains

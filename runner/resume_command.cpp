@@ -2,6 +2,7 @@
 // then the run or the programme goes on (run_command.cpp, consolidate_command.cpp).
 #include "resume_command.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -18,6 +19,28 @@
 #include "run_command.hpp"
 
 namespace grains {
+
+namespace {
+
+void check_records_at_step(const std::string& path, const Scene& scene, const RunCheckpoint& cp) {
+  // Whether the records and the frame at the checkpoint's step are the unbroken run's follows from the stored cadences
+  // (a programme records at its stages' ends, which its checkpoints count as theirs): a flag saying otherwise had the
+  // resume drop a scheduled record and never write it again.
+  const bool programme = !cp.stage_table.empty();
+  const long obs_every = scene.integer("output.observables_every"), snap_every = scene.integer("output.snapshots_every");
+  for (auto [name, flag, due, cadence] :
+       {std::tuple{"observables_at_step", cp.observables_at_step, programme || cp.step % obs_every == 0,
+                   fmt::format("output.observables_every = {}", obs_every)},
+        std::tuple{"frame_at_step", cp.frame_at_step, programme || (snap_every > 0 && cp.step % snap_every == 0),
+                   fmt::format("output.snapshots_every = {}", snap_every)}})
+    if (flag != due)
+      throw std::runtime_error(fmt::format(
+          "H5MD output '{}': its checkpoint at step {} has the attribute '{}' = {}, where {} makes it {}: the file is "
+          "damaged and cannot be continued", path, cp.step, name, int(flag),
+          programme ? "a programme (its checkpoints come with its records)" : cadence, int(due)));
+}
+
+}  // namespace
 
 int resume_run(const std::string& path, bool quiet) {
   // Before the child reads it: a FIFO would hold the child until its time runs out, and HDF5 reads a device as it is.
@@ -46,6 +69,7 @@ int resume_run(const std::string& path, bool quiet) {
       throw std::runtime_error(fmt::format("'{}': the XDMF file the resume rewrites beside it, '{}', is {}: move that "
                                            "away (a regular file or nothing may be there); not resumed", path, *xdmf,
                                            *kind));
+  check_records_at_step(path, scene, cp);
   // A programme's file names its stage table.
   return cp.stage_table.empty() ? resume_plain_run(path, scene, cp, quiet) : resume_consolidation(path, scene, cp, quiet);
 }
@@ -66,12 +90,20 @@ void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint&
   // times, its t_ff and everything after.
   const ParticleView p = sim.particles();
   for (auto [name, rebuilt, stored] : {std::tuple{"radius", &p.radius, &cp.radius}, std::tuple{"mass", &p.mass, &cp.mass},
-                                       std::tuple{"position", &p.position, &cp.position}})
+                                       std::tuple{"position", &p.position, &cp.position}}) {
+    // Another count is no changed value: the frame's particles, or the scene's, are not the run's.
+    const std::size_t per_particle = rebuilt->size() / std::max<std::size_t>(1, sim.particle_count());
+    if (!stored->empty() && stored->size() != rebuilt->size())
+      throw std::runtime_error(fmt::format(
+          "H5MD output '{}': the run's first frame (/particles/all/{}/value) holds {} particles, where the stored scene "
+          "builds {}: the file is damaged and cannot be continued", path, name, stored->size() / std::max<std::size_t>(1, per_particle),
+          sim.particle_count()));
     if (!stored->empty() && *rebuilt != *stored)
       throw std::runtime_error(fmt::format(
           "'{}': the particles rebuilt from the stored scene have another {} than the run's first frame (a file the "
           "scene reads, such as particles.file under {}, has changed since the run started): not resumed", path, name,
           cp.scene_directory.empty() ? "the working folder" : cp.scene_directory));
+  }
   try {
     sim.restore_state(cp.state);
   } catch (const SimulationError& e) {   // a state that does not fit: the older checkpoint, if there is one

@@ -46,6 +46,13 @@ void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector
   }
 }
 
+std::vector<std::string> observable_names(const Simulation& sim) {
+  std::vector<std::string> names;
+  for (const auto& v : sim.variables())
+    if (v.causality == Causality::output && v.name != "time" && v.name != "step") names.push_back(v.name);
+  return names;
+}
+
 void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings,
                   const std::vector<std::pair<std::string, double>>& recorded) {
   out.set_attribute("scene_directory", scene.directory().string());
@@ -325,6 +332,7 @@ int resume_plain_run(const std::string& path, const Scene& scene, RunCheckpoint&
   catch_stop_signals();
   if (stop_requested()) return 130;
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
+  out.require_observables(observable_names(*prepared.sim));
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);

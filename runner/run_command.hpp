@@ -13,6 +13,8 @@ void write_frame(H5mdWriter& out, const Simulation& sim);
 // The simulation's outputs as one record; `recorded`: values taken earlier at this step, written instead
 // (a stage's contacts kept / lost / gained, counted before the programme marks the next reference).
 void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector<std::pair<std::string, double>>& recorded = {});
+// The observables write_observables records of `sim`: its outputs but time and step.
+std::vector<std::string> observable_names(const Simulation& sim);
 
 class Scene;
 // A new output file's start, shared by `run` and `consolidate`: the scene's folder (where `grains resume` finds

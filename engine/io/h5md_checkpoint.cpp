@@ -5,12 +5,19 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/byte_stream.hpp"
 #include "io/h5md_checkpoint_slots.hpp"
 #include "io/h5md_hdf5.hpp"
 
 namespace grains {
+
+namespace {
+// The ranges of a checkpoint's attributes: a stage's index fits an int, the threads run.threads' range, and times lie
+// far inside a double's (any value the writer stores).
+constexpr double kMaxStage = 2147483647, kMaxThreads = 1024, kHuge = 1e300;
+}  // namespace
 
 std::string scene_check_sum(const std::string& scene_toml) {
   return fmt::format("{:016x}", check_sum(std::as_bytes(std::span(scene_toml.data(), scene_toml.size()))));
@@ -41,25 +48,38 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   int readable = 0;
   for (const auto& [slot, step] : slots) {
     const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
-    cp.state.resize(h5::shape(d.get(), path, checkpoint_slot_name(slot)).at(0));
+    // Read whole into a buffer of its first axis: one axis of bytes, as create_checkpoint_slot makes it (a slot of two
+    // axes overflowed the buffer).
+    const std::vector<hsize_t> shape = h5::shape(d.get(), path, checkpoint_slot_name(slot));
+    const h5::Handle type(h5::check(H5Dget_type(d.get()), path, "reading the type of a checkpoint"), H5Tclose);
+    if (shape.size() != 1 || H5Tget_class(type.get()) != H5T_INTEGER)
+      throw std::runtime_error(fmt::format("H5MD output '{}': /grains/{} holds {} of the shape {}, where grains writes one "
+                                           "axis of bytes: the file is damaged and cannot be continued", path,
+                                           checkpoint_slot_name(slot), shape.size() != 1 ? "values" : "non-integers",
+                                           shape.empty() ? "of a scalar" : fmt::format("{}", fmt::join(shape, " x "))));
+    cp.state.resize(shape[0]);
     // A slot whose checksum fails (damaged on disk) is passed over like an invalid one, and named to the caller.
     if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0) {
       cp.damaged_newer_step = long(step);
-      cp.damaged_newer_stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
+      cp.damaged_newer_stage = int(h5::read_attr_in(d.get(), "stage", -1, -1, kMaxStage, true, path));
       continue;
     }
     if (readable++ < skip) continue;
+    // Each attribute in what the writer stores, before it is converted (1e300 converted to a long was undefined).
     cp.step = long(step);
-    cp.stage = int(h5::read_attr_double(d.get(), "stage", -1, path));
-    cp.unreached = long(h5::read_attr_double(d.get(), "unreached", 0, path));
-    cp.time = h5::read_attr_double(d.get(), "time", 0, path);
-    cp.wall_seconds = h5::read_attr_double(d.get(), "wall_seconds", 0, path);
-    cp.cvode_seconds = h5::read_attr_double(d.get(), "cvode_seconds", 0, path);
-    cp.threads = int(h5::read_attr_double(d.get(), "threads", 0, path));
+    cp.stage = int(h5::read_attr_in(d.get(), "stage", -1, -1, kMaxStage, true, path));
+    cp.unreached = long(h5::read_attr_in(d.get(), "unreached", 0, 0, cp.stage + 1, true, path));
+    cp.time = h5::read_attr_in(d.get(), "time", 0, -kHuge, kHuge, false, path);
+    cp.wall_seconds = h5::read_attr_in(d.get(), "wall_seconds", 0, 0, kHuge, false, path);
+    cp.cvode_seconds = h5::read_attr_in(d.get(), "cvode_seconds", 0, 0, kHuge, false, path);
+    cp.threads = int(h5::read_attr_in(d.get(), "threads", 0, 0, kMaxThreads, true, path));
     cp.stage_progress = h5::read_attr_doubles(d.get(), "stage_progress", path);
-    cp.observables_at_step = h5::read_attr_double(d.get(), "observables_at_step", 1, path) == 1;
-    cp.frame_at_step = h5::read_attr_double(d.get(), "frame_at_step", 1, path) == 1;
-    cp.warnings = long(h5::read_attr_double(d.get(), "warnings", -1, path));
+    cp.observables_at_step = h5::read_attr_in(d.get(), "observables_at_step", 1, 0, 1, true, path) == 1;
+    cp.frame_at_step = h5::read_attr_in(d.get(), "frame_at_step", 1, 0, 1, true, path) == 1;
+    // At most the rows the file holds: later warnings may follow the checkpoint's, none go.
+    const double warning_rows = h5::exists(g.get(), "warnings", path)
+        ? double(h5::shape(h5::open_dataset(g.get(), "warnings", path).get(), path, "/grains/warnings").at(0)) : 0;
+    cp.warnings = long(h5::read_attr_in(d.get(), "warnings", -1, -1, warning_rows, true, path));
     cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
     const std::string written_with = h5::read_attr_string(d.get(), "scene_check_sum", "", path);   // "": before 2026-12-05
     if (!written_with.empty() && written_with != scene_check_sum(cp.scene_toml))
@@ -82,11 +102,26 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
         H5Eclear2(H5E_DEFAULT);
         cp.stage_pressure.clear(), cp.stage_solid_fraction.clear();
       }
+    // The first frame, each element shaped as grains writes it (frames x particles, x the dimension for the position):
+    // another shape read as a row of another length, said to be a changed particle file.
+    const int dim = h5::exists(fid, "particles/all/box", path)
+        ? int(h5::read_attr_in(h5::open_group(fid, "particles/all/box", path).get(), "dimension", 3, 2, 3, true, path)) : 3;
     for (auto [name, values] :
          {std::pair{"radius", &cp.radius}, std::pair{"mass", &cp.mass}, std::pair{"position", &cp.position}}) {
-      const std::string element = std::string("particles/all/") + name + "/value";
+      const std::string element = std::string("/particles/all/") + name + "/value";
       if (h5::exists(fid, std::string("particles/all/") + name, path)) {
         const h5::Handle v = h5::open_dataset(fid, element, path);
+        const std::vector<hsize_t> shape = h5::shape(v.get(), path, element);
+        const h5::Handle type(h5::check(H5Dget_type(v.get()), path, "reading the type of " + element), H5Tclose);
+        const bool position = values == &cp.position;
+        const std::string expected = position ? fmt::format("frames x particles x {}", dim) : "frames x particles";
+        if (shape.size() != (position ? 3u : 2u) || (position && shape[2] != hsize_t(dim)) ||
+            H5Tget_class(type.get()) != H5T_FLOAT || shape[0] == 0)
+          throw std::runtime_error(fmt::format("H5MD output '{}': {} holds {} of the shape {}, where grains writes floats "
+                                               "of the shape {} (one frame at least): the file is damaged and cannot be "
+                                               "continued", path, element, H5Tget_class(type.get()) == H5T_FLOAT ? "floats" : "non-floats",
+                                               shape.empty() ? "of a scalar" : fmt::format("{}", fmt::join(shape, " x ")),
+                                               expected));
         *values = h5::read_row(v.get(), 0, path, element);
       }
     }

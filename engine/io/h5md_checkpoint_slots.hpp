@@ -31,8 +31,9 @@ inline std::vector<std::pair<int, double>> valid_checkpoint_slots(hid_t grains, 
   for (int k : {0, 1}) {
     if (!h5::exists(grains, checkpoint_slot_name(k), file)) continue;
     const h5::Handle d = h5::open_dataset(grains, checkpoint_slot_name(k), file);
-    if (h5::read_attr_double(d.get(), "valid", 0, file) == 1)
-      slots.emplace_back(k, h5::read_attr_double(d.get(), "step", -1, file));
+    // Steps below Simulation::max_steps (1e15), exact as doubles; any other is no step a run wrote.
+    if (h5::read_attr_in(d.get(), "valid", 0, 0, 1, true, file) == 1)
+      slots.emplace_back(k, h5::read_attr_in(d.get(), "step", -1, 0, 1e15, true, file));
   }
   if (slots.size() == 2 && slots[1].second > slots[0].second) std::swap(slots[0], slots[1]);
   return slots;

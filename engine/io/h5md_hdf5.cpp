@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -88,6 +89,15 @@ std::string describe_type(hid_t type) {
   }
 }
 
+// A dataspace as messages give it: "a scalar", or its dimensions ("2 x 3").
+std::string describe_space(hid_t space) {
+  const int rank = H5Sget_simple_extent_ndims(space);
+  if (rank <= 0) return rank == 0 ? "a scalar" : "an unreadable shape";
+  std::vector<hsize_t> dims(std::size_t(rank), 0);
+  H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  return fmt::format("the shape {}", fmt::join(dims, " x "));
+}
+
 // The value of a scalar string of the stored `type`, which `read(memory type, buffer)` reads. Fixed length: read as
 // stored, up to its first null. Variable length: a reference into the file's global heap, which HDF5 1.10.8 follows as
 // it stands (one flipped bit of its object index crashed H5HG_read); grains writes none that it reads back since its
@@ -120,6 +130,13 @@ Handle fixed_string_type(std::size_t size, const std::string& file) {
 }
 
 }  // namespace
+
+std::string path_of(hid_t parent, const std::string& name) {
+  char where[512] = "";
+  if (H5Iget_name(parent, where, sizeof where) <= 0) return name;
+  const std::string at = where;
+  return name.empty() || name == "." ? at : at == "/" ? "/" + name : at + "/" + name;
+}
 
 bool locked_by_another_process(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -239,6 +256,18 @@ unsigned link_count(hid_t parent, const std::string& name, const std::string& fi
   return info.rc;
 }
 
+std::string object_identity(hid_t object, const std::string& file, const std::string& what) {
+#if H5_VERSION_GE(1, 12, 0)
+  H5O_info2_t info;
+  check(H5Oget_info3(object, &info, H5O_INFO_BASIC), file, "looking up " + what);
+  return std::string(reinterpret_cast<const char*>(&info.token), sizeof info.token);
+#else
+  H5O_info_t info;
+  check(H5Oget_info2(object, &info, H5O_INFO_BASIC), file, "looking up " + what);
+  return std::string(reinterpret_cast<const char*>(&info.addr), sizeof info.addr);
+#endif
+}
+
 void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, const std::vector<hsize_t>& count,
                  const std::string& file, const std::string& what) {
   if (rows == 0) return;
@@ -263,7 +292,7 @@ void append_rows(hid_t dataset, hid_t mem_type, const void* data, hsize_t rows, 
 }
 
 Handle open_group(hid_t parent, const std::string& name, const std::string& file) {
-  return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + name), H5Gclose);
+  return Handle(check(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening group " + path_of(parent, name)), H5Gclose);
 }
 
 Handle open_extendable(hid_t parent, const std::string& name, const std::string& file) {
@@ -271,19 +300,28 @@ Handle open_extendable(hid_t parent, const std::string& name, const std::string&
   std::vector<hsize_t> chunk;
   {
     Handle d = open_dataset(parent, name, file);
-    type_id = check(H5Dget_type(d.get()), file, "reading the type of " + name);
-    Handle dcpl(check(H5Dget_create_plist(d.get()), file, "reading the layout of " + name), H5Pclose);
+    const std::string where = path_of(parent, name);
+    type_id = check(H5Dget_type(d.get()), file, "reading the type of " + where);
+    Handle dcpl(check(H5Dget_create_plist(d.get()), file, "reading the layout of " + where), H5Pclose);
+    // Rows are appended to chunked datasets only (a contiguous one said "reading the chunks of value failed").
+    if (H5Pget_layout(dcpl.get()) != H5D_CHUNKED) {
+      H5Tclose(type_id);
+      throw std::runtime_error(fmt::format("H5MD output '{}': {} is not stored in chunks, where grains writes a series in "
+                                           "chunked rows to append to: the file is damaged and cannot be continued", file,
+                                           where));
+    }
     chunk.resize(H5S_MAX_RANK);
-    chunk.resize(std::size_t(check(H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()), file, "reading the chunks of " + name)));
+    chunk.resize(std::size_t(check(H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()), file, "reading the chunks of " + where)));
   }
   Handle type(type_id, H5Tclose);
   return Handle(check(H5Dopen2(parent, name.c_str(), append_access(type.get(), chunk, file).get()), file,
-                      "opening dataset " + name),
+                      "opening dataset " + path_of(parent, name)),
                 H5Dclose);
 }
 
 Handle open_dataset(hid_t parent, const std::string& name, const std::string& file) {
-  return Handle(check(H5Dopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening dataset " + name), H5Dclose);
+  return Handle(check(H5Dopen2(parent, name.c_str(), H5P_DEFAULT), file, "opening dataset " + path_of(parent, name)),
+                H5Dclose);
 }
 
 bool exists(hid_t parent, const std::string& name, const std::string& file) {
@@ -417,9 +455,27 @@ std::string read_dataset_string(hid_t parent, const std::string& name, const std
 double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file) {
   if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
   Handle a(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), file, "opening attribute " + name), H5Aclose);
+  // H5Aread writes every element: an array attribute where grains writes one number wrote past `value`.
+  Handle type(check(H5Aget_type(a.get()), file, "reading the type of attribute " + name), H5Tclose);
+  Handle space(check(H5Aget_space(a.get()), file, "reading the shape of attribute " + name), H5Sclose);
+  const H5T_class_t kind = H5Tget_class(type.get());
+  if ((kind != H5T_INTEGER && kind != H5T_FLOAT) || H5Sget_simple_extent_type(space.get()) != H5S_SCALAR)
+    throw std::runtime_error(fmt::format("H5MD output '{}': attribute '{}' of {} holds {} in {}, where grains writes one "
+                                         "number (a scalar): the file is damaged and cannot be continued", file, name,
+                                         path_of(obj, "."), describe_type(type.get()), describe_space(space.get())));
   double value = fallback;
   check(H5Aread(a.get(), H5T_NATIVE_DOUBLE, &value), file, "reading attribute " + name);
   return value;
+}
+
+double read_attr_in(hid_t obj, const std::string& name, double fallback, double lo, double hi, bool whole,
+                    const std::string& file) {
+  if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
+  const double value = read_attr_double(obj, name, fallback, file);
+  if (std::isfinite(value) && value >= lo && value <= hi && (!whole || value == std::floor(value))) return value;
+  throw std::runtime_error(fmt::format("H5MD output '{}': attribute '{}' of {} is {}, where grains writes {} in [{}, {}]: "
+                                       "the file is damaged and cannot be continued", file, name, path_of(obj, "."), value,
+                                       whole ? "a whole number" : "a number", lo, hi));
 }
 
 std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file) {

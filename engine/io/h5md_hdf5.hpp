@@ -54,6 +54,9 @@ class WriterLock {
   void release();
   int fd_ = -1;
 };
+// The path of `name` in the object `parent` ("." : the object's own), as HDF5 names it, for messages: `name` alone
+// where HDF5 knows no path.
+std::string path_of(hid_t parent, const std::string& name);
 // Throws OutputError (io/output_error.hpp) "HDF5 output <file>: <what> failed (<HDF5's own reason>)".
 [[noreturn]] void fail(const std::string& file, const std::string& what);
 // Returns `status` when it is non-negative, otherwise fail().
@@ -82,6 +85,10 @@ void hard_link(hid_t from, const std::string& name, hid_t to, const std::string&
 // How many hard links name the object `name` in `parent` (more than one: it is shared).
 unsigned link_count(hid_t parent, const std::string& name, const std::string& file);
 
+// What tells one object of the file from another (its address, or token), whatever links name it: two names of one
+// dataset give the same.
+std::string object_identity(hid_t object, const std::string& file, const std::string& what);
+
 // Reading back (a resumed run): opening, truncating to the first `rows` rows, whole datasets and attributes.
 Handle open_group(hid_t parent, const std::string& name, const std::string& file);
 Handle open_dataset(hid_t parent, const std::string& name, const std::string& file);
@@ -105,8 +112,13 @@ std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file
 // A scalar string dataset's or attribute's value, fixed length (dataset_string's, attr_string's) or variable length
 // (as grains wrote them until its twenty-fifth session, and h5py writes a str).
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file);
-// An attribute's value, or `fallback` when the object has no such attribute.
+// An attribute's value, or `fallback` when the object has no such attribute. Anything but one number (a scalar of
+// an integer or float type) is refused (std::runtime_error naming the object, the attribute and what it holds).
 double read_attr_double(hid_t obj, const std::string& name, double fallback, const std::string& file);
+// read_attr_double's value (`fallback` when absent), refused unless finite, within [lo, hi] and, with `whole`, a whole number: a count or a
+// step converted from anything else is undefined (1e300 read as step -9223372036854775808).
+double read_attr_in(hid_t obj, const std::string& name, double fallback, double lo, double hi, bool whole,
+                    const std::string& file);
 std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file);
 // Replaces the whole content of a one-axis extendable byte dataset.
 void overwrite_bytes(hid_t dataset, const void* data, hsize_t size, const std::string& file, const std::string& what);

@@ -166,6 +166,13 @@ struct H5mdWriter::Impl {
     h5::check_as_written(s.time.get(), H5T_IEEE_F64LE, kObservableChunk, path, name + "/time");
     h5::check_as_written(s.value.get(), value_type(parent, name), kObservableChunk, path, name + "/value");
     const std::vector<long long> steps = h5::read_int64s(s.step.get(), path, name + "/step");
+    // Cut back by a search of the steps: out of order, it would keep records after the checkpoint or drop some before.
+    for (std::size_t k = 1; k < steps.size(); ++k)
+      if (steps[k] <= steps[k - 1])
+        throw std::runtime_error(fmt::format("H5MD output '{}': {}/step is not increasing: its row {} holds step {} after "
+                                             "step {}, where grains writes each record at a later step: the file is damaged "
+                                             "and cannot be continued", path, h5::path_of(s.group.get(), "."), k, steps[k],
+                                             steps[k - 1]));
     const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
                                           : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
     // A damaged file's shorter time or value would be extended with fill values, out of step with the steps.
@@ -178,6 +185,52 @@ struct H5mdWriter::Impl {
     const std::vector<hsize_t> shape = h5::shape(s.value.get(), path, name + "/value");
     s.components = shape.size() == 3 ? int(shape[2]) : 1;
     return s;
+  }
+
+  // A resumed file's series as the writer made them: each its own datasets (a series hard-linked to another had both
+  // appended to one), the clock shared only as H5MD's box and image share the position's, every frame element with a
+  // row per frame and the observables (and the trace) with a row per record, so that the rows appended go on in step.
+  void check_series_apart() {
+    const auto damaged = [&](const std::string& defect) {
+      throw std::runtime_error(fmt::format("H5MD output '{}': {}: the file is damaged and cannot be continued", path, defect));
+    };
+    std::map<std::string, std::string> owner;   // an object's identity -> its path
+    const auto own = [&](hid_t d) {
+      const std::string where = h5::path_of(d, "."), id = h5::object_identity(d, path, where);
+      if (const auto [at, fresh] = owner.emplace(id, where); !fresh)
+        damaged(fmt::format("{} is the same dataset as {} (two names of one object), where grains writes each series "
+                            "its own", where, at->second));
+    };
+    const Series* position = series.count("position") ? &series.at("position") : nullptr;
+    const std::string clock = position ? h5::object_identity(position->step.get(), path, "/particles/all/position/step") : "";
+    for (const auto& [name, s] : series) {
+      own(s.value.get());
+      if (!s.shares_clock) own(s.step.get()), own(s.time.get());
+      else if (h5::object_identity(s.step.get(), path, name) != clock)
+        damaged(fmt::format("{}/step is linked to another dataset than /particles/all/position/step, whose clock it shares",
+                            h5::path_of(s.group.get(), ".")));
+    }
+    for (const auto& [name, s] : observable) own(s.value.get()), own(s.step.get()), own(s.time.get());
+    // Rows: each frame element as many as the position, the box's edges and offset present (written with every frame).
+    if (position) {
+      const hsize_t frames = h5::shape(position->step.get(), path, "/particles/all/position/step").at(0);
+      for (const char* needed : {"velocity", "radius", "mass", "box/edges", "box/offset"})
+        if (!series.count(needed)) damaged(fmt::format("/particles/all/{} is missing, where grains writes it with every frame", needed));
+      for (const auto& [name, s] : series)
+        if (const hsize_t rows = h5::shape(s.value.get(), path, name).at(0); rows != frames)
+          damaged(fmt::format("/particles/all/{}/value holds {} rows, where the position holds {} frames", name, rows, frames));
+    }
+    for (const std::string group : {"observables/", "grains/trace/"}) {
+      const std::pair<const std::string, Series>* first = nullptr;
+      for (const auto& entry : observable) {
+        if (entry.first.rfind(group, 0) != 0) continue;
+        const hsize_t rows = h5::shape(entry.second.step.get(), path, entry.first).at(0);
+        if (!first) { first = &entry; continue; }
+        if (const hsize_t held = h5::shape(first->second.step.get(), path, first->first).at(0); rows != held)
+          damaged(fmt::format("/{} holds {} records, where /{} holds {} (grains writes every one in each record)",
+                              entry.first, rows, first->first, held));
+      }
+    }
   }
 
   void update_xdmf(bool final) {
@@ -355,9 +408,14 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   // end when it closes. From the end of the file on, nothing written is reused.
   h5::check(H5Fincrement_filesize(fid, 0), path, "setting the file's end of allocation to its end");
   const hid_t root = m.file.get();
+  // The H5MD root (version, author, creator) is what makes the file H5MD: a file without it would be continued into one
+  // no H5MD reader takes.
+  if (!h5::exists(root, "h5md", path))
+    throw std::runtime_error(fmt::format("H5MD output '{}': /h5md, the H5MD root group grains writes first, is missing: "
+                                         "the file is damaged and cannot be continued", path));
   m.particles = h5::open_group(root, "particles/all", path);
   m.box = h5::open_group(m.particles.get(), "box", path);
-  m.dim = int(h5::read_attr_double(m.box.get(), "dimension", 3, path));
+  m.dim = int(h5::read_attr_in(m.box.get(), "dimension", 3, 2, 3, true, path));
   m.observables = h5::open_group(root, "observables", path);
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
@@ -399,6 +457,7 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
       m.observable.emplace("grains/trace/" + name, m.reopen_series(m.trace.get(), name, resume_step, observables_at_step));
   }
 
+  m.check_series_apart();
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
   m.has_image = m.series.count("image") > 0;
   std::vector<double> times;
@@ -488,6 +547,14 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
     m.xdmf->add_frame(m.frames - 1, f.time, f.count);
     m.update_xdmf(false);
   }
+}
+
+void H5mdWriter::require_observables(const std::vector<std::string>& names) const {
+  for (const auto& name : names)
+    if (!impl_->observable.count("observables/" + name))
+      throw std::runtime_error(fmt::format("H5MD output '{}': /observables/{} is missing, where the run records it with "
+                                           "its other observables: the file is damaged and cannot be continued",
+                                           impl_->path, name));
 }
 
 void H5mdWriter::write_observable(const std::string& name, long step, double time, double value) {

@@ -46,6 +46,9 @@ class H5mdWriter {
   // Held in memory and written with the next flush: the first write of a later step flushes once a second
   // has passed since the last, so a killed run's file holds whole records (one step's observables).
   void write_observable(const std::string& name, long step, double time, double value);
+  // A resumed file: refuses one lacking any of the observables `names` that the run records (std::runtime_error naming
+  // it), which the resumed run would make anew with only its own rows.
+  void require_observables(const std::vector<std::string>& names) const;
   // The same for /grains/trace/<name>: a series recorded at other steps than the observables and the frames (grains
   // consolidate's trace within its stages), kept out of /observables, whose readers may take a record per frame.
   void write_trace(const std::string& name, long step, double time, double value);

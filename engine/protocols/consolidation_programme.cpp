@@ -156,12 +156,7 @@ class Runner {
   Runner(Simulation& s, const ProgrammeSettings& p, const std::function<void(const StageRecord&)>& on_stage,
          const StageCheck& on_check, const StageProgress& from, const StopPoll& poll)
       : s_(s), p_(p), on_stage_(on_stage), on_check_(on_check), poll_(poll), network_(s.has("network.mark")),
-        from_(from) {
-    for (const char* name : recorded)
-      if (s.has(name)) names_.emplace_back(name);
-    for (const auto& v : s.variables())
-      if (v.name.rfind("force_histogram_", 0) == 0) names_.push_back(v.name);
-  }
+        names_(stage_record_names(s)), from_(from) {}
 
   std::vector<StageRecord> run() {
     const auto stages = programme_stages(p_);
@@ -268,9 +263,9 @@ class Runner {
   const StageCheck& on_check_;
   const StopPoll& poll_;
   bool network_;
+  std::vector<std::string> names_;
   StageProgress from_;
   bool stopped_ = false;
-  std::vector<std::string> names_;
   std::vector<StageRecord> records_;
 };
 
@@ -298,6 +293,15 @@ StageProgress StageProgress::from_values(const std::vector<double>& v, const Pro
   if (s.quench.size() != (aggregation || s.steps == 0 ? 0u : 9u))
     throw std::invalid_argument(fmt::format("stage {}'s quench has {} numbers", s.stage, s.quench.size()));
   return s;
+}
+
+std::vector<std::string> stage_record_names(const Simulation& s) {
+  std::vector<std::string> names;
+  for (const char* name : recorded)
+    if (s.has(name)) names.emplace_back(name);
+  for (const auto& v : s.variables())
+    if (v.name.rfind("force_histogram_", 0) == 0) names.push_back(v.name);
+  return names;
 }
 
 std::vector<StageRecord> run_programme(Simulation& s, const ProgrammeSettings& p,

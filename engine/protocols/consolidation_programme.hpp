@@ -57,6 +57,9 @@ struct StageRecord {
   std::vector<std::pair<std::string, double>> values;   // outputs at the end of the stage
 };
 
+// The names of StageRecord::values in `s`, in their order (the stage table's columns after quench_drag).
+std::vector<std::string> stage_record_names(const Simulation& s);
+
 // The P* of every stage after the prepared state: loading, then unloading.
 std::vector<std::pair<std::string, double>> programme_pressures(const ProgrammeSettings& p);
 

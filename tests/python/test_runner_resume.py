@@ -193,6 +193,116 @@ def test_a_series_whose_extent_is_damaged_past_the_file_is_refused_not_cut_back_
             and "damaged" in resumed.stderr), resumed.stderr
 
 
+def set_checkpoint_1_attribute(name, value):
+    return lambda f: f["grains/checkpoint_1"].attrs.__setitem__(name, value)
+
+
+def checkpoint_1_of_two_axes(f):
+    state, attrs = f["grains/checkpoint_1"][()], dict(f["grains/checkpoint_1"].attrs)
+    del f["grains/checkpoint_1"]
+    f.create_dataset("grains/checkpoint_1", data=state[: len(state) // 2 * 2].reshape(-1, 2))
+    f["grains/checkpoint_1"].attrs.update(attrs)
+    return f"the shape {len(state) // 2} x 2"
+
+
+# An outside review, 2026-12-07: a checkpoint's attributes were converted as they stood (step 1e300 read as step
+# -9223372036854775808, a thread count of 1e12 or NaN converted with undefined behaviour and ignored), observables_at_step
+# = 0 dropped the record at the checkpoint's step for good, and an attribute or a slot of another shape than grains
+# writes was read into a buffer sized for grains' own (HDF5 crashed, said the child that reads first: it was grains).
+CP1 = "of /grains/checkpoint_1"
+@pytest.mark.parametrize("damage, message", [
+    (set_checkpoint_1_attribute("step", 1e300),
+     f"attribute 'step' {CP1} is 1e+300, where grains writes a whole number in [0, 1000000000000000]"),
+    (set_checkpoint_1_attribute("step", 400.5),
+     f"attribute 'step' {CP1} is 400.5, where grains writes a whole number in [0, 1000000000000000]"),
+    (set_checkpoint_1_attribute("threads", 1e12),
+     f"attribute 'threads' {CP1} is 1000000000000, where grains writes a whole number in [0, 1024]"),
+    (set_checkpoint_1_attribute("threads", np.nan), f"attribute 'threads' {CP1} is nan, where grains writes a whole number"),
+    (set_checkpoint_1_attribute("warnings", 1e15), f"attribute 'warnings' {CP1} is 1000000000000000, where grains writes a "
+                                                   "whole number in [-1, 0]"),
+    (set_checkpoint_1_attribute("time", np.inf), f"attribute 'time' {CP1} is inf, where grains writes a number in"),
+    (set_checkpoint_1_attribute("observables_at_step", 0.0),
+     "its checkpoint at step 400 has the attribute 'observables_at_step' = 0, where output.observables_every = 100 makes it 1"),
+    (set_checkpoint_1_attribute("frame_at_step", 1.0),
+     "its checkpoint at step 400 has the attribute 'frame_at_step' = 1, where output.snapshots_every = 1000 makes it 0"),
+    (set_checkpoint_1_attribute("step", np.array([400.0, 1.0])),
+     f"attribute 'step' {CP1} holds a float of 8 bytes, 64 bits of precision at bit 0 in the shape 2, where grains writes "
+     "one number (a scalar)"),
+    (checkpoint_1_of_two_axes, "/grains/checkpoint_1 holds values of {}, where grains writes one axis of bytes"),
+], ids=["step-1e300", "step-fraction", "threads-1e12", "threads-nan", "warnings-1e15", "time-inf", "observables_at_step-0",
+        "frame_at_step-1", "step-array", "slot-of-two-axes"])
+def test_a_checkpoint_whose_attributes_or_shape_are_not_what_grains_writes_is_refused_naming_them(grains_bin, root,
+                                                                                                  tmp_path, damage, message):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        message = message.format(damage(f))
+    before = killed.read_bytes()
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert f"'{killed}': {message}" in resumed.stderr and "damaged" in resumed.stderr, resumed.stderr
+    assert "crashed" not in resumed.stderr and killed.read_bytes() == before
+
+
+def replace_dataset(path, make):
+    """Replaces the dataset at path by make(its values)."""
+    def damage(f):
+        values = f[path][()]
+        del f[path]
+        make(f, values)
+    return damage
+
+
+# An outside review, 2026-12-07: a series hard-linked to another (both appended into one dataset), steps out of order,
+# a series or the box's edges removed (made anew with the resumed rows alone) and a file without /h5md resumed to
+# "complete"; others were refused without the object's path, or as a changed particle file.
+@pytest.mark.parametrize("damage, message", [
+    (lambda f: (f.__delitem__("observables/kinetic_energy"), f.__setitem__("observables/kinetic_energy",
+                                                                           f["observables/rotational_energy"])),
+     "/observables/rotational_energy/value is the same dataset as /observables/kinetic_energy/value (two names of one "
+     "object), where grains writes each series its own"),
+    (lambda f: f["observables/kinetic_energy/step"].__setitem__(slice(None), f["observables/kinetic_energy/step"][()][::-1]),
+     "/observables/kinetic_energy/step is not increasing: its row 1 holds step 400 after step 450"),
+    (lambda f: f.__delitem__("observables/kinetic_energy"),
+     "/observables/kinetic_energy is missing, where the run records it with its other observables"),
+    (lambda f: f.__delitem__("particles/all/box/edges"),
+     "/particles/all/box/edges is missing, where grains writes it with every frame"),
+    (lambda f: f.__delitem__("particles/all/velocity"),
+     "/particles/all/velocity is missing, where grains writes it with every frame"),
+    (lambda f: f.__delitem__("h5md"), "/h5md, the H5MD root group grains writes first, is missing"),
+    (lambda f: f.__delitem__("observables/kinetic_energy/step"),
+     "opening dataset /observables/kinetic_energy/step failed"),
+    (lambda f: f.create_group("observables/bogus").create_dataset("value", data=np.zeros(3)),
+     "opening dataset /observables/bogus/step failed"),
+    (replace_dataset("observables/kinetic_energy/value", lambda f, v: f.create_dataset("observables/kinetic_energy/value",
+                                                                                     data=v)),
+     "/observables/kinetic_energy/value is not stored in chunks, where grains writes a series in chunked rows"),
+    (replace_dataset("particles/all/position/value", lambda f, v: f.create_dataset(
+        "particles/all/position/value", data=np.concatenate([v, v[:, :, :1]], 2), maxshape=(None, None, None), chunks=True)),
+     "/particles/all/position/value holds floats of the shape 2 x 64 x 4, where grains writes floats of the shape frames "
+     "x particles x 3"),
+    (replace_dataset("particles/all/radius/value", lambda f, v: f.create_dataset(
+        "particles/all/radius/value", data=v.astype(np.int64), maxshape=(None, None), chunks=True)),
+     "/particles/all/radius/value holds non-floats of the shape 2 x 64, where grains writes floats of the shape frames x "
+     "particles"),
+    (lambda f: f["particles/all/position/value"].resize(10, axis=1),
+     "the run's first frame (/particles/all/position/value) holds 10 particles, where the stored scene builds 64"),
+    (replace_dataset("grains/checkpoint_1", lambda f, v: f.create_group("grains/checkpoint_1").attrs.update(
+        {"valid": 1.0, "step": 400.0})), "opening dataset /grains/checkpoint_1 failed"),
+], ids=["series-linked", "steps-out-of-order", "series-removed", "edges-removed", "velocity-removed", "h5md-removed",
+        "step-removed", "extra-group", "contiguous-series", "position-of-4-columns", "integer-radius", "fewer-particles",
+        "checkpoint-a-group"])
+def test_a_file_whose_series_do_not_go_together_is_refused_naming_the_object(grains_bin, root, tmp_path, damage, message):
+    whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
+    killed = killed_copy(whole, tmp_path / "killed.h5")
+    with h5py.File(killed, "r+") as f:
+        f["grains"].attrs.modify("status", np.bytes_(b"interrupted at step 450"))   # frames kept as they are
+        damage(f)
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert message in resumed.stderr and str(killed) in resumed.stderr, resumed.stderr
+
+
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
     """A resumed run wrote its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
     which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
@@ -539,6 +649,50 @@ def test_a_stage_table_another_run_has_rewritten_is_refused_not_continued(grains
     # The table as the programme wrote it resumes
     killed_table.write_text("\n".join(rows[:3]) + "\n")
     assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
+
+
+def moved_columns(rows, edit):
+    """rows (header and stage rows, as lines) with edit(fields) applied to each line's fields."""
+    out = []
+    for line in rows:
+        fields = line.split(",")
+        edit(fields)
+        out.append(",".join(fields))
+    return out
+
+
+def swap_p_star_and_phi(fields):
+    fields[4], fields[5] = fields[5], fields[4]
+
+
+def drop_quench_start(fields):
+    del fields[9]
+
+
+@pytest.mark.parametrize("edit, column", [(swap_p_star_and_phi, 5), (drop_quench_start, 10)], ids=["swapped", "dropped"])
+def test_a_stage_table_whose_columns_were_moved_or_removed_is_refused(grains_bin, root, tmp_path, edit, column):
+    """The resume appended its rows in grains' column order under whatever header the table had (an outside review,
+    2026-12-07): with P_star and phi swapped it wrote each under the other's name, with quench_start deleted 67
+    fields under a 66-field header. The header must be grains' own, or the file and table are left as they were."""
+    _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
+                                                        lambda rows: moved_columns(rows[:3], edit))
+    found = killed_table.read_text().splitlines()[0]
+    file_before, table_before = killed.read_bytes(), killed_table.read_text()
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"its stage table '{killed_table}' has the header '{found}', where grains writes '{rows[0]}' (they differ "
+            f"from column {column} on)") in resumed.stderr, resumed.stderr
+    assert killed.read_bytes() == file_before and killed_table.read_text() == table_before
+
+
+def test_a_stage_table_with_crlf_line_ends_keeps_them_in_the_rows_the_resume_writes(grains_bin, root, tmp_path):
+    """A table saved with CRLF line ends got its new rows with LF (an outside review, 2026-12-07)."""
+    whole, whole_table, killed, killed_table, rows = killed_programme(
+        grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000), lambda rows: rows[:3])
+    killed_table.write_bytes("".join(line + "\r\n" for line in rows[:3]).encode())
+    resumed = run(grains_bin, "resume", killed, "--quiet")
+    assert resumed.returncode == 0, resumed.stderr
+    assert killed_table.read_bytes() == whole_table.read_bytes().replace(b"\n", b"\r\n")
 
 
 def test_a_programme_with_a_drag_below_the_default_floor_resumes(grains_bin, root, tmp_path):
