@@ -67,12 +67,22 @@ KeptTable table_up_to(const std::string& table, int last) {
 
 // The new rows go in grains' column order: under a header with its columns moved or removed (a spreadsheet's edit)
 // they would put values under other names, or more fields than the header has (an outside review, 2026-12-07).
+// A stage table line's fields (grains writes no quoted commas).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> out;
+  std::size_t from = 0;
+  for (std::size_t comma; (comma = line.find(',', from)) != std::string::npos; from = comma + 1)
+    out.push_back(line.substr(from, comma - from));
+  out.push_back(line.substr(from));
+  return out;
+}
+
 void check_table_header(const std::string& table, const std::string& found, const std::string& written,
                         const std::string& path) {
   if (found == written) return;
-  std::size_t column = 0, at = 0;   // the first column that differs, counted from 1
-  while (at < found.size() && at < written.size() && found[at] == written[at])
-    if (found[at++] == ',') ++column;
+  // The first column that differs, field by field (a header one column short named the last column that matched)
+  const auto a = csv_fields(found), b = csv_fields(written);
+  const std::size_t column = std::mismatch(a.begin(), a.end(), b.begin(), b.end()).first - a.begin();
   throw std::runtime_error(fmt::format(
       "'{}': its stage table '{}' has the header '{}', where grains writes '{}' (they differ from column {} on): the "
       "resumed stages' rows would go under other columns; restore the header and the rows' columns as grains wrote "
@@ -84,19 +94,11 @@ void check_table_header(const std::string& table, const std::string& found, cons
 void check_rows_match_records(const std::string& table, const std::vector<std::string>& kept, const RunCheckpoint& cp,
                               const std::string& path) {
   if (kept.empty() || cp.stage_pressure.size() != kept.size() || cp.stage_solid_fraction.size() != kept.size()) return;
-  const auto fields = [](const std::string& line) {
-    std::vector<std::string> out;
-    std::size_t from = 0;
-    for (std::size_t comma; (comma = line.find(',', from)) != std::string::npos; from = comma + 1)
-      out.push_back(line.substr(from, comma - from));
-    out.push_back(line.substr(from));
-    return out;
-  };
-  const auto header = fields(kept[0]);
+  const auto header = csv_fields(kept[0]);
   const auto column = [&](const char* name) { return std::find(header.begin(), header.end(), name) - header.begin(); };
   const std::size_t p = column("P_star"), phi = column("phi");
   for (std::size_t row = 1; row < kept.size(); ++row) {
-    const auto f = fields(kept[row]);
+    const auto f = csv_fields(kept[row]);
     const std::string want_p = fmt::format("{:.9g}", cp.stage_pressure[row]), want_phi = fmt::format("{:.9g}", cp.stage_solid_fraction[row]);
     if (p >= f.size() || phi >= f.size() || f[p] != want_p || f[phi] != want_phi)
       throw std::runtime_error(fmt::format(

@@ -154,7 +154,7 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
         # curve_fit's four-parameter covariance for the lost degree of freedom alone left out how P0* trades with
         # lambda: 60 noisy curves of the paper's form scattered lambda 1.9 times, P1* 1.6 times the errors given (a
         # review, 2026-12-07).
-        cov = _covariance_with_p0(fit_at, params, p0, p, y, ssr)
+        cov = _covariance_with_p0(params, p0, p, ssr, joined)
     inv_phi0, lam, phi_max, alpha = params
     finite = np.all(np.isfinite(cov))
     err = np.sqrt(np.clip(np.diag(cov), 0, None)) if finite else np.full(len(cov), np.nan)
@@ -171,12 +171,15 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
             "P1": p1, "P1_err": p1_err, "stages": int(np.sum(p >= p0))}
 
 
-def _covariance_with_p0(fit_at, params, p0, p, y, ssr):
-    """Covariance of (1/Phi0, lambda, Phimax, alpha, ln P0*) at the fit: (J^T J)^-1 SSR / (n - 5), J the model's
-    derivatives by central differences (ln P0* moves the plateau's end and the curve's origin together)."""
+def _covariance_with_p0(params, p0, p, ssr, joined):
+    """Covariance of (1/Phi0, lambda, Phimax, alpha, ln P0*) at the fit: (J^T J)^-1 SSR / (n - 5), J the derivatives
+    by central differences of the model fitted (flat plateau, or joined: fit_crossover's), ln P0* moving the plateau's
+    end and the curve's origin together."""
     def model(theta):
         *four, log_p0 = theta
         c = math.exp(log_p0)
+        if joined:
+            return inverse_phi_crossover(np.maximum(p, c), *four, c)
         return plateau_then(p, c, four[0], lambda q: inverse_phi_crossover(q, *four, c))
     theta = np.append(np.asarray(params, float), math.log(p0))
     jac = np.empty((len(p), len(theta)))

@@ -14,9 +14,10 @@
 namespace grains {
 
 namespace {
-// The ranges of a checkpoint's attributes: a stage's index fits an int, the threads run.threads' range, and times lie
-// far inside a double's (any value the writer stores).
-constexpr double kMaxStage = 2147483647, kMaxThreads = 1024, kHuge = 1e300;
+// The ranges of a checkpoint's attributes: a stage's index fits an int, the threads any machine's processor count
+// (automatic threads go up to it, past run.threads' 1024), and times lie far inside a double's (any value the writer
+// stores).
+constexpr double kMaxStage = 2147483647, kMaxThreads = 1 << 20, kHuge = 1e300;
 }  // namespace
 
 std::string scene_check_sum(const std::string& scene_toml) {

@@ -306,3 +306,30 @@ def test_a_stage_given_twice_is_refused_naming_both_lines(tmp_path):
     assert not (tmp_path / "fit.png").exists()
     table.write_text("\n".join(rows) + "\n")   # the same P* on both branches is no duplicate
     assert len(cf.read_stages(table)[0]) == len(p) + 1
+
+
+def test_a_joined_fit_takes_its_errors_from_its_own_model():
+    """The five-parameter covariance of a scanned P0* differentiated the flat plateau's model for a joined fit too:
+    Phi0's error 4.6 times too small where P1* is a few P0* (a review, 2026-12-07)."""
+    rng = np.random.default_rng(3)
+    p = np.geomspace(1e-4, 10, 24)
+    truth = (1 / 0.40, 0.12, 0.4223, 1.0, 3e-3)
+    y = cf.plateau_then(p, truth[4], truth[0], lambda q: cf.inverse_phi_crossover(q, *truth[:4], truth[4]))
+    phi = 1 / (y + rng.normal(0, 1e-3, len(p)))
+    fit = cf.fit_crossover(p, phi, guess=(1 / 0.40, 0.12, truth[2] * 1.01, 1.0), joined=True)
+    theta = np.array([1 / fit["phi0"], fit["lambda"], fit["phi_max"], fit["alpha"], math.log(fit["P0"])])
+
+    def joined(t):
+        c = math.exp(t[4])
+        return cf.inverse_phi_crossover(np.maximum(p, c), *t[:4], c)
+
+    jac = np.empty((len(p), 5))
+    for k in range(5):
+        h = 1e-6 * max(abs(theta[k]), 1.0)
+        up, down = theta.copy(), theta.copy()
+        up[k] += h
+        down[k] -= h
+        jac[:, k] = (joined(up) - joined(down)) / (2 * h)
+    cov = np.linalg.pinv(jac.T @ jac) * float(np.sum((joined(theta) - 1 / phi) ** 2)) / (len(p) - 5)
+    assert fit["phi0_err"] == pytest.approx(math.sqrt(cov[0, 0]) * fit["phi0"] ** 2, rel=1e-3)
+    assert fit["lambda_err"] == pytest.approx(math.sqrt(cov[1, 1]), rel=1e-3)

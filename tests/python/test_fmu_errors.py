@@ -482,3 +482,34 @@ def test_an_open_lower_bound_is_declared_as_the_nearest_value_inside_it(version)
     assert "(0, inf)" in duration.description
     fails(unit, lambda: unit.set("contact.duration", 0.0), "contact.duration")
     unit.free()
+
+
+@pytest.mark.parametrize("model", ["aggregation", "collision", "consolidation"])
+def test_no_parameter_value_changes_the_set_of_variables(model):
+    """The FMU's variables are fixed by its modelDescription: a parameter whose value would add or remove outputs (as
+    analysis.elastic_moduli = false did) is the packaged scene's, not a parameter. Every fixed parameter, set to 0 and
+    to another value, builds a simulation with the same variables or is refused for its value, never for changing
+    them (the refusal stays as a guard; an outside review, 2026-12-07, found it no longer reachable)."""
+    probe = Unit(fmu_path(model, 2))
+    parameters = [v for v in probe.md.modelVariables if v.causality == "parameter" and v.variability == "fixed"]
+    probe.free()
+    counted = any(v.name == "particles.count" for v in parameters)   # a drawn count, kept small here
+    fixed = [(v.name, v.start, v.type) for v in parameters if v.name != "particles.count" and v.type in ("Real", "Integer", "Boolean")]
+    tried = 0
+    for name, start, kind in fixed:
+        s = float(start) if kind != "Boolean" else float(start in ("true", "1", True))
+        values = {"Real": [0.0, 2 * s if s else 1.0], "Integer": [0, int(s) + 1], "Boolean": [not s]}[kind]
+        for value in values:
+            unit = Unit(fmu_path(model, 2))
+            try:
+                if counted:
+                    unit.set("particles.count", 60)
+                unit.set(name, value)
+                unit.initialize({})
+                tried += 1
+            except FMICallException:
+                pass
+            finally:
+                assert not [m for m in unit.errors() if "set of variables" in m], (name, value, unit.errors())
+                unit.free()
+    assert tried > len(fixed) // 2   # most values build: the check saw simulations, not refusals alone

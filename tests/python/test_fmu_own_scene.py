@@ -52,16 +52,16 @@ def build():
 
 
 def test_a_scene_with_a_particle_file_is_packaged_with_it(build, grains_bin, tmp_path):
-    (tmp_path / "data").mkdir()
-    (tmp_path / "data" / "rows.txt").write_text(ROWS)
+    (tmp_path / "my data").mkdir()   # a space, which the depfile escapes for make
+    (tmp_path / "my data" / "rows.txt").write_text(ROWS)
     scene = tmp_path / "rows.toml"
-    scene.write_text(SCENE.format(file="data/rows.txt"))
+    scene.write_text(SCENE.format(file="my data/rows.txt"))
     r = package(build, scene, tmp_path / "out")
     assert r.returncode == 0, r.stderr
     for version in (2, 3):
         path = tmp_path / "out" / f"fmi{version}" / "rows.fmu"
         with zipfile.ZipFile(path) as z:
-            assert z.read("resources/data/rows.txt").decode() == ROWS
+            assert z.read("resources/my data/rows.txt").decode() == ROWS
         unit = Unit(path)
         unit.initialize({})
         for _ in range(50):
@@ -75,7 +75,7 @@ def test_a_scene_with_a_particle_file_is_packaged_with_it(build, grains_bin, tmp
             k = f["observables/kinetic_energy"]
             assert fmu_energy == k["value"][-1] and k["time"][-1] == pytest.approx(0.5)
         assert 0 < fmu_energy < 0.25   # a collision with e = 0.5 has happened (K was 0.25)
-    assert (tmp_path / "out" / "stage" / "rows.d").read_text().strip().endswith("data/rows.txt")
+    assert (tmp_path / "out" / "stage" / "rows.d").read_text().strip().endswith("/my\\ data/rows.txt")
 
 
 @pytest.mark.parametrize("where", ["../rows.txt", "ABSOLUTE"])

@@ -216,7 +216,7 @@ CP1 = "of /grains/checkpoint_1"
     (set_checkpoint_1_attribute("step", 400.5),
      f"attribute 'step' {CP1} is 400.5, where grains writes a whole number in [0, 1000000000000000]"),
     (set_checkpoint_1_attribute("threads", 1e12),
-     f"attribute 'threads' {CP1} is 1000000000000, where grains writes a whole number in [0, 1024]"),
+     f"attribute 'threads' {CP1} is 1000000000000, where grains writes a whole number in [0, 1048576]"),
     (set_checkpoint_1_attribute("threads", np.nan), f"attribute 'threads' {CP1} is nan, where grains writes a whole number"),
     (set_checkpoint_1_attribute("warnings", 1e15), f"attribute 'warnings' {CP1} is 1000000000000000, where grains writes a "
                                                    "whole number in [-1, 0]"),
@@ -669,7 +669,18 @@ def drop_quench_start(fields):
     del fields[9]
 
 
-@pytest.mark.parametrize("edit, column", [(swap_p_star_and_phi, 5), (drop_quench_start, 10)], ids=["swapped", "dropped"])
+def drop_last(fields):
+    del fields[-1]
+
+
+def add_one(fields):
+    fields.append("x")
+
+
+# A header one column short or long named the last column that matched (a review of the check, 2026-12-07): the
+# first that differs is the one past the shorter header.
+@pytest.mark.parametrize("edit, column", [(swap_p_star_and_phi, 5), (drop_quench_start, 10), (drop_last, "LAST"),
+                                          (add_one, "NEXT")], ids=["swapped", "dropped", "last-dropped", "one-added"])
 def test_a_stage_table_whose_columns_were_moved_or_removed_is_refused(grains_bin, root, tmp_path, edit, column):
     """The resume appended its rows in grains' column order under whatever header the table had (an outside review,
     2026-12-07): with P_star and phi swapped it wrote each under the other's name, with quench_start deleted 67
@@ -677,6 +688,7 @@ def test_a_stage_table_whose_columns_were_moved_or_removed_is_refused(grains_bin
     _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
                                                         lambda rows: moved_columns(rows[:3], edit))
     found = killed_table.read_text().splitlines()[0]
+    column = {"LAST": len(rows[0].split(",")), "NEXT": len(rows[0].split(",")) + 1}.get(column, column)
     file_before, table_before = killed.read_bytes(), killed_table.read_text()
     resumed = run(grains_bin, "resume", killed, "--quiet")
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)

@@ -66,8 +66,11 @@ def run(tool, path, *args):
 
 def refused(r, tool, path, words):
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
-    assert f"{tool}: error: h5: {path}: " in r.stderr and all(w in r.stderr for w in words), r.stderr
-    assert len(r.stderr.strip().splitlines()[-1]) > 0 and not (path.parent / "out.csv").exists()
+    # one line says it all (argparse's usage lines above it aside)
+    *usage, last = r.stderr.strip().splitlines()
+    assert last.startswith(f"{tool}: error: h5: {path}: ") and all(w in last for w in words), r.stderr
+    assert all(line.startswith(("usage:", " ")) for line in usage), r.stderr
+    assert not (path.parent / "out.csv").exists()
 
 
 @pytest.mark.parametrize("tool", TOOLS)
