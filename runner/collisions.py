@@ -5,7 +5,8 @@
 Reads /grains/collisions (columns i, j, start, end, impact_speed, rebound_speed, adhesive) and prints
 the completed and open events, the adhesive count and fraction, and the realised normal restitution
 (rebound / impact speed) and impact speeds as mean and quartiles. Exits with code 2 and a message
-when the file or the table is missing, or an adhesive flag is other than 0 or 1.
+when the file or the table is missing, an adhesive flag is other than 0 or 1, or a completed event's speeds are
+not finite and >= 0 or its end comes before its start.
 """
 import argparse
 import sys
@@ -63,6 +64,18 @@ def main(argv=None):
         if bad := np.flatnonzero((table[:, 6] != 0) & (table[:, 6] != 1)).tolist():
             fail(f"'{args.run}': /grains/collisions column 'adhesive' (the 7th) holds {table[bad[0], 6]:g} at row "
                  f"{bad[0]}" + (f" and {len(bad) - 1} more row(s)" if len(bad) > 1 else "") + ": the flag is 0 or 1")
+        # a completed event's speeds are grains' |v_n| (>= 0, finite) and it ends no earlier than it starts: a NaN
+        # or negative speed would go into the restitution's mean and quartiles as it stood
+        done = np.flatnonzero(~np.isnan(table[:, 3]))
+        speeds = table[done][:, 4:6]
+        if bad := np.flatnonzero(~(np.isfinite(speeds) & (speeds >= 0)).all(axis=1)).tolist():
+            row = int(done[bad[0]])
+            fail(f"'{args.run}': /grains/collisions row {row} (a completed event) has impact_speed {table[row, 4]:g} "
+                 f"and rebound_speed {table[row, 5]:g}: the speeds are finite and >= 0")
+        if bad := np.flatnonzero(~(table[done, 3] >= table[done, 2])).tolist():
+            row = int(done[bad[0]])
+            fail(f"'{args.run}': /grains/collisions row {row} ends at {table[row, 3]:g} before it starts "
+                 f"({table[row, 2]:g}): an event ends at or after its start")
         print(summary(table))
     return 0
 

@@ -214,6 +214,19 @@ def test_collisions_refuses_an_adhesive_flag_other_than_0_or_1(tmp_path):
     assert r.returncode == 0 and "adhesive               1  (50.00 %)" in r.stdout, (r.stdout, r.stderr)
 
 
+@pytest.mark.parametrize("row, words", [([0, 1, 0.1, 0.2, np.nan, 0.5, 0], ["row 0", "impact_speed nan", ">= 0"]),
+                                         ([0, 1, 0.1, 0.2, 1.0, -0.5, 0], ["row 0", "rebound_speed -0.5", ">= 0"]),
+                                         ([0, 1, 0.3, 0.2, 1.0, 0.5, 0], ["row 0", "ends at 0.2 before it starts (0.3)"])],
+                         ids=["nan-impact", "negative-rebound", "ends-first"])
+def test_collisions_refuses_a_completed_event_that_grains_cannot_have_written(tmp_path, row, words):
+    """A NaN or negative speed went into the restitution's mean and quartiles as it stood (a review, 2026-12-07)."""
+    import h5py
+    path = tmp_path / "coll.h5"
+    with h5py.File(path, "w") as f:   # the open event (end NaN, rebound 0) is grains' own and passes
+        f["grains/collisions"] = np.array([row, [2, 3, 0.5, np.nan, 1.0, 0.0, 0]])
+    refused(tool("collisions.py", path), str(path), "/grains/collisions", *words)
+
+
 def test_plot_names_an_observable_that_holds_no_numbers(tmp_path):
     """A string-typed observable ended in matplotlib's AttributeError ("only works with the ScalarFormatter")."""
     import h5py
