@@ -65,8 +65,6 @@ KeptTable table_up_to(const std::string& table, int last) {
   return kept;
 }
 
-// The new rows go in grains' column order: under a header with its columns moved or removed (a spreadsheet's edit)
-// they would put values under other names, or more fields than the header has (an outside review, 2026-12-07).
 // A stage table line's fields (grains writes no quoted commas).
 std::vector<std::string> csv_fields(const std::string& line) {
   std::vector<std::string> out;
@@ -77,6 +75,8 @@ std::vector<std::string> csv_fields(const std::string& line) {
   return out;
 }
 
+// The new rows go in grains' column order: under a header with its columns moved or removed (a spreadsheet's edit)
+// they would put values under other names, or more fields than the header has (an outside review, 2026-12-07).
 void check_table_header(const std::string& table, const std::string& found, const std::string& written,
                         const std::string& path) {
   if (found == written) return;

@@ -57,6 +57,14 @@ def plateau_then(p, p0, inv_phi0, rest):
     return np.where(p < p0, inv_phi0, rest(np.maximum(p, p0)))
 
 
+def crossover_curve(p, params, p0, joined=False):
+    """1/Phi of the fitted form at P* = p: (1/Phi0, lambda, Phimax, alpha) = params from P0* on, below it the flat
+    plateau 1/Phi0, or with `joined` the curve's own value at P0* (fit_crossover's joined)."""
+    if joined:
+        return inverse_phi_crossover(np.maximum(p, p0), *params, p0)
+    return plateau_then(p, p0, params[0], lambda q: inverse_phi_crossover(q, *params, p0))
+
+
 def best_kink(residual, candidates):
     """P0* minimising residual(P0*): the best of the scanned candidates, refined (Brent's method in ln P0*)
     between its neighbours, since the optimum lies between grid points (the best point of an 80-point grid
@@ -128,10 +136,7 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
     bounds = ([1.0, 1e-6, 1e-3, 0.05], [np.inf, 10.0, 1.0, 10.0])   # 1/Phi0 >= 1: a solid fraction is at most 1
 
     def fit_at(p0_try, start):
-        if joined:   # below P0* the curve's value at P0*
-            model = lambda pp, a, b, c, d: inverse_phi_crossover(np.maximum(pp, p0_try), a, b, c, d, p0_try)
-        else:
-            model = lambda pp, a, b, c, d: plateau_then(pp, p0_try, a, lambda q: inverse_phi_crossover(q, a, b, c, d, p0_try))
+        model = lambda pp, a, b, c, d: crossover_curve(pp, (a, b, c, d), p0_try, joined)
         params, cov = curve_fit(model, p, y, p0=start, bounds=bounds, maxfev=20000)
         return params, cov, float(np.sum((model(p, *params) - y) ** 2))
 
@@ -176,11 +181,7 @@ def _covariance_with_p0(params, p0, p, ssr, joined):
     by central differences of the model fitted (flat plateau, or joined: fit_crossover's), ln P0* moving the plateau's
     end and the curve's origin together."""
     def model(theta):
-        *four, log_p0 = theta
-        c = math.exp(log_p0)
-        if joined:
-            return inverse_phi_crossover(np.maximum(p, c), *four, c)
-        return plateau_then(p, c, four[0], lambda q: inverse_phi_crossover(q, *four, c))
+        return crossover_curve(p, theta[:4], math.exp(theta[4]), joined)
     theta = np.append(np.asarray(params, float), math.log(p0))
     jac = np.empty((len(p), len(theta)))
     for k in range(len(theta)):

@@ -37,10 +37,17 @@ void write_frame(H5mdWriter& out, const Simulation& sim) {
   out.write_frame(f);
 }
 
+namespace {
+// An output recorded as an observable: time and step are the records' own columns.
+bool recorded_as_observable(const VariableInfo& v) {
+  return v.causality == Causality::output && v.name != "time" && v.name != "step";
+}
+}  // namespace
+
 void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector<std::pair<std::string, double>>& recorded) {
   const auto& vars = sim.variables();
   for (std::size_t i = 0; i < vars.size(); ++i) {
-    if (vars[i].causality != Causality::output || vars[i].name == "time" || vars[i].name == "step") continue;
+    if (!recorded_as_observable(vars[i])) continue;
     const auto given = std::find_if(recorded.begin(), recorded.end(), [&](const auto& r) { return r.first == vars[i].name; });
     out.write_observable(vars[i].name, sim.step_count(), sim.time(), given != recorded.end() ? given->second : sim.get(i));
   }
@@ -49,7 +56,7 @@ void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector
 std::vector<std::string> observable_names(const Simulation& sim) {
   std::vector<std::string> names;
   for (const auto& v : sim.variables())
-    if (v.causality == Causality::output && v.name != "time" && v.name != "step") names.push_back(v.name);
+    if (recorded_as_observable(v)) names.push_back(v.name);
   return names;
 }
 
