@@ -32,6 +32,7 @@ from scipy.optimize import OptimizeWarning, curve_fit
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import reuse  # noqa: E402
+from reuse import FramesError, increasing, numbers  # noqa: E402
 from consolidation_fit import stage_table_of  # noqa: E402
 from disk_grid import density_field  # noqa: E402
 from pore_sizes import pore_sizes  # noqa: E402
@@ -136,33 +137,6 @@ def analyse(configurations, points_per_diameter=8, k_max=None):
     k_s, i_s, c_s = shell_average(np.concatenate(ks), np.concatenate(intensities), 2 * np.pi / length, k_top)
     fit = fit_blob(k_s, i_s, c_s, 2 * np.pi / length, k_max)
     return {"k": k_s, "I": i_s, "counts": c_s, "a": a, "L": length, "k_max": k_max, **fit}
-
-
-class FramesError(ValueError):
-    """Frames of a stages file that cannot be analysed as they stand: the message names the file, the dataset, the
-    value and what is allowed (a NaN position, a cell edge of 0, a string observable ended in tracebacks)."""
-
-
-def numbers(f, path, name, ndim=None):
-    """The dataset `name` of the open file f as an array of numbers (of `ndim` dimensions if given); FramesError
-    else."""
-    item = f[name]
-    if not hasattr(item, "dtype"):
-        raise FramesError(f"{path}: {name} is a group; need a dataset of numbers")
-    if item.dtype.kind not in "fiu":
-        raise FramesError(f"{path}: {name} holds values of type {item.dtype}; need numbers")
-    if ndim is not None and item.ndim != ndim:
-        raise FramesError(f"{path}: {name} has shape {item.shape}; need {ndim} dimension(s)")
-    return item[()]
-
-
-def increasing(path, name, steps):
-    """FramesError unless the steps are strictly increasing: frames and observables are matched by their step and
-    stages by their order (rotated steps had a tool take stage 1's state for P* = 0.01)."""
-    if (down := np.flatnonzero(np.diff(steps) <= 0)).size:
-        i = int(down[0])
-        raise FramesError(f"{path}: {name} is not strictly increasing ({steps[i]} at record {i}, then {steps[i + 1]}); "
-                          "grains writes each record at a later step than the one before")
 
 
 def positive(path, name, values, what, second="particle"):

@@ -1,7 +1,8 @@
 """Whether a campaign tool may take a run's output as made with the settings asked for now: the scene the
 run ran (its HDF5 file's parameters/scene.toml) against the scene and overrides as `grains check` resolves
 them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py;
-the benchmarks take from it the words for a missing LAMMPS peer."""
+the benchmarks take from it the words for a missing LAMMPS peer, and the tools that read a run's file the checks of
+its datasets (FramesError, numbers, increasing)."""
 import os
 import shutil
 import signal
@@ -210,6 +211,35 @@ def status_in(f):
         return None
     status = f["grains"].attrs.get("status", b"")
     return status.decode() if isinstance(status, bytes) else str(status)
+
+
+class FramesError(ValueError):
+    """A grains output that cannot be read as it stands: the message names the file, the dataset, the value and what
+    is allowed (a NaN position, a cell edge of 0, a string observable ended in tracebacks). Raised by the readers of
+    frames (density_correlations.read_frames) and of observables (plot.py, stage_traces.py)."""
+
+
+def numbers(f, path, name, ndim=None):
+    """The dataset `name` of the open file f as an array of numbers (of `ndim` dimensions if given); FramesError
+    else."""
+    item = f[name]
+    if not hasattr(item, "dtype"):
+        raise FramesError(f"{path}: {name} is a group; need a dataset of numbers")
+    if item.dtype.kind not in "fiu":
+        raise FramesError(f"{path}: {name} holds values of type {item.dtype}; need numbers")
+    if ndim is not None and item.ndim != ndim:
+        raise FramesError(f"{path}: {name} has shape {item.shape}; need {ndim} dimension(s)")
+    return item[()]
+
+
+def increasing(path, name, steps):
+    """FramesError unless the steps are strictly increasing: frames and observables are matched by their step and
+    stages by their order (rotated steps had a tool take stage 1's state for P* = 0.01)."""
+    import numpy as np
+    if (down := np.flatnonzero(np.diff(steps) <= 0)).size:
+        i = int(down[0])
+        raise FramesError(f"{path}: {name} is not strictly increasing ({steps[i]} at record {i}, then {steps[i + 1]}); "
+                          "grains writes each record at a later step than the one before")
 
 
 def refuse_controlled(ap, overrides, controlled):
