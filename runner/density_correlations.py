@@ -193,9 +193,7 @@ def read_frames(path, dimensions=(2,), need="density correlations need 2D disks"
                 return np.full(len(steps), np.nan)
             obs_steps = numbers(f, path, f"observables/{name}/step", 1)
             values = numbers(f, path, f"observables/{name}/value", 1)
-            if len(values) != len(obs_steps):
-                raise FramesError(f"{path}: observables/{name}/value holds {len(values)} values, its step "
-                                  f"{len(obs_steps)}; need one value per step")
+            reuse.one_per_step(path, f"observables/{name}", obs_steps, "value", values)
             increasing(path, f"observables/{name}/step", obs_steps)
             lookup = dict(zip(obs_steps.tolist(), values.tolist()))
             return np.array([lookup.get(s, np.nan) for s in steps.tolist()], float)

@@ -14,7 +14,9 @@ positive values span more than three decades is drawn on a log axis (its zeros, 
 the records, left out and said so), a panel without finite values says so, and the aggregation time,
 when the run reached it, is marked. Prints the image's path
 (-o: PNG, or another format matplotlib writes, e.g. .pdf or .svg). Exits with code 2 and a message naming the
-file when it is missing or holds no observables, or naming the option when -o has no supported extension.
+file when it is missing, holds no observables or is damaged (a series that is no numbers, or, in a file whose status
+says complete, cut short or with its steps out of order; the dataset named), or naming the option when -o has no
+supported extension.
 """
 import argparse
 import sys
@@ -140,13 +142,21 @@ def observables_of(f, path, wanted, x_name, stage=None):
              f"(available: time, {', '.join(available)})")
     # A run killed inside a flush may leave a series rows ahead of the others, and a run still writing leaves a
     # series' steps, times and values of different lengths: keep the records every series holds whole.
-    rows = {}
+    # A file whose status says its run ended holds every series whole, each step after the one before: one that does
+    # not is damaged (a series cut short in it was drawn cut, rotated steps as one point), and is refused.
+    rows, ended, shown = {}, reuse.ended_in(f), f"'{path}'"
     for n in dict.fromkeys(names + companions + ([x_name] if x_name else [])):
-        step, t, v = (element(n)[part][()] for part in ("step", "time", "value"))
-        for part, data in (("step", step), ("time", t), ("value", v)):   # strings ended in matplotlib's AttributeError
-            if data.dtype.kind not in "fiu":
-                fail(f"'{path}': {element(n).name.lstrip('/')}/{part} holds values of type {data.dtype}; a series to draw "
-                     "holds numbers")
+        name = element(n).name.lstrip("/")
+        try:   # strings ended in matplotlib's AttributeError, a scalar step in a TypeError
+            step, t = (reuse.numbers(f, shown, f"{name}/{part}", 1) for part in ("step", "time"))
+            v = reuse.numbers(f, shown, f"{name}/value", (1, 2))   # a vector observable: one row of components a record
+            if ended:
+                for part, data in (("time", t), ("value", v)):
+                    reuse.one_per_step(shown, name, step, part, data, f" (its status is '{reuse.status_in(f)}': no "
+                                       "run is adding rows to it)")
+                reuse.increasing(shown, f"{name}/step", step)
+        except reuse.FramesError as error:
+            fail(str(error))
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
     # Up to the step grains says every series is whole at, and the step every series read holds (a run still writing:
@@ -155,6 +165,9 @@ def observables_of(f, path, wanted, x_name, stage=None):
     # at a stage's end (the trace ended before the last record).
     first, end = stage_window(f, group, path, stage) if stage is not None else (-1, float("inf"))
     mark = group.attrs.get("complete_to_step", float("inf")) if group is not None else float("inf")
+    if not isinstance(mark, (int, float, np.number)) or np.isnan(mark):
+        fail(f"'{path}': observables@complete_to_step is {mark!r}; grains writes there the step every series is whole "
+             "to, a number")
     last = {traced: min([mark, end] + [step[-1] for n, (step, _, _) in rows.items() if len(step) and n.startswith(TRACE) == traced])
             for traced in (False, True)}
     series = {}
@@ -170,8 +183,15 @@ def read_context(path):
     title, t_agg = path.name, float("nan")
     def read(f):
         text = f["parameters"].attrs.get("scene.toml") if "parameters" in f else None
-        scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)) if text else {}
-        values = f["observables/aggregation_time/value"] if "observables/aggregation_time/value" in f else []
+        try:
+            scene = tomllib.loads(text.decode() if isinstance(text, bytes) else str(text)) if text else {}
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+            fail(f"'{path}': parameters@scene.toml, the scene the run ran, is not TOML ({error})")
+        name = "observables/aggregation_time/value"
+        try:
+            values = reuse.numbers(f, f"'{path}'", name, 1) if name in f else []
+        except reuse.FramesError as error:
+            fail(str(error))
         return scene, float(values[-1]) if len(values) else float("nan")
     scene, t_agg = read_run(path, read)
     about = scene.get("scene", {})

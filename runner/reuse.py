@@ -2,7 +2,7 @@
 run ran (its HDF5 file's parameters/scene.toml) against the scene and overrides as `grains check` resolves
 them. Shared by runner/consolidation_campaign.py, runner/initial_states.py and runner/aggregation_sweep.py;
 the benchmarks take from it the words for a missing LAMMPS peer, and the tools that read a run's file the checks of
-its datasets (FramesError, numbers, increasing)."""
+its datasets (FramesError, numbers, increasing, one_per_step)."""
 import os
 import shutil
 import signal
@@ -220,16 +220,25 @@ class FramesError(ValueError):
 
 
 def numbers(f, path, name, ndim=None):
-    """The dataset `name` of the open file f as an array of numbers (of `ndim` dimensions if given); FramesError
-    else."""
+    """The dataset `name` of the open file f as an array of numbers (of `ndim` dimensions if given: a number, or a
+    tuple of those allowed); FramesError else."""
     item = f[name]
     if not hasattr(item, "dtype"):
         raise FramesError(f"{path}: {name} is a group; need a dataset of numbers")
     if item.dtype.kind not in "fiu":
         raise FramesError(f"{path}: {name} holds values of type {item.dtype}; need numbers")
-    if ndim is not None and item.ndim != ndim:
-        raise FramesError(f"{path}: {name} has shape {item.shape}; need {ndim} dimension(s)")
+    allowed = (ndim,) if isinstance(ndim, int) else ndim
+    if allowed is not None and item.ndim not in allowed:
+        raise FramesError(f"{path}: {name} has shape {item.shape}; need {' or '.join(map(str, allowed))} dimension(s)")
     return item[()]
+
+
+def one_per_step(path, name, steps, part, data, why=""):
+    """FramesError unless the part `part` (time, value) of the H5MD element `name` holds as many rows as its step;
+    `why` is said after (why the rows must match in this file)."""
+    if len(data) != len(steps):
+        raise FramesError(f"{path}: {name}/{part} holds {len(data)} row(s), {name}/step {len(steps)}; need one per "
+                          f"step{why}")
 
 
 def increasing(path, name, steps):
