@@ -222,7 +222,9 @@ class FramesError(ValueError):
 def numbers(f, path, name, ndim=None):
     """The dataset `name` of the open file f as an array of numbers (of `ndim` dimensions if given: a number, or a
     tuple of those allowed); FramesError else."""
-    item = f[name]
+    item = f.get(name)
+    if item is None:
+        raise FramesError(f"{path}: {name} is missing; need a dataset of numbers")
     if not hasattr(item, "dtype"):
         raise FramesError(f"{path}: {name} is a group; need a dataset of numbers")
     if item.dtype.kind not in "fiu":

@@ -7,7 +7,8 @@ solid fraction the paper's Table II compares.
 (the stage tables beside the files, as grains consolidate writes them: STEM.h5 and its table named in the file).
 A sample still in its first compression (a campaign running, or a programme stopped there) is drawn dashed as far
 as its trace goes, its legend saying "still running" or "stopped"; one without a trace row of that stage yet (or
-run without programme.trace_every) is left out, with a note saying so.
+run without programme.trace_every) is left out, with a note saying so. A damaged file or table is refused in one
+line naming the dataset or the table's line (stage_course, in_order), exit status 2.
 """
 import argparse
 import math
@@ -19,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reuse  # noqa: E402
-from consolidation_fit import BRANCH, FLAG, NUMBER, SOLID_FRACTION, StageTable, Values, stage_table_of  # noqa: E402
+from consolidation_fit import BRANCH, FLAG, SOLID_FRACTION, StageTable, TableError, Values, stage_table_of  # noqa: E402
 
 
 # The stages a programme runs before its first compression, by programme.preparation: type 2's aggregation and its
@@ -51,15 +52,34 @@ def first_loading_stage(rows):
 
 
 def stage_course(h5, stage, start_time):
-    """(time since the stage began, Phi, P*) of the trace rows of `stage`; empty arrays for a file without a trace."""
+    """(time since the stage began, Phi, P*) of the trace rows of `stage`; empty arrays for a file without a trace.
+    The trace's series are cut to the rows all hold (a run still writing appends to them one by one); FramesError,
+    naming the dataset, for one missing or not numbers, and, in a file whose status says its run is complete, for one
+    whose parts differ in length, whose steps do not increase, or a Phi outside (0, 1] (they ended in tracebacks, or
+    drew a first compression without its course)."""
     def read(f):
         if "grains/trace/stage" not in f:
             return (np.array([]),) * 3
-        t = f["grains/trace"]
-        rows = min(len(t[n]["value"]) for n in ("stage", "solid_fraction", "pressure_reduced"))
-        here = t["stage/value"][:rows] == stage
-        return (t["stage/time"][:rows][here] - start_time, t["solid_fraction/value"][:rows][here],
-                t["pressure_reduced/value"][:rows][here])
+        ended, shown = reuse.ended_in(f), f"'{h5}'"
+        why = f" (its status is '{reuse.status_in(f)}': no run is adding rows to it)"
+        parts = {}
+        for name in ("stage", "solid_fraction", "pressure_reduced"):
+            element = f"grains/trace/{name}"
+            step = reuse.numbers(f, shown, f"{element}/step", 1)
+            for part in ("time", "value"):
+                parts[name, part] = reuse.numbers(f, shown, f"{element}/{part}", 1)
+                if ended:
+                    reuse.one_per_step(shown, element, step, part, parts[name, part], why)
+            if ended:
+                reuse.increasing(shown, f"{element}/step", step)
+        phi = parts["solid_fraction", "value"]
+        if ended and (bad := [i for i, v in enumerate(phi) if not SOLID_FRACTION.within(v)]):
+            raise reuse.FramesError(f"{shown}: grains/trace/solid_fraction/value holds {phi[bad[0]]} (row {bad[0]}); "
+                                    f"{SOLID_FRACTION.allowed}")
+        rows = min(len(v) for v in parts.values())
+        here = parts["stage", "value"][:rows] == stage
+        return (parts["stage", "time"][:rows][here] - start_time, phi[:rows][here],
+                parts["pressure_reduced", "value"][:rows][here])
     return reuse.read_unlocked(h5, read)
 
 
@@ -110,6 +130,21 @@ def untraced(h5, stage):
 
 
 STAGE = Values("a whole number", int, lambda v: v >= 0, "a stage's index is at least 0")
+END_TIME = Values(within=math.isfinite, allowed="a finished stage ends at a finite time")
+
+
+def in_order(stages):
+    """TableError at the first row of a stage table (StageTable) that is not the next stage, ending no earlier than the
+    one before: grains writes stage k's row k-th (first_loading_stage takes the row before a stage as its start; rows
+    out of order, or a NaN or later time there, drew a first compression from another stage's start)."""
+    for k, row in enumerate(stages.rows):
+        where = f"stage table '{stages.path}' line {stages.lines[k]}"
+        if int(row["stage"]) != k:
+            raise TableError(f"{where}: column 'stage' = '{row['stage']}' is out of order: stage {k} belongs there "
+                             "(grains writes one row a stage, in order from stage 0)")
+        if k and float(row["time"]) < float(stages.rows[k - 1]["time"]):
+            raise TableError(f"{where}: column 'time' = '{row['time']}' is out of order: stage {k} ends before stage "
+                             f"{k - 1} (at {stages.rows[k - 1]['time']})")
 
 
 def first_compressions(files):
@@ -145,7 +180,8 @@ def first_compression(h5, label):
     stages = StageTable(table, empty=True)
     if stages.header:
         stages.columns("stage", "branch", "phi", "time", "reached")
-        stages.check({"stage": STAGE, "branch": BRANCH, "phi": SOLID_FRACTION, "time": NUMBER, "reached": FLAG})
+        stages.check({"stage": STAGE, "branch": BRANCH, "phi": SOLID_FRACTION, "time": END_TIME, "reached": FLAG})
+        in_order(stages)
     return course_of(h5, label, stages.rows)
 
 

@@ -211,3 +211,80 @@ def test_a_sample_in_its_first_compression_without_a_trace_row_is_left_out_with_
     assert r.returncode == 2 and not out.exists(), r.stderr
     assert f"note: {quiet}: left out" in r.stderr and f"note: {untraced}: left out" in r.stderr
     assert "error: nothing to draw: " in r.stderr and "under way with trace rows" in r.stderr
+
+
+def recreate(f, name, data):
+    del f[name]
+    f[name] = data
+
+
+def edit_table(column, change):
+    """A change to the stage table's rows (a list of dicts, in the file's order) at `column`."""
+    return lambda rows: [row.__setitem__(column, v) for row, v in zip(rows, change([r[column] for r in rows]))]
+
+
+DAMAGE = {   # name -> (change to the file, change to its table's rows, words the refusal must hold)
+    "trace_value_missing": (lambda f: f.__delitem__("grains/trace/stage/value"), None,
+                            ["grains/trace/stage/value is missing", "need a dataset of numbers"]),
+    "trace_time_short": (lambda f: recreate(f, "grains/trace/stage/time", f["grains/trace/stage/time"][:3]), None,
+                         ["grains/trace/stage/time holds 3 row(s)", "need one per step", "its status is 'complete"]),
+    "trace_phi_nan": (lambda f: f["grains/trace/solid_fraction/value"].__setitem__(slice(None), np.nan), None,
+                      ["grains/trace/solid_fraction/value holds nan (row 0)", "(0, 1]"]),
+    "trace_stage_strings": (lambda f: recreate(f, "grains/trace/stage/value", f["grains/trace/stage/value"][()].astype("S")),
+                            None, ["grains/trace/stage/value holds values of type |S", "need numbers"]),
+    "trace_steps_rotated": (lambda f: f["grains/trace/stage/step"].__setitem__(slice(None), np.roll(f["grains/trace/stage/step"][()], 1)),
+                            None, ["grains/trace/stage/step is not strictly increasing"]),
+    "table_time_nan": (None, edit_table("time", lambda t: [t[0], "nan", *t[2:]]),
+                       ["line 3: column 'time' = 'nan' is out of range", "finite"]),
+    "table_rows_swapped": (None, lambda rows: rows.insert(1, rows.pop(2)),
+                           ["line 3: column 'stage' = '2' is out of order", "stage 1 belongs there"]),
+    "table_time_later": (None, edit_table("time", lambda t: [t[0], "5.0", *t[2:]]),
+                         ["line 4: column 'time' = '", "is out of order: stage 2 ends before stage 1 (at 5.0)"]),
+}
+
+
+def damaged_copy(programme, folder, name):
+    """The programme and its stage table copied into `folder`, with DAMAGE[name]'s changes."""
+    folder.mkdir()
+    h5, table = folder / programme.name, folder / programme.with_suffix(".csv").name
+    shutil.copy(programme, h5)
+    change_file, change_rows, _ = DAMAGE[name]
+    if change_file:
+        with h5py.File(h5, "r+") as f:
+            change_file(f)
+    with programme.with_suffix(".csv").open(newline="") as source:
+        reader = csv.DictReader(source)
+        rows = list(reader)
+    if change_rows:
+        change_rows(rows)
+    with table.open("w", newline="") as out:
+        writer = csv.DictWriter(out, reader.fieldnames, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    return h5
+
+
+@pytest.mark.parametrize("name", DAMAGE)
+def test_a_damaged_trace_or_stage_table_is_refused_in_one_line(programme, tmp_path, name):
+    """A review (2026-12-08): a trace's dataset missing or cut short ended in tracebacks (KeyError, IndexError); a NaN
+    Phi, a stage index of text, a table's NaN end time or rows out of order drew a first compression without its
+    course, or from another stage's start, with exit status 0."""
+    h5 = damaged_copy(programme, tmp_path / "sample", name)
+    out = tmp_path / "first.png"
+    r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", h5, "-o", out], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, (r.returncode, r.stderr)
+    error = r.stderr.splitlines()[-1]
+    assert error.startswith("stage_traces.py: error: ") and (f"'{h5}'" in error or f"'{h5.with_suffix('.csv')}'" in error)
+    assert all(w in error for w in DAMAGE[name][2]), r.stderr
+    assert not out.exists()
+
+
+def test_a_trace_still_being_written_is_drawn_as_far_as_all_its_series_go(programme, tmp_path):
+    """While a run writes its file (status running), a trace's series may differ in length by the rows being appended:
+    not refused, drawn to the rows all hold."""
+    h5 = damaged_copy(programme, tmp_path / "sample", "trace_time_short")
+    with h5py.File(h5, "r+") as f:
+        f["grains"].attrs["status"] = np.bytes_("running")
+    (course,) = stage_traces.first_compressions([h5])
+    assert len(course.t) == len(course.phi) == 0 and course.end_phi > 0   # the stage's rows start past the third
