@@ -41,7 +41,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_fit import (BRANCH, FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRACTION, TEXT, StageTable, TableError,  # noqa: E402
-                               fit_crossover, fit_regime_two, guess_from_line, inverse_phi_crossover, plateau_then)
+                               crossover_curve, fit_crossover, fit_regime_two, guess_from_line)
 import density_correlations  # noqa: E402
 import force_distribution  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
@@ -298,8 +298,7 @@ def paper_curve(scene):
     13.33: (P*, Phi)."""
     p0, phi0, lam, phi_max, alpha = PAPER_FIT[scene]
     p = 0.01 * 10 ** (np.arange(0, 26) / 8)
-    inv = plateau_then(p, p0, 1 / phi0, lambda q: inverse_phi_crossover(q, 1 / phi0, lam, phi_max, alpha, p0))
-    return p, 1 / inv
+    return p, 1 / crossover_curve(p, (1 / phi0, lam, phi_max, alpha), p0)
 
 
 @functools.cache   # one fit per scene, however many rows quote it
@@ -409,15 +408,14 @@ def plot(summaries, path):
             try:
                 fit = fit_loading(p, phi)
                 grid = np.geomspace(p.min(), p.max(), 200)
-                inv = plateau_then(grid, fit["P0"], 1 / fit["phi0"], lambda q: inverse_phi_crossover(
-                    q, 1 / fit["phi0"], fit["lambda"], fit["phi_max"], fit["alpha"], fit["P0"]))
+                inv = crossover_curve(grid, (1 / fit["phi0"], fit["lambda"], fit["phi_max"], fit["alpha"]), fit["P0"])
                 ax.plot(grid, 1 / inv, "--", color=colours.get(scene), lw=1.5,
                         label=f"fit to the mean: λ = {fit['lambda']:.3g}, Φmax = {fit['phi_max']:.4g}")
             except (ValueError, RuntimeError):
                 pass   # the table says why
         p0, phi0, lam, phi_max, alpha = PAPER_FIT[scene]
         grid = np.geomspace(0.01, 13.33, 200)   # the paper's programme
-        inv = plateau_then(grid, p0, 1 / phi0, lambda q: inverse_phi_crossover(q, 1 / phi0, lam, phi_max, alpha, p0))
+        inv = crossover_curve(grid, (1 / phi0, lam, phi_max, alpha), p0)
         ax.plot(grid, 1 / inv, ":", color=colours.get(scene), lw=1.5,
                 label=f"paper {scene}: its fit, λ = {lam:.3g}, Φmax = {phi_max:.4g}")
         value, bar = PAPER[scene]["phi_0.01"]

@@ -408,8 +408,7 @@ def plot(p, phi, branch, regime2, crossover, out, title=""):
             ax.plot(p[~loading], f(phi[~loading]), "s", mfc="none", label="unloading")
         if crossover:
             c = crossover
-            inv = plateau_then(curve, c["P0"], 1 / c["phi0"], lambda q: inverse_phi_crossover(
-                q, 1 / c["phi0"], c["lambda"], c["phi_max"], c["alpha"], c["P0"]))
+            inv = crossover_curve(curve, (1 / c["phi0"], c["lambda"], c["phi_max"], c["alpha"]), c["P0"])
             ax.plot(curve, f(1.0 / inv), "-",
                     label=f"regimes II-III fit: λ = {c['lambda']:.3f}, Φmax = {c['phi_max']:.4f}, P1* = {c['P1']:.3g}")
         # the line over the stages it was fitted to: drawn to 10 P0* it ran past them, to Phi 0.9 above the data

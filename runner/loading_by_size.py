@@ -29,8 +29,7 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
 import reuse  # noqa: E402
-from consolidation_fit import (TableError, fit_crossover, fit_regime_two, guess_from_line, inverse_phi_crossover,  # noqa: E402
-                               plateau_then)
+from consolidation_fit import TableError, crossover_curve, fit_crossover, fit_regime_two, guess_from_line  # noqa: E402
 
 
 SEEDS = re.compile(r"\d+(-\d+)?(,\d+(-\d+)?)*")
@@ -235,12 +234,11 @@ def plot(rows, path):
             name = f"{label} disks" if label.isdigit() else label
             ax.plot(found["p"], found["phi"], "o", color=colour, ms=4, label=f"{name}, mean of {n}")
             grid = np.geomspace(found["p"].min(), found["p"].max(), 200)
-            inv = plateau_then(grid, f["P0"], 1 / f["phi0"], lambda q: inverse_phi_crossover(
-                q, 1 / f["phi0"], f["lambda"], f["phi_max"], f["alpha"], f["P0"]))
+            inv = crossover_curve(grid, (1 / f["phi0"], f["lambda"], f["phi_max"], f["alpha"]), f["P0"])
             ax.plot(grid, 1 / inv, "-", color=colour, lw=1.2, label=f"  its fit: λ = {f['lambda']:.3g}, Φmax = {f['phi_max']:.4g}")
         p0, phi0, lam, phi_max, alpha = campaign.PAPER_FIT[scene]
         grid = np.geomspace(0.01, 13.33, 200)   # the paper's programme
-        inv = plateau_then(grid, p0, 1 / phi0, lambda q: inverse_phi_crossover(q, 1 / phi0, lam, phi_max, alpha, p0))
+        inv = crossover_curve(grid, (1 / phi0, lam, phi_max, alpha), p0)
         ax.plot(grid, 1 / inv, "k:", lw=1.5, label=f"paper's fit: λ = {lam:.3g}, Φmax = {phi_max:.4g}")
         ax.set_xscale("log")
         ax.set_xlabel("P* = a P / F0")
