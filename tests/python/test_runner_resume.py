@@ -293,14 +293,36 @@ def replace_dataset(path, make):
         "step-removed", "extra-group", "contiguous-series", "position-of-4-columns", "integer-radius", "fewer-particles",
         "checkpoint-a-group"])
 def test_a_file_whose_series_do_not_go_together_is_refused_naming_the_object(grains_bin, root, tmp_path, damage, message):
+    """Refused as it was, byte for byte: until 2026-12-07 the checks of the series' steps, of the series as they go
+    together and of the observables the run records ran as the series were cut back, so that a file refused had lost
+    its records after the checkpoint, its other checkpoint slot and its later warnings."""
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:
         f["grains"].attrs.modify("status", np.bytes_(b"interrupted at step 450"))   # frames kept as they are
         damage(f)
+    before = killed.read_bytes()
     resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
     assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
     assert message in resumed.stderr and str(killed) in resumed.stderr, resumed.stderr
+    assert killed.read_bytes() == before
+
+
+def test_a_programme_refused_for_its_file_leaves_its_file_and_stage_table_as_they_were(grains_bin, root, tmp_path):
+    """The stage table was cut back to the checkpoint's stage before the HDF5 file was checked, and the file cut back as
+    it was checked: a file lacking an observable the programme records was refused with both already cut."""
+    _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
+                                                        lambda rows: rows)
+    with h5py.File(killed, "r+") as f:
+        stage = int(max(f["grains/checkpoint_0"].attrs["stage"], f["grains/checkpoint_1"].attrs["stage"]))
+        assert stage + 2 < len(rows)   # the resume would cut the table back
+        del f["observables/quench_drag"]
+    file_before, table_before = killed.read_bytes(), killed_table.read_bytes()
+    resumed = subprocess.run([grains_bin, "resume", str(killed), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 1, (resumed.returncode, resumed.stderr)
+    assert (f"'{killed}': /observables/quench_drag is missing, where the run records it with its other observables"
+            in resumed.stderr), resumed.stderr
+    assert killed.read_bytes() == file_before and killed_table.read_bytes() == table_before
 
 
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
