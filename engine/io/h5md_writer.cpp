@@ -432,11 +432,8 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
-  // Only the slot resumed from is kept, its layout checked: the resumed run writes its checkpoints over it.
-  const auto valid = valid_checkpoint_slots(m.grains.get(), path);
-  const auto from = std::find_if(valid.begin(), valid.end(), [&](const auto& v) { return v.second == double(resume_step); });
-  const int kept = from == valid.end() ? -1 : from->first;
-  if (kept >= 0) check_checkpoint_slot(m.grains.get(), kept, path);
+  // The slot resumed from is kept, its layout checked: the resumed run writes its checkpoints over it.
+  if (resume.slot >= 0) check_checkpoint_slot(m.grains.get(), resume.slot, path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
   auto members = [&](hid_t group, const std::string& what) { return h5::link_names(group, path, what); };
@@ -469,11 +466,16 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   // passed over (damaged, or its state would not restore) and an invalid one may hold a chunk torn by a kill: written
   // over, a damaged newest one stayed "the newest", so the next checkpoint went over the only good one; and HDF5 reads
   // a chunk it writes only in part, which failed on a damaged one ("data error detected by Fletcher32"). An older valid
-  // slot is no better a fallback than the one just read.
-  for (int slot : {0, 1})
-    if (slot != kept && h5::exists(m.grains.get(), checkpoint_slot_name(slot), path))
-      h5::check(H5Ldelete(m.grains.get(), checkpoint_slot_name(slot), H5P_DEFAULT), path,
-                std::string("removing /grains/") + checkpoint_slot_name(slot));
+  // slot is no better a fallback than the one just read. One passed over as damaged is set aside, not freed: HDF5 failed
+  // to free one whose header a flipped bit had damaged, after lowering its reference count (corrupt_resume.py).
+  for (int slot : {0, 1}) {
+    const std::string what = std::string("removing /grains/") + checkpoint_slot_name(slot);
+    const bool damaged = std::any_of(resume.passed_over.begin(), resume.passed_over.end(),
+                                     [&](const auto& passed) { return passed.slot == slot; });
+    if (slot == resume.slot || !h5::exists(m.grains.get(), checkpoint_slot_name(slot), path)) continue;
+    if (damaged) h5::set_aside(m.grains.get(), checkpoint_slot_name(slot), path, what);
+    else h5::check(H5Ldelete(m.grains.get(), checkpoint_slot_name(slot), H5P_DEFAULT), path, what);
+  }
   if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
   m.cut_back();
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
