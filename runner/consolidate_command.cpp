@@ -420,6 +420,11 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();
   if (stop_requested()) return 130;
+  // Each stage record holds the simulation's observables, the stage's target and its quench.
+  std::vector<std::string> recorded = observable_names(*sim);
+  recorded.insert(recorded.end(), {"pressure_target", "quench_start", "quench_drag"});
+  // The HDF5 file is checked whole before the table is touched: a file refused leaves both as they were.
+  H5mdWriter out(path, cp, scene.boolean("output.xdmf"), recorded);
   // The kept rows go to a new file that then takes the table's name: a kill at any moment leaves the old table
   // or the new one whole, never a table cut short (which the next resume would refuse). A link to the table
   // stays a link: the file it names is the one replaced, from its own folder (rename stays on one file system).
@@ -435,11 +440,6 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   if (renamed) throw std::runtime_error(fmt::format("cannot replace the stage table '{}' ({})", table, renamed.message()));
   std::ofstream csv(table, std::ios::app);
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
-  H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
-  // Each stage record holds the simulation's observables, the stage's target and its quench.
-  std::vector<std::string> recorded = observable_names(*sim);
-  recorded.insert(recorded.end(), {"pressure_target", "quench_start", "quench_drag"});
-  out.require_observables(recorded);
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);

@@ -50,17 +50,9 @@ int resume_run(const std::string& path, bool quiet) {
   // Then, while no OpenMP thread runs: a child reads the file, and a file HDF5 dies reading is refused.
   refuse_a_file_hdf5_dies_reading(path);
   RunCheckpoint cp = read_checkpoint(path);
-  if (cp.damaged_newer_step >= 0) {
-    // Where a checkpoint stands: its step, and in a programme the last stage finished before it.
-    const auto where = [&](long step, int stage) {
-      return cp.stage_table.empty() ? fmt::format("step {}", step)
-             : stage < 0            ? fmt::format("step {}, in stage 0", step)
-                                    : fmt::format("step {}, after stage {}", step, stage);
-    };
-    fmt::print(stderr, "warning: '{}': the newest checkpoint ({}) is damaged (its checksum fails) and is passed over; "
-               "resuming from the one before it ({})\n", path, where(cp.damaged_newer_step, cp.damaged_newer_stage),
-               where(cp.step, cp.stage));
-  }
+  for (const auto& damaged : cp.passed_over)
+    fmt::print(stderr, "warning: '{}': {} and is passed over; resuming from the one in /grains/checkpoint_{} ({})\n", path,
+               damaged.said, cp.slot, checkpoint_place(cp.step, cp.stage, !cp.stage_table.empty()));
   // The XDMF file beside it is rewritten by a rename, which replaced a FIFO there and failed on a folder only after
   // the file and the stage table had been cut back to the checkpoint (the status left 'running'): refused first.
   const Scene scene = stored_scene(path, cp);

@@ -338,8 +338,7 @@ int resume_plain_run(const std::string& path, const Scene& scene, RunCheckpoint&
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();
   if (stop_requested()) return 130;
-  H5mdWriter out(path, cp, scene.boolean("output.xdmf"));
-  out.require_observables(observable_names(*prepared.sim));
+  H5mdWriter out(path, cp, scene.boolean("output.xdmf"), observable_names(*prepared.sim));
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);

@@ -18,7 +18,43 @@ namespace {
 // (automatic threads go up to it, past run.threads' 1024), and times lie far inside a double's (any value the writer
 // stores).
 constexpr double kMaxStage = 2147483647, kMaxThreads = 1 << 20, kHuge = 1e300;
+
+// The bytes the slot `d` holds, refused (h5::Damaged) unless it is one axis of integers as create_checkpoint_slot makes
+// it: a slot of two axes overflowed the buffer of its first axis it was read into.
+std::size_t slot_bytes(hid_t d, const std::string& path) {
+  const std::string where = h5::path_of(d, ".");
+  const std::vector<hsize_t> shape = h5::shape(d, path, where);
+  const h5::Handle type(h5::check(H5Dget_type(d), path, "reading the type of " + where), H5Tclose);
+  if (shape.size() != 1 || H5Tget_class(type.get()) != H5T_INTEGER)
+    throw h5::Damaged(path, fmt::format("{} holds {} of the shape {}, where grains writes one axis of bytes", where,
+                                        shape.size() != 1 ? "values" : "non-integers",
+                                        shape.empty() ? "of a scalar" : fmt::format("{}", fmt::join(shape, " x "))));
+  return shape[0];
+}
+
+// The attributes of the slot `d` (its `step` as valid_checkpoint_slots read it) into `cp`, each refused (h5::Damaged)
+// unless in what the writer stores, before it is converted (1e300 converted to a long was undefined). `warning_rows`:
+// the rows /grains/warnings holds (later warnings may follow the checkpoint's, none go).
+void read_slot_attributes(hid_t d, double step, double warning_rows, const std::string& path, RunCheckpoint& cp) {
+  cp.step = long(step);
+  cp.stage = int(h5::read_attr_in(d, "stage", -1, -1, kMaxStage, true, path));
+  cp.unreached = long(h5::read_attr_in(d, "unreached", 0, 0, cp.stage + 1, true, path));
+  cp.time = h5::read_attr_in(d, "time", 0, -kHuge, kHuge, false, path);
+  cp.wall_seconds = h5::read_attr_in(d, "wall_seconds", 0, 0, kHuge, false, path);
+  cp.cvode_seconds = h5::read_attr_in(d, "cvode_seconds", 0, 0, kHuge, false, path);
+  cp.threads = int(h5::read_attr_in(d, "threads", 0, 0, kMaxThreads, true, path));
+  cp.stage_progress = h5::read_attr_doubles(d, "stage_progress", path);
+  cp.observables_at_step = h5::read_attr_in(d, "observables_at_step", 1, 0, 1, true, path) == 1;
+  cp.frame_at_step = h5::read_attr_in(d, "frame_at_step", 1, 0, 1, true, path) == 1;
+  cp.warnings = long(h5::read_attr_in(d, "warnings", -1, -1, warning_rows, true, path));
+}
 }  // namespace
+
+std::string checkpoint_place(long step, int stage, bool programme) {
+  return !programme ? fmt::format("step {}", step)
+         : stage < 0 ? fmt::format("step {}, in stage 0", step)
+                     : fmt::format("step {}, after stage {}", step, stage);
+}
 
 std::string scene_check_sum(const std::string& scene_toml) {
   return fmt::format("{:016x}", check_sum(std::as_bytes(std::span(scene_toml.data(), scene_toml.size()))));
@@ -44,45 +80,40 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
     throw std::runtime_error(fmt::format("'{}' holds a run that ended with an error (status '{}'): resuming would "
                                          "repeat it; change what the error names and run the scene again", path, status));
   const std::string stage_table = h5::read_attr_string(g.get(), "stage_table", "", path);
-  const auto slots = valid_checkpoint_slots(g.get(), path);
+  const bool programme = !stage_table.empty();
+  std::vector<std::pair<int, std::string>> damaged;   // slots whose 'valid' or 'step' do not read
+  const auto slots = valid_checkpoint_slots(g.get(), path, &damaged);
+  std::vector<RunCheckpoint::PassedOver> passed_over;
+  for (const auto& [slot, defect] : damaged)
+    passed_over.push_back({slot, fmt::format("the checkpoint in /grains/{} is damaged ({})", checkpoint_slot_name(slot), defect)});
+  const double warning_rows = h5::exists(g.get(), "warnings", path)
+      ? double(h5::shape(h5::open_dataset(g.get(), "warnings", path).get(), path, "/grains/warnings").at(0)) : 0;
   RunCheckpoint cp;
   int readable = 0;
   for (const auto& [slot, step] : slots) {
-    const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
-    // Read whole into a buffer of its first axis: one axis of bytes, as create_checkpoint_slot makes it (a slot of two
-    // axes overflowed the buffer).
-    const std::vector<hsize_t> shape = h5::shape(d.get(), path, checkpoint_slot_name(slot));
-    const h5::Handle type(h5::check(H5Dget_type(d.get()), path, "reading the type of a checkpoint"), H5Tclose);
-    if (shape.size() != 1 || H5Tget_class(type.get()) != H5T_INTEGER)
-      throw std::runtime_error(fmt::format("H5MD output '{}': /grains/{} holds {} of the shape {}, where grains writes one "
-                                           "axis of bytes: the file is damaged and cannot be continued", path,
-                                           checkpoint_slot_name(slot), shape.size() != 1 ? "values" : "non-integers",
-                                           shape.empty() ? "of a scalar" : fmt::format("{}", fmt::join(shape, " x "))));
-    cp.state.resize(shape[0]);
-    // A slot whose checksum fails (damaged on disk) is passed over like an invalid one, and named to the caller.
-    if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0) {
-      cp.damaged_newer_step = long(step);
-      cp.damaged_newer_stage = int(h5::read_attr_in(d.get(), "stage", -1, -1, kMaxStage, true, path));
+    // A slot that does not read back as grains writes it (its shape, an attribute, its bytes' checksum) is passed over
+    // like an invalid one, and named to the caller: the other slot may be whole.
+    std::string place = checkpoint_place(long(step), -1, false), defect, written_with;
+    try {
+      const h5::Handle d = h5::open_dataset(g.get(), checkpoint_slot_name(slot), path);
+      cp.state.resize(slot_bytes(d.get(), path));
+      read_slot_attributes(d.get(), step, warning_rows, path, cp);
+      place = checkpoint_place(cp.step, cp.stage, programme);
+      written_with = h5::read_attr_string(d.get(), "scene_check_sum", "", path);   // "": before 2026-12-05
+      if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0)
+        defect = "its checksum fails";
+    } catch (const std::runtime_error& e) {
+      defect = h5::defect_of(e);
+    }
+    if (!defect.empty()) {
+      passed_over.push_back({slot, fmt::format("the checkpoint in /grains/{} ({}) is damaged ({})", checkpoint_slot_name(slot),
+                                               place, defect)});
       continue;
     }
     if (readable++ < skip) continue;
-    // Each attribute in what the writer stores, before it is converted (1e300 converted to a long was undefined).
-    cp.step = long(step);
-    cp.stage = int(h5::read_attr_in(d.get(), "stage", -1, -1, kMaxStage, true, path));
-    cp.unreached = long(h5::read_attr_in(d.get(), "unreached", 0, 0, cp.stage + 1, true, path));
-    cp.time = h5::read_attr_in(d.get(), "time", 0, -kHuge, kHuge, false, path);
-    cp.wall_seconds = h5::read_attr_in(d.get(), "wall_seconds", 0, 0, kHuge, false, path);
-    cp.cvode_seconds = h5::read_attr_in(d.get(), "cvode_seconds", 0, 0, kHuge, false, path);
-    cp.threads = int(h5::read_attr_in(d.get(), "threads", 0, 0, kMaxThreads, true, path));
-    cp.stage_progress = h5::read_attr_doubles(d.get(), "stage_progress", path);
-    cp.observables_at_step = h5::read_attr_in(d.get(), "observables_at_step", 1, 0, 1, true, path) == 1;
-    cp.frame_at_step = h5::read_attr_in(d.get(), "frame_at_step", 1, 0, 1, true, path) == 1;
-    // At most the rows the file holds: later warnings may follow the checkpoint's, none go.
-    const double warning_rows = h5::exists(g.get(), "warnings", path)
-        ? double(h5::shape(h5::open_dataset(g.get(), "warnings", path).get(), path, "/grains/warnings").at(0)) : 0;
-    cp.warnings = long(h5::read_attr_in(d.get(), "warnings", -1, -1, warning_rows, true, path));
+    cp.slot = slot;
+    cp.passed_over = passed_over;
     cp.scene_toml = h5::read_dataset_string(fid, "parameters/scene.toml", path);
-    const std::string written_with = h5::read_attr_string(d.get(), "scene_check_sum", "", path);   // "": before 2026-12-05
     if (!written_with.empty() && written_with != scene_check_sum(cp.scene_toml))
       throw std::runtime_error(fmt::format(
           "'{}': its stored scene (parameters/scene.toml) is not the one its checkpoints were written with: it was "
@@ -131,8 +162,11 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
   H5Eclear2(H5E_DEFAULT);
   if (readable > 0)   // skip = 1 and one readable slot
     throw std::runtime_error(fmt::format("'{}' has no older checkpoint to fall back on", path));
-  if (!slots.empty())
-    throw std::runtime_error(fmt::format("'{}': its checkpoints are damaged (their checksums fail): nothing to resume from", path));
+  if (!passed_over.empty()) {
+    std::string each;
+    for (const auto& damaged_slot : passed_over) each += (each.empty() ? "" : "; ") + damaged_slot.said;
+    throw std::runtime_error(fmt::format("'{}': nothing to resume from: {}", path, each));
+  }
   if (!stage_table.empty())
     throw std::runtime_error(fmt::format(
         "'{}' has no checkpoint to resume from: the programme was killed before its first (one is written at the end "

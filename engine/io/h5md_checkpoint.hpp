@@ -35,19 +35,29 @@ struct RunCheckpoint {
   // repeat, so that a resume does not go on from a table another run has rewritten).
   std::vector<double> stage_pressure, stage_solid_fraction;
   std::vector<double> radius, mass, position;   // the run's first frame: what a rebuilt simulation must have
-  // A newer checkpoint whose bytes did not read back (their checksum failed), passed over for this one: its step and
-  // stage (-1: none passed over).
-  long damaged_newer_step = -1;
-  int damaged_newer_stage = -1;
+  int slot = -1;                          // the slot it was read from: 0 or 1 (/grains/checkpoint_0, _1)
+  // The slots marked valid that were passed over for it as damaged (their shape, an attribute, the checksum of their
+  // bytes): each slot, and what is wrong with it said with its path ("the checkpoint in /grains/checkpoint_1 (step 400)
+  // is damaged (its checksum fails)").
+  struct PassedOver {
+    int slot;
+    std::string said;
+  };
+  std::vector<PassedOver> passed_over;
 };
+
+// Where a checkpoint stands, for messages: "step 400"; in a programme "step 400, after stage 2" ("in stage 0" before
+// the first stage's end).
+std::string checkpoint_place(long step, int stage, bool programme);
 
 // The check sum of a stored scene's text, in hex: each checkpoint records that of the scene it continues, so that
 // a resume refuses a scene edited in the file since (it would go on with other settings).
 std::string scene_check_sum(const std::string& scene_toml);
 
-// The newest valid checkpoint of the run output `path` whose bytes read back intact (their checksum), or with
-// `skip` = 1 the one before it. Throws std::runtime_error naming the file when it is not a grains run output,
-// holds a finished run, or has no such checkpoint.
+// The newest valid checkpoint of the run output `path` that reads back whole (its shape and attributes as grains writes
+// them, its bytes' checksum), or with `skip` = 1 the one before it; a damaged one is passed over (RunCheckpoint::
+// passed_over). Throws std::runtime_error naming the file when it is not a grains run output, holds a finished run, or
+// has no such checkpoint (each damaged one named with what is wrong with it).
 RunCheckpoint read_checkpoint(const std::string& path, int skip = 0);
 
 }  // namespace grains

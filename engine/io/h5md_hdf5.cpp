@@ -131,6 +131,15 @@ Handle fixed_string_type(std::size_t size, const std::string& file) {
 
 }  // namespace
 
+Damaged::Damaged(const std::string& file, const std::string& defect)
+    : std::runtime_error(fmt::format("H5MD output '{}': {}: the file is damaged and cannot be continued", file, defect)),
+      defect(defect) {}
+
+std::string defect_of(const std::exception& e) {
+  const auto* damaged = dynamic_cast<const Damaged*>(&e);
+  return damaged ? damaged->defect : e.what();
+}
+
 std::string path_of(hid_t parent, const std::string& name) {
   char where[512] = "";
   if (H5Iget_name(parent, where, sizeof where) <= 0) return name;
@@ -306,9 +315,8 @@ Handle open_extendable(hid_t parent, const std::string& name, const std::string&
     // Rows are appended to chunked datasets only (a contiguous one said "reading the chunks of value failed").
     if (H5Pget_layout(dcpl.get()) != H5D_CHUNKED) {
       H5Tclose(type_id);
-      throw std::runtime_error(fmt::format("H5MD output '{}': {} is not stored in chunks, where grains writes a series in "
-                                           "chunked rows to append to: the file is damaged and cannot be continued", file,
-                                           where));
+      throw Damaged(file, fmt::format("{} is not stored in chunks, where grains writes a series in chunked rows to "
+                                      "append to", where));
     }
     chunk.resize(H5S_MAX_RANK);
     chunk.resize(std::size_t(check(H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data()), file, "reading the chunks of " + where)));
@@ -326,6 +334,12 @@ Handle open_dataset(hid_t parent, const std::string& name, const std::string& fi
 
 bool exists(hid_t parent, const std::string& name, const std::string& file) {
   return check(H5Lexists(parent, name.c_str(), H5P_DEFAULT), file, "looking up " + name) > 0;
+}
+
+void set_aside(hid_t parent, const std::string& name, const std::string& file, const std::string& what) {
+  Handle object(check(H5Oopen(parent, name.c_str(), H5P_DEFAULT), file, what), H5Oclose);
+  check(H5Oincr_refcount(object.get()), file, what);
+  check(H5Ldelete(parent, name.c_str(), H5P_DEFAULT), file, what);
 }
 
 std::vector<std::string> link_names(hid_t group, const std::string& file, const std::string& what) {
@@ -347,8 +361,7 @@ void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const s
   const auto damaged = [&](const std::string& defect) {
     char name[512] = "";   // the dataset's path in the file, where HDF5 knows it
     const bool named = H5Iget_name(dataset, name, sizeof name) > 0;
-    throw std::runtime_error(fmt::format("H5MD output '{}': {} {}: the file is damaged and cannot be continued", file,
-                                         named ? name : what, defect));
+    throw Damaged(file, fmt::format("{} {}", named ? name : what, defect));
   };
   Handle stored(check(H5Dget_type(dataset), file, "reading the type of " + what), H5Tclose);
   const bool vlen_string = H5Tget_class(type) == H5T_STRING && H5Tis_variable_str(type) > 0;
@@ -460,9 +473,8 @@ double read_attr_double(hid_t obj, const std::string& name, double fallback, con
   Handle space(check(H5Aget_space(a.get()), file, "reading the shape of attribute " + name), H5Sclose);
   const H5T_class_t kind = H5Tget_class(type.get());
   if ((kind != H5T_INTEGER && kind != H5T_FLOAT) || H5Sget_simple_extent_type(space.get()) != H5S_SCALAR)
-    throw std::runtime_error(fmt::format("H5MD output '{}': attribute '{}' of {} holds {} in {}, where grains writes one "
-                                         "number (a scalar): the file is damaged and cannot be continued", file, name,
-                                         path_of(obj, "."), describe_type(type.get()), describe_space(space.get())));
+    throw Damaged(file, fmt::format("attribute '{}' of {} holds {} in {}, where grains writes one number (a scalar)", name,
+                                    path_of(obj, "."), describe_type(type.get()), describe_space(space.get())));
   double value = fallback;
   check(H5Aread(a.get(), H5T_NATIVE_DOUBLE, &value), file, "reading attribute " + name);
   return value;
@@ -473,9 +485,8 @@ double read_attr_in(hid_t obj, const std::string& name, double fallback, double 
   if (check(H5Aexists(obj, name.c_str()), file, "looking up attribute " + name) <= 0) return fallback;
   const double value = read_attr_double(obj, name, fallback, file);
   if (std::isfinite(value) && value >= lo && value <= hi && (!whole || value == std::floor(value))) return value;
-  throw std::runtime_error(fmt::format("H5MD output '{}': attribute '{}' of {} is {}, where grains writes {} in [{}, {}]: "
-                                       "the file is damaged and cannot be continued", file, name, path_of(obj, "."), value,
-                                       whole ? "a whole number" : "a number", lo, hi));
+  throw Damaged(file, fmt::format("attribute '{}' of {} is {}, where grains writes {} in [{}, {}]", name, path_of(obj, "."),
+                                  value, whole ? "a whole number" : "a number", lo, hi));
 }
 
 std::string read_attr_string(hid_t obj, const std::string& name, const std::string& fallback, const std::string& file) {

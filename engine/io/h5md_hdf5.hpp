@@ -3,6 +3,7 @@
 #pragma once
 #include <hdf5.h>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,15 @@ class WriterLock {
   void release();
   int fd_ = -1;
 };
+// A file that is not as grains writes it: what() is "H5MD output '<file>': <defect>: the file is damaged and cannot be
+// continued"; `defect` alone names the object and what is wrong with it, for a caller that passes the object over.
+struct Damaged : std::runtime_error {
+  Damaged(const std::string& file, const std::string& defect);
+  std::string defect;
+};
+// What is wrong, for a message that names the file itself: a Damaged's defect, else the whole message.
+std::string defect_of(const std::exception& e);
+
 // The path of `name` in the object `parent` ("." : the object's own), as HDF5 names it, for messages: `name` alone
 // where HDF5 knows no path.
 std::string path_of(hid_t parent, const std::string& name);
@@ -102,6 +112,9 @@ Handle append_access(hid_t type, const std::vector<hsize_t>& chunk, const std::s
 void check_as_written(hid_t dataset, hid_t type, hsize_t max_chunk_rows, const std::string& file, const std::string& what,
                       bool checksum = false);
 bool exists(hid_t parent, const std::string& name, const std::string& file);
+// Unlinks the object `name` of `parent` without freeing it, its reference count raised first: HDF5 frees an object by
+// decoding its header, which fails on a damaged one (after it has lowered the count). Its space stays unused in the file.
+void set_aside(hid_t parent, const std::string& name, const std::string& file, const std::string& what);
 // The names of a group's links, in name order (`what` names the group in the message of a failure).
 std::vector<std::string> link_names(hid_t group, const std::string& file, const std::string& what);
 void truncate_rows(hid_t dataset, hsize_t rows, const std::string& file, const std::string& what);

@@ -42,6 +42,7 @@ struct Series {
   h5::Handle group, step, time, value;
   int components = 0;  // 0: one scalar per row or per particle
   bool shares_clock = false;  // step and time are the position's (hard links), as H5MD 1.1 requires of the box
+  hsize_t kept = 0;           // a resumed file's: the rows it keeps, the resume cutting the rest once all is checked
   // Observables only: rows recorded since the last flush, not yet in the file.
   std::vector<std::int64_t> pending_step;
   std::vector<double> pending_time, pending_value;
@@ -155,7 +156,8 @@ struct H5mdWriter::Impl {
       if (v.name != "position") xdmf->add_field(v.name, v.shown);
   }
 
-  // An element of a file being resumed, cut back to its rows before `step`, and the row at `step` if `at_step`.
+  // An element of a file being resumed, checked, and the rows it keeps: those before `step`, and the row at `step` if
+  // `at_step` (cut_back cuts it to them).
   Series reopen_series(hid_t parent, const std::string& name, long step, bool at_step) {
     Series s;
     s.group = h5::open_group(parent, name, path);
@@ -173,15 +175,14 @@ struct H5mdWriter::Impl {
                                              "step {}, where grains writes each record at a later step: the file is damaged "
                                              "and cannot be continued", path, h5::path_of(s.group.get(), "."), k, steps[k],
                                              steps[k - 1]));
-    const hsize_t rows = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
-                                          : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
+    s.kept = hsize_t((at_step ? std::upper_bound(steps.begin(), steps.end(), step)
+                              : std::lower_bound(steps.begin(), steps.end(), step)) - steps.begin());
     // A damaged file's shorter time or value would be extended with fill values, out of step with the steps.
     for (const auto& [d, part] : {std::pair{s.time.get(), "time"}, std::pair{s.value.get(), "value"}})
-      if (const hsize_t held = h5::shape(d, path, name + "/" + part).at(0); held < rows)
+      if (const hsize_t held = h5::shape(d, path, name + "/" + part).at(0); held < s.kept)
         throw std::runtime_error(fmt::format("H5MD output '{}': {}/{} holds {} rows, but {}/step names {} up to step {}: "
                                              "the file is damaged and cannot be continued", path, name, part, held, name,
-                                             rows, step));
-    for (hid_t d : {s.step.get(), s.time.get(), s.value.get()}) h5::truncate_rows(d, rows, path, name);
+                                             s.kept, step));
     const std::vector<hsize_t> shape = h5::shape(s.value.get(), path, name + "/value");
     s.components = shape.size() == 3 ? int(shape[2]) : 1;
     return s;
@@ -211,26 +212,33 @@ struct H5mdWriter::Impl {
                             h5::path_of(s.group.get(), ".")));
     }
     for (const auto& [name, s] : observable) own(s.value.get()), own(s.step.get()), own(s.time.get());
-    // Rows: each frame element as many as the position, the box's edges and offset present (written with every frame).
+    // Rows kept: each frame element as many as the position, the box's edges and offset present (written with every
+    // frame).
     if (position) {
-      const hsize_t frames = h5::shape(position->step.get(), path, "/particles/all/position/step").at(0);
       for (const char* needed : {"velocity", "radius", "mass", "box/edges", "box/offset"})
         if (!series.count(needed)) damaged(fmt::format("/particles/all/{} is missing, where grains writes it with every frame", needed));
       for (const auto& [name, s] : series)
-        if (const hsize_t rows = h5::shape(s.value.get(), path, name).at(0); rows != frames)
-          damaged(fmt::format("/particles/all/{}/value holds {} rows, where the position holds {} frames", name, rows, frames));
+        if (s.kept != position->kept)
+          damaged(fmt::format("/particles/all/{}/value holds {} rows, where the position holds {} frames", name, s.kept,
+                              position->kept));
     }
     for (const std::string group : {"observables/", "grains/trace/"}) {
       const std::pair<const std::string, Series>* first = nullptr;
       for (const auto& entry : observable) {
         if (entry.first.rfind(group, 0) != 0) continue;
-        const hsize_t rows = h5::shape(entry.second.step.get(), path, entry.first).at(0);
         if (!first) { first = &entry; continue; }
-        if (const hsize_t held = h5::shape(first->second.step.get(), path, first->first).at(0); rows != held)
+        if (entry.second.kept != first->second.kept)
           damaged(fmt::format("/{} holds {} records, where /{} holds {} (grains writes every one in each record)",
-                              entry.first, rows, first->first, held));
+                              entry.first, entry.second.kept, first->first, first->second.kept));
       }
     }
+  }
+
+  // Cuts every series of a resumed file back to the rows it keeps (reopen_series).
+  void cut_back() {
+    for (auto* group : {&series, &observable})
+      for (auto& [name, s] : *group)
+        for (hid_t d : {s.step.get(), s.time.get(), s.value.get()}) h5::truncate_rows(d, s.kept, path, name);
   }
 
   void update_xdmf(bool final) {
@@ -392,7 +400,8 @@ void H5mdWriter::Impl::create_layout(const std::vector<bool>& boundary_periodic,
   m.flush();
 }
 
-H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, bool write_xdmf)
+H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, bool write_xdmf,
+                       const std::vector<std::string>& observables)
     : impl_(std::make_unique<Impl>()) {
   const long resume_step = resume.step;
   const bool observables_at_step = resume.observables_at_step, frame_at_step = resume.frame_at_step;
@@ -405,9 +414,12 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.file = h5::Handle(fid, H5Fclose);
   // A killed run's superblock can name an end of allocation short of what the run had written past it (the
   // superblock is written at flushes): HDF5 would put new objects over those bytes, and cut the file back to that
-  // end when it closes. From the end of the file on, nothing written is reused.
+  // end when it closes, also a file refused below. From the end of the file on, nothing written is reused. (The one
+  // change a refused resume makes: that end, in the superblock, where it was short.)
   h5::check(H5Fincrement_filesize(fid, 0), path, "setting the file's end of allocation to its end");
   const hid_t root = m.file.get();
+  // Everything is checked before anything is cut: a file refused is left as it was (a check after the cut had refused
+  // files already cut back to their checkpoint, their other slot removed, their stage table rewritten).
   // The H5MD root (version, author, creator) is what makes the file H5MD: a file without it would be continued into one
   // no H5MD reader takes.
   if (!h5::exists(root, "h5md", path))
@@ -420,23 +432,10 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
   m.parameters = h5::open_group(root, "parameters", path);
   m.scene_check = scene_check_sum(h5::read_dataset_string(root, "parameters/scene.toml", path));
   m.grains = h5::open_group(root, "grains", path);
-  // Only the slot resumed from is kept (its layout checked first: the resumed run writes its checkpoints over it); the
-  // other is removed, to be made anew by the next checkpoint. A slot newer than the resume was passed over (damaged, or
-  // its state would not restore) and an invalid one may hold a chunk torn by a kill: written over, a damaged newest one
-  // stayed "the newest", so the next checkpoint went over the only good one; and HDF5 reads a chunk it writes only in
-  // part, which failed on a damaged one ("data error detected by Fletcher32"). An older valid slot is no better a
-  // fallback than the one just read.
-  const auto valid = valid_checkpoint_slots(m.grains.get(), path);
-  const auto from = std::find_if(valid.begin(), valid.end(), [&](const auto& v) { return v.second == double(resume_step); });
-  const int kept = from == valid.end() ? -1 : from->first;
-  if (kept >= 0) check_checkpoint_slot(m.grains.get(), kept, path);
-  for (int slot : {0, 1})
-    if (slot != kept && h5::exists(m.grains.get(), checkpoint_slot_name(slot), path))
-      h5::check(H5Ldelete(m.grains.get(), checkpoint_slot_name(slot), H5P_DEFAULT), path,
-                std::string("removing /grains/") + checkpoint_slot_name(slot));
+  // The slot resumed from is kept, its layout checked: the resumed run writes its checkpoints over it.
+  if (resume.slot >= 0) check_checkpoint_slot(m.grains.get(), resume.slot, path);
   m.warnings = h5::open_dataset(m.grains.get(), "warnings", path);
   h5::check_as_written(m.warnings.get(), h5::vlen_string_type(path).get(), kWarningChunk, path, "/grains/warnings");
-  if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
   auto members = [&](hid_t group, const std::string& what) { return h5::link_names(group, path, what); };
   for (const auto& name : members(m.particles.get(), "/particles/all")) {
     if (name == "box") continue;
@@ -456,8 +455,29 @@ H5mdWriter::H5mdWriter(const std::string& path, const RunCheckpoint& resume, boo
     for (const auto& name : members(m.trace.get(), "/grains/trace"))
       m.observable.emplace("grains/trace/" + name, m.reopen_series(m.trace.get(), name, resume_step, observables_at_step));
   }
-
   m.check_series_apart();
+  // One missing would be made anew with only the resumed run's rows.
+  for (const auto& name : observables)
+    if (!m.observable.count("observables/" + name))
+      throw std::runtime_error(fmt::format("H5MD output '{}': /observables/{} is missing, where the run records it with "
+                                           "its other observables: the file is damaged and cannot be continued", path, name));
+
+  // Then the cut. The other slot is removed, to be made anew by the next checkpoint. A slot newer than the resume was
+  // passed over (damaged, or its state would not restore) and an invalid one may hold a chunk torn by a kill: written
+  // over, a damaged newest one stayed "the newest", so the next checkpoint went over the only good one; and HDF5 reads
+  // a chunk it writes only in part, which failed on a damaged one ("data error detected by Fletcher32"). An older valid
+  // slot is no better a fallback than the one just read. One passed over as damaged is set aside, not freed: HDF5 failed
+  // to free one whose header a flipped bit had damaged, after lowering its reference count (corrupt_resume.py).
+  for (int slot : {0, 1}) {
+    const std::string what = std::string("removing /grains/") + checkpoint_slot_name(slot);
+    const bool damaged = std::any_of(resume.passed_over.begin(), resume.passed_over.end(),
+                                     [&](const auto& passed) { return passed.slot == slot; });
+    if (slot == resume.slot || !h5::exists(m.grains.get(), checkpoint_slot_name(slot), path)) continue;
+    if (damaged) h5::set_aside(m.grains.get(), checkpoint_slot_name(slot), path, what);
+    else h5::check(H5Ldelete(m.grains.get(), checkpoint_slot_name(slot), H5P_DEFAULT), path, what);
+  }
+  if (resume.warnings >= 0) h5::truncate_rows(m.warnings.get(), hsize_t(resume.warnings), path, "/grains/warnings");
+  m.cut_back();
   m.has_angular = m.series.count("angular_velocity") > 0, m.has_orientation = m.series.count("orientation") > 0;
   m.has_image = m.series.count("image") > 0;
   std::vector<double> times;
@@ -547,14 +567,6 @@ void H5mdWriter::write_frame(const H5mdFrame& f) {
     m.xdmf->add_frame(m.frames - 1, f.time, f.count);
     m.update_xdmf(false);
   }
-}
-
-void H5mdWriter::require_observables(const std::vector<std::string>& names) const {
-  for (const auto& name : names)
-    if (!impl_->observable.count("observables/" + name))
-      throw std::runtime_error(fmt::format("H5MD output '{}': /observables/{} is missing, where the run records it with "
-                                           "its other observables: the file is damaged and cannot be continued",
-                                           impl_->path, name));
 }
 
 void H5mdWriter::write_observable(const std::string& name, long step, double time, double value) {

@@ -34,10 +34,12 @@ class H5mdWriter {
   // Creates (truncates) `path`; throws std::runtime_error naming the path when that fails.
   H5mdWriter(const std::string& path, int dimension, const std::vector<bool>& boundary_periodic,
              const std::string& creator_version, const std::string& resolved_scene_toml, bool write_xdmf);
-  // Reopens a run's file to continue it from its checkpoint (h5md_checkpoint.hpp): every record, frame and
-  // warning written after it is dropped, and the records at its step unless the checkpoint says they are the
-  // unbroken run's; appending goes on from there.
-  H5mdWriter(const std::string& path, const RunCheckpoint& resume, bool write_xdmf);
+  // Reopens a run's file to continue it from its checkpoint (h5md_checkpoint.hpp, read_checkpoint's): every record,
+  // frame and warning written after it is dropped, and the records at its step unless the checkpoint says they are the
+  // unbroken run's; appending goes on from there. The file is checked whole first, `observables` (those the run
+  // records) among it, and refused (std::runtime_error naming it) as it was.
+  H5mdWriter(const std::string& path, const RunCheckpoint& resume, bool write_xdmf,
+             const std::vector<std::string>& observables = {});
   ~H5mdWriter();
   H5mdWriter(const H5mdWriter&) = delete;
   H5mdWriter& operator=(const H5mdWriter&) = delete;
@@ -46,9 +48,6 @@ class H5mdWriter {
   // Held in memory and written with the next flush: the first write of a later step flushes once a second
   // has passed since the last, so a killed run's file holds whole records (one step's observables).
   void write_observable(const std::string& name, long step, double time, double value);
-  // A resumed file: refuses one lacking any of the observables `names` that the run records (std::runtime_error naming
-  // it), which the resumed run would make anew with only its own rows.
-  void require_observables(const std::vector<std::string>& names) const;
   // The same for /grains/trace/<name>: a series recorded at other steps than the observables and the frames (grains
   // consolidate's trace within its stages), kept out of /observables, whose readers may take a record per frame.
   void write_trace(const std::string& name, long step, double time, double value);

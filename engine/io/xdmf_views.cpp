@@ -81,10 +81,7 @@ void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path
 void set_aside_xdmf_views(hid_t file, const std::string& path) {
   if (!h5::exists(file, "grains", path) || !h5::exists(file, "grains/xdmf", path)) return;
   h5::Handle grains = h5::open_group(file, "grains", path);
-  const std::string what = "setting aside the XDMF views (/grains/xdmf)";
-  h5::Handle views(h5::check(H5Oopen(grains.get(), "xdmf", H5P_DEFAULT), path, what), H5Oclose);
-  h5::check(H5Oincr_refcount(views.get()), path, what);
-  h5::check(H5Ldelete(grains.get(), "xdmf", H5P_DEFAULT), path, what);
+  h5::set_aside(grains.get(), "xdmf", path, "setting aside the XDMF views (/grains/xdmf)");
 }
 
 void write_xdmf_vertices(hid_t file, std::size_t count, const std::string& path) {
