@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <new>
 #include <optional>
 #include <stdexcept>
 #include <utility>
@@ -64,16 +65,21 @@ void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, co
                   const std::vector<std::pair<std::string, double>>& recorded) {
   out.set_attribute("scene_directory", scene.directory().string());
   out.set_attribute("status", "running");   // replaced at the end: a file left with it was killed
-  std::size_t from_simulation = sim.warnings().size();   // those `warnings` holds
-  for (const auto& w : warnings) {
-    out.write_warning(w);
-    fmt::print(stderr, "warning: {}\n", w);
+  try {   // a first frame that cannot be made (out of memory) is a failure, not a kill
+    std::size_t from_simulation = sim.warnings().size();   // those `warnings` holds
+    for (const auto& w : warnings) {
+      out.write_warning(w);
+      fmt::print(stderr, "warning: {}\n", w);
+    }
+    write_frame(out, sim);
+    write_observables(out, sim, recorded);
+    // The initial state's observables run the checks too (an overlap already past the pass-through limit): their
+    // warnings were counted as written, and went neither to the file nor to stderr (an outside review, 2026-12-07).
+    write_new_warnings(out, sim, from_simulation);
+  } catch (const std::exception& e) {
+    mark_failed(out, sim, e);
+    throw;
   }
-  write_frame(out, sim);
-  write_observables(out, sim, recorded);
-  // The initial state's observables run the checks too (an overlap already past the pass-through limit): their
-  // warnings were counted as written, and went neither to the file nor to stderr (an outside review, 2026-12-07).
-  write_new_warnings(out, sim, from_simulation);
 }
 
 void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error) {
@@ -81,7 +87,8 @@ void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& e
   const char* what = dynamic_cast<const OutputError*>(&error) ? "stopped by an output error" : "failed";
   try {
     // "after": the steps completed (an error inside a step names that step itself: "after step 1: step 2: ...").
-    out.set_attribute("status", fmt::format("{} after step {}: {}", what, sim.step_count(), error.what()));
+    const bool memory = dynamic_cast<const std::bad_alloc*>(&error);   // its what() is "std::bad_alloc"
+    out.set_attribute("status", fmt::format("{} after step {}: {}", what, sim.step_count(), memory ? "out of memory" : error.what()));
     out.flush();
   } catch (const std::exception&) {   // the file may not take it (the same full disk): "running" stays, resumable
   }

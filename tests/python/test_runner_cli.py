@@ -815,3 +815,23 @@ def test_the_summary_of_a_pressure_controlled_run_says_where_the_cell_got_to(gra
         for name in ("pressure_target", "pressure_reduced", "solid_fraction", "equilibrium", "coordination"):
             assert float(shown[name]) == pytest.approx(f[f"observables/{name}/value"][-1], rel=1e-5), name
     assert float(shown["pressure_target"]) == 0.01
+
+
+def test_a_run_out_of_memory_in_its_first_frame_says_it_failed(grains_bin, root, tmp_path):
+    """A run whose first frame or record cannot be allocated ended with its file saying 'running', which reads as
+    killed (a large-N review, 2026-12-07). The address space is capped at limits from below the simulation's
+    own needs to above the first record's: wherever the run stops, a file it leaves says why."""
+    reasons = []
+    for mb in range(200, 440, 20):
+        out = tmp_path / f"oom{mb}.h5"
+        cap = lambda: resource.setrlimit(resource.RLIMIT_AS, (mb << 20, mb << 20))
+        r = subprocess.run([grains_bin, "run", root / "models" / "consolidation.toml", "--out", out, "--quiet",
+                            "--set", "particles.layout=lattice", "--set", "particles.count=1000000", "--set",
+                            "time.steps=2", "--set", "analysis.elastic_moduli=false", "--set", "run.threads=1"],
+                           capture_output=True, text=True, preexec_fn=cap)
+        if r.returncode != 1 or not out.exists():
+            continue   # refused before the file, done, or (HDF5 1.10.8 at one limit) died inside HDF5's own allocation
+        with h5py.File(out) as f:
+            reasons.append(text(f["grains"].attrs["status"]))
+    assert reasons and not any(s == "running" for s in reasons), reasons
+    assert "failed after step 0: out of memory" in reasons, reasons
