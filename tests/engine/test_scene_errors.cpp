@@ -2,6 +2,8 @@
 // offending value and what is allowed.
 #include <catch2/catch.hpp>
 
+#include <regex>
+
 #include <algorithm>
 #include <fmt/format.h>
 
@@ -193,6 +195,19 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
   REQUIRE_THROWS_WITH(build(good, {"particles.layout=\"random\"", "particles.count=200", "particles.solid_fraction=0.7"}),
                       Contains("particles.solid_fraction") && Contains("0.7") && Contains("random insertion could not place") &&
                           Contains("lower the solid fraction"));
+  // ... the fraction it reached, its share of the 0.7 asked (equal sizes), and that the reach falls with the count
+  // (the message had said "jams near 0.38" while 10^5 spheres jammed at 0.34).
+  try {
+    build(good, {"particles.layout=\"random\"", "particles.count=200", "particles.solid_fraction=0.7"});
+    FAIL("no error");
+  } catch (const SceneError& e) {
+    const std::string what = e.what();
+    std::smatch m;
+    REQUIRE(std::regex_search(what, m, std::regex(R"(jammed at ([0-9.]+) \((\d+) of 200 placed)")));
+    CHECK(std::stod(m[1]) == Approx(0.7 * std::stod(m[2]) / 200).epsilon(1e-3));
+    CHECK(std::stod(m[1]) < 0.7);
+    CHECK_THAT(what, Contains("falls as the particles grow in number") && Contains("particles.layout = \"lattice\""));
+  }
   // Lists of mismatched lengths.
   const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
                                         "box.periodic=false"};

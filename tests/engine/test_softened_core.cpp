@@ -4,7 +4,10 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -53,6 +56,54 @@ void check_against_every_pair(unsigned seed) {
     if ((x[j] - x[grid.centre]).norm() < 0.1) at_centre += m[j];
   CHECK(at_centre == Approx(reference.mass).epsilon(1e-12));
   CHECK(grid.count >= 100);   // the clump is all within reach of its members
+}
+
+// The map of vectors the check used before its flat table (i ascending, the 3^D cells in turn, j ascending in each,
+// each pair added to both sums): the order of every sum's terms, which the flat table must keep bit for bit (the
+// check's warning quotes the core's mass to six digits, and a run's warnings must not move with the grid).
+template <int D>
+SoftenedCore map_of_vectors(const std::vector<Vec<D>>& x, const std::vector<double>& m, double reach) {
+  using Cell = std::array<std::int64_t, D>;
+  std::vector<double> within(m);
+  std::vector<std::size_t> count(x.size(), 1);
+  auto cell_of = [&](const Vec<D>& p) {
+    Cell c;
+    for (int a = 0; a < D; ++a) c[a] = std::int64_t(std::floor(p[a] / reach));
+    return c;
+  };
+  std::map<Cell, std::vector<std::size_t>> cells;
+  for (std::size_t i = 0; i < x.size(); ++i) cells[cell_of(x[i])].push_back(i);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    for (int k = 0; k < (D == 3 ? 27 : 9); ++k) {
+      Cell c = cell_of(x[i]);
+      for (int a = 0, rest = k; a < D; ++a, rest /= 3) c[a] += rest % 3 - 1;
+      if (const auto f = cells.find(c); f != cells.end())
+        for (const std::size_t j : f->second)
+          if (j > i && (x[j] - x[i]).squaredNorm() < reach * reach) within[i] += m[j], within[j] += m[i], ++count[i], ++count[j];
+    }
+  SoftenedCore best;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (count[i] > 1 && within[i] > best.mass) best = {within[i], count[i], i};
+  return best;
+}
+
+template <int D>
+void check_against_map_of_vectors(unsigned seed, double spread) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::lognormal_distribution<double> w(0, 1);   // masses over decades: sums in another order differ in their last bits
+  std::vector<Vec<D>> x;
+  std::vector<double> m;
+  for (int i = 0; i < 3000; ++i) {
+    Vec<D> p;
+    for (int a = 0; a < D; ++a) p[a] = spread * u(rng);
+    x.push_back(p), m.push_back(w(rng));
+  }
+  const SoftenedCore grid = densest_softened_core<D>(x, m, 0.1), reference = map_of_vectors<D>(x, m, 0.1);
+  CHECK(grid.mass == reference.mass);   // the same bits
+  CHECK(grid.count == reference.count);
+  CHECK(grid.centre == reference.centre);
+  CHECK(grid.count >= 2);
 }
 
 // Unit grains of one diameter at `positions` (TOML), at rest, no contacts, G = 1, eps = softening R_min = R.
@@ -109,6 +160,13 @@ TEST_CASE("softened core: the grid finds the densest core that every pair measur
   CHECK(pair.mass == 2.0);
   CHECK(pair.count == 2);
   CHECK((pair.centre == 1 || pair.centre == 2));
+}
+
+TEST_CASE("softened core: the flat table sums every core's masses in the order the map of vectors did", "[gravity][core]") {
+  for (const double spread : {0.2, 1.0, 4.0}) {   // one crowded core, clumps over many cells, a thin gas
+    check_against_map_of_vectors<3>(3, spread);
+    check_against_map_of_vectors<2>(4, spread / 4);
+  }
 }
 
 TEST_CASE("softened-core check: a step too coarse for the orbits in a core of six grains is warned about, once",
