@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <unordered_map>
 
-#include "analysis/cell_hash.hpp"
+#include "core/cell_hash.hpp"
 
 namespace grains {
 
