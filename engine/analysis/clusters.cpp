@@ -8,7 +8,7 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "analysis/cell_hash.hpp"
+#include "core/cell_hash.hpp"
 #include "neighbours/size_classes.hpp"
 
 namespace grains {

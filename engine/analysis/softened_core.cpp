@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "analysis/cell_hash.hpp"
+#include "core/cell_hash.hpp"
 
 namespace grains {
 

@@ -12,6 +12,7 @@
 #include <omp.h>
 
 #include "interactions/pair_filter.hpp"   // avx512(): whether the AVX-512 pieces run
+#include "core/cell_hash.hpp"
 #include "neighbours/candidate_test.hpp"
 #include "neighbours/size_classes.hpp"
 
@@ -31,6 +32,63 @@ std::array<int, D> NeighbourList<D>::Grid::coords(const Vec<D>& x) const {
   return c;
 }
 
+template <int D>
+std::array<std::int64_t, D> NeighbourList<D>::Grid::key(const Vec<D>& x) const {
+  std::array<std::int64_t, D> k;   // open axes: unbounded but for a clamp far inside int64 (so k +- 1 cannot overflow)
+  for (int a = 0; a < D; ++a)
+    k[a] = std::int64_t(std::clamp((x[a] - origin[a]) * inverse_cell[a], 0.0, n[a] > 0 ? double(n[a] - 1) : 0x1p62));
+  return k;
+}
+
+// Blocks of eight cells along x share a hash and take consecutive buckets: the three cells of a row next
+// to a particle's are mostly one run of memory.
+template <int D>
+std::uint32_t NeighbourList<D>::Grid::bucket(const std::array<std::int64_t, D>& k) const {
+  auto block = k;
+  block[0] >>= 3;
+  return std::uint32_t(((CellHash<D>{}(block) << 3) | std::uint64_t(k[0] & 7)) & bucket_mask);
+}
+
+namespace {
+
+// A coarsened dense grid is made hashed when the particles searching it meet, in their own cell alone, more
+// than this many of its members each on average (their candidates: about 27 / 2 times as many).
+constexpr double crowded = 12;
+
+// A particle's view of one grid's slots, for the candidate test.
+template <int D, class Grid>
+candidate_test::Probe<D> make_probe(const Grid& g, std::uint32_t p, const Vec<D>& xp, double rp, double reach_extra,
+                                    const Box<D>& box) {
+  candidate_test::Probe<D> probe;
+  for (int a = 0; a < D; ++a) {
+    probe.x[a] = g.member_x[a].data();
+    probe.xp[a] = xp[a];
+    // Minimum image without a branch on the axis kind: open axes never shift.
+    probe.half[a] = box.periodic[a] ? 0.5 * box.length[a] : std::numeric_limits<double>::infinity();
+    probe.period[a] = box.periodic[a] ? box.length[a] : 0.0;
+  }
+  probe.radius = g.member_radius.data(), probe.member = g.members.data();
+  probe.p = p, probe.rp = rp, probe.reach_extra = reach_extra;
+  return probe;
+}
+
+// Tests slots [b, e) (b < e), appending the finds to `out`.
+template <int D, class Found>
+void test_run(const candidate_test::Probe<D>& probe, std::uint32_t b, std::uint32_t e, bool wraps, bool wide, Found& out,
+              std::size_t& used) {
+  out.examined += e - b;
+  // Every candidate may be written at the end of `out`, which only advances on a hit.
+  if (used + (e - b) + candidate_test::slack > out.i.size()) {
+    const std::size_t size = std::max(2 * out.i.size(), used + (e - b) + candidate_test::slack);
+    out.i.resize(size), out.j.resize(size), out.image.resize(size);
+  }
+  const candidate_test::Finds finds{out.i.data(), out.j.data(), out.image.data()};
+  used = wide ? candidate_test::test_avx512<D>(probe, b, e, wraps, finds, used)
+              : candidate_test::test_portable<D>(probe, b, e, wraps, finds, used);
+}
+
+}  // namespace
+
 // Candidates of particle p (position xp, radius rp) in grid g: the 3^D cells around its own, each
 // visited once (a periodic axis of fewer than three cells has repeats), read as runs of cells that
 // are consecutive along x (consecutive in memory too), each run tested by candidate_test (`wide`: its
@@ -39,6 +97,7 @@ std::array<int, D> NeighbourList<D>::Grid::coords(const Vec<D>& x) const {
 template <int D>
 void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp,
                               const Box<D>& box, bool wide, Found& out, std::size_t& used) const {
+  if (g.hashed) return search_hashed(g, first, make_probe(g, p, xp, rp, range_ + skin_, box), xp, box, wide, out, used);
   const auto home = g.coords(xp);
   std::array<std::array<int, 3>, D> cells;
   std::array<int, D> count;
@@ -69,16 +128,7 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
       if (runs > 0 && c[q] == run_hi[runs - 1] + 1) run_hi[runs - 1] = c[q];
       else run_lo[runs] = run_hi[runs] = c[q], ++runs;
   }
-  candidate_test::Probe<D> probe;
-  for (int a = 0; a < D; ++a) {
-    probe.x[a] = g.member_x[a].data();
-    probe.xp[a] = xp[a];
-    // Minimum image without a branch on the axis kind: open axes never shift.
-    probe.half[a] = box.periodic[a] ? 0.5 * box.length[a] : std::numeric_limits<double>::infinity();
-    probe.period[a] = box.periodic[a] ? box.length[a] : 0.0;
-  }
-  probe.radius = g.member_radius.data(), probe.member = g.members.data();
-  probe.p = p, probe.rp = rp, probe.reach_extra = range_ + skin_;
+  const auto probe = make_probe(g, p, xp, rp, range_ + skin_, box);
   std::array<int, D> idx{}, cc{};
   for (;;) {
     for (int a = 1; a < D; ++a) cc[a] = cells[a][idx[a]];
@@ -86,15 +136,7 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
       cc[0] = run_lo[u];
       const int f = g.flat(cc);
       const std::uint32_t b = std::max(g.cell_start[f], first), e = g.cell_start[f + run_hi[u] - run_lo[u] + 1];
-      if (b >= e) continue;
-      // Every candidate may be written at the end of `out`, which only advances on a hit.
-      if (used + (e - b) + candidate_test::slack > out.i.size()) {
-        const std::size_t size = std::max(2 * out.i.size(), used + (e - b) + candidate_test::slack);
-        out.i.resize(size), out.j.resize(size), out.image.resize(size);
-      }
-      const candidate_test::Finds finds{out.i.data(), out.j.data(), out.image.data()};
-      used = wide ? candidate_test::test_avx512<D>(probe, b, e, wraps, finds, used)
-                  : candidate_test::test_portable<D>(probe, b, e, wraps, finds, used);
+      if (b < e) test_run(probe, b, e, wraps, wide, out, used);
     }
     int a = 1;
     while (a < D && ++idx[a] == count[a]) idx[a++] = 0;
@@ -102,9 +144,57 @@ void NeighbourList<D>::search(const Grid& g, std::uint32_t first, std::uint32_t 
   }
 }
 
+// The hashed grid's version: the 3^D cells around p's own (periodic axes wrapped, repeats dropped), each
+// cell's bucket scanned once (cells sharing a bucket give it once; the bucket's other cells' members are
+// candidates the distance test turns down), runs of consecutive buckets read as one.
+template <int D>
+void NeighbourList<D>::search_hashed(const Grid& g, std::uint32_t first, const candidate_test::Probe<D>& probe,
+                                     const Vec<D>& xp, const Box<D>& box, bool wide, Found& out, std::size_t& used) const {
+  const auto home = g.key(xp);
+  std::array<std::array<std::int64_t, 3>, D> cells;
+  std::array<int, D> count;
+  bool wraps = false;
+  for (int a = 0; a < D; ++a) {
+    int k = 0;
+    for (int o = -1; o <= 1; ++o) {
+      std::int64_t v = home[a] + o;
+      if (box.periodic[a]) {
+        wraps |= v < 0 || v >= g.n[a];
+        v = v < 0 ? v + g.n[a] : (v >= g.n[a] ? v - g.n[a] : v);
+      }
+      bool repeat = false;
+      for (int q = 0; q < k; ++q) repeat |= cells[a][q] == v;
+      if (!repeat) cells[a][k++] = v;
+    }
+    count[a] = k;
+  }
+  std::array<std::uint32_t, D == 3 ? 27 : 9> buckets;
+  int nb = 0;
+  std::array<int, D> idx{};
+  std::array<std::int64_t, D> c;
+  for (;;) {
+    for (int a = 0; a < D; ++a) c[a] = cells[a][idx[a]];
+    buckets[nb++] = g.bucket(c);
+    int a = 0;
+    while (a < D && ++idx[a] == count[a]) idx[a++] = 0;
+    if (a == D) break;
+  }
+  std::sort(buckets.begin(), buckets.begin() + nb);
+  nb = int(std::unique(buckets.begin(), buckets.begin() + nb) - buckets.begin());
+  for (int q = 0; q < nb;) {
+    int r = q + 1;
+    while (r < nb && buckets[r] == buckets[r - 1] + 1) ++r;
+    const std::uint32_t b = std::max(g.cell_start[buckets[q]], first), e = g.cell_start[buckets[r - 1] + 1];
+    if (b < e) test_run(probe, b, e, wraps, wide, out, used);
+    q = r;
+  }
+}
+
 template <int D>
 void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<double>& radius, const Box<D>& box, int threads) {
   const std::size_t N = x.size();
+  if (N >= std::numeric_limits<std::uint32_t>::max())
+    throw std::runtime_error("neighbour list: " + std::to_string(N) + " particles, more than its 32-bit indices hold");
   const double rmax = N ? *std::max_element(radius.begin(), radius.end()) : 1.0;
   const SizeClasses sizes(rmax, N ? *std::min_element(radius.begin(), radius.end()) : 1.0);
   const int classes = sizes.count;
@@ -126,7 +216,16 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   grids_.resize(classes);
   for (auto& g : grids_) g.max_radius = 0;
   for (std::size_t i = 0; i < N; ++i) grids_[class_of_[i]].max_radius = std::max(grids_[class_of_[i]].max_radius, radius[i]);
-  for (auto& g : grids_) {
+  // Dense grids first. One that had to be coarsened to the cell budget (an open box whose particles spread
+  // thin) may have put most of them into a few cells (a grain far from the rest: N^2 candidates); such a
+  // grid, told by its crowding (the sum of its cells' squared counts, which bounds the candidates over 27),
+  // is made a hashed grid of uncoarsened cells. Grids not crowded stay dense: their lists are unchanged.
+  const double budget = 4.0 * N + 64;
+  const bool all_periodic = std::all_of(box.periodic.begin(), box.periodic.end(), [](bool p) { return p; });
+  std::array<double, 9> hash_cell{};   // per class: the uncoarsened cell size, if coarsened in an open box
+  for (int c = 0; c < classes; ++c) {
+    auto& g = grids_[c];
+    g.hashed = false;
     // Cells no smaller than the largest reach in the class (with a margin for the rounding of coords()).
     const double want = (2 * g.max_radius + range_ + skin_) * (1 + 1e-9);
     double cells = 1;
@@ -137,7 +236,8 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
       g.n[a] = int(std::clamp(std::floor(extent / want), 1.0, box.periodic[a] ? 1e9 : double(1 << 20)));
       cells *= g.n[a];
     }
-    while (cells > 4.0 * N + 64) {   // sparse open systems: coarsen instead of allocating empty cells
+    if (cells > budget && !all_periodic) hash_cell[c] = want;
+    while (cells > budget) {   // sparse open systems: coarsen instead of allocating empty cells
       cells = 1;
       for (int a = 0; a < D; ++a) g.n[a] = std::max(1, g.n[a] / 2), cells *= g.n[a];
     }
@@ -151,6 +251,30 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     auto& g = grids_[class_of_[i]];
     cell_of_[i] = std::uint32_t(g.flat(g.coords(x[i])));
     ++g.cell_start[cell_of_[i] + 1];
+  }
+  for (int c = 0; c < classes; ++c) {
+    auto& g = grids_[c];
+    if (hash_cell[c] == 0) continue;
+    // The particles that search this grid (its own and those of the smaller classes) per cell, and the
+    // candidates they meet in their own cell.
+    fill_.assign(g.cell_start.begin() + 1, g.cell_start.end());
+    for (std::size_t i = 0; i < N; ++i)
+      if (class_of_[i] > c) ++fill_[g.flat(g.coords(x[i]))];
+    double visits = 0, crowding = 0;
+    for (std::size_t f = 0; f < fill_.size(); ++f) visits += fill_[f], crowding += double(g.cell_start[f + 1]) * fill_[f];
+    if (crowding <= crowded * visits + 64) continue;
+    const double members = std::accumulate(g.cell_start.begin(), g.cell_start.end(), 0.0);
+    g.hashed = true;   // periodic axes keep their cells
+    std::uint64_t buckets = 64;
+    while (buckets < 2 * members) buckets *= 2;
+    g.bucket_mask = buckets - 1;
+    for (int a = 0; a < D; ++a) {
+      if (box.periodic[a]) g.n[a] = int(std::clamp(std::floor(box.length[a] / hash_cell[c]), 1.0, 1e9)), g.inverse_cell[a] = g.n[a] / box.length[a];
+      else g.n[a] = 0, g.inverse_cell[a] = 1 / hash_cell[c];
+    }
+    g.cell_start.assign(buckets + 1, 0);
+    for (std::size_t i = 0; i < N; ++i)
+      if (class_of_[i] == c) cell_of_[i] = g.bucket(g.key(x[i])), ++g.cell_start[cell_of_[i] + 1];
   }
   // Visiting order: class 0's members in cell order, then class 1's, ... (visit_start[c] = first visit of class c).
   std::array<std::size_t, 9> visit_start{};
@@ -188,6 +312,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
 #pragma omp parallel num_threads(nthreads)
   {
     auto& mine = found_[omp_get_thread_num()];
+    mine.examined = 0;
     std::size_t used = 0;
 #pragma omp for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
@@ -204,6 +329,14 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     }
     found_count_[omp_get_thread_num()] = used;
   }
+
+  candidates_examined_ = 0;
+  std::size_t pairs = 0;
+  for (int t = 0; t < nthreads; ++t) candidates_examined_ += found_[t].examined, pairs += found_count_[t];
+  // Row starts and partners are 32-bit: refused rather than wrapped.
+  if (pairs > std::numeric_limits<std::uint32_t>::max())
+    throw std::runtime_error("neighbour list: " + std::to_string(N) + " particles have " + std::to_string(pairs) +
+                             " pairs within reach, more than the 4294967295 its 32-bit rows hold");
 
   // CSR by counting sort on the lower index.
   previous_start_.swap(start), previous_partner_.swap(partner);

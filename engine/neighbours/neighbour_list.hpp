@@ -14,6 +14,7 @@
 
 #include "core/box.hpp"
 #include "core/byte_stream.hpp"
+#include "neighbours/candidate_test.hpp"
 
 namespace grains {
 
@@ -67,6 +68,9 @@ class NeighbourList {
   // The cell's strain since the last build, per axis (1: none).
   const Vec<D>& strain_since_build() const { return strain_since_build_; }
   long builds() const { return builds_; }
+  // Candidates the last build tested (slots read by the distance test): about N times the particles
+  // within a cell's neighbourhood, however far apart the particles lie (tests check the build stays linear).
+  std::size_t candidates_examined() const { return candidates_examined_; }
 
   // Move per-pair values from the previous list to the current one; new pairs get `fresh`.
   template <class T> void carry(std::vector<T>& values, const T& fresh) const {
@@ -105,28 +109,40 @@ class NeighbourList {
   void fill_owners();   // owner from start
   // One uniform grid of cells holding the particles of one size class, counting-sorted by cell, with
   // positions (an array per axis) and radii copied in cell order so that the candidate test reads
-  // memory in sequence (candidate_test.hpp).
+  // memory in sequence (candidate_test.hpp). Dense: the cells tile the extent (an array of them).
+  // Hashed, when a dense grid coarsened to its budget of about 4N cells (an open box whose grains spread
+  // thin) came out crowded (a grain far from the rest: the others in a few cells, N^2 candidates): cells
+  // of the reach's size keyed by their integer coordinates (unbounded along open axes) into a table of
+  // 2 to 4 buckets per member, so that the cost stays linear in N whatever the spread.
   struct Grid {
     Vec<D> origin, inverse_cell;
-    std::array<int, D> n{};
-    std::vector<std::uint32_t> cell_start, members;
+    std::array<int, D> n{};   // cells per axis (hashed: along periodic axes only)
+    bool hashed = false;
+    std::uint64_t bucket_mask = 0;   // hashed: buckets - 1
+    std::vector<std::uint32_t> cell_start, members;   // cell_start per cell, or per bucket
     std::array<std::vector<double>, D> member_x;
     std::vector<double> member_radius;
     double max_radius = 0;
     int flat(const std::array<int, D>& c) const;
     std::array<int, D> coords(const Vec<D>& x) const;
+    std::array<std::int64_t, D> key(const Vec<D>& x) const;            // hashed: the cell's coordinates
+    std::uint32_t bucket(const std::array<std::int64_t, D>& k) const;  // hashed: its bucket
   };
   // One thread's finds: pairs (i < j) with the image of j relative to i, in order of discovery.
   struct Found {
     std::vector<std::uint32_t> i, j;
     std::vector<std::uint8_t> image;
+    std::size_t examined = 0;   // candidates tested
   };
   void search(const Grid& g, std::uint32_t first, std::uint32_t p, const Vec<D>& xp, double rp, const Box<D>& box,
               bool wide, Found& out, std::size_t& used) const;
+  void search_hashed(const Grid& g, std::uint32_t first, const candidate_test::Probe<D>& probe, const Vec<D>& xp,
+                     const Box<D>& box, bool wide, Found& out, std::size_t& used) const;
 
   double range_ = 0, skin_ = 0.1;
   bool history_ = false;
   long builds_ = 0;
+  std::size_t candidates_examined_ = 0;
   std::vector<Vec<D>> reference_;      // positions at the last build
   Vec<D> strain_since_build_ = Vec<D>::Ones();   // cell length now / at the last build, per axis
   Vec<D> reference_lower_ = Vec<D>::Zero();      // the corner the cell is scaled about (follow_cell)

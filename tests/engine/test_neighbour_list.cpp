@@ -168,6 +168,46 @@ TEST_CASE("neighbour list: the pair set and periodic images equal brute force (2
   exact_set_cases<2>();
 }
 
+// Grains flung far from the rest (ejected from a rubble pile): in an open box, and in one open along the
+// last axis only (a chute). The list holds exactly the brute-force pairs (a touching pair out there too),
+// and the build tests a number of candidates linear in N: a grid spanning the extent, coarsened to its
+// cell budget, put the whole cluster into a few cells (N^2 / 2 candidates, 1000 N here).
+template <int D>
+void far_grain_cases() {
+  const std::size_t n = D == 3 ? 2000 : 1000;
+  for (Sizes sizes : {Sizes::mono, Sizes::bimodal})
+    for (int periodic_axes : {0, D - 1})
+      for (double far : {1e5, 30.0, 1e12}) {
+        auto c = make_config<D>(n, sizes, false, D == 3 ? 13.0 : 22.0, 5);
+        Vec<D> middle;
+        for (int a = 0; a < D; ++a) {
+          c.box.periodic[a] = a < periodic_axes;
+          middle[a] = c.box.lower[a] + 0.5 * c.box.length[a];
+        }
+        Vec<D> out = middle, pair = middle;
+        for (int a = periodic_axes; a < D; ++a) out[a] = far, pair[a] = -0.7 * far;
+        c.x.push_back(out), c.radius.push_back(0.5);
+        c.x.push_back(pair), c.radius.push_back(0.5);
+        pair[0] += 0.9;
+        c.x.push_back(pair), c.radius.push_back(0.5);
+        c.label += ", periodic axes " + std::to_string(periodic_axes) + ", far " + std::to_string(far);
+        check_exact(c, 0.12);
+        NeighbourList<D> nl;
+        nl.configure(0.0, 0.12);
+        nl.build(c.x, c.radius, c.box, 2);
+        INFO(c.label << ": " << nl.candidates_examined() << " candidates tested for " << c.x.size() << " particles");
+        CHECK(nl.candidates_examined() < 50 * c.x.size());
+      }
+}
+
+TEST_CASE("neighbour list: grains far from the rest give the brute-force pairs in a linear build (3D)", "[neighbours]") {
+  far_grain_cases<3>();
+}
+
+TEST_CASE("neighbour list: grains far from the rest give the brute-force pairs in a linear build (2D)", "[neighbours]") {
+  far_grain_cases<2>();
+}
+
 // The engine's staleness test: the step's pass measures the largest squared move from the list's
 // reference positions (core/integrator.hpp), the list judges it.
 template <int D>
