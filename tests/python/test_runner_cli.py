@@ -220,6 +220,20 @@ def test_check_prints_the_stiffness_and_free_fall_time_a_run_records(grains_bin,
     assert r.returncode == 0 and "k_g" not in r.stdout and "# derived: contact.k_n = " in r.stdout
 
 
+def test_check_says_when_direct_gravity_is_the_slower_choice(grains_bin, root):
+    """A large-N review (2026-12-07) ran 10^5 spheres by direct summation, 32 times the tree's time, unwarned: `check`
+    now says what a step sums from 2000 particles on, where the tree is faster, and not below or with the tree."""
+    said = lambda r: [line for line in r.stdout.splitlines() if "gravity by direct summation" in line]
+    r = run(grains_bin, "check", root / "models" / "aggregation.toml", "--set", "particles.count=2000")
+    assert r.returncode == 0 and said(r) == ["# derived: gravity by direct summation, 2e+06 pairs a step; the tree "
+                                             "(gravity.solver = 'tree') is faster from about 2000 particles"], r.stdout
+    for sets in (["particles.count=1999"], ["particles.count=2000", "gravity.solver=tree"]):
+        r = run(grains_bin, "check", root / "models" / "aggregation.toml", *[a for s in sets for a in ("--set", s)])
+        assert r.returncode == 0 and not said(r), (sets, r.stdout)
+    r = run(grains_bin, "check", root / "models" / "gas.toml")   # 17,576 spheres without gravity
+    assert r.returncode == 0 and not said(r), r.stdout
+
+
 def test_check_says_when_run_would_want_a_run_length(grains_bin, root, tmp_path):
     """A scene without a run length suits `consolidate` and the FMUs but not `run`: `check` accepts it and says
     so, and `run` refuses it with the same keys."""
