@@ -228,15 +228,19 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
     g.hashed = false;
     // Cells no smaller than the largest reach in the class (with a margin for the rounding of coords()).
     const double want = (2 * g.max_radius + range_ + skin_) * (1 + 1e-9);
-    double cells = 1;
+    double cells = 1, open_extent = 0;
     for (int a = 0; a < D; ++a) {
       double extent = hi[a] - lo[a];
+      if (!box.periodic[a]) open_extent = std::max(open_extent, extent);
       // clamped in floating point first: particles flung apart (1e300, or inf after the subtraction) give
       // one cell, not an overflowing conversion
       g.n[a] = int(std::clamp(std::floor(extent / want), 1.0, box.periodic[a] ? 1e9 : double(1 << 20)));
       cells *= g.n[a];
     }
-    if (cells > budget && !all_periodic) hash_cell[c] = want;
+    // Hashed cells wider by what the keys' rounding may move a grain (2^-52 of its distance from the origin, in
+    // the subtraction and the product), so that grains within reach still fall in neighbouring cells: a grain
+    // 3e15 reaches out had cost pairs. Beyond ~1e15 reaches the cells widen with the extent (exact, not linear).
+    if (cells > budget && !all_periodic && std::isfinite(open_extent)) hash_cell[c] = want + open_extent * 0x1p-50;
     while (cells > budget) {   // sparse open systems: coarsen instead of allocating empty cells
       cells = 1;
       for (int a = 0; a < D; ++a) g.n[a] = std::max(1, g.n[a] / 2), cells *= g.n[a];
