@@ -208,6 +208,10 @@ TEST_CASE("scene errors: inconsistent layouts name the key, the value and what w
     CHECK(std::stod(m[1]) < 0.7);
     CHECK_THAT(what, Contains("falls as the particles grow in number") && Contains("particles.layout = \"lattice\""));
   }
+  // Disks are told of disks only (the spheres' 10^4 / 10^5 figures were said to disks too).
+  REQUIRE_THROWS_WITH(build(with("dimension = 3", "dimension = 2"), {"particles.layout=\"random\"", "particles.count=200",
+                                                                    "particles.solid_fraction=0.85"}),
+                      Contains("equal disks jam near 0.55") && !Contains("spheres"));
   // Lists of mismatched lengths.
   const std::vector<std::string> two = {"particles.layout=\"list\"", "particles.positions=[[0,0,0],[2,0,0]]",
                                         "box.periodic=false"};
