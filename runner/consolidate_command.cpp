@@ -423,18 +423,34 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   // Each stage record holds the simulation's observables, the stage's target and its quench.
   std::vector<std::string> recorded = observable_names(*sim);
   recorded.insert(recorded.end(), {"pressure_target", "quench_start", "quench_drag"});
-  // The HDF5 file is checked whole before the table is touched: a file refused leaves both as they were.
-  H5mdWriter out(path, cp, scene.boolean("output.xdmf"), recorded);
   // The kept rows go to a new file that then takes the table's name: a kill at any moment leaves the old table
   // or the new one whole, never a table cut short (which the next resume would refuse). A link to the table
   // stays a link: the file it names is the one replaced, from its own folder (rename stays on one file system).
+  // That file is written before the HDF5 file is checked and cut, and removed if the HDF5 file is refused: a table
+  // that cannot be written leaves both files as they were, and so does a refused HDF5 file.
   const std::string target = std::filesystem::canonical(table).string(), rewritten = target + ".resuming";
+  const auto remove_rewritten = [&] {
+    std::error_code ignored;
+    std::filesystem::remove(rewritten, ignored);
+  };
   {
     std::ofstream part(rewritten, std::ios::trunc);
     for (const auto& line : kept.lines) part << line << kept.eol;
     part.close();
-    if (!part) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", rewritten));
+    if (!part) {
+      remove_rewritten();
+      throw std::runtime_error(fmt::format("cannot write the stage table '{}'", rewritten));
+    }
   }
+  const auto checked_and_cut = [&] {
+    try {
+      return H5mdWriter(path, cp, scene.boolean("output.xdmf"), recorded);
+    } catch (...) {
+      remove_rewritten();
+      throw;
+    }
+  };
+  H5mdWriter out = checked_and_cut();
   std::error_code renamed;
   std::filesystem::rename(rewritten, target, renamed);
   if (renamed) throw std::runtime_error(fmt::format("cannot replace the stage table '{}' ({})", table, renamed.message()));

@@ -397,6 +397,9 @@ def test_a_programme_refused_for_its_file_leaves_its_file_and_stage_table_as_the
     assert (f"'{killed}': /observables/quench_drag is missing, where the run records it with its other observables"
             in resumed.stderr), resumed.stderr
     assert killed.read_bytes() == file_before and killed_table.read_bytes() == table_before
+    # The table's rows kept are written aside before the file is checked (a table that cannot be written then
+    # refuses before the file is cut): a refused file leaves nothing of them behind.
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.endswith(".resuming")) == []
 
 
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
