@@ -49,15 +49,17 @@ struct AdhesiveContactLaw {
   // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).
   double tail(double gap) const { return -attraction * (1 - gap / range); }
 
-  // Static normal force (no dashpot) at gap h: what a contact network at rest carries.
-  double static_force(double gap) const {
-    if (gap < 0) return k * -gap - attraction;
+  // Static normal force (no dashpot) at gap h: what a contact network at rest carries, its overlap clamped as
+  // force() clamps it (rmin: the pair's smaller radius), so that the network's forces are the ones applied.
+  double static_force(double gap, double rmin) const {
+    if (gap < 0) return k * std::min(-gap, overlap_limit * rmin) - attraction;
     return gap < range ? tail(gap) : 0.0;
   }
 
-  // -dF_N/dh of the static force: K_N in contact, the tail's negative stiffness -F0 / D0 across a gap.
-  double static_stiffness(double gap) const {
-    if (gap < 0) return k;
+  // -dF_N/dh of the static force: K_N in contact (0 past the overlap clamp, where the force no longer grows), the
+  // tail's negative stiffness -F0 / D0 across a gap.
+  double static_stiffness(double gap, double rmin) const {
+    if (gap < 0) return -gap > overlap_limit * rmin ? 0.0 : k;
     return gap < range ? -attraction / range : 0.0;
   }
 

@@ -305,7 +305,7 @@ class ContactForces final : public ForceModule<D> {
       each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t, const Vec<D>& r) {
         const double gap = r.norm() - P.radius[i] - P.radius[j];
         if (gap >= law_.reach()) return;
-        const double force = law_.static_force(gap);
+        const double force = law_.static_force(gap, std::min(P.radius[i], P.radius[j]));
         if (gap < 0 || force != 0) out.push_back({std::uint32_t(i), j, gap, force});
       });
     }
@@ -319,18 +319,17 @@ class ContactForces final : public ForceModule<D> {
     if constexpr (Law::has_tail) {
       const auto& P = s.particles;
       each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t k, const Vec<D>& r) {
-          const double gap = r.norm() - P.radius[i] - P.radius[j];
-          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap) == 0)) return;
+          const double gap = r.norm() - P.radius[i] - P.radius[j], rmin = std::min(P.radius[i], P.radius[j]);
+          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap, rmin) == 0)) return;
           ElasticSpring<D> e;
           e.i = std::uint32_t(i), e.j = j, e.branch = r;
           e.arm_i = P.radius[i] + 0.5 * gap, e.arm_j = P.radius[j] + 0.5 * gap;
-          e.normal = law_.static_stiffness(gap);
-          e.normal_force = law_.static_force(gap);
+          e.normal = law_.static_stiffness(gap, rmin);
+          e.normal_force = law_.static_force(gap, rmin);
           e.contact_stiffness = law_.stiffness(P.mass[i], P.mass[j]);
           if (gap < 0) {
             // F_N^e = K_N delta with delta clamped as the law clamps it (physics.md section 2)
-            const double elastic =
-                e.contact_stiffness * std::min(-gap, law_.overlap_limit * std::min(P.radius[i], P.radius[j]));
+            const double elastic = e.contact_stiffness * std::min(-gap, law_.overlap_limit * rmin);
             if constexpr (Friction::enabled) {
               e.tangential = friction_.stiffness_ratio * e.contact_stiffness;
               if (holds_history(k)) e.tangential_force = e.tangential * tangential_[k].norm();

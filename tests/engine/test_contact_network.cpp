@@ -105,6 +105,22 @@ TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[n
   CHECK(t->get("network.mark") == 1);
 }
 
+TEST_CASE("the contact network carries the force the clamped law applies", "[network][adhesion]") {
+  // Two unit disks overlapping by 1e-3 where the clamp holds the overlap at f_max R = 1e-4 * 0.5: the law applies
+  // K_N 5e-5 - F0 = 4 F0, which the network must report. Until 2026-12-07 it took the raw overlap, 99 F0 (an outside
+  // audit against physics.md section 2).
+  ListedParticles p;
+  p.positions = {{0, 0}, {0.999, 0}};
+  p.velocities = {{0, 0}, {0, 0}};
+  p.diameters = {1, 1};
+  p.masses = {1, 1};
+  auto s = Simulation::create(Scene::from_string(adhesive_scene(2, p, "[contact]\noverlap_limit = 1e-4\n"), "clamped pair"));
+  // bins of F0 / 2 from -F0: 4 F0 falls in bin 10
+  CHECK(s->get("force_histogram_10") == 1.0);
+  CHECK(s->get("force_histogram_20") == 0.0);
+  CHECK(s->get("coordination_compressive") == Approx(1.0));
+}
+
 TEST_CASE("without an adhesion force a pair within D0 of contact is no distant bond", "[network][adhesion]") {
   // The same chain with F0 = 0 (the cohesionless reference): 0-1 in contact, 1-2 at a gap of D0 / 2, which
   // attracts nothing. Until 2026-12-04 that pair counted in z and z0 as a distant bond.
