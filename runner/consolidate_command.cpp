@@ -346,7 +346,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   const auto [path, source] = hdf5_output_name(scene, opt.output, "-stages.h5");
   // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
   const ResumableOutput existing(path, opt.overwrite);
-  auto sim = Simulation::create(scene);
+  auto sim = create_simulation(scene, !opt.quiet);
   settings.check_time_step(scene, sim->dt());
   std::string table = opt.table.empty() ? name + "-stages.csv" : opt.table;
   check_hdf5_output_path(path, opt.scene, scene, source);
@@ -398,7 +398,7 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
     throw std::runtime_error(fmt::format("H5MD output '{}': its checkpoint's attribute 'stage' is {}, where a programme of "
                                          "{} stages writes one in [-1, {}]: the file is damaged and cannot be continued",
                                          path, cp.stage, stages, stages - 2));
-  auto sim = Simulation::create(scene);
+  auto sim = create_simulation(scene, !quiet);   // the scene's particles, which the checkpoint's replace
   restore_checkpoint(*sim, path, cp);
   StageProgress from{cp.stage + 1, 0, {}};
   if (!cp.stage_progress.empty()) try {   // stopped inside a stage

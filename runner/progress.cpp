@@ -4,6 +4,9 @@
 
 #include <fmt/format.h>
 
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
 namespace grains {
 
 StatusLine::StatusLine() : start_(clock::now()), last_(start_), tty_(isatty(fileno(stderr))) {}
@@ -37,6 +40,20 @@ void Progress::update(long done) {
   const double eta = (total_ - done) / rate;
   line_.show(fmt::format("[{:5.1f}%] step {}/{}  {:.3g} particle-steps/s  elapsed {:.0f} s  ETA {:.0f} s",
                          100.0 * done / total_, done, total_, rate * particles_, elapsed, eta));
+}
+
+std::unique_ptr<Simulation> create_simulation(const Scene& scene, bool show_progress) {
+  if (!show_progress) return Simulation::create(scene);
+  StatusLine line;
+  struct EndLine {   // also when the preparation throws: its error then starts on a line of its own
+    StatusLine& line;
+    ~EndLine() { line.finish(); }
+  } end{line};
+  return Simulation::create(scene, [&line](std::string_view task, std::size_t done, std::size_t total) {
+    if (line.due())
+      line.show(fmt::format("[{:5.1f}%] preparing: {}, {} of {} particles placed  elapsed {:.0f} s", 100.0 * done / total,
+                            task, done, total, line.elapsed_seconds()));
+  });
 }
 
 }  // namespace grains

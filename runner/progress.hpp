@@ -4,6 +4,7 @@
 #pragma once
 #include <chrono>
 #include <cstdio>
+#include <memory>
 #include <string>
 
 namespace grains {
@@ -35,5 +36,12 @@ class Progress {
   std::size_t particles_;
   StatusLine line_;
 };
+
+class Scene;
+class Simulation;
+
+// Simulation::create, with a status line while a long preparation runs (random insertion of many particles: a
+// minute or two for 10^6) where `show_progress`; shown once it has taken half a second (10 s in a log).
+std::unique_ptr<Simulation> create_simulation(const Scene& scene, bool show_progress);
 
 }  // namespace grains

@@ -104,9 +104,10 @@ struct PreparedRun {
   bool stop_at_aggregation;
 };
 
-PreparedRun prepare_run(const Scene& scene) {
+// `show_progress`: a status line while a long preparation (random insertion) runs.
+PreparedRun prepare_run(const Scene& scene, bool show_progress) {
   scene.validate();
-  PreparedRun r{Simulation::create(scene), std::nullopt, scene.boolean("analysis.stop_at_aggregation")};
+  PreparedRun r{create_simulation(scene, show_progress), std::nullopt, scene.boolean("analysis.stop_at_aggregation")};
   r.steps = run_steps(scene, *r.sim);
   if (r.stop_at_aggregation && !scene.boolean("gravity.enabled"))
     scene.fail("analysis.stop_at_aggregation", "value true needs the aggregation analysis of a self-gravitating cloud: "
@@ -153,7 +154,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   // What `run` (without --out) would write to; looked at before the simulation is built (resumable_output.hpp).
   const auto [output, source] = hdf5_output_name(scene, "", ".h5");
   const ResumableOutput existing(output, false);
-  const PreparedRun r = prepare_run(scene);
+  const PreparedRun r = prepare_run(scene, true);
   if (r.steps) {
     check_hdf5_output_path(output, path, scene, source);
     try {   // a warning: `run` takes --overwrite, or another --out
@@ -327,7 +328,7 @@ int run_scene(const RunOptions& opt) {
   const auto [path, source] = hdf5_output_name(scene, opt.output, ".h5");
   // Looked at before the simulation is built: a child process reads it first, and no OpenMP thread may run yet.
   const ResumableOutput existing(path, opt.overwrite);
-  PreparedRun prepared = prepare_run(scene);
+  PreparedRun prepared = prepare_run(scene, !opt.quiet);
   auto& sim = prepared.sim;
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
 
@@ -344,7 +345,7 @@ int run_scene(const RunOptions& opt) {
 }
 
 int resume_plain_run(const std::string& path, const Scene& scene, RunCheckpoint& cp, bool quiet) {
-  PreparedRun prepared = prepare_run(scene);
+  PreparedRun prepared = prepare_run(scene, !quiet);   // the scene's particles, which the checkpoint's replace
   if (!prepared.steps) scene.fail("time.duration", "the stored scene gives no run length: not a `grains run` output");
   restore_checkpoint(*prepared.sim, path, cp);
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.

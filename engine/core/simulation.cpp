@@ -21,10 +21,10 @@ std::size_t Simulation::index_of(const std::string& name) const {
   throw SimulationError(fmt::format("unknown variable '{}'", name));
 }
 
-std::unique_ptr<Simulation> Simulation::create(const Scene& scene) {
+std::unique_ptr<Simulation> Simulation::create(const Scene& scene, const PreparationProgress& progress) {
   scene.validate();
-  if (scene.integer("scene.dimension") == 2) return std::make_unique<SimulationImpl<2>>(scene);
-  return std::make_unique<SimulationImpl<3>>(scene);
+  if (scene.integer("scene.dimension") == 2) return std::make_unique<SimulationImpl<2>>(scene, progress);
+  return std::make_unique<SimulationImpl<3>>(scene, progress);
 }
 
 }  // namespace grains

@@ -11,6 +11,7 @@
 
 #include "analysis/collision_event.hpp"
 #include "core/variables.hpp"
+#include "protocols/preparation_progress.hpp"
 
 namespace grains {
 
@@ -49,8 +50,9 @@ class Simulation {
 
   virtual ~Simulation() = default;
 
-  // Build from a validated scene; throws SceneError / SimulationError with a clear message.
-  static std::unique_ptr<Simulation> create(const Scene& scene);
+  // Build from a validated scene; throws SceneError / SimulationError with a clear message. `progress`, where
+  // given, hears how a long preparation (random insertion) goes.
+  static std::unique_ptr<Simulation> create(const Scene& scene, const PreparationProgress& progress = {});
 
   // Advance by `duration` using the scene's internal step dt; a remainder that is not a whole
   // number of dt is taken as one shorter final step, so time lands exactly on t + duration.

@@ -43,7 +43,7 @@ class SimulationImpl final : public Simulation {
 
  public:
   // The modules, the cell and the time step from the scene (simulation_setup.cpp).
-  explicit SimulationImpl(const Scene& scene);
+  explicit SimulationImpl(const Scene& scene, const PreparationProgress& progress = {});
 
   // The step (simulation_step.cpp).
   void step(double duration) override;

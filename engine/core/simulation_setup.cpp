@@ -29,9 +29,9 @@ void check_environment() {
 }  // namespace
 
 template <int D>
-SimulationImpl<D>::SimulationImpl(const Scene& scene) {
+SimulationImpl<D>::SimulationImpl(const Scene& scene, const PreparationProgress& progress) {
   check_environment();
-  auto init = make_initial_state<D>(scene);
+  auto init = make_initial_state<D>(scene, progress);
   sys_.particles = std::move(init.particles);
   sys_.box = init.box;
   for (auto& w : scene.superseded_keys()) warn(std::move(w));
@@ -411,7 +411,7 @@ void SimulationImpl<D>::setup_aggregation_analysis(const Scene& scene, double rm
 // This file's members, instantiated one by one: each of the Simulation's files instantiates its own
 // (a whole-class instantiation may appear in only one file of a program).
 #define GRAINS_SIMULATION_SETUP_MEMBERS(D) \
-  template SimulationImpl<D>::SimulationImpl(const Scene&); \
+  template SimulationImpl<D>::SimulationImpl(const Scene&, const PreparationProgress&); \
   template void SimulationImpl<D>::add_contact_module(const Scene&, double); \
   template double SimulationImpl<D>::add_adhesive_contact_module(const Scene&); \
   template void SimulationImpl<D>::refuse_unholdable_bonds(const Scene&, const AdhesiveContactLaw&) const; \

@@ -99,7 +99,8 @@ class PlacedByCell {
 // wide and tile each periodic axis exactly (so neighbours across the boundary are found by wrapping cell indices).
 template <int D>
 std::size_t insert_in_order(Particles<D>& P, const Box<D>& box, const std::vector<std::size_t>& order,
-                            long attempts_per_particle, std::mt19937_64& rng) {
+                            long attempts_per_particle, std::mt19937_64& rng, const PreparationProgress& progress,
+                            std::string_view task) {
   const double dmax = 2 * *std::max_element(P.radius.begin(), P.radius.end());
   std::array<long long, D> n;
   Vec<D> cell;
@@ -124,7 +125,9 @@ std::size_t insert_in_order(Particles<D>& P, const Box<D>& box, const std::vecto
     return c;
   };
   std::uniform_real_distribution<double> u(0, 1);
-  for (const std::size_t i : order) {
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::size_t i = order[k];
+    if (progress && k % 256 == 0) progress(task, k, order.size());
     bool placed = false;
     for (long t = 0; t < attempts_per_particle && !placed; ++t) {
       Vec<D> x;
@@ -158,13 +161,15 @@ std::size_t insert_in_order(Particles<D>& P, const Box<D>& box, const std::vecto
 // finds no hole late in the filling), it starts again placing the largest first, which fills further; layouts
 // that the first pass completes are kept as they were.
 template <int D>
-void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt19937_64& rng) {
+void place_randomly(const Scene& s, Particles<D>& P, const Box<D>& box, std::mt19937_64& rng,
+                    const PreparationProgress& progress) {
   const long attempts_per_particle = 20000;
   std::vector<std::size_t> order(P.size());
   std::iota(order.begin(), order.end(), std::size_t(0));
-  if (insert_in_order(P, box, order, attempts_per_particle, rng) == P.size()) return;
+  if (insert_in_order(P, box, order, attempts_per_particle, rng, progress, "random insertion") == P.size()) return;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return P.radius[a] > P.radius[b]; });
-  const std::size_t failed = insert_in_order(P, box, order, attempts_per_particle, rng);
+  const std::size_t failed =
+      insert_in_order(P, box, order, attempts_per_particle, rng, progress, "random insertion, largest first");
   if (failed == P.size()) return;
   const std::size_t rank = std::find(order.begin(), order.end(), failed) - order.begin();
   double reached = 0;   // the solid fraction of the particles placed before the one that found no hole
@@ -218,7 +223,7 @@ void number_along_z_curve(Particles<D>& P, const Box<D>& box) {
 }  // namespace
 
 template <int D>
-InitialState<D> make_initial_state(const Scene& s) {
+InitialState<D> make_initial_state(const Scene& s, const PreparationProgress& progress) {
   InitialState<D> st;
   auto& P = st.particles;
   auto& box = st.box;
@@ -398,7 +403,7 @@ InitialState<D> make_initial_state(const Scene& s) {
                                                      "particles would overlap; lower the solid fraction", spacing, dmax));
     }
   } else if (layout == "random") {
-    place_randomly<D>(s, P, box, rng);
+    place_randomly<D>(s, P, box, rng, progress);
     number_along_z_curve<D>(P, box);
   } else if (layout == "list") {
     auto pos = s.matrix("particles.positions");
@@ -526,8 +531,8 @@ UnitGrain unit_grain(const Scene& s, const Particles<D>& P) {
   return {a, s.real("particles.density") * ball_volume<D>(0.5 * a)};
 }
 
-template InitialState<2> make_initial_state<2>(const Scene&);
-template InitialState<3> make_initial_state<3>(const Scene&);
+template InitialState<2> make_initial_state<2>(const Scene&, const PreparationProgress&);
+template InitialState<3> make_initial_state<3>(const Scene&, const PreparationProgress&);
 template UnitGrain unit_grain<2>(const Scene&, const Particles<2>&);
 template UnitGrain unit_grain<3>(const Scene&, const Particles<3>&);
 

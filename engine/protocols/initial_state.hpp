@@ -8,6 +8,7 @@
 #include "core/box.hpp"
 #include "core/particles.hpp"
 #include "io/scene.hpp"
+#include "protocols/preparation_progress.hpp"
 
 namespace grains {
 
@@ -18,8 +19,9 @@ struct InitialState {
   std::vector<std::string> warnings;   // for the simulation's warnings (e.g. deeply overlapping given particles)
 };
 
+// `progress`, where given, hears how a random insertion goes.
 template <int D>
-InitialState<D> make_initial_state(const Scene& scene);
+InitialState<D> make_initial_state(const Scene& scene, const PreparationProgress& progress = {});
 
 // The grain that sets the reduced units (physics.md section 9: a = the largest diameter of the size
 // distribution, m = the mass of a grain of diameter a). Where the scene draws or sets the sizes, a is the

@@ -234,6 +234,46 @@ def test_check_says_when_direct_gravity_is_the_slower_choice(grains_bin, root):
     assert r.returncode == 0 and not said(r), r.stdout
 
 
+def _stderr_on_a_terminal(grains_bin, *args):
+    """Runs grains with stderr on a pseudo-terminal (status lines redraw there every half second); returns the exit
+    status and what stderr showed."""
+    import pty
+    main, side = pty.openpty()
+    r = subprocess.run([str(grains_bin), *map(str, args)], stdout=subprocess.DEVNULL, stderr=side, timeout=300)
+    os.close(side)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(main, 4096)
+        except OSError:   # the terminal's far side is closed
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(main)
+    return r.returncode, shown.decode()
+
+
+def test_a_long_random_insertion_shows_its_progress(grains_bin, root):
+    """Random insertion of 10^6 spheres took one to two minutes before the first step with nothing on the screen (a
+    large-N review, 2026-12-07): a status line now says how many are placed, and ends before any error."""
+    import re
+    sets = ["--set", "particles.count=50000", "--set", 'particles.layout="random"']
+    status, shown = _stderr_on_a_terminal(grains_bin, "check", root / "models" / "gas.toml", *sets,
+                                          "--set", "particles.solid_fraction=0.3")
+    assert status == 0, shown
+    placed = [int(n) for n in re.findall(r"preparing: random insertion, (\d+) of 50000 particles placed", shown)]
+    assert placed and all(0 < n < 50000 for n in placed), shown
+    # A packing too dense to place: its error starts on a line of its own, after the status line.
+    status, shown = _stderr_on_a_terminal(grains_bin, "check", root / "models" / "gas.toml", "--set",
+                                          "particles.count=20000", *sets[2:], "--set", "particles.solid_fraction=0.45")
+    assert status != 0 and "preparing: random insertion" in shown, shown
+    assert re.search(r"placed  elapsed \d+ s *\r?\n[^\r\n]*random insertion could not place", shown), shown
+    # Off the terminal (a log) the line waits 10 s: a short insertion says nothing.
+    r = run(grains_bin, "check", root / "models" / "gas.toml", *sets, "--set", "particles.solid_fraction=0.3")
+    assert r.returncode == 0 and "preparing" not in r.stderr, r.stderr
+
+
 def test_check_says_when_run_would_want_a_run_length(grains_bin, root, tmp_path):
     """A scene without a run length suits `consolidate` and the FMUs but not `run`: `check` accepts it and says
     so, and `run` refuses it with the same keys."""
