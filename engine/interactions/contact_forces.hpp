@@ -4,7 +4,6 @@
 // A normal law with an attractive tail (Law::has_tail) also acts on open pairs with gap below reach().
 #pragma once
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
