@@ -64,7 +64,8 @@ struct Experiment {
   std::optional<double> stop;   // none: the host did not define one
 };
 
-// A saved FMU state: the engine's bytes plus what identifies the scene they belong to.
+// A saved FMU state: one byte string, the engine's state behind a header that identifies the scene and parameters
+// it belongs to, with a check sum (Instance::save, instance.cpp).
 struct SavedState {
   std::vector<std::byte> bytes;
 };

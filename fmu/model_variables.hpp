@@ -52,7 +52,6 @@ struct ModelTable {
   std::size_t count_reference = no_index;   // the structural particle-count parameter, if the scene sets the count
   std::size_t particle_count = 0;
   int dimension = 3;
-  bool has_arrays() const { return !variables.empty() && variables.back().role == Role::particle_array; }
 };
 
 // The table for a scene (the packaged one, or one with overrides: the same keys, other values).

@@ -10,8 +10,6 @@
 #include <utility>
 #include <vector>
 
-#include <omp.h>
-
 #include "core/particles.hpp"
 #include "core/pending_kick.hpp"
 #include "core/thread_share.hpp"

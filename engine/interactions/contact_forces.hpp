@@ -4,7 +4,6 @@
 // A normal law with an attractive tail (Law::has_tail) also acts on open pairs with gap below reach().
 #pragma once
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -43,7 +42,7 @@ class ContactForces final : public ForceModule<D> {
   static constexpr bool torques_ = Friction::enabled || Rolling::enabled;
   // Cohesive disks with friction (the consolidation scenes in 2D): steady contacts eight at a time where
   // the processor has AVX-512, four where it has AVX2 (cohesive_contacts.hpp).
-  static constexpr bool batched_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
+  static constexpr bool batched_cohesive_ = D == 2 && std::is_same_v<Law, AdhesiveContactLaw> && Friction::enabled;
   // Spheres with one global (k_n, c_n), with or without friction (the gas scenes): the same,
   // linear_contacts.hpp.
   static constexpr bool batched_linear_ = D == 3 && std::is_same_v<Law, LinearContactLaw<false>> && !Rolling::enabled;
@@ -110,15 +109,15 @@ class ContactForces final : public ForceModule<D> {
     const int T = s.threads;
     gathered_.resize(T);
     // Set up once per evaluation, before the threads start (it may refresh damping_).
-    std::optional<cohesive_contacts::Input> batched;
+    std::optional<cohesive_contacts::Input> batched_cohesive;
     std::optional<linear_contacts::Input> batched_linear;
     const pair_filter::Isa isa = pair_filter::isa();
-    if constexpr (batched_)
-      if (isa != pair_filter::Isa::portable) batched = batch_input(s);
+    if constexpr (batched_cohesive_)
+      if (isa != pair_filter::Isa::portable) batched_cohesive = cohesive_batch_input(s);
     if constexpr (batched_linear_)
       if (isa != pair_filter::Isa::portable) batched_linear = linear_batch_input(s);
     // The cohesive kernel over the shell directly (note_selection) keeps the springs in the shell's slots.
-    const bool direct = batched_ && batched && direct_ && s.shell.built();
+    const bool direct = batched_cohesive_ && batched_cohesive && direct_ && s.shell.built();
     if (slots_.live && (!direct || slots_.shell_builds != s.shell.builds() || slots_.list_builds != s.neighbours.builds()))
       flush_slots();
     if (direct && !slots_.live) load_slots(s);
@@ -127,12 +126,13 @@ class ContactForces final : public ForceModule<D> {
     if (direct) {
       cohesive_contacts::note_dense_evaluation();
       const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
-      batched->dense = true, batched->partner = s.shell.partner.data(), batched->damping = slots_.damping.data();
-      batched->touched = slots_.touched.data(), batched->tangential = flat(slots_.tangential);
-      batched->slot_radius[0] = slots_.radius_i.data(), batched->slot_radius[1] = slots_.radius_j.data();
-      if constexpr (Rolling::enabled) batched->rolling_angle = flat(slots_.rolling_angle);
+      batched_cohesive->dense = true, batched_cohesive->partner = s.shell.partner.data();
+      batched_cohesive->damping = slots_.damping.data();
+      batched_cohesive->touched = slots_.touched.data(), batched_cohesive->tangential = flat(slots_.tangential);
+      batched_cohesive->slot_radius[0] = slots_.radius_i.data(), batched_cohesive->slot_radius[1] = slots_.radius_j.data();
+      if constexpr (Rolling::enabled) batched_cohesive->rolling_angle = flat(slots_.rolling_angle);
     }
-    const Batch batch{batched ? &*batched : nullptr, batched_linear ? &*batched_linear : nullptr, direct,
+    const Batch batch{batched_cohesive ? &*batched_cohesive : nullptr, batched_linear ? &*batched_linear : nullptr, direct,
                       isa == pair_filter::Isa::avx512};
     if (T == 1) {
       clamped_now = loop<Virial, false>(s, 0, N, nullptr, nullptr, s.virial, gathered_[0], batch);
@@ -389,8 +389,8 @@ class ContactForces final : public ForceModule<D> {
     std::uint32_t i, j;
     double charge;   // normal force on the pair (positive = repulsive)
   };
-  // The batched kernel's results, eight pairs to a block (see batched_ and batched_linear_).
-  using Results8 = std::conditional_t<batched_, cohesive_contacts::Results8, linear_contacts::Results8>;
+  // The batched kernel's results, eight pairs to a block (see batched_cohesive_ and batched_linear_).
+  using Results8 = std::conditional_t<batched_cohesive_, cohesive_contacts::Results8, linear_contacts::Results8>;
   struct Gathered {
     std::vector<std::uint32_t> row, pair;   // interacting pairs: the row (i) and the list entry (k)
     std::vector<std::uint8_t> image;        // ... and its periodic image
@@ -432,7 +432,7 @@ class ContactForces final : public ForceModule<D> {
     }
     return in;
   }
-  cohesive_contacts::Input batch_input(System<D>& s) {
+  cohesive_contacts::Input cohesive_batch_input(System<D>& s) {
     auto& P = s.particles;
     const auto flat = [](auto& v) { return reinterpret_cast<double*>(v.data()); };
     const auto cflat = [](const auto& v) { return reinterpret_cast<const double*>(v.data()); };
@@ -537,10 +537,10 @@ class ContactForces final : public ForceModule<D> {
       // Batched: the steady contacts evaluated first, their results (in blocks of eight pairs, Results8)
       // added below in list order.
       const Results8* batched = nullptr;
-      if constexpr (batched_ || batched_linear_) {
+      if constexpr (batched_cohesive_ || batched_linear_) {
         if (batch.cohesive || batch.linear) {
           if (g.results.size() < n / 8 + 1) g.results.resize(n / 8 + 1);
-          if constexpr (batched_)
+          if constexpr (batched_cohesive_)
             clamped += (batch.avx512 ? cohesive_contacts::evaluate_avx512 : cohesive_contacts::evaluate_avx2)(
                 *batch.cohesive, gathered_row, gathered_pair, gathered_image, n, {g.results.data(), direct});
           else
@@ -571,14 +571,14 @@ class ContactForces final : public ForceModule<D> {
       // contacts; from the AVX-512 kernel also the attraction's tail and, as zeros, the shell's pairs that do
       // not interact), the linear kernels' steady contacts.
       const auto ready = [](const auto& c) -> unsigned {
-        if constexpr (batched_) return c.ready;
+        if constexpr (batched_cohesive_) return c.ready;
         else return c.steady;
       };
       // A pair the batched kernel evaluated, as contact_force (or the tail below) would have applied it.
       const auto steady_contact = [&](const auto& c, unsigned l, std::size_t q) {   // c: a Results8
         if (gathered_row[q] != i) next_row(gathered_row[q]);
         const std::uint32_t j = c.partner[l];
-        if constexpr (batched_) {
+        if constexpr (batched_cohesive_) {
           // j's torque through a local: one load and one store (through the array, the compiler
           // stored it after each operation, since the results could alias it).
           double& tj = torque_of(j)[j][0];
@@ -600,7 +600,7 @@ class ContactForces final : public ForceModule<D> {
         }
       };
       for (std::size_t q = 0; q < n; ++q) {
-        if constexpr (batched_ || batched_linear_) {
+        if constexpr (batched_cohesive_ || batched_linear_) {
           if (batched) {
             const Results8& c = batched[q >> 3];
             const unsigned l = q & 7;
@@ -614,7 +614,7 @@ class ContactForces final : public ForceModule<D> {
               steady_contact(c, l, q);
               continue;
             }
-            if constexpr (batched_)
+            if constexpr (batched_cohesive_)
               if (direct && !(c.interacting >> l & 1)) continue;   // the kernel ran over every entry of the shell
           }
         }
@@ -640,7 +640,7 @@ class ContactForces final : public ForceModule<D> {
         take(j, f, r);
       }
       if (i != row_end) add_row(force, torque, i, fi, ti);
-      if constexpr (batched_)
+      if constexpr (batched_cohesive_)
         if (direct)   // the interacting entries
           for (std::size_t q = 0; q < n; q += 8) g.selected += bits_set(batched[q >> 3].interacting);
     }
@@ -976,7 +976,7 @@ class ContactForces final : public ForceModule<D> {
   std::vector<OnsetLag> active_;         // ... being made up in this step
   std::vector<Parted> charged_;          // parting charges of the last evaluation
   long clamped_now_ = 0, clamped_total_ = 0;
-  std::vector<double> damping_;   // batched_: each list entry's c_n, for the list of build damping_builds_
+  std::vector<double> damping_;   // batched_cohesive_: each list entry's c_n, for the list of build damping_builds_
   long damping_builds_ = -1;
 };
 

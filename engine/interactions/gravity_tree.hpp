@@ -53,7 +53,6 @@ class Tree {
   Counts evaluate(Isa isa, double eps2, int threads, std::vector<double>& ax, std::vector<double>& ay,
                   std::vector<double>& az, std::vector<double>* phi) const;
 
-  std::size_t cell_count() const { return cells_.size(); }
   std::size_t group_count() const { return groups_.size(); }
 
   // What the walk of kernel set `isa` gives for group g (0 <= g < group_count()): the cells used whole and the

@@ -664,6 +664,5 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
 
 const std::string& H5mdWriter::path() const { return impl_->path; }
 const std::string& H5mdWriter::xdmf_path() const { return impl_->xdmf_path; }
-std::size_t H5mdWriter::frames_written() const { return impl_->frames; }
 
 }  // namespace grains

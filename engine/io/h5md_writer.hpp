@@ -66,7 +66,6 @@ class H5mdWriter {
 
   const std::string& path() const;
   const std::string& xdmf_path() const;     // empty when XDMF is off
-  std::size_t frames_written() const;
 
  private:
   struct Impl;

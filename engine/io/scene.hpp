@@ -76,7 +76,6 @@ class Scene {
   std::string text(std::string_view path) const;
   std::vector<double> reals(std::string_view path) const;
   std::vector<std::vector<double>> matrix(std::string_view path) const;
-  std::optional<double> maybe_real(std::string_view path) const { return has(path) ? std::optional(real(path)) : std::nullopt; }
 
   // Set or replace a value (used by --set and by hosts); the key must be in the schema.
   void set_value(std::string_view path, std::string_view toml_value);

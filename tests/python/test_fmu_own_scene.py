@@ -7,7 +7,6 @@ import subprocess
 import zipfile
 
 import h5py
-import numpy as np
 import pytest
 
 from fmu_host import Unit

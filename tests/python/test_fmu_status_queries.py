@@ -4,7 +4,7 @@ import ctypes
 
 import pytest
 
-from fmu_host import FMICallException, Unit, fmu_path
+from fmu_host import Unit, fmu_path
 
 QUERIES = [("fmi2GetStatus", 0, "fmi2DoStepStatus", ctypes.c_int),
            ("fmi2GetRealStatus", 2, "fmi2LastSuccessfulTime", ctypes.c_double),
