@@ -1,6 +1,6 @@
 // A hash of an integer grid cell, for sparse grids: the particles of an open box may spread over any range,
 // so the cells are not held in an array. The cluster analysis keys std::unordered_map by the cell, the
-// softened-core check its own open-addressed table (analysis/softened_core.cpp); the neighbour list, when a
+// softened-core check its own open-addressed table (core/softened_core.cpp); the neighbour list, when a
 // dense grid would need too many cells, counting-sorts its particles into buckets (the hash's low bits), see
 // neighbours/neighbour_list.cpp.
 #pragma once

@@ -12,7 +12,7 @@
 // The inputs are the scene's and fixed for a run; G is not (a host may change the tunable gravity.G between steps),
 // so the rule is kept as its inputs and evaluated at the G in effect.
 #pragma once
-#include "analysis/softened_core.hpp"
+#include "core/softened_core.hpp"
 
 namespace grains {
 

@@ -10,7 +10,7 @@
 
 #include <fmt/format.h>
 
-#include "analysis/softened_core.hpp"
+#include "core/softened_core.hpp"
 #include "core/dashpot_stability.hpp"
 #include "core/simulation_impl.hpp"
 
@@ -463,7 +463,7 @@ void SimulationImpl<D>::check_pass_through() const {
 // Softened-core check (physics.md section 3: nothing blows up silently). The orbit rule (core/orbit_step_rule.hpp)
 // resolves the orbit of two grains within the softening length eps; where contacts cannot hold grains apart, many may
 // sink within eps of each other, and a grain there orbits their mass M with period T = 2 pi sqrt(eps^3 / (G M))
-// (analysis/softened_core.hpp). Warned once, where the outputs are computed, when time.dt exceeds T / 20, the
+// (core/softened_core.hpp). Warned once, where the outputs are computed, when time.dt exceeds T / 20, the
 // rule's resolution, for the densest core of two grains or more found, and that core asks a finer step than the
 // rule does at the G in effect (which has said so already otherwise, at the start-up or when a host set G). The
 // aggregation sweep's k* = 10 point (1000 grains, zeta = 0.02) ends with every grain within eps, where the start-up

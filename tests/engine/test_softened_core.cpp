@@ -1,4 +1,4 @@
-// The softened core (analysis/softened_core.hpp): the largest mass within the softening length of one grain, and the
+// The softened core (core/softened_core.hpp): the largest mass within the softening length of one grain, and the
 // check that warns when the step cannot resolve the orbits inside it (physics.md section 3: nothing blows up
 // silently), which the start-up's two-grain orbit rule cannot foresee.
 #include <catch2/catch.hpp>
@@ -14,7 +14,7 @@
 
 #include <fmt/format.h>
 
-#include "analysis/softened_core.hpp"
+#include "core/softened_core.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 

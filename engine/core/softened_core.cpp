@@ -1,4 +1,4 @@
-#include "analysis/softened_core.hpp"
+#include "core/softened_core.hpp"
 
 #include <algorithm>
 #include <array>
