@@ -24,7 +24,7 @@
 #include "protocols/consolidation_programme.hpp"
 #include "resumable_output.hpp"
 #include "resume_command.hpp"
-#include "run_command.hpp"
+#include "run_output.hpp"
 #include "stop_signal.hpp"
 
 namespace grains {

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <hdf5.h>
 
+#include "check_command.hpp"
 #include "consolidate_command.hpp"
 #include "io/scene.hpp"
 #include "resume_command.hpp"

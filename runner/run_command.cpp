@@ -3,206 +3,25 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <memory>
-#include <new>
-#include <optional>
-#include <stdexcept>
-#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 
 #include "core/simulation.hpp"
 #include "interactions/pair_filter.hpp"
 #include "io/h5md_checkpoint.hpp"
-#include "io/h5md_frame_view.hpp"
 #include "io/h5md_writer.hpp"
-#include "io/output_error.hpp"
 #include "io/scene.hpp"
 #include "output_paths.hpp"
 #include "resumable_output.hpp"
 #include "resume_command.hpp"
 #include "progress.hpp"
-#include "protocols/consolidation_programme.hpp"
-#include "protocols/run_length.hpp"
+#include "run_output.hpp"
+#include "run_preparation.hpp"
 #include "stop_cadence.hpp"
 #include "stop_signal.hpp"
 
 namespace grains {
-
-void write_frame(H5mdWriter& out, const Simulation& sim) {
-  const ParticleView p = sim.particles();
-  const BoxView b = sim.box();
-  const H5mdFrame f = frame_view(sim.step_count(), sim.time(), p, b);
-  out.write_frame(f);
-}
-
-namespace {
-// An output recorded as an observable: time and step are the records' own columns.
-bool recorded_as_observable(const VariableInfo& v) {
-  return v.causality == Causality::output && v.name != "time" && v.name != "step";
-}
-}  // namespace
-
-void write_observables(H5mdWriter& out, const Simulation& sim, const std::vector<std::pair<std::string, double>>& recorded) {
-  const auto& vars = sim.variables();
-  for (std::size_t i = 0; i < vars.size(); ++i) {
-    if (!recorded_as_observable(vars[i])) continue;
-    const auto given = std::find_if(recorded.begin(), recorded.end(), [&](const auto& r) { return r.first == vars[i].name; });
-    out.write_observable(vars[i].name, sim.step_count(), sim.time(), given != recorded.end() ? given->second : sim.get(i));
-  }
-}
-
-std::vector<std::string> observable_names(const Simulation& sim) {
-  std::vector<std::string> names;
-  for (const auto& v : sim.variables())
-    if (recorded_as_observable(v)) names.push_back(v.name);
-  return names;
-}
-
-void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, const std::vector<std::string>& warnings,
-                  const std::vector<std::pair<std::string, double>>& recorded) {
-  out.set_attribute("scene_directory", scene.directory().string());
-  out.set_attribute("status", "running");   // replaced at the end: a file left with it was killed
-  try {   // a first frame that cannot be made (out of memory) is a failure, not a kill
-    std::size_t from_simulation = sim.warnings().size();   // those `warnings` holds
-    for (const auto& w : warnings) {
-      out.write_warning(w);
-      fmt::print(stderr, "warning: {}\n", w);
-    }
-    write_frame(out, sim);
-    write_observables(out, sim, recorded);
-    // The initial state's observables run the checks too (an overlap already past the pass-through limit): their
-    // warnings were counted as written, and went neither to the file nor to stderr (an outside review, 2026-12-07).
-    write_new_warnings(out, sim, from_simulation);
-  } catch (const std::exception& e) {
-    mark_failed(out, sim, e);
-    throw;
-  }
-}
-
-void mark_failed(H5mdWriter& out, const Simulation& sim, const std::exception& error) {
-  // An output error (a full disk) leaves the run resumable from its last checkpoint once the cause is gone.
-  const char* what = dynamic_cast<const OutputError*>(&error) ? "stopped by an output error" : "failed";
-  try {
-    // "after": the steps completed (an error inside a step names that step itself: "after step 1: step 2: ...").
-    const bool memory = dynamic_cast<const std::bad_alloc*>(&error);   // its what() is "std::bad_alloc"
-    out.set_attribute("status", fmt::format("{} after step {}: {}", what, sim.step_count(), memory ? "out of memory" : error.what()));
-    out.flush();
-  } catch (const std::exception&) {   // the file may not take it (the same full disk): "running" stays, resumable
-  }
-}
-
-namespace {
-
-// What `run` checks before it opens the output file, shared with `check`: the scene, the simulation
-// built from it, and the run's length (none when the scene gives none: a programme's scene).
-struct PreparedRun {
-  std::unique_ptr<Simulation> sim;
-  std::optional<long> steps;
-  bool stop_at_aggregation;
-};
-
-// `show_progress`: a status line while a long preparation (random insertion) runs.
-PreparedRun prepare_run(const Scene& scene, bool show_progress) {
-  scene.validate();
-  PreparedRun r{create_simulation(scene, show_progress), std::nullopt, scene.boolean("analysis.stop_at_aggregation")};
-  r.steps = run_steps(scene, *r.sim);
-  if (r.stop_at_aggregation && !scene.boolean("gravity.enabled"))
-    scene.fail("analysis.stop_at_aggregation", "value true needs the aggregation analysis of a self-gravitating cloud: "
-                                               "set gravity.enabled = true, or stop_at_aggregation = false");
-  return r;
-}
-
-// The scene's [programme] keys, which only `grains consolidate` reads.
-std::vector<std::string> given_programme_keys(const Scene& scene) {
-  std::vector<std::string> programme;
-  for (const auto& e : scene_schema())
-    if (e.path.starts_with("programme.") && scene.has(e.path)) programme.push_back(std::string(e.path));
-  return programme;
-}
-
-// The start-up warnings of `run` (and `check`): the simulation's, the programme's keys, which `grains
-// consolidate` reads and a plain run does not (a scene shared with it; the converse of its run-length warning),
-// and the elastic moduli's cost at every record.
-std::vector<std::string> run_warnings(const Scene& scene, const Simulation& sim) {
-  std::vector<std::string> warnings = sim.warnings();
-  const std::vector<std::string> programme = given_programme_keys(scene);
-  if (!programme.empty())
-    warnings.push_back(fmt::format("{} {} not used by grains run, which steps the scene as it is (the cell at cell.pressure): "
-                                   "the programme is grains consolidate's", fmt::join(programme, ", "),
-                                   programme.size() > 1 ? "are" : "is"));
-  // The moduli are meant for equilibrated stages (grains consolidate computes them once a stage); a plain run
-  // records them with every observable, and one factorisation of a dense packing costs hundreds of steps' time.
-  if (scene.boolean("analysis.elastic_moduli"))
-    warnings.push_back(fmt::format(
-        "analysis.elastic_moduli = true: grains run factorises the contact network's stiffness at every observables "
-        "record (output.observables_every = {}; measured 11-52 ms for 1444 dense disks and 0.32-2.1 s for 1000 dense spheres, "
-        "against about 30 us a step): set it false, or raise output.observables_every, unless this run needs the moduli",
-        scene.integer("output.observables_every")));
-  return warnings;
-}
-
-}  // namespace
-
-int check_scene(const std::string& path, const std::vector<std::string>& overrides) {
-  const Scene scene = Scene::from_file(path, overrides);
-  // All the scene's problems at once: the output's name below reads scene.name or output.file alone, and a bad one
-  // was the only problem said.
-  scene.validate();
-  // What `run` (without --out) would write to; looked at before the simulation is built (resumable_output.hpp).
-  const auto [output, source] = hdf5_output_name(scene, "", ".h5");
-  const ResumableOutput existing(output, false);
-  const PreparedRun r = prepare_run(scene, true);
-  if (r.steps) {
-    check_hdf5_output_path(output, path, scene, source);
-    try {   // a warning: `run` takes --overwrite, or another --out
-      existing.refuse_replacing_it(source, "--out");
-    } catch (const SceneError& e) {
-      fmt::print(stderr, "warning: grains run would refuse its output file: {}\n", e.what());
-    }
-  }
-  for (const auto& w : run_warnings(scene, *r.sim)) fmt::print(stderr, "warning: {}\n", w);
-  // A scene with a programme is likely meant for `grains consolidate`: its own checks too (a top pressure below
-  // the start passed `check` and was refused by `consolidate`), said as a warning, since `run` would take the scene.
-  if (!given_programme_keys(scene).empty()) {
-    try {
-      ProgrammeSettings::from_scene(scene);
-      ProgrammeSettings::refuse_floor_above_drag(scene);
-    } catch (const SceneError& e) {
-      fmt::print(stderr, "warning: grains consolidate would refuse this scene: {}\n", e.what());
-    }
-  }
-  fmt::print("{}", scene.resolved_toml());
-  // Derived values, as TOML comments so the output still reads as a scene
-  fmt::print("\n# derived: time.dt = {}, {} particles", r.sim->dt(), r.sim->particle_count());
-  if (r.steps) fmt::print(", `grains run` takes {} steps", *r.steps);
-  // A scene may be meant for `consolidate` or an FMU, which need no run length: said, not refused.
-  else fmt::print("; no run length: `grains run` needs time.duration, time.steps or time.free_fall_times");
-  fmt::print("\n");
-  // What a scene is aimed by but does not set: a user after a given k* had to run a step to read it.
-  std::vector<std::string> aims;
-  for (const auto& [name, shown] : {std::pair{"contact.k_n", "contact.k_n"}, {"contact.c_n", "contact.c_n"},
-                                     {"normalised_stiffness", "k* = k_n / k_g (normalised_stiffness)"},
-                                     {"free_fall_time", "t_ff (free_fall_time)"}})
-    if (r.sim->has(name))
-      aims.push_back(fmt::format("{} = {:.6g}", shown, r.sim->get(name)));
-  if (!aims.empty()) fmt::print("# derived: {}\n", fmt::join(aims, ", "));
-  // Direct summation's cost grows as N^2: said where the tree is the faster choice (Speed: from about 2000).
-  const double n = double(r.sim->particle_count());
-  if (scene.boolean("gravity.enabled") && scene.text("gravity.solver") == "direct" && n >= 2000)
-    fmt::print("# derived: gravity by direct summation, {:.3g} pairs a step; the tree (gravity.solver = 'tree') is "
-               "faster from about 2000 particles\n", n * (n - 1) / 2);
-  return 0;
-}
-
-void write_new_warnings(H5mdWriter& out, const Simulation& sim, std::size_t& written) {
-  const auto& w = sim.warnings();
-  for (; written < w.size(); ++written) {
-    out.write_warning(w[written]);
-    fmt::print(stderr, "warning: {}\n", w[written]);
-  }
-}
 
 namespace {
 
