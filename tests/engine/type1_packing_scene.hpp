@@ -1,14 +1,16 @@
-// The scene of a small type-1 programme on the paper's law (Table I, mu = 0.5, no rolling resistance): shared
-// by the quench and programme tests.
+// The scene of a small type-1 programme, the first stage only: `count` disks under the paper's type-1 law
+// (Table I, mu = 0.5, no rolling resistance), shared by the quench and programme tests (the contact tests'
+// packings: packing_scenes.hpp).
 #pragma once
 #include <fmt/format.h>
 
 #include "io/scene.hpp"
 #include "polydisperse_particles.hpp"
 
-// The paper's type-1 law (Table I, mu = 0.5, no rolling resistance) on a few grains, the first stage only.
-inline grains::Scene type1_packing(int count, int seed, double drag, double damping, long budget) {
-  return grains::Scene::from_string(polydisperse_particles(2, count, 0.36, seed, "density = 1.273239544735163\nvelocity = \"zero\"\n") + fmt::format(R"(
+namespace grains {
+
+inline Scene type1_packing(int count, int seed, double drag, double damping, long budget) {
+  return Scene::from_string(polydisperse_particles(2, count, 0.36, seed, "density = 1.273239544735163\nvelocity = \"zero\"\n") + fmt::format(R"(
 [box]
 periodic = true
 [contact]
@@ -36,3 +38,5 @@ quench_damping = {}
 threads = 1
 )", budget, drag, damping), "quench");
 }
+
+}  // namespace grains
