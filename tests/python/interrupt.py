@@ -1,10 +1,16 @@
-"""Sending a run Ctrl-C once it has started writing: shared by the tests of stopping and resuming."""
+"""Running the grains command from the tests: to its end (run), or sending it Ctrl-C once it has started
+writing (interrupted, shared by the tests of stopping and resuming)."""
 import os
 import signal
 import subprocess
 import time
 
 import pytest
+
+
+def run(grains_bin, *args, cwd=None):
+    """Runs grains with `args` to its end, its output captured as text; `cwd`: the folder it runs in."""
+    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True, cwd=cwd)
 
 
 def interrupted(cmd, out, after, within=60, group=False, cwd=None):

@@ -8,14 +8,10 @@ import numpy as np
 import pytest
 
 from h5text import text
-from interrupt import interrupted
+from interrupt import interrupted, run
 
 SCENES = ["consolidation", "consolidation-rr", "consolidation-type1", "cohesionless", "consolidation-3d",
           "consolidation-rr-3d"]
-
-
-def run(grains_bin, *args):
-    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True)
 
 
 @pytest.mark.parametrize("name", SCENES)

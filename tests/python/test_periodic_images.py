@@ -2,13 +2,12 @@
 are the particles' unwrapped positions, continuous however often they cross the cell, also while the barostat
 moves it; a resumed run writes the unbroken run's images; a run without a periodic axis has no image element."""
 import shutil
-import subprocess
 
 import h5py
 import numpy as np
 import pytest
 
-from interrupt import interrupted
+from interrupt import interrupted, run
 
 # A hot, nearly elastic gas of 324 disks in a cell some 30 diameters wide; with `squeezed`, the barostat
 # compresses the cell while the particles cross it.
@@ -42,10 +41,6 @@ enabled = true
 force_unit = 0
 pressure = 2e-3
 """
-
-
-def run(grains_bin, *args):
-    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True)
 
 
 def gas_run(grains_bin, tmp_path, name, squeezed=False, *options):

@@ -12,13 +12,9 @@ import numpy as np
 import pytest
 
 from h5text import text
-from interrupt import interrupted
+from interrupt import interrupted, run
 
 from head_on import clamped_restitution, clamped_separation_time
-
-
-def run(grains_bin, *args, cwd=None):
-    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True, cwd=cwd)
 
 
 def test_help_lists_the_commands(grains_bin):

@@ -15,11 +15,7 @@ import numpy as np
 import pytest
 
 from h5text import text
-from interrupt import interrupted
-
-
-def run(grains_bin, *args):
-    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True)
+from interrupt import interrupted, run
 
 
 def records(path):

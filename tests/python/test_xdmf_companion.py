@@ -3,16 +3,13 @@
 connectivity written out (the Xdmf3 readers make no cells without it), positions and velocities as three components
 (z = 0 in 2D), each equal to its row of the H5MD file; a resumed run's companion names its own frames only."""
 import shutil
-import subprocess
 import xml.etree.ElementTree as ET
 
 import h5py
 import numpy as np
 import pytest
 
-
-def run(grains_bin, *args):
-    return subprocess.run([grains_bin, *map(str, args)], capture_output=True, text=True)
+from interrupt import run
 
 
 def frames(xdmf):
