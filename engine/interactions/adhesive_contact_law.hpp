@@ -56,10 +56,11 @@ struct AdhesiveContactLaw {
     return gap < range ? tail(gap) : 0.0;
   }
 
-  // -dF_N/dh of the static force: K_N in contact (0 past the overlap clamp, where the force no longer grows), the
-  // tail's negative stiffness -F0 / D0 across a gap.
-  double static_stiffness(double gap, double rmin) const {
-    if (gap < 0) return -gap > overlap_limit * rmin ? 0.0 : k;
+  // -dF_N/dh of the elastic law: K_N in contact (past the overlap clamp too, where the applied force stops
+  // growing: the elastic moduli linearise the law, not the clamp, which marks a contact numerically extreme and is
+  // counted), the tail's negative stiffness -F0 / D0 across a gap.
+  double static_stiffness(double gap) const {
+    if (gap < 0) return k;
     return gap < range ? -attraction / range : 0.0;
   }
 

@@ -320,11 +320,11 @@ class ContactForces final : public ForceModule<D> {
       const auto& P = s.particles;
       each_listed_pair(s, [&](std::size_t i, std::uint32_t j, std::size_t k, const Vec<D>& r) {
           const double gap = r.norm() - P.radius[i] - P.radius[j], rmin = std::min(P.radius[i], P.radius[j]);
-          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap, rmin) == 0)) return;
+          if (gap >= law_.reach() || (gap >= 0 && law_.static_stiffness(gap) == 0)) return;
           ElasticSpring<D> e;
           e.i = std::uint32_t(i), e.j = j, e.branch = r;
           e.arm_i = P.radius[i] + 0.5 * gap, e.arm_j = P.radius[j] + 0.5 * gap;
-          e.normal = law_.static_stiffness(gap, rmin);
+          e.normal = law_.static_stiffness(gap);
           e.normal_force = law_.static_force(gap, rmin);
           e.contact_stiffness = law_.stiffness(P.mass[i], P.mass[j]);
           if (gap < 0) {
