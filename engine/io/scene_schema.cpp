@@ -131,8 +131,10 @@ const std::vector<SchemaEntry>& scene_schema() {
       {"rolling.stiffness_ratio", K::real, pure, "1e-4", 0, inf, true, false, "",
        "K_R / (K_N a^2), a = the size distribution's largest diameter (`particles.diameter_max` or `diameter`; for listed "
        "or file particles the largest given), as in P* (paper: 1e-4). Not tied to `rolling.coefficient`: physics.md "
-       "section 5 derives both from one length l (K_R = K_N l^2, mu_R = mu l, l = a / 100); for its large rolling "
-       "resistance, mu_R / a = 0.5 at mu = 0.5, that reading gives 1, where the paper's Table I keeps 1e-4."},
+       "section 5 derives both from one length l (K_R = K_N l^2, mu_R = mu l), whose l = a / 100 gives the paper's 1e-4 "
+       "with mu_R / a = 0.005 at mu = 0.5; for the paper's large rolling resistance (mu_R / a = 0.5, its section V E) "
+       "the same reading would give l = a and a ratio of 1, where the paper names no other K_R: this key stays 1e-4 "
+       "unless set."},
       {"rolling.damping_ratio", K::real, pure, "0.0", 0, 1, false, false, "",
        "c_r / (c_n R_i R_j): a dashpot -c_r (w_j - w_i) on the relative spin of touching grains (3D: rolling and "
        "twisting), consolidation law only, with or without rolling resistance. Not in the paper (it damps normal "
