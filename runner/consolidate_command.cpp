@@ -356,7 +356,7 @@ int consolidate_scene(const ConsolidateOptions& opt) {
   if (const auto xdmf = xdmf_beside(path, scene); xdmf && same_file(*xdmf, table))
     throw SceneError(fmt::format("{}: stage table '{}' is the XDMF file written beside the HDF5 output '{}': name another "
                                  "file (or set output.xdmf = false)", opt.table.empty() ? "scene.name" : "--table", table, path));
-  existing.refuse_replacing_it(source, "--out and --table");
+  existing.refuse_replacing_it(source, "--out and --table", !opt.quiet);
 
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
   catch_stop_signals();

@@ -19,7 +19,9 @@ bool StatusLine::due() const {
 
 void StatusLine::show(const std::string& line) {
   last_ = clock::now();
-  if (tty_) fmt::print(stderr, "\r{:<100}", line);
+  // "\x1b[K" erases what a longer line before left; padding to a width wrapped on narrower terminals, where
+  // every redraw then started a new line
+  if (tty_) fmt::print(stderr, "\r{}\x1b[K", line);
   else fmt::print(stderr, "{}\n", line);
   std::fflush(stderr);
   shown_ = true;
@@ -51,8 +53,8 @@ std::unique_ptr<Simulation> create_simulation(const Scene& scene, bool show_prog
   } end{line};
   return Simulation::create(scene, [&line](std::string_view task, std::size_t done, std::size_t total) {
     if (line.due())
-      line.show(fmt::format("[{:5.1f}%] preparing: {}, {} of {} particles placed  elapsed {:.0f} s", 100.0 * done / total,
-                            task, done, total, line.elapsed_seconds()));
+      line.show(fmt::format("[{:5.1f}%] {}: {} of {} placed  elapsed {:.0f} s", 100.0 * done / total, task, done,
+                            total, line.elapsed_seconds()));
   });
 }
 

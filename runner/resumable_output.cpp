@@ -10,6 +10,7 @@
 #include "io/h5md_checkpoint.hpp"
 #include "io/scene.hpp"
 #include "protocols/consolidation_programme.hpp"
+#include "progress.hpp"
 #include "protocols/run_length.hpp"
 #include "resume_command.hpp"
 #include "resume_probe.hpp"
@@ -28,10 +29,10 @@ std::optional<RunCheckpoint> resumable_checkpoint(const std::string& path) {
 }
 
 // The stored run's length in steps, where the stored scene still builds (a particles.file gone: unknown).
-std::optional<long> run_length(const std::string& path, const RunCheckpoint& cp) {
+std::optional<long> run_length(const std::string& path, const RunCheckpoint& cp, bool show_progress) {
   try {
     const Scene scene = stored_scene(path, cp);
-    return run_steps(scene, *Simulation::create(scene));
+    return run_steps(scene, *create_simulation(scene, show_progress));
   } catch (const std::exception&) {
     return std::nullopt;
   }
@@ -49,7 +50,7 @@ std::optional<std::size_t> stage_count(const std::string& path, const RunCheckpo
 }
 
 // Where the run in `path` stopped, as it continues: "a run interrupted at step 512 of 20000", ...
-std::string where_it_stopped(const std::string& path, const RunCheckpoint& cp) {
+std::string where_it_stopped(const std::string& path, const RunCheckpoint& cp, bool show_progress) {
   // Ctrl-C and SIGTERM leave "interrupted ...", with a checkpoint at that step; a killed run "running" (or
   // "resumed at step N"), an output error "stopped by an output error ...", each with its newest checkpoint.
   const bool interrupted = cp.status.rfind("interrupted", 0) == 0;
@@ -60,7 +61,7 @@ std::string where_it_stopped(const std::string& path, const RunCheckpoint& cp) {
                        interrupted ? "interrupted" : unfinished, cp.step, cp.stage + 1,
                        stages ? fmt::format(" of its {}", *stages) : std::string());
   }
-  const auto steps = run_length(path, cp);
+  const auto steps = run_length(path, cp, show_progress);
   return fmt::format("a run {} at step {}{}", interrupted ? "interrupted" : unfinished, cp.step,
                      steps ? fmt::format(" of {}", *steps) : std::string());
 }
@@ -77,13 +78,14 @@ ResumableOutput::ResumableOutput(const std::string& path, bool overwrite) : path
   }
 }
 
-void ResumableOutput::refuse_replacing_it(const std::string& source, const std::string& other_names) const {
+void ResumableOutput::refuse_replacing_it(const std::string& source, const std::string& other_names,
+                                          bool show_progress) const {
   if (!readable_) return;
   const auto cp = resumable_checkpoint(path_);
   if (!cp) return;
   throw SceneError(fmt::format("{}: output file '{}' holds {}; not written over: continue it with `grains resume {}`, "
                                "or replace it with --overwrite (or name another file: {})", source, path_,
-                               where_it_stopped(path_, *cp), path_, other_names));
+                               where_it_stopped(path_, *cp, show_progress), path_, other_names));
 }
 
 }  // namespace grains

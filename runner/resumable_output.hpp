@@ -17,8 +17,9 @@ class ResumableOutput {
   // Throws SceneError when the file holds a run or programme with a valid checkpoint: the message names `source`
   // (--out, output.file, ...), the file, where the run stopped (the step, and of how many when the stored scene says;
   // a programme's stage), and the ways on: `grains resume FILE`, --overwrite, or another name (`other_names`: the
-  // options that name the outputs).
-  void refuse_replacing_it(const std::string& source, const std::string& other_names) const;
+  // options that name the outputs). Finding a run's length builds its stored scene's simulation: `show_progress`
+  // shows a long preparation's status line meanwhile (progress.hpp).
+  void refuse_replacing_it(const std::string& source, const std::string& other_names, bool show_progress) const;
 
  private:
   std::string path_;

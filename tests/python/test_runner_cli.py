@@ -258,16 +258,34 @@ def test_a_long_random_insertion_shows_its_progress(grains_bin, root):
     status, shown = _stderr_on_a_terminal(grains_bin, "check", root / "models" / "gas.toml", *sets,
                                           "--set", "particles.solid_fraction=0.3")
     assert status == 0, shown
-    placed = [int(n) for n in re.findall(r"preparing: random insertion, (\d+) of 50000 particles placed", shown)]
+    placed = [int(n) for n in re.findall(r"random insertion: (\d+) of 50000 placed", shown)]
     assert placed and all(0 < n < 50000 for n in placed), shown
     # A packing too dense to place: its error starts on a line of its own, after the status line.
     status, shown = _stderr_on_a_terminal(grains_bin, "check", root / "models" / "gas.toml", "--set",
                                           "particles.count=20000", *sets[2:], "--set", "particles.solid_fraction=0.45")
-    assert status != 0 and "preparing: random insertion" in shown, shown
-    assert re.search(r"placed  elapsed \d+ s *\r?\n[^\r\n]*random insertion could not place", shown), shown
+    assert status != 0 and re.search(r"random insertion(, largest first)?: \d+ of 20000 placed", shown), shown
+    assert re.search(r"placed  elapsed \d+ s(\x1b\[K)?\r?\n[^\r\n]*random insertion could not place", shown), shown
     # Off the terminal (a log) the line waits 10 s: a short insertion says nothing.
     r = run(grains_bin, "check", root / "models" / "gas.toml", *sets, "--set", "particles.solid_fraction=0.3")
-    assert r.returncode == 0 and "preparing" not in r.stderr, r.stderr
+    assert r.returncode == 0 and "random insertion" not in r.stderr, r.stderr
+
+
+def test_refusing_to_replace_a_resumable_run_shows_the_stored_scenes_insertion(grains_bin, root, tmp_path):
+    """Refusing to write over an interrupted run builds the stored scene's simulation to say the run's length: with a
+    random layout that places every particle again, which a review of 2026-12-07 found silent (one to two minutes at
+    10^6). Both insertions, the scene's and the stored one's, now show their status lines."""
+    import re
+    out = tmp_path / "gas.h5"
+    sets = ("time.steps=100000000", "particles.count=50000", 'particles.layout="random"')
+    p = _start_long_run(grains_bin, root, out, sets=sets)
+    p.send_signal(signal.SIGINT)
+    p.communicate(timeout=120)
+    assert p.returncode == 130
+    status, shown = _stderr_on_a_terminal(grains_bin, "run", root / "models" / "gas.toml", "--out", out,
+                                          *[a for s in sets for a in ("--set", s)])
+    assert status != 0 and f"grains resume {out}" in shown, shown
+    ended = re.findall(r"random insertion: \d+ of 50000 placed  elapsed \d+ s(?:\x1b\[K)?\r?\n", shown)
+    assert len(ended) == 2, shown
 
 
 def test_check_says_when_run_would_want_a_run_length(grains_bin, root, tmp_path):
