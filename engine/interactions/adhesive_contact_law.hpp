@@ -49,10 +49,13 @@ struct AdhesiveContactLaw {
   // Open pair with gap 0 <= h < D0: the attraction fading linearly (no damping, no elastic part).
   double tail(double gap) const { return -attraction * (1 - gap / range); }
 
-  // Static normal force (no dashpot) at gap h: what a contact network at rest carries, its overlap clamped as
-  // force() clamps it (rmin: the pair's smaller radius), so that the network's forces are the ones applied.
+  // The elastic part K_N delta of an overlapping pair at rest, its overlap clamped as force() clamps it (rmin: the
+  // pair's smaller radius): what the network's forces and the friction and rolling bounds take.
+  double static_elastic(double overlap, double rmin) const { return k * std::min(overlap, overlap_limit * rmin); }
+
+  // Static normal force (no dashpot) at gap h: what a contact network at rest carries, the force the law applies.
   double static_force(double gap, double rmin) const {
-    if (gap < 0) return k * std::min(-gap, overlap_limit * rmin) - attraction;
+    if (gap < 0) return static_elastic(-gap, rmin) - attraction;
     return gap < range ? tail(gap) : 0.0;
   }
 

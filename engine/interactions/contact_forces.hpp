@@ -328,8 +328,7 @@ class ContactForces final : public ForceModule<D> {
           e.normal_force = law_.static_force(gap, rmin);
           e.contact_stiffness = law_.stiffness(P.mass[i], P.mass[j]);
           if (gap < 0) {
-            // F_N^e = K_N delta with delta clamped as the law clamps it (physics.md section 2)
-            const double elastic = e.contact_stiffness * std::min(-gap, law_.overlap_limit * rmin);
+            const double elastic = law_.static_elastic(-gap, rmin);   // F_N^e, its overlap clamped (physics.md section 2)
             if constexpr (Friction::enabled) {
               e.tangential = friction_.stiffness_ratio * e.contact_stiffness;
               if (holds_history(k)) e.tangential_force = e.tangential * tangential_[k].norm();
