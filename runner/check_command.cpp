@@ -26,7 +26,7 @@ int check_scene(const std::string& path, const std::vector<std::string>& overrid
   if (r.steps) {
     check_hdf5_output_path(output, path, scene, source);
     try {   // a warning: `run` takes --overwrite, or another --out
-      existing.refuse_replacing_it(source, "--out", true);
+      existing.refuse_replacing_it(source, "--out", true, RunAboutToStart{scene, *r.steps});
     } catch (const SceneError& e) {
       fmt::print(stderr, "warning: grains run would refuse its output file: {}\n", e.what());
     }

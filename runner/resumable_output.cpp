@@ -28,10 +28,18 @@ std::optional<RunCheckpoint> resumable_checkpoint(const std::string& path) {
   }
 }
 
-// The stored run's length in steps, where the stored scene still builds (a particles.file gone: unknown).
-std::optional<long> run_length(const std::string& path, const RunCheckpoint& cp, bool show_progress) {
+// The stored run's length in steps, where the stored scene still builds (a particles.file gone: unknown). The
+// resolved scenes compared leave out the thread count, which the stored one keeps (stored_scene) and which does
+// not change the length; a particles file may have changed since, so a scene that reads one is built.
+std::optional<long> run_length(const std::string& path, const RunCheckpoint& cp, bool show_progress,
+                               const std::optional<RunAboutToStart>& now) {
   try {
     const Scene scene = stored_scene(path, cp);
+    if (now && scene.text("particles.layout") != "file" && scene.directory() == now->scene.directory()) {
+      Scene same_threads = scene;
+      same_threads.set_value("run.threads", fmt::format("{}", now->scene.integer("run.threads")));
+      if (same_threads.resolved_toml() == now->scene.resolved_toml()) return now->steps;
+    }
     return run_steps(scene, *create_simulation(scene, show_progress));
   } catch (const std::exception&) {
     return std::nullopt;
@@ -50,7 +58,8 @@ std::optional<std::size_t> stage_count(const std::string& path, const RunCheckpo
 }
 
 // Where the run in `path` stopped, as it continues: "a run interrupted at step 512 of 20000", ...
-std::string where_it_stopped(const std::string& path, const RunCheckpoint& cp, bool show_progress) {
+std::string where_it_stopped(const std::string& path, const RunCheckpoint& cp, bool show_progress,
+                             const std::optional<RunAboutToStart>& now) {
   // Ctrl-C and SIGTERM leave "interrupted ...", with a checkpoint at that step; a killed run "running" (or
   // "resumed at step N"), an output error "stopped by an output error ...", each with its newest checkpoint.
   const bool interrupted = cp.status.rfind("interrupted", 0) == 0;
@@ -61,7 +70,7 @@ std::string where_it_stopped(const std::string& path, const RunCheckpoint& cp, b
                        interrupted ? "interrupted" : unfinished, cp.step, cp.stage + 1,
                        stages ? fmt::format(" of its {}", *stages) : std::string());
   }
-  const auto steps = run_length(path, cp, show_progress);
+  const auto steps = run_length(path, cp, show_progress, now);
   return fmt::format("a run {} at step {}{}", interrupted ? "interrupted" : unfinished, cp.step,
                      steps ? fmt::format(" of {}", *steps) : std::string());
 }
@@ -79,13 +88,13 @@ ResumableOutput::ResumableOutput(const std::string& path, bool overwrite) : path
 }
 
 void ResumableOutput::refuse_replacing_it(const std::string& source, const std::string& other_names,
-                                          bool show_progress) const {
+                                          bool show_progress, std::optional<RunAboutToStart> about_to_start) const {
   if (!readable_) return;
   const auto cp = resumable_checkpoint(path_);
   if (!cp) return;
   throw SceneError(fmt::format("{}: output file '{}' holds {}; not written over: continue it with `grains resume {}`, "
                                "or replace it with --overwrite (or name another file: {})", source, path_,
-                               where_it_stopped(path_, *cp, show_progress), path_, other_names));
+                               where_it_stopped(path_, *cp, show_progress, about_to_start), path_, other_names));
 }
 
 }  // namespace grains

@@ -3,9 +3,19 @@
 // an interruption replace hours of work without a word. Any other existing file (a finished run, a failed one, one
 // without a valid checkpoint, a file that is not a grains output) is replaced as before.
 #pragma once
+#include <optional>
 #include <string>
 
 namespace grains {
+
+class Scene;
+
+// The run about to be written, when its length is known: a stored scene the same as its own (every key, and the
+// folder its relative paths lie in) has its length, and is not built again to find it.
+struct RunAboutToStart {
+  const Scene& scene;
+  long steps;
+};
 
 class ResumableOutput {
  public:
@@ -17,9 +27,11 @@ class ResumableOutput {
   // Throws SceneError when the file holds a run or programme with a valid checkpoint: the message names `source`
   // (--out, output.file, ...), the file, where the run stopped (the step, and of how many when the stored scene says;
   // a programme's stage), and the ways on: `grains resume FILE`, --overwrite, or another name (`other_names`: the
-  // options that name the outputs). Finding a run's length builds its stored scene's simulation: `show_progress`
-  // shows a long preparation's status line meanwhile (progress.hpp).
-  void refuse_replacing_it(const std::string& source, const std::string& other_names, bool show_progress) const;
+  // options that name the outputs). Finding a run's length builds its stored scene's simulation, unless it is
+  // `about_to_start`'s scene (random insertion of 10^6 spheres takes one to two minutes): `show_progress` shows a long
+  // preparation's status line meanwhile (progress.hpp).
+  void refuse_replacing_it(const std::string& source, const std::string& other_names, bool show_progress,
+                           std::optional<RunAboutToStart> about_to_start = std::nullopt) const;
 
  private:
   std::string path_;

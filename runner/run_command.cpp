@@ -151,7 +151,7 @@ int run_scene(const RunOptions& opt) {
   if (!prepared.steps) scene.fail("time.duration", "give time.duration, time.steps or time.free_fall_times: how long to run");
 
   check_hdf5_output_path(path, opt.scene, scene, source);
-  existing.refuse_replacing_it(source, "--out", !opt.quiet);
+  existing.refuse_replacing_it(source, "--out", !opt.quiet, RunAboutToStart{scene, *prepared.steps});
 
   std::vector<bool> periodic = sim->box().periodic;
   // From here on Ctrl-C ends the run with a valid file; one that came in the meantime leaves the file untouched.
