@@ -453,7 +453,10 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   H5mdWriter out = checked_and_cut();
   std::error_code renamed;
   std::filesystem::rename(rewritten, target, renamed);
-  if (renamed) throw std::runtime_error(fmt::format("cannot replace the stage table '{}' ({})", table, renamed.message()));
+  if (renamed) {   // the file is cut back to the checkpoint, the old table whole: the next resume cuts that table too
+    remove_rewritten();
+    throw std::runtime_error(fmt::format("cannot replace the stage table '{}' ({})", table, renamed.message()));
+  }
   std::ofstream csv(table, std::ios::app);
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
