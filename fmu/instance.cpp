@@ -40,17 +40,28 @@ const char* role_name(Role r) {
   }
 }
 
-// The value as TOML text of the scene key's kind, so the scene checks it like any --set.
-std::string toml_value(ValueType type, double value) {
-  if (type == ValueType::boolean) return value != 0 ? "true" : "false";
-  if (type == ValueType::integer) return fmt::format("{}", static_cast<long long>(value));
+// The value as TOML text of the scene key's kind, so the scene checks it like any --set (an enumeration's value
+// within its items).
+std::string toml_value(const FmuVariable& v, double value) {
+  if (!v.items.empty()) return fmt::format("\"{}\"", v.items[static_cast<std::size_t>(value) - 1]);
+  if (v.type == ValueType::boolean) return value != 0 ? "true" : "false";
+  if (v.type == ValueType::integer) return fmt::format("{}", static_cast<long long>(value));
   std::string s = fmt::format("{}", value);   // nan, inf, -inf are TOML floats as they are
   if (std::isfinite(value) && s.find_first_of(".eE") == std::string::npos) s += ".0";
   return s;
 }
 
+// A fixed parameter's value as a message gives it: an enumeration's with its item ("2 (tree)").
+std::string shown_value(const FmuVariable& v, double value) {
+  const std::size_t k = static_cast<std::size_t>(value);
+  if (!v.items.empty() && value >= 1 && k <= v.items.size()) return fmt::format("{} ({})", k, v.items[k - 1]);
+  return fmt::format("{}", value);
+}
+
 // A fixed parameter's value in a scene (its type's reading of the scene key).
 double scene_value(const Scene& scene, const FmuVariable& v) {
+  if (!v.items.empty())
+    return double(std::find(v.items.begin(), v.items.end(), scene.text(v.scene_key)) - v.items.begin() + 1);
   return v.type == ValueType::real      ? scene.real(v.scene_key)
          : v.type == ValueType::integer ? double(scene.integer(v.scene_key))
                                         : double(scene.boolean(v.scene_key));
@@ -439,7 +450,7 @@ std::vector<std::string> Instance::moved_parameters() const {
   std::vector<std::string> moved;
   for (const FmuVariable& v : table_.variables)
     if (v.role == Role::scene_parameter && scene_value(scene_, v) != scene_value(packaged_, v))
-      moved.push_back(fmt::format("{} = {}", v.name, scene_value(scene_, v)));
+      moved.push_back(fmt::format("{} = {}", v.name, shown_value(v, scene_value(scene_, v))));
   return moved;
 }
 
@@ -541,6 +552,8 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value,
                              "(reset the FMU to change it)", v.name, phase_name(phase_)));
   if (phase_ == Phase::terminated || phase_ == Phase::failed)
     return error(fmt::format("setting '{}' is not allowed in {}", v.name, phase_name(phase_)));
+  if (!v.items.empty() && (value < 1 || value > double(v.items.size())))
+    return error(fmt::format("{} = {} is out of range: allowed {}", v.name, value, item_values(v)));
   if (v.role == Role::snapshot_option) {
     if (value < 0) return error(fmt::format("{} = {} is not allowed: an integer >= 0 (0 = no snapshots)", v.name, value));
     snapshots_every_ = static_cast<long>(value);
@@ -554,7 +567,7 @@ Status Instance::set_one(const FmuVariable& v, std::size_t ref, double value,
   if (outside_control_range && !into_scene) return control_range_error();
 
   if (into_scene) {   // goes into the scene, checked by the scene's schema (its range first: gravity.G needs > 0 there)
-    const std::string text = toml_value(v.type, value);
+    const std::string text = toml_value(v, value);
     Scene changed = scene_;
     try {
       changed.set_value(v.scene_key, text);
@@ -601,7 +614,7 @@ std::string Instance::parameter_differences(std::uint64_t token, const std::vect
   for (const FmuVariable& v : table_.variables) {
     if (v.role != Role::scene_parameter) continue;
     if (std::memcmp(&saved[k], &mine[k], sizeof(double)) != 0)
-      differ.push_back(fmt::format("{} = {} in the state, {} here", v.name, saved[k], mine[k]));
+      differ.push_back(fmt::format("{} = {} in the state, {} here", v.name, shown_value(v, saved[k]), shown_value(v, mine[k])));
     ++k;
   }
   return fmt::format("{}", fmt::join(differ, "; "));

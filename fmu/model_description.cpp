@@ -63,6 +63,21 @@ std::string unit_definitions(const ModelTable& t) {
   return out + "  </UnitDefinitions>\n";
 }
 
+// Each enumeration's items as a type named after its scene key (FMI 2: SimpleType; FMI 3: EnumerationType).
+std::string type_definitions(const ModelTable& t, int fmi) {
+  std::string types;
+  for (const auto& v : t.variables) {
+    if (v.items.empty()) continue;
+    std::string items;
+    for (std::size_t k = 0; k < v.items.size(); ++k)
+      items += fmt::format("{}<Item name=\"{}\" value=\"{}\"/>\n", fmi == 2 ? "        " : "      ", xml_escape(v.items[k]), k + 1);
+    types += fmi == 2 ? fmt::format("    <SimpleType name=\"{}\">\n      <Enumeration>\n{}      </Enumeration>\n    </SimpleType>\n",
+                                    xml_escape(v.name), items)
+                      : fmt::format("    <EnumerationType name=\"{}\">\n{}    </EnumerationType>\n", xml_escape(v.name), items);
+  }
+  return types.empty() ? "" : "  <TypeDefinitions>\n" + types + "  </TypeDefinitions>\n";
+}
+
 std::string log_categories_xml() {
   std::string out = "  <LogCategories>\n";
   for (const auto& [name, doc] : log_categories()) out += fmt::format("    <Category name=\"{}\" description=\"{}\"/>\n", name, xml_escape(doc));
@@ -90,7 +105,7 @@ std::string fmi2_model_description(const ModelTable& t, const ModelInfo& info) {
       "    canNotUseMemoryManagementFunctions=\"true\" canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\"\n"
       "    providesDirectionalDerivative=\"false\"/>\n",
       xml_escape(info.name), instantiation_token(t), xml_escape(info.description), xml_escape(info.version), xml_escape(info.identifier));
-  out += unit_definitions(t) + log_categories_xml() + default_experiment(info);
+  out += unit_definitions(t) + type_definitions(t, 2) + log_categories_xml() + default_experiment(info);
   out += "  <ModelVariables>\n";
   std::vector<std::size_t> outputs, initial_unknowns;
   std::size_t index = 0;   // FMI 2 refers to variables by 1-based position in this list
@@ -108,6 +123,7 @@ std::string fmi2_model_description(const ModelTable& t, const ModelInfo& info) {
     const std::string unit = v.unit.empty() ? "" : fmt::format(" unit=\"{}\"", xml_escape(v.unit));
     const std::string start = has_start(v) ? fmt::format(" start=\"{}\"", start_text(v)) : "";
     if (v.type == ValueType::real) element = fmt::format("<Real{}{}{}/>", start, range_attributes(v, -INFINITY, INFINITY), unit);
+    else if (!v.items.empty()) element = fmt::format("<Enumeration declaredType=\"{}\"{}/>", xml_escape(v.name), start);
     else if (v.type == ValueType::integer) element = fmt::format("<Integer{}{}/>", start, range_attributes(v, INT_MIN, INT_MAX));
     else element = fmt::format("<Boolean{}/>", start);
     out += fmt::format("    <ScalarVariable {}>\n      {}\n    </ScalarVariable>\n", attributes, element);
@@ -130,14 +146,18 @@ std::string fmi3_model_description(const ModelTable& t, const ModelInfo& info) {
       "    providesAdjointDerivatives=\"false\" hasEventMode=\"false\" providesIntermediateUpdate=\"false\"\n"
       "    canReturnEarlyAfterIntermediateUpdate=\"false\" providesEvaluateDiscreteStates=\"false\" maxOutputDerivativeOrder=\"0\"/>\n",
       xml_escape(info.name), instantiation_token(t), xml_escape(info.description), xml_escape(info.version), xml_escape(info.identifier));
-  out += unit_definitions(t) + log_categories_xml() + default_experiment(info);
+  out += unit_definitions(t) + type_definitions(t, 3) + log_categories_xml() + default_experiment(info);
   out += "  <ModelVariables>\n";
   std::vector<std::size_t> outputs, initial_unknowns;
   for (std::size_t ref = 0; ref < t.variables.size(); ++ref) {
     const FmuVariable& v = t.variables[ref];
     if (v.role == Role::output || v.role == Role::particle_array) outputs.push_back(ref);
     if (is_initial_unknown(v)) initial_unknowns.push_back(ref);
-    const char* type = v.type == ValueType::boolean ? "Boolean" : v.type == ValueType::real ? "Float64" : v.structural ? "UInt64" : "Int64";
+    const char* type = v.type == ValueType::boolean ? "Boolean"
+                       : v.type == ValueType::real  ? "Float64"
+                       : !v.items.empty()           ? "Enumeration"
+                       : v.structural               ? "UInt64"
+                                                    : "Int64";
     std::string attributes = fmt::format("name=\"{}\" valueReference=\"{}\" description=\"{}\" causality=\"{}\" variability=\"{}\"",
                                          xml_escape(v.name), ref, xml_escape(v.description), causality_name(v, 3), variability_name(v));
     if (v.role == Role::calculated_parameter) attributes += " initial=\"calculated\"";
@@ -145,6 +165,8 @@ std::string fmi3_model_description(const ModelTable& t, const ModelInfo& info) {
     if (v.type == ValueType::real) {
       attributes += range_attributes(v, -INFINITY, INFINITY);
       if (!v.unit.empty()) attributes += fmt::format(" unit=\"{}\"", xml_escape(v.unit));
+    } else if (!v.items.empty()) {
+      attributes += fmt::format(" declaredType=\"{}\"", xml_escape(v.name));
     } else if (v.type == ValueType::integer) {
       attributes += range_attributes(v, v.structural ? 0.0 : double(LLONG_MIN), v.structural ? 1.8e19 : 9.2e18);
     }
@@ -181,7 +203,10 @@ std::string documentation_html(const ModelTable& t, const ModelInfo& info) {
     const FmuVariable& v = t.variables[ref];
     out += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", ref, xml_escape(v.name),
                        causality_name(v, 3) + (v.role == Role::particle_array ? " (FMI 3 array)" : ""), variability_name(v),
-                       has_start(v) ? start_text(v) : "", xml_escape(v.unit), xml_escape(v.description));
+                       !has_start(v)      ? std::string()
+                       : v.items.empty() ? start_text(v)
+                                         : fmt::format("{} ({})", start_text(v), xml_escape(v.items[std::size_t(v.start) - 1])),
+                       xml_escape(v.unit), xml_escape(v.description));
   }
   return out + "</table>\n</body></html>\n";
 }

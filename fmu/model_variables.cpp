@@ -16,8 +16,11 @@ namespace {
 
 // Scene keys that are not FMU parameters: they change which modules and observables exist (so the
 // variable table), or belong to the runner (run length, output files) rather than to the model.
-bool exposed_scene_key(std::string_view path, ValueKind kind) {
-  if (kind != ValueKind::real && kind != ValueKind::integer && kind != ValueKind::boolean) return false;
+bool exposed_scene_key(std::string_view path, ValueKind kind, std::string_view choices) {
+  // A text key with choices is an enumeration; a programme's (the preparation) is grains consolidate's, which the
+  // FMU does not run.
+  const bool enumeration = kind == ValueKind::text && !choices.empty() && !path.starts_with("programme.");
+  if (kind != ValueKind::real && kind != ValueKind::integer && kind != ValueKind::boolean && !enumeration) return false;
   if (path == "scene.dimension" || path == "box.periodic" || path == "time.duration" || path == "time.steps" ||
       path == "time.free_fall_times" || path == "analysis.stop_at_aggregation" ||
       path == "analysis.elastic_moduli")   // false removes the moduli outputs: a host could only set it to true
@@ -46,7 +49,7 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
 
   // 1. Scene keys the packaged scene sets (a tunable control of the same name takes the key over).
   for (const auto& e : scene_schema()) {
-    if (!exposed_scene_key(e.path, e.kind) || !scene.has(e.path) || control_named(e.path) != no_index) continue;
+    if (!exposed_scene_key(e.path, e.kind, e.choices) || !scene.has(e.path) || control_named(e.path) != no_index) continue;
     FmuVariable v;
     v.name = std::string(e.path);
     v.role = Role::scene_parameter;
@@ -55,10 +58,21 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
     v.scene_key = v.name;
     v.description = std::string(e.doc);
     v.unit = scene_key_unit(e.path, t.dimension);   // the schema's, as the scene reference gives it
-    v.type = e.kind == ValueKind::real ? ValueType::real : e.kind == ValueKind::integer ? ValueType::integer : ValueType::boolean;
-    v.start = e.kind == ValueKind::real ? scene.real(e.path) : e.kind == ValueKind::integer ? double(scene.integer(e.path))
-                                                                                           : double(scene.boolean(e.path));
-    if (e.kind != ValueKind::boolean) {
+    if (e.kind == ValueKind::text) {
+      for (std::size_t from = 0, bar; from <= e.choices.size(); from = bar + 1) {
+        bar = std::min(e.choices.find('|', from), e.choices.size());
+        v.items.emplace_back(e.choices.substr(from, bar - from));
+      }
+      v.type = ValueType::integer;
+      v.min = 1, v.max = double(v.items.size());
+      v.start = double(std::find(v.items.begin(), v.items.end(), scene.text(e.path)) - v.items.begin() + 1);
+      v.description += fmt::format(" Values: {}.", item_values(v));
+    } else {
+      v.type = e.kind == ValueKind::real ? ValueType::real : e.kind == ValueKind::integer ? ValueType::integer : ValueType::boolean;
+      v.start = e.kind == ValueKind::real ? scene.real(e.path) : e.kind == ValueKind::integer ? double(scene.integer(e.path))
+                                                                                             : double(scene.boolean(e.path));
+    }
+    if (e.kind == ValueKind::real || e.kind == ValueKind::integer) {
       // FMI's min and max are inclusive: an open bound is declared as the nearest value inside it (the
       // description gives the interval as written).
       const bool real = v.type == ValueType::real;
@@ -134,6 +148,12 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
   rad.description = fmt::format("particle radii, {}", rows);
   t.variables.push_back(rad);
   return t;
+}
+
+std::string item_values(const FmuVariable& v) {
+  std::vector<std::string> values;
+  for (std::size_t k = 0; k < v.items.size(); ++k) values.push_back(fmt::format("{} ({})", k + 1, v.items[k]));
+  return fmt::format("{}", fmt::join(values, ", "));
 }
 
 std::string instantiation_token(const ModelTable& table) {

@@ -45,7 +45,12 @@ struct FmuVariable {
   std::size_t sim_index = no_index;   // index in Simulation::variables()
   ParticleField field = ParticleField::position;
   bool structural = false;        // FMI 3: particles.count as the structural parameter sizing the arrays
+  // A text scene key's choices (gravity.solver: direct, tree): an enumeration, type integer, value k = items[k - 1].
+  std::vector<std::string> items;
 };
+
+// An enumeration's values as the host reads them: "1 (direct), 2 (tree)".
+std::string item_values(const FmuVariable& v);
 
 struct ModelTable {
   std::vector<FmuVariable> variables;   // value reference = index

@@ -130,7 +130,10 @@ class Unit:
     # --- values ---
     def _call(self, prefix, var):
         kind = var.type
-        name = {"Real": "Real", "Integer": "Integer", "Boolean": "Boolean"}.get(kind, kind) if self.version == 2 else kind
+        # an enumeration is read and set as FMI 2's Integer, FMI 3's Int64
+        if kind == "Enumeration":
+            kind = "Integer" if self.version == 2 else "Int64"
+        name = kind
         return getattr(self.fmu, prefix + name)
 
     def set(self, name, value):

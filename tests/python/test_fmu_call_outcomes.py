@@ -133,11 +133,12 @@ def test_a_refused_state_names_the_parameters_that_differ(version):
     path = fmu_path("aggregation", version)
     saver = Unit(path, "saver").initialize({"particles.count": 20, "contact.restitution": 0.5})
     saved = saver.serialize(saver.get_state())
-    other = Unit(path, "other").initialize({"particles.count": 21, "contact.restitution": 0.5})
+    other = Unit(path, "other").initialize({"particles.count": 21, "contact.restitution": 0.5, "gravity.solver": 2})
     with pytest.raises(FMICallException):
         other.set_state(other.deserialize(saved))
     message = other.errors()[-1]
     assert "particles.count = 20 in the state, 21 here" in message, message
+    assert "gravity.solver = 1 (direct) in the state, 2 (tree) here" in message, message   # an enumeration's items
     assert "restitution" not in message, message   # only those that differ
     # a state of another model: said so, no parameters compared
     collision = Unit(fmu_path("collision", version), "collision").initialize()

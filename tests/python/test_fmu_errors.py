@@ -76,6 +76,20 @@ def test_out_of_range_parameter_gets_the_scene_schema_message(unit):
     assert unit.get("contact.restitution") == 0.5
 
 
+def test_an_enumeration_takes_its_items_values_only(unit):
+    """A text scene key with choices (gravity.solver: direct, tree) is an enumeration: a value without an item is refused
+    naming the items, one that needs other keys gets the scene's message, and the item set is the scene's."""
+    assert unit.get("gravity.solver") == 1
+    fails(unit, lambda: unit.set("gravity.solver", 3), "gravity.solver = 3 is out of range: allowed 1 (direct), 2 (tree)")
+    fails(unit, lambda: unit.set("gravity.solver", 0), "gravity.solver = 0 is out of range")
+    unit.set("particles.layout", 3)   # list: its positions are no parameter
+    fails(unit, lambda: unit.initialize({}), "particles.positions: required here but missing", "Layout `list`")
+    unit.reset()
+    unit.initialize({"particles.count": 100, "gravity.solver": 2})
+    assert unit.get("gravity.solver") == 2 and unit.get("particles.layout") == 2
+    fails(unit, lambda: unit.set("gravity.solver", 1), "'gravity.solver' is a fixed parameter")
+
+
 def test_a_value_beyond_64_bit_integers_is_named_as_the_host_passed_it():
     """fmpy passes a negative start value of the FMI 3 UInt64 `particles.count` as 2^64 - 3: the message
     names that value and the range (it once said -9223372036854775808, a double cast past int64)."""
@@ -494,11 +508,15 @@ def test_no_parameter_value_changes_the_set_of_variables(model):
     parameters = [v for v in probe.md.modelVariables if v.causality == "parameter" and v.variability == "fixed"]
     probe.free()
     counted = any(v.name == "particles.count" for v in parameters)   # a drawn count, kept small here
-    fixed = [(v.name, v.start, v.type) for v in parameters if v.name != "particles.count" and v.type in ("Real", "Integer", "Boolean")]
+    fixed = [(v.name, v.start, v.type) for v in parameters
+             if v.name != "particles.count" and v.type in ("Real", "Integer", "Boolean", "Enumeration")]
+    items = {v.name: [int(i.value) for i in v.declaredType.items] for v in parameters if v.type == "Enumeration"}
+    assert model != "aggregation" or "gravity.solver" in items, items
     tried = 0
     for name, start, kind in fixed:
         s = float(start) if kind != "Boolean" else float(start in ("true", "1", True))
-        values = {"Real": [0.0, 2 * s if s else 1.0], "Integer": [0, int(s) + 1], "Boolean": [not s]}[kind]
+        values = {"Real": [0.0, 2 * s if s else 1.0], "Integer": [0, int(s) + 1], "Boolean": [not s],
+                  "Enumeration": items.get(name)}[kind]
         for value in values:
             unit = Unit(fmu_path(model, 2))
             try:

@@ -13,6 +13,8 @@ from fmu_host import Unit, fmu_path
 CASES = [
     ("aggregation", {}, 20, 5),   # packaged parameters (1000 particles, 2 threads)
     ("aggregation", {"particles.count": 300, "contact.restitution": 0.3, "gravity.G": 2.0, "run.threads": 1}, 25, 8),
+    # an enumeration: the text key's item by its value (the tree, gravity.solver = "tree" in the runner)
+    ("aggregation", {"particles.count": 300, "gravity.solver": 2, "run.threads": 1}, 20, 5),
     ("collision", {}, 10, 10),
     ("collision", {"contact.restitution": 0.8, "contact.duration": 0.5}, 7, 12),
     ("consolidation", {"particles.count": 300, "cell.pressure": 0.5}, 50, 6),
@@ -25,9 +27,11 @@ def toml(value):
     return str(value).lower() if isinstance(value, bool) else repr(value)
 
 
-def runner_observables(grains_bin, root, tmp_path, model, overrides, every, chunks):
+def runner_observables(grains_bin, root, tmp_path, model, overrides, every, chunks, items=None):
+    """`items`: each enumeration's values' names, which the runner's scene takes as text."""
+    items = items or {}
     out = tmp_path / f"{model}.h5"
-    sets = [a for k, v in overrides.items() for a in ("--set", f"{k}={toml(v)}")]
+    sets = [a for k, v in overrides.items() for a in ("--set", f'{k}="{items[k][v]}"' if k in items else f"{k}={toml(v)}")]
     subprocess.run([grains_bin, "run", root / "models" / f"{model}.toml", *sets, "--set", f"time.steps={every * chunks}",
                     "--set", f"output.observables_every={every}", "--set", "output.snapshots_every=0",
                     "--out", out, "--quiet"], check=True, capture_output=True)
@@ -37,8 +41,8 @@ def runner_observables(grains_bin, root, tmp_path, model, overrides, every, chun
 
 
 @pytest.mark.parametrize("version", [2, 3])
-@pytest.mark.parametrize("model,overrides,every,chunks", CASES, ids=["aggregation", "aggregation-overrides", "collision",
-                                                                     "collision-overrides", "consolidation"])
+@pytest.mark.parametrize("model,overrides,every,chunks", CASES, ids=["aggregation", "aggregation-overrides", "aggregation-tree",
+                                                                     "collision", "collision-overrides", "consolidation"])
 def test_fmu_outputs_equal_the_runner_observables(grains_bin, root, tmp_path, version, model, overrides, every, chunks):
     path = str(fmu_path(model, version))
     md = fmpy.read_model_description(path)
@@ -50,7 +54,8 @@ def test_fmu_outputs_equal_the_runner_observables(grains_bin, root, tmp_path, ve
 
     result = fmpy.simulate_fmu(path, start_values=overrides, stop_time=every * chunks * dt, output_interval=every * dt,
                                output=outputs)
-    runner = runner_observables(grains_bin, root, tmp_path, model, overrides, every, chunks)
+    items = {v.name: {int(i.value): i.name for i in v.declaredType.items} for v in md.modelVariables if v.type == "Enumeration"}
+    runner = runner_observables(grains_bin, root, tmp_path, model, overrides, every, chunks, items)
 
     assert list(result["step"]) == [every * k for k in range(chunks + 1)]
     compared = 0
