@@ -150,7 +150,7 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     write_new_warnings(out, sim, warnings_written);
     out.write_checkpoint({.step = sim.step_count(), .stage = last, .unreached = unreached, .time = sim.time(),
                           .wall_seconds = earlier_seconds + status.elapsed_seconds(),
-                          .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .threads = sim.threads(),
+                          .cvode_seconds = earlier_cvode + sim.get("cvode_seconds"), .threads = sim.threads(), .gravity_kernels = gravity_kernels(),
                           .state = sim.save_state(),
                           .stage_progress = std::move(progress)});
     next_checkpoint = next_multiple();
@@ -460,6 +460,7 @@ int resume_consolidation(const std::string& path, const Scene& scene, RunCheckpo
   std::ofstream csv(table, std::ios::app);
   if (!csv) throw std::runtime_error(fmt::format("cannot write the stage table '{}'", table));
   out.set_attribute("status", fmt::format("resumed in stage {} at step {}", from.stage, cp.step));
+  warn_of_other_gravity_kernels(path, scene, cp, out);
   if (!quiet)
     fmt::print(stderr, "resuming '{}' {} steps into stage {} (step {}, t = {:.6g})\n", path, from.steps, from.stage, cp.step, cp.time);
   return run_stages(scene, settings, *sim, out, csv, table, kept.eol, quiet, from, cp.unreached, cp.wall_seconds, cp.cvode_seconds);

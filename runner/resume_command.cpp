@@ -12,6 +12,7 @@
 
 #include "consolidate_command.hpp"
 #include "core/simulation.hpp"
+#include "interactions/gravity_direct.hpp"
 #include "io/file_kind.hpp"
 #include "io/scene.hpp"
 #include "output_paths.hpp"
@@ -64,6 +65,18 @@ int resume_run(const std::string& path, bool quiet) {
   check_records_at_step(path, scene, cp);
   // A programme's file names its stage table.
   return cp.stage_table.empty() ? resume_plain_run(path, scene, cp, quiet) : resume_consolidation(path, scene, cp, quiet);
+}
+
+std::string gravity_kernels() { return gravity_direct::isa_name(gravity_direct::fastest_isa()); }
+
+void warn_of_other_gravity_kernels(const std::string& path, const Scene& scene, const RunCheckpoint& cp, H5mdWriter& out) {
+  if (!scene.boolean("gravity.enabled") || cp.gravity_kernels.empty() || cp.gravity_kernels == gravity_kernels()) return;
+  const std::string said = fmt::format(
+      "resumed at step {} with the {} gravity kernels, where the run used {} (another processor, or GRAINS_GRAVITY_ISA): "
+      "their sums differ in the last bits, so from step {} on this run is not the unbroken run bit for bit",
+      cp.step, gravity_kernels(), cp.gravity_kernels, cp.step);
+  fmt::print(stderr, "warning: '{}': {}\n", path, said);
+  out.write_warning(said);
 }
 
 Scene stored_scene(const std::string& path, const RunCheckpoint& cp) {

@@ -2,6 +2,7 @@
 #include <string>
 
 #include "io/h5md_checkpoint.hpp"
+#include "io/h5md_writer.hpp"
 
 namespace grains {
 
@@ -16,5 +17,12 @@ int resume_run(const std::string& path, bool quiet);
 // checkpoint (the one before it if that state does not fit) after checking it has the run's particles.
 Scene stored_scene(const std::string& path, const RunCheckpoint& cp);
 void restore_checkpoint(Simulation& sim, const std::string& path, RunCheckpoint& cp);
+
+// The gravity kernels this process uses, as checkpoints record them.
+std::string gravity_kernels();
+// Where a self-gravitating run goes on with other gravity kernels than its checkpoint's (another processor, or
+// GRAINS_GRAVITY_ISA), said on stderr and in the file's warnings: from the checkpoint's step its last bits differ
+// from the unbroken run's.
+void warn_of_other_gravity_kernels(const std::string& path, const Scene& scene, const RunCheckpoint& cp, H5mdWriter& out);
 
 }  // namespace grains

@@ -74,7 +74,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
       // A stopped run always leaves one, so that `grains resume` can continue it.
       if ((checkpoint_every > 0 && done % checkpoint_every == 0 && !last) || stopping)
         out.write_checkpoint({.step = done, .time = sim.time(), .wall_seconds = earlier_seconds + progress.elapsed_seconds(),
-                              .threads = sim.threads(), .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
+                              .threads = sim.threads(), .gravity_kernels = gravity_kernels(), .state = sim.save_state(), .observables_at_step = done % obs_every == 0,
                               .frame_at_step = snap_every > 0 && done % snap_every == 0});
       if (!quiet) progress.update(done);
     }
@@ -171,6 +171,7 @@ int resume_plain_run(const std::string& path, const Scene& scene, RunCheckpoint&
   if (stop_requested()) return 130;
   H5mdWriter out(path, cp, scene.boolean("output.xdmf"), observable_names(*prepared.sim));
   out.set_attribute("status", fmt::format("resumed at step {}", cp.step));
+  warn_of_other_gravity_kernels(path, scene, cp, out);
   out.flush();
   if (!quiet) fmt::print(stderr, "resuming '{}' at step {} of {} (t = {:.6g})\n", path, cp.step, *prepared.steps, cp.time);
   return continue_run(scene, *prepared.sim, out, *prepared.steps, prepared.stop_at_aggregation, quiet, cp.wall_seconds);

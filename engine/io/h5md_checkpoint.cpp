@@ -43,6 +43,7 @@ void read_slot_attributes(hid_t d, double step, double warning_rows, const std::
   cp.wall_seconds = h5::read_attr_in(d, "wall_seconds", 0, 0, kHuge, false, path);
   cp.cvode_seconds = h5::read_attr_in(d, "cvode_seconds", 0, 0, kHuge, false, path);
   cp.threads = int(h5::read_attr_in(d, "threads", 0, 0, kMaxThreads, true, path));
+  cp.gravity_kernels = h5::read_attr_string(d, "gravity_kernels", "", path);
   cp.stage_progress = h5::read_attr_doubles(d, "stage_progress", path);
   cp.observables_at_step = h5::read_attr_in(d, "observables_at_step", 1, 0, 1, true, path) == 1;
   cp.frame_at_step = h5::read_attr_in(d, "frame_at_step", 1, 0, 1, true, path) == 1;

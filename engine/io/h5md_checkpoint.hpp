@@ -19,6 +19,9 @@ struct RunCheckpoint {
   // The worker threads the run used (0: not recorded, before 2026-12-05): a resume uses as many, since the
   // sums' order, and so the results' last bits, depend on the count (automatic counts follow the cores).
   int threads = 0;
+  // The gravity kernels' instruction set ("avx512", "avx2", "portable"; "" where not recorded): their sums' last bits
+  // differ between sets, unlike the pair loop's, so a resume on another processor continues with other bits.
+  std::string gravity_kernels;
   std::vector<std::byte> state;           // Simulation::save_state()
   // `grains consolidate` stopped inside a stage (StageProgress::values(): the stage under way, its steps and
   // its quench's counters); empty: at the end of `stage`.

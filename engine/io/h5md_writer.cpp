@@ -650,6 +650,7 @@ void H5mdWriter::write_checkpoint(const RunCheckpoint& cp) {
   h5::attr_double(d.get(), "wall_seconds", cp.wall_seconds, m.path);
   h5::attr_double(d.get(), "cvode_seconds", cp.cvode_seconds, m.path);
   h5::attr_double(d.get(), "threads", cp.threads, m.path);
+  h5::attr_string(d.get(), "gravity_kernels", cp.gravity_kernels, m.path);
   h5::attr_string(d.get(), "scene_check_sum", m.scene_check, m.path);
   h5::attr_double(d.get(), "stage", cp.stage, m.path);
   h5::attr_double(d.get(), "unreached", double(cp.unreached), m.path);

@@ -108,6 +108,35 @@ def test_a_killed_run_resumes_from_its_last_checkpoint_to_the_records_of_an_unbr
         assert x.read().count("<Grid Name=\"frame") == len(a["particles/position"][0]) == 9
 
 
+def test_a_resume_with_other_gravity_kernels_says_so(grains_bin, root, tmp_path):
+    """The gravity kernels' sums differ between instruction sets in their last bits (the pair loop's do not): a
+    self-gravitating run resumed where other kernels are picked (another processor, GRAINS_GRAVITY_ISA) is not the
+    unbroken run bit for bit, which the resume says, on stderr and in the file's warnings. With the same kernels it
+    says nothing and ends with the unbroken run's records."""
+    import os
+    avx2 = subprocess.run([grains_bin, "check", root / "models/aggregation.toml"], capture_output=True, text=True,
+                          env={**os.environ, "GRAINS_GRAVITY_ISA": "avx2"})
+    if avx2.returncode != 0:
+        pytest.skip("this processor runs the portable gravity kernels only")
+    portable = {**os.environ, "GRAINS_GRAVITY_ISA": "portable"}
+    whole = tmp_path / "whole.h5"
+    done = subprocess.run([grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD], env=portable)
+    assert done.returncode == 0
+    with h5py.File(whole) as f:
+        assert text(f["grains/checkpoint_0"].attrs["gravity_kernels"]) == "portable"
+    said = "gravity kernels, where the run used portable"
+    for env, warned in (({**os.environ, "GRAINS_GRAVITY_ISA": "avx2"}, True), (portable, False)):
+        killed = killed_copy(whole, tmp_path / f"killed-{warned}.h5")
+        resumed = subprocess.run([grains_bin, "resume", killed, "--quiet"], capture_output=True, text=True, env=env)
+        assert resumed.returncode == 0, resumed.stderr
+        assert (f"resumed at step 15000 with the avx2 {said}" in resumed.stderr) == warned, resumed.stderr
+        with h5py.File(killed) as f:
+            rows = [text(w) for w in f["grains/warnings"][()]]
+        assert any(said in w for w in rows) == warned, rows
+        if not warned:
+            assert_same_records(whole, killed)
+
+
 def test_a_file_whose_series_lost_rows_is_refused_not_resumed_out_of_step(grains_bin, root, tmp_path):
     """A series whose values are shorter than its steps (a damaged file) used to be extended with fill values and
     resumed to 'complete', its steps and values no longer matching."""
