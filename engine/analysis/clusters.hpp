@@ -1,8 +1,8 @@
 // Cluster graph of a particle configuration (physics.md section 8), open box.
 // Particles i and j are linked when their centre distance d < R_i + R_j + tol; clusters are the
-// connected components (union-find). The pair search uses a uniform cell grid of edge 2 R_max + tol,
-// or one per size class where sizes spread over more than a factor 2, so the cost is O(N) whatever the
-// spread of the particles and of their sizes.
+// connected components (union-find). The pair search (neighbours/size_class_pairs.hpp) uses a uniform cell
+// grid of edge 2 R_max + tol, or one per size class where sizes spread over more than a factor 2, so the cost
+// is O(N) whatever the spread of the particles and of their sizes.
 #pragma once
 #include <cstddef>
 #include <vector>

@@ -1,8 +1,8 @@
 // A hash of an integer grid cell, for sparse grids: the particles of an open box may spread over any range,
-// so the cells are not held in an array. The cluster analysis keys std::unordered_map by the cell, the
-// softened-core check its own open-addressed table (core/softened_core.cpp); the neighbour list, when a
-// dense grid would need too many cells, counting-sorts its particles into buckets (the hash's low bits), see
-// neighbours/neighbour_list.cpp.
+// so the cells are not held in an array. The flat open-addressed CellTable (core/cell_table.hpp) keys by it, for
+// the softened-core check (core/softened_core.cpp) and the size classes' pair search of the starting-overlap check
+// and the cluster analysis (neighbours/size_class_pairs.hpp); the neighbour list, when a dense grid would need too
+// many cells, counting-sorts its particles into buckets (the hash's low bits), see neighbours/neighbour_list.cpp.
 #pragma once
 #include <array>
 #include <cstddef>

@@ -1,4 +1,5 @@
-// Size classes of the grid searches (the neighbour list, the starting-overlap check, the cluster analysis):
+// Size classes of the grid searches (the neighbour list; the pair search of neighbours/size_class_pairs.hpp that the
+// starting-overlap check and the cluster analysis share):
 // class c holds radii in (r_max / 2^(c+1), r_max / 2^c], class 0 the largest; at most eight classes, the last
 // also holding every smaller radius. Each class gets a grid sized by its own largest grain, so that a few large
 // grains do not put a bed of small ones in every cell.

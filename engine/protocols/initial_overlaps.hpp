@@ -1,7 +1,7 @@
 // Pairs of starting particles that overlap beyond what the contact law takes (a given list or file): such a pair
 // flies apart with the energy of its clamped spring, and a coincident pair has no contact direction at all.
-// Grids of cells one diameter of each size class wide (the neighbour list's classes): O(N) for any layout, a few
-// grains far larger than the rest among them.
+// Grids of cells one diameter of each size class wide (the neighbour list's classes; neighbours/size_class_pairs.hpp,
+// shared with the cluster analysis): O(N) for any layout, a few grains far larger than the rest among them.
 #pragma once
 #include <cstddef>
 
