@@ -15,7 +15,7 @@ from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "runner"))
 import aggregation_sweep as sweep  # noqa: E402
-import reuse  # noqa: E402
+import scene_check  # noqa: E402
 
 
 def test_damping_ratio_and_restitution_are_inverse():
@@ -66,7 +66,7 @@ def test_an_override_of_a_sweep_default_replaces_it_and_each_key_is_given_once(g
         settings = sweep.run_settings(0.9, 10.0, 1, m_star, k_g, 1, overrides + ["time.steps_per_contact=40"], own)
         keys = [s.split("=", 1)[0] for s in settings]
         assert len(keys) == len(set(keys)), settings
-        scene = reuse.resolve(grains_bin, sweep.SCENE, settings)   # grains takes them as they are
+        scene = scene_check.resolve(grains_bin, sweep.SCENE, settings)   # grains takes them as they are
         assert scene["output"]["snapshots_every"] == snapshots and scene["time"]["steps_per_contact"] == 92
 
 
@@ -333,7 +333,7 @@ def test_a_folder_or_fifo_at_a_run_name_is_refused_not_deleted(grains_bin, tmp_p
     assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
     assert sorted(f.name for f in tmp_path.iterdir()) == ["z0p3-k6469-s1.h5", "z0p5-k6469-s1.h5"]   # nothing ran
     for zeta, kind in ((0.3, "a FIFO (named pipe)"), (0.5, "a folder")):   # no grains to run: it must not get there
-        with pytest.raises(sweep.reuse.RunFailed, match=re.escape(f"{sweep.run_name(zeta, 6469, 1)}.h5 is {kind}, ")):
+        with pytest.raises(sweep.child_runs.RunFailed, match=re.escape(f"{sweep.run_name(zeta, 6469, 1)}.h5 is {kind}, ")):
             sweep.run_point(tmp_path / "no-grains", zeta, 6469.0, 1, 0.5, 1.0, 1, [], tmp_path)
     assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
 
@@ -355,8 +355,8 @@ def test_a_run_left_interrupted_is_run_again_over_its_file(grains_bin, tmp_path)
            "--damping", "0.3", "--stiffness", "--jobs", "1", "--threads", "1", *small]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "finished zeta 0.3" in r.stdout, r.stdout + r.stderr
-    ran = sweep.reuse.stored(h5)   # the sweep's point, not the gas left there
-    assert sweep.reuse.ended(h5) and ran["scene"]["name"] == "aggregation" and ran["particles"]["count"] == 30
+    ran = sweep.run_files.stored(h5)   # the sweep's point, not the gas left there
+    assert sweep.run_files.ended(h5) and ran["scene"]["name"] == "aggregation" and ran["particles"]["count"] == 30
 
 
 def test_rank_correlation_gives_ties_their_mean_rank():

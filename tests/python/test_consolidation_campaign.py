@@ -18,7 +18,9 @@ from interrupt import interrupted
 
 sys.path.insert(0, str(ROOT / "runner"))
 import consolidation_campaign as campaign  # noqa: E402
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import run_files  # noqa: E402
+import run_reuse  # noqa: E402
 
 
 def write_table(path, rows):
@@ -205,7 +207,7 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     table = campaign.consolidate(grains_bin, scene, other, stem, "sample")
     assert "resuming" not in stem.with_suffix(".log").read_text() and table.read_text() != whole.read_text()
     # A finished sample is not taken as one run with other settings, nor run again over: refused, naming them.
-    with pytest.raises(reuse.Stale, match="programme.stage_budget = 20000 there, 10000 now"):
+    with pytest.raises(run_reuse.Stale, match="programme.stage_budget = 20000 there, 10000 now"):
         campaign.consolidate(grains_bin, scene, other, tmp_path / "whole", "whole")
     assert campaign.consolidate(grains_bin, scene, small + ["run.threads=2"], tmp_path / "whole", "whole") == whole
 
@@ -424,7 +426,7 @@ def test_report_beside_a_running_campaign_reads_the_sample_it_is_writing(grains_
         assert tool_run.poll() is None and grains_processes_writing_in(tmp_path), tool_run.communicate()
         with pytest.raises(OSError):   # the run holds HDF5's lock
             h5py.File(h5, "r").close()
-        assert reuse.stored(h5)["particles"]["count"] == 80
+        assert run_files.stored(h5)["particles"]["count"] == 80
         report = subprocess.run([sys.executable, script, *args, "--report"], capture_output=True, text=True)
         assert report.returncode == 0 and "other settings" not in report.stderr, report.stderr
         assert "consolidation: seeds 1–1, 80 disks;" in (tmp_path / "summary.md").read_text()
@@ -435,23 +437,23 @@ def test_report_beside_a_running_campaign_reads_the_sample_it_is_writing(grains_
 
 
 def test_a_fifo_at_a_runs_path_is_taken_as_not_ended_without_waiting(tmp_path):
-    """reuse.ended opened whatever the path held with h5py, which waits on a FIFO until something writes into it."""
+    """run_files.ended opened whatever the path held with h5py, which waits on a FIFO until something writes into it."""
     fifo = tmp_path / "run.h5"
     os.mkfifo(fifo)
-    code = f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse; print(reuse.ended({str(fifo)!r}))"
+    code = f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import run_files; print(run_files.ended({str(fifo)!r}))"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert (r.returncode, r.stdout) == (0, "False\n"), r.stderr
 
 
 def test_reading_or_comparing_a_fifo_at_a_runs_path_neither_waits_nor_calls_it_missing(tmp_path):
-    """reuse.read_unlocked opened a FIFO with h5py, which waits until something writes into it; reuse.difference
-    then said a FIFO at a sample's path was "missing"."""
+    """run_files.read_unlocked opened a FIFO with h5py, which waits until something writes into it;
+    run_reuse.difference then said a FIFO at a sample's path was "missing"."""
     fifo = tmp_path / "run.h5"
     os.mkfifo(fifo)
-    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse\n"
-            f"try:\n    reuse.read_unlocked({str(fifo)!r}, lambda f: 1)\n"
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import run_files, run_reuse\n"
+            f"try:\n    run_files.read_unlocked({str(fifo)!r}, lambda f: 1)\n"
             f"except OSError as e:\n    print(e)\n"
-            f"print(reuse.difference({{}}, {str(fifo)!r}))")
+            f"print(run_reuse.difference({{}}, {str(fifo)!r}))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert (r.returncode, r.stdout) == (0, f"'{fifo}' is a FIFO (named pipe), not an HDF5 file grains wrote\n"
                                            f"{fifo} is a FIFO (named pipe), not an HDF5 file grains wrote\n"), r.stderr
@@ -465,7 +467,7 @@ def test_a_folder_or_fifo_at_a_samples_name_is_refused_not_deleted(tmp_path):
     (tmp_path / "consolidation-seed5.h5").mkdir()
     for seed, kind in ((4, "a FIFO (named pipe)"), (5, "a folder")):
         stem = tmp_path / f"consolidation-seed{seed}"
-        with pytest.raises(reuse.RunFailed, match=re.escape(f"seed{seed}.h5 is {kind}, not a sample's HDF5 file")):
+        with pytest.raises(child_runs.RunFailed, match=re.escape(f"seed{seed}.h5 is {kind}, not a sample's HDF5 file")):
             campaign.consolidate(tmp_path / "no-grains", ROOT / "models/consolidation.toml", [], stem, f"seed {seed}")
     assert (tmp_path / "consolidation-seed4.h5").is_fifo() and (tmp_path / "consolidation-seed5.h5").is_dir()
 

@@ -152,8 +152,8 @@ def test_bad_arguments_end_in_one_line_naming_the_option(tmp_path, stage_table, 
 ])
 @pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
 def test_a_run_file_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, name, args, lead, kind):
-    """A folder or a FIFO given as the run's file was said not to exist (runner/reuse.py's not_a_run_file, in the words
-    of `grains resume`)."""
+    """A folder or a FIFO given as the run's file was said not to exist (runner/run_files.py's not_a_run_file, in the
+    words of `grains resume`)."""
     run = tmp_path / "run.h5"
     run.mkdir() if kind == "folder" else os.mkfifo(run)
     fill = lambda text: text.format(run=run, tmp=tmp_path)
