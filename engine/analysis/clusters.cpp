@@ -38,9 +38,8 @@ ClusterStats relabel(UnionFind& uf, const std::vector<double>& mass);
 // grains of each larger class in the 3^D cells around its own in that class's grid: it is no larger than any of them,
 // so a linked pair lies in neighbouring cells there. One grid of cells 2 R_max + tol wide put a whole cloud of small
 // grains in the cells around one large grain: 40,000 spheres and one of 20 diameters took 3.5 s an analysis (0.04 s
-// without it). (A large grain searching the smaller classes' grids within its reach, as until the second reading of
-// 2026-12-05, scanned (2 R / r)^D cells or every grain of the class: 20,000 disks of radius 1 and 20,000 of 0.001
-// spread thin took 0.6 s, the single grid 0.016 s.)
+// without it). A large grain does not search the smaller classes' grids within its reach instead: that scans
+// (2 R / r)^D cells or every grain of the class.
 template <int D>
 void link_by_size_class(const std::vector<Vec<D>>& x, const std::vector<double>& radius, double tol, double rmax,
                         double rmin, UnionFind& uf, std::size_t& tested) {

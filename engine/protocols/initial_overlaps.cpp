@@ -20,9 +20,8 @@ InitialOverlaps find_initial_overlaps(const Particles<D>& P, const Box<D>& box, 
   // smaller ones), each in a grid of cells one of its own largest diameters wide. One grid sized by the largest grain
   // put a whole bed of small grains in the cells around a large one: 159,000 disks and one of 40 diameters took 12 s
   // (0.2 s without it). With one class this is the single grid it was, visited in the same order. Each grain looks up
-  // the larger classes' grids, not a large grain the smaller classes' (as until the second reading of 2026-12-05: it
-  // scanned (2 R / r)^D cells or every grain of the class, 20,000 disks of radius 1 and 20,000 of 0.001 spread thin
-  // 1.5 s, the single grid 0.04 s).
+  // the larger classes' grids, not a large grain the smaller classes': that scans (2 R / r)^D cells or every grain of
+  // the class.
   const SizeClasses sizes(*std::max_element(P.radius.begin(), P.radius.end()),
                           *std::min_element(P.radius.begin(), P.radius.end()));
   const int classes = sizes.count;
