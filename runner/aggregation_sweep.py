@@ -180,8 +180,8 @@ def virial_peaks(t, q):
     The first peak is the first local maximum that stands out: the highest Q before Q first falls 20 % below
     it (to 1 / 1.2 of it, the margin that counts a second peak), among maxima that reach 10 % of Q's highest
     value, so that neither noise on the rise nor an early bump of a few collisions counts; Q's highest value
-    when Q never falls so. (Until 2026-12-04 it was always Q's highest value, which a later, higher peak, or a
-    run that heats up, took for the first.) The second is the point after the first peak that stands highest
+    when Q never falls so. (Not always Q's highest value: a later, higher peak, or a run that heats up, would
+    be taken for the first.) The second is the point after the first peak that stands highest
     above the lowest Q between them, counted as a peak when it rises at least 20 % above that low and reaches
     1 % of the first peak (else 0: a decay, or noise at the level of a frozen aggregate)."""
     t, q = np.asarray(t, float), np.asarray(q, float)

@@ -52,7 +52,7 @@ def hex_lattice(cells_x, cells_y):
 
 
 # grains refuses a periodic box no longer than twice the interaction reach, 2 R_max + the adhesion range D0 + the skin
-# (1 + 0.001 + 0.1 here); along x the box is --cells lattice constants long, and fewer cells than this ended the
+# (1 + 0.001 + 0.1 here); along x the box is --cells lattice constants long, and fewer cells than this would end the
 # benchmark, after its first LAMMPS run, in grains' message about box lengths, which does not name --cells.
 REACH = 1.0 + 1e-3 + 0.1
 MIN_CELLS = math.floor(2 * REACH / hex_lattice(1, 1)[1][0]) + 1

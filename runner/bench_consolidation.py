@@ -41,8 +41,8 @@ def grains(args, binary):
 
 
 def throughput(a):
-    # CVODE's own time and right-hand sides per particle step compare keeping its history with restarting it: a
-    # review (2026-12-07) found the rates of the two differ by more than CVODE's whole time, run to run.
+    # CVODE's own time and right-hand sides per particle step compare keeping its history with restarting it: the
+    # rates of the two differ by more than CVODE's whole time, run to run.
     print("| variant | particle-steps/s | CVODE share | CVODE us per particle step | CVODE right-hand sides per particle step |")
     print("|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as d:

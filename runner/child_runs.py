@@ -36,8 +36,8 @@ def run_child(command, **kwargs):
 
 def stop_children_on_term():
     """SIGTERM and SIGHUP (unless ignored) stop the tool as Ctrl-C does: its grains runs get SIGTERM, which they take
-    as Ctrl-C (a checkpoint, exit status 130), and the tool ends saying how to go on. Its runs used to go on alone
-    after the tool had gone, their tables left half-written."""
+    as Ctrl-C (a checkpoint, exit status 130), and the tool ends saying how to go on, rather than leave its runs
+    going on alone after it, their tables left half-written."""
     def stop(signum, frame):
         with _children_lock:
             for child in _children:

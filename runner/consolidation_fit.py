@@ -157,9 +157,8 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
         raise
     if scanned:
         # The scanned P0* is a fitted parameter too: the covariance of all five from the model's Jacobian. Scaling
-        # curve_fit's four-parameter covariance for the lost degree of freedom alone left out how P0* trades with
-        # lambda: 60 noisy curves of the paper's form scattered lambda 1.9 times, P1* 1.6 times the errors given (a
-        # review, 2026-12-07).
+        # curve_fit's four-parameter covariance for the lost degree of freedom alone leaves out how P0* trades with
+        # lambda: 60 noisy curves of the paper's form scatter lambda 1.9 times, P1* 1.6 times the errors it gives.
         cov = _covariance_with_p0(params, p0, p, ssr, joined)
     inv_phi0, lam, phi_max, alpha = params
     finite = np.all(np.isfinite(cov))
@@ -447,7 +446,7 @@ def main(argv=None):
         p, phi, branch = read_stages(args.table)
         loading = branch == "loading"
         regime2 = fit_regime_two(p[loading], phi[loading], args.p0, args.regime2_max)
-        if not regime2["lambda"] > max(2 * regime2["lambda_err"], 1e-6):   # falling or flat Phi: lambda <= 0 (a review)
+        if not regime2["lambda"] > max(2 * regime2["lambda_err"], 1e-6):   # falling or flat Phi: lambda <= 0
             raise ValueError(f"regime II fit: lambda = {regime2['lambda']:.4g} +- {regime2['lambda_err']:.2g}: Phi does "
                              f"not grow with P* in the loading stages up to P* = {args.regime2_max:g}, so they hold no "
                              "regime II to fit")

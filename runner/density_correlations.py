@@ -223,7 +223,7 @@ def target_pressure(row):
     """A stage table row's target P* (so that a stage short of its target is found and drawn where the
     programme meant it); its measured P* where the table has no target (older tables); none (NaN) for the
     aggregation, which runs in a fixed cell: its measured P* is no stage of the loading branch (in a short run it
-    came above the first loading targets and was taken as the branch's top, a review found, 2026-12-07)."""
+    comes above the first loading targets and would be taken as the branch's top)."""
     target = float(row.get("target_pressure") or "nan")
     if math.isfinite(target):
         return target

@@ -25,7 +25,7 @@ def not_a_regular_file(path):
 
 def not_a_file_to_write(path, whose, to_run):
     """Why a tool cannot write a run's output at `path`, or None: the name holds a folder, a FIFO, a device or a
-    socket, which grains refuses only when the run gets there (the tools once deleted a FIFO there). `whose`
+    socket, which grains refuses only when the run gets there (and a tool must not delete a FIFO there). `whose`
     ("a run's", "a sample's") names the file, `to_run` what would run there."""
     kind = not_a_regular_file(path)
     return (f"{path} is {kind}, not {whose} HDF5 file: move it out of the way (or give another --out) to run {to_run}"
