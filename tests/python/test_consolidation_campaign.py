@@ -280,8 +280,8 @@ def grains_processes_writing_in(folder):
 
 @pytest.mark.parametrize("tool", ["consolidation_campaign.py", "aggregation_sweep.py"])
 def test_sigterm_to_a_tool_alone_stops_its_runs_as_ctrl_c_does(grains_bin, tmp_path, tool):
-    """`kill PID` of the tool (not of its process group) used to end it silently while its grains runs went on
-    alone; now they get SIGTERM, stop with a checkpoint, and the tool says how to resume."""
+    """`kill PID` of the tool (not of its process group) must not end it silently with its grains runs going on
+    alone: they get SIGTERM, stop with a checkpoint, and the tool says how to resume."""
     if tool == "consolidation_campaign.py":
         args = ["--samples", "1", "--count", "80", "--scene", "consolidation", "--jobs", "1", "--threads", "1",
                 "--set", "programme.stage_budget=50000", "--set", "programme.aggregation_budget=300000"]
@@ -340,8 +340,8 @@ def test_a_set_the_engine_refuses_leaves_no_out_folder(grains_bin, tmp_path, too
 
 
 def test_a_sample_that_fails_ends_the_campaign_with_one_line_naming_its_log(grains_bin, tmp_path):
-    """A run that grains ends with an error (8 disks pass the scene checks but cannot be prepared) used to end the
-    campaign with a Python traceback."""
+    """A run that grains ends with an error (8 disks pass the scene checks but cannot be prepared) ends the campaign
+    with one line naming its log, not a Python traceback."""
     r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--samples", "1", "--count", "8",
                         "--scene", "consolidation", "--set", "programme.stage_budget=5000", "--set",
                         "programme.aggregation_budget=20000", "--grains", str(grains_bin), "--out", str(tmp_path)],
@@ -372,9 +372,9 @@ def test_the_spread_over_resampled_samples_shows_what_the_mean_curves_fit_error_
 
 
 def test_a_sample_whose_fit_has_no_plateau_below_phimax_is_left_out_of_the_mean():
-    """Seed 11 without rolling resistance (the ten-sample campaign of 2026-12-05): the crossover form reaches
-    its stages only with Phi0 above Phimax (Phi0 = 4e14 at the old bound 1/Phi0 >= 0, P1* below P0*), and its
-    lambda of 3.5 +- 51 entered the per-sample mean. Such a fit is refused: the sample gives no lambda."""
+    """Seed 11 without rolling resistance (the ten-sample campaign in docs/): the crossover form reaches its stages
+    only with Phi0 above Phimax (Phi0 = 4e14 at a bound of 1/Phi0 >= 0, P1* below P0*), and its lambda of 3.5 +- 51
+    would enter the per-sample mean. Such a fit is refused: the sample gives no lambda."""
     table = ROOT / "docs" / "campaign-1400-10-samples-14e3020" / "consolidation-seed11.csv"
     s = campaign.summarise(table)
     assert math.isnan(s["lambda"]) and math.isnan(s["phi_max"])
@@ -502,8 +502,8 @@ def test_a_folder_at_a_samples_name_is_refused_before_initial_states_runs_but_no
 
 
 def test_a_programme_that_ends_without_its_stage_table_is_named_not_a_traceback(tmp_path):
-    """A --grains that exits 0 without writing the table ended the campaign in FileNotFoundError (a review,
-    2026-12-07); and the console says when a sample starts."""
+    """A --grains that exits 0 without writing the table is named, not a FileNotFoundError; and the console says when
+    a sample starts."""
     r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--grains", "/bin/true", "--out",
                         str(tmp_path / "c"), "--samples", "1", "--scene", "consolidation"], capture_output=True, text=True,
                        timeout=120)

@@ -114,8 +114,8 @@ def test_a_failed_grains_command_is_told_in_one_line(tmp_path):
 
 
 def test_bench_cohesive_refuses_more_threads_than_cores_before_running(grains_bin, tmp_path):
-    """--threads 3 on 2 cores ran LAMMPS on one core, then ended in a CalledProcessError traceback from mpirun -np 3,
-    whose reason (too few slots) was captured and never shown (a review, 2026-12-07)."""
+    """--threads 3 on 2 cores would run LAMMPS on one core, then end in a CalledProcessError traceback from mpirun
+    -np 3, whose reason (too few slots) is captured and never shown."""
     import os
     cores = len(os.sched_getaffinity(0))
     refused(tool("bench_cohesive.py", "--binary", grains_bin, "--threads", f"1,{cores + 1}", "--steps", "10", cwd=tmp_path),
