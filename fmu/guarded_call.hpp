@@ -41,8 +41,8 @@ Status guarded_call(const void* handle, const char* function, Body&& body) {
     }
   } release{handle, claim.outermost};
   // From inside another call on this instance (its host's logger calling back), only reads: a set, a reset or a
-  // state call there changed what the outer call was using (a review, 2026-12-07: a logger's set was lost to the
-  // rebuild around it, its snapshots_every = 0 divided by zero, its FreeFMUState freed the state being filled).
+  // state call there changes what the outer call is using (a logger's set is lost to the rebuild around it, its
+  // snapshots_every = 0 divides by zero, its FreeFMUState frees the state being filled).
   if (!claim.outermost && !reads_only(function))
     return in->error(fmt::format("{}: called from inside another call on this instance (its logger calling back): only "
                                  "reads (the Get functions, but for the FMU state's) and FreeInstance are allowed there",

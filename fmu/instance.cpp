@@ -206,7 +206,7 @@ Status Instance::ensure_built() {
     }
     for (const auto& [index, value] : pending_controls_) sim->set(index, value);
     // A rebuild (a parameter set again, in Initialization Mode too, as libcosim does) logs only the start-up
-    // warnings the host has not had from the simulation before (an outside review saw each twice).
+    // warnings the host has not had from the simulation before (else each is said twice).
     std::vector<std::string> said;
     if (sim_) said.assign(sim_->warnings().begin(), sim_->warnings().begin() + warnings_logged_);
     sim_ = std::move(sim);
@@ -326,10 +326,10 @@ Status Instance::do_step(const char* function, double current_time, double step,
   // or a few roundings of the host's time of a whole number of dt, the step is that many whole steps.
   const double dt = sim_->dt(), whole = std::round(duration / dt);
   const double rounding = 1e-9 * dt + 4 * std::numeric_limits<double>::epsilon() * (std::abs(current_time) + step);
-  // Any other step is taken in ceil(h / dt) equal steps. Whole steps and one shorter remainder (as until
-  // 2026-12-05) put a short step beside whole ones, where the contacts' sub-step charges (touching, parting,
-  // release), which take the next step to be as long, are off: a head-on collision's restitution came 6e-3
-  // off at h = 1.001 dt, and 4.5e-3 at 1.37 dt, against 2e-4 at h = dt.
+  // Any other step is taken in ceil(h / dt) equal steps. Whole steps and one shorter remainder would put a short
+  // step beside whole ones, where the contacts' sub-step charges (touching, parting, release), which take the next
+  // step to be as long, are off: a head-on collision's restitution comes 6e-3 off at h = 1.001 dt, and 4.5e-3 at
+  // 1.37 dt, against 2e-4 at h = dt.
   const double pieces = std::ceil(duration / dt);
   try {
     if (whole >= 1 && std::abs(duration - whole * dt) <= rounding) sim_->step_n(long(whole));
@@ -436,8 +436,8 @@ Status Instance::get(std::span<const std::uint32_t> refs, ValueType type, std::s
 
 void Instance::log_new_warnings(const std::vector<std::string>& said) {
   // The host's logger may call back into this instance to read, which runs the checks, which may add warnings. Each
-  // message is taken, and counted, before the logger sees it (a review, 2026-12-07: a logger reading an output had the
-  // first warning twice, and the next rebuild read past the list's end).
+  // message is taken, and counted, before the logger sees it (else a logger reading an output has the first warning
+  // twice, and the next rebuild reads past the list's end).
   while (sim_ && warnings_logged_ < sim_->warnings().size()) {
     const std::string message = sim_->warnings()[warnings_logged_++];
     if (std::find(said.begin(), said.end(), message) != said.end()) continue;
@@ -456,8 +456,7 @@ std::vector<std::string> Instance::moved_parameters() const {
 
 void Instance::log_new_meanings(const ModelTable& now) {
   // adhesion.force = 0 makes the consolidation cell cohesionless, and P* (the input cell.pressure) is then reduced by
-  // k_n, not F0: a host sweeping F0 down to 0 had its target jump by 11 orders of magnitude, with nothing said (an
-  // outside review, 2026-12-07).
+  // k_n, not F0: a host sweeping F0 down to 0 has its target jump by 11 orders of magnitude, which must be said.
   const std::vector<std::string> changed = moved_parameters();   // named as the cause
   for (std::size_t r = 0; r < now.variables.size() && r < table_.variables.size(); ++r) {
     const FmuVariable &is = now.variables[r], &was = table_.variables[r];

@@ -172,8 +172,8 @@ class Instance {
   std::map<std::size_t, double> pending_controls_;   // control values set before the Simulation exists
   std::unique_ptr<Simulation> sim_;
   // sim_'s warnings passed to the logger so far: those raised since, by a step or by the checks that run as a host
-  // reads the outputs (energy, pass-through), are logged at the end of that DoStep or read. Until 2026-12-05 a
-  // read's warnings waited for the next DoStep, so those of the last read before Terminate never reached the host.
+  // reads the outputs (energy, pass-through), are logged at the end of that DoStep or read, else those of the last
+  // read before Terminate never reach the host.
   std::size_t warnings_logged_ = 0;
   // The inputs' and outputs' new meanings ("name: description") logged so far, each once until a reset.
   std::vector<std::string> meanings_said_;

@@ -22,8 +22,8 @@ void copy_error(const char* what, char* error, std::size_t size) {
 GRAINS_PLUGIN_EXPORT void* grains_snapshot_open(const char* path, int dimension, const bool* periodic, const char* version,
                                                 const char* scene_toml, char* error, std::size_t error_size) {
   // Every HDF5 object is closed by its writer (at Terminate or FreeInstance). HDF5's own exit handler would close
-  // them again and crashed the host (SIGSEGV at its exit, after Terminate and FreeInstance had succeeded) where a
-  // write had failed (a full disk, a file-size limit; an outside review, 2026-12-07), as it did the runner. Asked
+  // them again and crash the host (SIGSEGV at its exit, after Terminate and FreeInstance have succeeded) where a
+  // write has failed (a full disk, a file-size limit), as it would the runner. Asked
   // before this library's first HDF5 call; a host that loaded the same HDF5 library itself keeps its own choice.
   static const bool no_exit_handler = (H5dont_atexit(), true);
   (void)no_exit_handler;

@@ -45,7 +45,12 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import run_files  # noqa: E402
+import run_reuse  # noqa: E402
+import scene_check  # noqa: E402
+import tool_args  # noqa: E402
+import tool_exits  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCENE = ROOT / "models" / "aggregation.toml"
@@ -115,7 +120,7 @@ def stable_steps_per_contact(grains, zeta, k_star, m_star, k_g, overrides):
         cmd += ["--set", s]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
-        raise reuse.SceneError(f"zeta {zeta:g}, k* {k_star:g}: {done.stderr.strip()}")
+        raise scene_check.SceneError(f"zeta {zeta:g}, k* {k_star:g}: {done.stderr.strip()}")
     found = re.search(r"time\.steps_per_contact (\d+) or more", done.stderr)
     if not found and "damped contacts" in done.stderr:   # the warning is there but its wording changed
         raise RuntimeError(f"zeta {zeta}: cannot read the steps per contact from grains check's warning: {done.stderr.strip()}")
@@ -139,20 +144,20 @@ def run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own=None):
 
 
 def not_a_run_name(h5):
-    """Why the sweep cannot write a run at `h5`, or None (reuse.not_a_file_to_write)."""
-    return reuse.not_a_file_to_write(h5, "a run's", "that point")
+    """Why the sweep cannot write a run at `h5`, or None (run_files.not_a_file_to_write)."""
+    return run_files.not_a_file_to_write(h5, "a run's", "that point")
 
 
 def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, own=None):
     """One run unless its complete output exists (main has checked that such a run ran the settings asked for
-    now); returns the path of its HDF5 file. Raises reuse.RunFailed when the run's name holds something other
+    now); returns the path of its HDF5 file. Raises child_runs.RunFailed when the run's name holds something other
     than a file (not_a_run_name)."""
     stem = out / run_name(zeta, k_star, seed, own)
     h5 = out / f"{stem.name}.h5"
-    if h5.exists() and reuse.ended(h5):
+    if h5.exists() and run_files.ended(h5):
         return h5
     if problem := not_a_run_name(h5):   # checked by main before any run; here too, as this is where it would go
-        raise reuse.RunFailed(problem)
+        raise child_runs.RunFailed(problem)
     # An interrupted run's file is run again from the start, on purpose (grains refuses to write over a run it could
     # resume unless told so). --overwrite rather than deleting it first: grains replaces the file only once it has
     # checked the scene and made the new one (FILE.part, renamed over it).
@@ -160,11 +165,11 @@ def run_point(grains, zeta, k_star, seed, m_star, k_g, threads, overrides, out, 
     for s in run_settings(zeta, k_star, seed, m_star, k_g, threads, overrides, own):
         cmd += ["--set", s]
     with (out / f"{stem.name}.log").open("w") as log:
-        code = reuse.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
-    if code == reuse.INTERRUPTED:
-        raise reuse.Interrupted(stem.name)
+        code = child_runs.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if code == child_runs.INTERRUPTED:
+        raise child_runs.Interrupted(stem.name)
     if code != 0:
-        raise reuse.RunFailed(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {code}; see {stem}.log")
+        raise child_runs.RunFailed(f"zeta {zeta}, k* {k_star:g}, seed {seed}: grains run exited with {code}; see {stem}.log")
     print(f"  finished zeta {zeta:g}, k* {k_star:g}, seed {seed}", flush=True)
     return h5
 
@@ -175,8 +180,8 @@ def virial_peaks(t, q):
     The first peak is the first local maximum that stands out: the highest Q before Q first falls 20 % below
     it (to 1 / 1.2 of it, the margin that counts a second peak), among maxima that reach 10 % of Q's highest
     value, so that neither noise on the rise nor an early bump of a few collisions counts; Q's highest value
-    when Q never falls so. (Until 2026-12-04 it was always Q's highest value, which a later, higher peak, or a
-    run that heats up, took for the first.) The second is the point after the first peak that stands highest
+    when Q never falls so. (Not always Q's highest value: a later, higher peak, or a run that heats up, would
+    be taken for the first.) The second is the point after the first peak that stands highest
     above the lowest Q between them, counted as a peak when it rises at least 20 % above that low and reaches
     1 % of the first peak (else 0: a decay, or noise at the level of a frozen aggregate)."""
     t, q = np.asarray(t, float), np.asarray(q, float)
@@ -534,21 +539,21 @@ def main(argv=None):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
     out = pathlib.Path(args.out)
-    reuse.check_out(ap, out, args.report)
+    tool_args.check_out(ap, out, args.report)
     if args.threads < 0:
         ap.error(f"--threads = {args.threads}: must be 0 (automatic) or more")
-    reuse.refuse_controlled(ap, args.set, {"contact.restitution": "--damping, --fixed-damping",
-                                           "contact.duration": "--stiffness, --fixed-stiffness",
-                                           "particles.seed": "--seeds", "run.threads": "--threads"})
+    tool_args.refuse_controlled(ap, args.set, {"contact.restitution": "--damping, --fixed-damping",
+                                               "contact.duration": "--stiffness, --fixed-stiffness",
+                                               "particles.seed": "--seeds", "run.threads": "--threads"})
     # grains resolves the scene with the overrides, applies the damped-packing rule and says what the runs ran
     if not pathlib.Path(args.grains).is_file():
         ap.error(f"--grains {args.grains}: no such file (build first: cmake --build build)")
     if not os.access(args.grains, os.X_OK):
         ap.error(f"--grains {args.grains}: not executable")
     try:
-        scene = reuse.resolve(args.grains, SCENE, args.set)   # the grain's mass, size and G with the overrides
+        scene = scene_check.resolve(args.grains, SCENE, args.set)   # the grain's mass, size and G with the overrides
         m_star, k_g = grain(scene)
-    except (reuse.SceneError, ValueError) as error:
+    except (scene_check.SceneError, ValueError) as error:
         ap.exit(2, f"{ap.prog}: {error}\n")
     fixed_stiffness = args.fixed_stiffness or scene_point(scene, m_star, k_g)[1]
     # Run names carry k* to 4 digits: values that name their runs alike are one point, the first one's (the
@@ -604,25 +609,25 @@ def main(argv=None):
         pairs = list(dict.fromkeys(pairs))
         try:
             own = {(z, k): own_settings(z, k) for z, k in pairs}
-        except reuse.SceneError as error:
+        except scene_check.SceneError as error:
             ap.exit(2, f"{ap.prog}: {error}\n")
         files = {(z, k, s): out / f"{run_name(z, k, s, own[(z, k)])}.h5" for z, k in pairs for s in seeds}
         occupied = [problem for problem in map(not_a_run_name, files.values()) if problem]
         if occupied:   # before any run: the sweep would stop at the first of them, its other runs under way
             ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
         if args.report:   # what is complete; a point without a complete run is left out, and said so
-            missing = [f for f in files.values() if not reuse.ended(f)]
+            missing = [f for f in files.values() if not run_files.ended(f)]
             if missing:
                 print(f"note: --report: {len(missing)} of {len(files)} run(s) are not complete (left out; their points "
                       f"too, where no seed is complete): {', '.join(map(str, missing[:3]))}{' ...' if len(missing) > 3 else ''}",
                       flush=True)
-            files = {key: f for key, f in files.items() if reuse.ended(f)}
+            files = {key: f for key, f in files.items() if run_files.ended(f)}
             pairs = [(z, k) for z, k in pairs if any((z, k, s) in files for s in seeds)]
         stale = []   # complete runs are taken as they are only if they ran what would run now
         for (z, k, s), h5 in files.items():
-            if reuse.ended(h5):
-                now = reuse.resolve(args.grains, SCENE, run_settings(z, k, s, m_star, k_g, threads, args.set, own[(z, k)]))
-                differs = reuse.difference(now, h5)
+            if run_files.ended(h5):
+                now = scene_check.resolve(args.grains, SCENE, run_settings(z, k, s, m_star, k_g, threads, args.set, own[(z, k)]))
+                differs = run_reuse.difference(now, h5)
                 if differs:
                     stale.append(f"  - {h5}: {differs}")
         if stale:
@@ -652,13 +657,13 @@ def main(argv=None):
     refused = []
     for z, k in dict.fromkeys(maybe):
         try:
-            reuse.resolve(args.grains, SCENE, run_settings(z, k, 1, m_star, k_g, threads, args.set, own_settings(z, k)))
-        except reuse.SceneError as error:
+            scene_check.resolve(args.grains, SCENE, run_settings(z, k, 1, m_star, k_g, threads, args.set, own_settings(z, k)))
+        except scene_check.SceneError as error:
             refused.append(f"  - zeta {z:g}, k* {k:g}: {str(error).removeprefix(f'zeta {z:g}, k* {k:g}: ')}")
     if refused:
         ap.exit(2, f"{ap.prog}: error: grains refuses {len(refused)} of the sweep's points (nothing was run):\n"
                    + "\n".join(refused) + "\n")
-    reuse.make_out(ap, out)   # only now, so that a sweep refused above leaves no folder behind
+    tool_args.make_out(ap, out)   # only now, so that a sweep refused above leaves no folder behind
     print(f"damping sweep: {len(args.damping)} points at k* = {fixed_stiffness:.4g}, {args.seeds} seed(s) each", flush=True)
     damping = points([(z, fixed_stiffness) for z in args.damping])
     if not damping:   # --report, with no complete run of the damping sweep
@@ -704,10 +709,10 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    reuse.stop_children_on_term()
+    child_runs.stop_children_on_term()
     try:
         sys.exit(main())
-    except (KeyboardInterrupt, reuse.Interrupted):
-        sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "complete runs are kept, interrupted ones run again"))
-    except reuse.RunFailed as error:
-        sys.exit(reuse.failed(pathlib.Path(__file__).name, error))
+    except (KeyboardInterrupt, child_runs.Interrupted):
+        sys.exit(tool_exits.interrupted(pathlib.Path(__file__).name, "complete runs are kept, interrupted ones run again"))
+    except child_runs.RunFailed as error:
+        sys.exit(tool_exits.failed(pathlib.Path(__file__).name, error))

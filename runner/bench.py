@@ -23,17 +23,19 @@ import h5py
 from compare_lammps import lammps_pair_style
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import lammps_peers  # noqa: E402
+import tool_args  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
 def grains_rate(binary, scene, steps, threads, workdir):
     out = workdir / f"{scene}-{threads}.h5"
-    reuse.run_grains("bench.py", [binary, "run", ROOT / "models" / f"{scene}.toml", "--quiet", "--out", out,
-                                  "--set", f"time.steps={steps}", "--set", f"run.threads={threads}",
-                                  "--set", "output.snapshots_every=0", "--set", f"output.observables_every={steps}",
-                                  "--set", "output.xdmf=false"])
+    child_runs.run_grains("bench.py", [binary, "run", ROOT / "models" / f"{scene}.toml", "--quiet", "--out", out,
+                                       "--set", f"time.steps={steps}", "--set", f"run.threads={threads}",
+                                       "--set", "output.snapshots_every=0", "--set", f"output.observables_every={steps}",
+                                       "--set", "output.xdmf=false"])
     with h5py.File(out, "r") as f:
         build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
         build = build.decode() if isinstance(build, bytes) else str(build)
@@ -69,12 +71,12 @@ def main():
     ap.add_argument("--no-lammps", action="store_true", help="grains only")
     ap.add_argument("--repeat", type=int, default=1, help="runs of every configuration (medians reported)")
     args = ap.parse_args()
-    args.peers = reuse.peers_folder(ap, args.peers, "gas.lmp", ROOT.parent / "shared" / "peers")
-    reuse.require_binary(ap, "--binary", args.binary)
-    reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
+    args.peers = lammps_peers.peers_folder(ap, args.peers, "gas.lmp", ROOT.parent / "shared" / "peers")
+    tool_args.require_binary(ap, "--binary", args.binary)
+    tool_args.require_counts(ap, steps=args.steps, repeat=args.repeat)
     have_lammps = not args.no_lammps and shutil.which("lmp") and (args.peers / "gas.lmp").exists()
     if not args.no_lammps and not have_lammps:
-        print(f"note: {reuse.peer_missing(args.peers, 'gas.lmp')}: grains only, no ratios", file=sys.stderr)
+        print(f"note: {lammps_peers.peer_missing(args.peers, 'gas.lmp')}: grains only, no ratios", file=sys.stderr)
 
     runs = {}   # (scene, threads) -> [(grains, LAMMPS)] in run order
     with tempfile.TemporaryDirectory() as tmp:

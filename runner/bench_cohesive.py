@@ -34,7 +34,9 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import lammps_peers  # noqa: E402
+import tool_args  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DENSITY = 1.05    # the peer's `lattice hex 1.05`
@@ -50,7 +52,7 @@ def hex_lattice(cells_x, cells_y):
 
 
 # grains refuses a periodic box no longer than twice the interaction reach, 2 R_max + the adhesion range D0 + the skin
-# (1 + 0.001 + 0.1 here); along x the box is --cells lattice constants long, and fewer cells than this ended the
+# (1 + 0.001 + 0.1 here); along x the box is --cells lattice constants long, and fewer cells than this would end the
 # benchmark, after its first LAMMPS run, in grains' message about box lengths, which does not name --cells.
 REACH = 1.0 + 1e-3 + 0.1
 MIN_CELLS = math.floor(2 * REACH / hex_lattice(1, 1)[1][0]) + 1
@@ -141,9 +143,9 @@ skin = 0.1
 def grains_run(binary, scene, steps, threads, work):
     """(wall seconds of the stepping, contacts at the end, pair loop build) of a grains run of `steps` steps."""
     out = work / "run.h5"
-    reuse.run_grains("bench_cohesive.py", [binary, "run", scene, "--quiet", "--out", out, "--set", f"time.steps={steps}",
-                                           "--set", f"run.threads={threads}", "--set", "output.snapshots_every=0",
-                                           "--set", f"output.observables_every={steps}", "--set", "output.xdmf=false"])
+    child_runs.run_grains("bench_cohesive.py", [binary, "run", scene, "--quiet", "--out", out, "--set", f"time.steps={steps}",
+                                                "--set", f"run.threads={threads}", "--set", "output.snapshots_every=0",
+                                                "--set", f"output.observables_every={steps}", "--set", "output.xdmf=false"])
     with h5py.File(out, "r") as f:
         contacts = float(f["observables/contacts/value"][-1])
         build = f["grains"].attrs.get("pair_loop_build", b"?")   # which vector build of the pair loop ran
@@ -197,14 +199,14 @@ def main():
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds (each grains law right after a LAMMPS run, each round); medians and the range of the ratios")
     args = ap.parse_args()
-    args.peers = reuse.peers_folder(ap, args.peers, "disks2d.lmp", ROOT.parent / "shared" / "peers")
-    reuse.require_binary(ap, "--binary", args.binary)
-    reuse.require_counts(ap, steps=args.steps, repeat=args.repeat)
+    args.peers = lammps_peers.peers_folder(ap, args.peers, "disks2d.lmp", ROOT.parent / "shared" / "peers")
+    tool_args.require_binary(ap, "--binary", args.binary)
+    tool_args.require_counts(ap, steps=args.steps, repeat=args.repeat)
     if args.cells < MIN_CELLS:
         ap.error(f"--cells = {args.cells}: must be at least {MIN_CELLS}: grains needs the periodic box along x "
                  f"({args.cells} x {hex_lattice(1, 1)[1][0]:.4g}) longer than twice the interaction reach, {2 * REACH:.4g}")
     try:
-        reuse.require_counts(ap, threads=min(int(t) for t in args.threads.split(",")))
+        tool_args.require_counts(ap, threads=min(int(t) for t in args.threads.split(",")))
     except ValueError:
         ap.error(f"--threads {args.threads}: give core counts separated by commas, such as 1,2")
     # more ranks than cores: mpirun refuses them (after the runs before), and a rate on shared cores says nothing
@@ -213,7 +215,7 @@ def main():
         ap.error(f"--threads {args.threads}: {most} is more than the {cores} core(s) this machine gives the benchmark")
     have_lammps = shutil.which("lmp") and (args.peers / "disks2d.lmp").exists()
     if not have_lammps:
-        print(f"note: {reuse.peer_missing(args.peers, 'disks2d.lmp')}: grains only, no ratios", file=sys.stderr)
+        print(f"note: {lammps_peers.peer_missing(args.peers, 'disks2d.lmp')}: grains only, no ratios", file=sys.stderr)
     runs = {}   # (variant, threads) -> [(grains, LAMMPS of the same round, contacts)]
     pair_style = peer_pair_style(args.peers)
     with tempfile.TemporaryDirectory() as tmp:

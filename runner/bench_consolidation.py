@@ -27,7 +27,8 @@ import time
 import h5py
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import tool_args  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -35,13 +36,13 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 def grains(args, binary):
     """Runs grains: what it printed and the wall time; a failed run ends the benchmark with grains' own reason."""
     t = time.perf_counter()
-    stdout = reuse.run_grains("bench_consolidation.py", [binary, *args])
+    stdout = child_runs.run_grains("bench_consolidation.py", [binary, *args])
     return stdout, time.perf_counter() - t
 
 
 def throughput(a):
-    # CVODE's own time and right-hand sides per particle step compare keeping its history with restarting it: a
-    # review (2026-12-07) found the rates of the two differ by more than CVODE's whole time, run to run.
+    # CVODE's own time and right-hand sides per particle step compare keeping its history with restarting it: the
+    # rates of the two differ by more than CVODE's whole time, run to run.
     print("| variant | particle-steps/s | CVODE share | CVODE us per particle step | CVODE right-hand sides per particle step |")
     print("|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as d:
@@ -138,7 +139,7 @@ def main():
     ap.add_argument("--jobs", type=int, help="settings: runs at a time (one thread each; default 2)")
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     a = ap.parse_args()
-    reuse.require_counts(ap, steps=a.steps, count=a.count, seeds=a.seeds, jobs=a.jobs)
+    tool_args.require_counts(ap, steps=a.steps, count=a.count, seeds=a.seeds, jobs=a.jobs)
     # Each benchmark reads only its own options: one given to another is refused, not ignored.
     reads = {"throughput": {"steps"}, "cycle": {"count"}, "settings": {"count", "seeds", "jobs"}}[a.what]
     for name in ("steps", "count", "seeds", "jobs"):
@@ -146,7 +147,7 @@ def main():
             ap.error(f"--{name}: not read by {a.what} (it reads {', '.join('--' + r for r in sorted(reads))})")
     a.steps, a.seeds, a.jobs = a.steps or 20000, a.seeds or 3, a.jobs or 2
     a.count = a.count or (1400 if a.what == "cycle" else 300)
-    reuse.require_binary(ap, "--grains", a.grains)
+    tool_args.require_binary(ap, "--grains", a.grains)
     {"throughput": throughput, "cycle": cycle, "settings": settings}[a.what](a)
 
 

@@ -15,7 +15,9 @@ import tempfile
 import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import scene_check  # noqa: E402
+import tool_args  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -28,14 +30,14 @@ def main():
     ap.add_argument("--calls", type=int, default=20000, help="empty doStep calls timed")
     ap.add_argument("--threads", type=int, default=None, help="run.threads for both (default: the scene's, 2)")
     args = ap.parse_args()
-    reuse.require_counts(ap, repeat=args.repeat, calls=args.calls, threads=args.threads)
+    tool_args.require_counts(ap, repeat=args.repeat, calls=args.calls, threads=args.threads)
     if not pathlib.Path(args.build, "fmus").is_dir():
         ap.error(f"--build {args.build}: no fmus folder there (build first: cmake --build build)")
     if args.duration is not None and not 0 < args.duration < math.inf:
         ap.error(f"--duration = {args.duration}: must be a finite number > 0")
     build = pathlib.Path(args.build)
     grains = build / "runner" / "grains"
-    reuse.require_binary(ap, "--build", grains)
+    tool_args.require_binary(ap, "--build", grains)
     os.environ["GRAINS_FMU_DIR"] = str(build / "fmus")
     sys.path.insert(0, str(ROOT / "tests" / "python"))
     import fmpy
@@ -56,10 +58,10 @@ def main():
                                     ("--threads", args.threads, f"run.threads={args.threads}")):
         if value is not None:
             try:
-                reuse.resolve(grains, scene, [override])
-            except reuse.SceneError as error:
+                scene_check.resolve(grains, scene, [override])
+            except scene_check.SceneError as error:
                 asked = f" ({steps:.3g} steps of dt = {dt:.6g})" if option == "--duration" else ""
-                ap.error(f"{option} = {value}: grains refuses it{asked}: {reuse.engine_refusal(error)}")
+                ap.error(f"{option} = {value}: grains refuses it{asked}: {scene_check.engine_refusal(error)}")
     stop = steps * dt
     print(f"aggregation scene: {steps} steps of dt = {dt:.6g} (t = {stop:.6g}), communication step 100 dt")
 
@@ -69,8 +71,8 @@ def main():
     def runner():   # (wall, CPU) seconds of the whole command
         with tempfile.TemporaryDirectory() as tmp:
             c, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-            reuse.run_grains("bench_fmu.py", [grains, "run", scene, "--set", f"time.steps={steps}", *threads,
-                                              "--out", f"{tmp}/a.h5", "--quiet"])
+            child_runs.run_grains("bench_fmu.py", [grains, "run", scene, "--set", f"time.steps={steps}", *threads,
+                                                   "--out", f"{tmp}/a.h5", "--quiet"])
             c2 = resource.getrusage(resource.RUSAGE_CHILDREN)
             return time.perf_counter() - t, c2.ru_utime + c2.ru_stime - c.ru_utime - c.ru_stime
 

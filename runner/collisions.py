@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import run_files  # noqa: E402
+import tool_exits  # noqa: E402
 
 
 def fail(message):
@@ -44,7 +45,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     import h5py
 
-    if problem := reuse.not_a_run_file(args.run):
+    if problem := run_files.not_a_run_file(args.run):
         fail(f"run file '{args.run}' {problem}")
     try:
         f = h5py.File(args.run, "r")
@@ -81,4 +82,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "collisions.py"))
+    sys.exit(tool_exits.run_read_only(main, "collisions.py"))

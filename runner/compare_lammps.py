@@ -49,7 +49,8 @@ import numpy as np
 from bench_cohesive import disk_state, hooke_history_law, peer_pair_style
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import run_files  # noqa: E402
+import tool_args  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DIAMETER, MASS = 1.0, 1.0
@@ -68,15 +69,15 @@ def out_folder_problem(out, names):
         if not os.access(out, os.W_OK | os.X_OK):
             return f"--out {out}: no permission to write into this folder"
         for name in names:
-            if kind := reuse.not_a_regular_file(out / name):
+            if kind := run_files.not_a_regular_file(out / name):
                 return f"--out {out}: {out / name} is {kind}: move it out of the way, or give another --out"
         return None
     if os.path.lexists(out):
-        kind = reuse.not_a_regular_file(out) or ("a file" if out.exists() else "a link to nothing")
+        kind = run_files.not_a_regular_file(out) or ("a file" if out.exists() else "a link to nothing")
         return f"--out {out} is {kind}, not a folder: give a folder (made if missing)"
     place = next(p for p in out.absolute().parents if p.exists())   # the folder it would be made in
     if not place.is_dir():
-        return f"--out {out}: no folder can be made there: {place} is {reuse.not_a_regular_file(place) or 'a file'}"
+        return f"--out {out}: no folder can be made there: {place} is {run_files.not_a_regular_file(place) or 'a file'}"
     if not os.access(place, os.W_OK | os.X_OK):
         return f"--out {out}: no folder can be made there: no permission to write into {place}"
     return None
@@ -287,10 +288,10 @@ def main():
     ap.add_argument("--peers", type=pathlib.Path, default=ROOT.parent / "shared" / "peers")
     ap.add_argument("--binary", type=pathlib.Path, default=ROOT / "build" / "runner" / "grains")
     args = ap.parse_args()
-    reuse.require_counts(ap, steps=args.steps)
+    tool_args.require_counts(ap, steps=args.steps)
     if problem := out_folder_problem(args.out, ["summary.md", "lammps-comparison.png"]):
         ap.error(problem)
-    reuse.require_binary(ap, "--binary", args.binary)
+    tool_args.require_binary(ap, "--binary", args.binary)
     if not (args.peers / "gas_data.py").is_file():
         ap.error(f"--peers {args.peers}: no gas_data.py there (the shared peer inputs)")
     args.binary = args.binary.resolve()   # the runs start in a scratch directory

@@ -63,7 +63,8 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import scene_check  # noqa: E402
+import tool_args  # noqa: E402
 from compare_lammps import grains_scene, lammps_data, make_out_after_runs, out_folder_problem, run, write_table  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -514,12 +515,12 @@ def main():
     if problem := out_folder_problem(args.out, ["summary.md", "lammps-gravity.png"]):
         ap.error(problem)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
-    reuse.require_binary(ap, "--binary", args.binary)
+    tool_args.require_binary(ap, "--binary", args.binary)
     for seed in args.seeds:   # the engine's range (to 9.2e18), which it checked only when the seed's first run began
         try:
-            reuse.resolve(args.binary, SCENE, [f"particles.seed={seed}"])
-        except reuse.SceneError as error:
-            ap.error(f"--seeds {seed}: grains refuses it: {reuse.engine_refusal(error)}")
+            scene_check.resolve(args.binary, SCENE, [f"particles.seed={seed}"])
+        except scene_check.SceneError as error:
+            ap.error(f"--seeds {seed}: grains refuses it: {scene_check.engine_refusal(error)}")
     if not shutil.which("lmp"):
         sys.exit(f"{ap.prog}: error: LAMMPS (`lmp`, Debian package lammps) is not installed; bash runner/with_lammps.sh compare_lammps_gravity.py installs it")
     kn, cn, m_star = kn_cn()

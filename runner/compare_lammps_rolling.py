@@ -61,7 +61,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import tool_args  # noqa: E402
 from compare_lammps import grains_scene, lammps_data, lammps_thermo, make_out_after_runs, out_folder_problem, run, write_table  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -494,13 +494,13 @@ def main():
     ap.add_argument("--pairs-only", action="store_true", help="only part 1 (seconds)")
     ap.add_argument("--dims", type=int, nargs="+", choices=(2, 3), default=[2, 3], help="the packings' dimensions")
     args = ap.parse_args()
-    reuse.require_counts(ap, steps=args.steps, seeds=args.seeds)
+    tool_args.require_counts(ap, steps=args.steps, seeds=args.seeds)
     if args.steps < 2000 or args.steps % PACK_EVERY:
         ap.error(f"--steps = {args.steps}: must be a multiple of {PACK_EVERY}, at least 2000")
     if problem := out_folder_problem(args.out, ["summary.md"]):
         ap.error(problem)
     args.binary = args.binary.resolve()   # the runs start in a scratch directory
-    reuse.require_binary(ap, "--binary", args.binary)
+    tool_args.require_binary(ap, "--binary", args.binary)
     if not shutil.which("lmp"):
         sys.exit(f"{ap.prog}: error: LAMMPS (`lmp`, Debian package lammps) is not installed; "
                  "bash runner/with_lammps.sh compare_lammps_rolling.py installs it")

@@ -76,7 +76,7 @@ std::vector<std::string> csv_fields(const std::string& line) {
 }
 
 // The new rows go in grains' column order: under a header with its columns moved or removed (a spreadsheet's edit)
-// they would put values under other names, or more fields than the header has (an outside review, 2026-12-07).
+// they would put values under other names, or more fields than the header has.
 void check_table_header(const std::string& table, const std::string& found, const std::string& written,
                         const std::string& path) {
   if (found == written) return;
@@ -90,7 +90,7 @@ void check_table_header(const std::string& table, const std::string& found, cons
 }
 
 // A kept table's rows repeat the file's stage records (P_star and phi as the rows print them): else another run has
-// rewritten the table since, and a resume would go on below its rows (an outside review, 2026-12-07).
+// rewritten the table since, and a resume would go on below its rows.
 void check_rows_match_records(const std::string& table, const std::vector<std::string>& kept, const RunCheckpoint& cp,
                               const std::string& path) {
   if (kept.empty() || cp.stage_pressure.size() != kept.size() || cp.stage_solid_fraction.size() != kept.size()) return;
@@ -205,9 +205,9 @@ int run_stages(const Scene& scene, const ProgrammeSettings& settings, Simulation
     write_frame(out, sim);
     status.finish();
     write_new_warnings(out, sim, warnings_written);
-    // Contacts past the overlap clamp carry a capped force: the stage's equilibrium is that of another law. Counted
-    // in the outputs only, such stages went by unsaid (a review, 2026-12-07: "equilibrium" at P* = 2000 with the
-    // largest overlap twice the clamp). Said at the first such stage.
+    // Contacts past the overlap clamp carry a capped force: the stage's equilibrium is that of another law ("equilibrium"
+    // at P* = 2000 with the largest overlap twice the clamp), which the outputs' count alone does not say. Said at the
+    // first such stage.
     if (const double clamped = sim.has("clamped_contacts") ? sim.get("clamped_contacts") : 0.0; clamped > 0 && !clamp_warned) {
       clamp_warned = true;
       const std::string what = fmt::format(

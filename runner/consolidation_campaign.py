@@ -45,7 +45,12 @@ from consolidation_fit import (BRANCH, FLAG, NUMBER, REDUCED_PRESSURE, SOLID_FRA
 import density_correlations  # noqa: E402
 import force_distribution  # noqa: E402
 from density_correlations import analyse, loading_frame, read_frames, target_pressure  # noqa: E402
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import run_files  # noqa: E402
+import run_reuse  # noqa: E402
+import scene_check  # noqa: E402
+import tool_args  # noqa: E402
+import tool_exits  # noqa: E402
 from stage_traces import first_compressions, plot_first_compressions  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -73,30 +78,30 @@ def consolidate(grains, scene_file, overrides, stem, label):
     """Runs `grains consolidate` on scene_file with the overrides unless STEM.csv exists; the table is
     written as STEM.partial.csv and renamed when the programme ends, the output goes to STEM.h5 and the
     console to STEM.log. A finished sample (STEM.csv) is taken only if it ran the scene and overrides given
-    now (its STEM.h5 says which; the thread count aside), else reuse.Stale is raised. An interrupted run (its
-    partial table and output left) continues from its last checkpoint (`grains resume`: a stage's end, or where
-    Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again from the start, over
-    its file (`grains consolidate --overwrite`), when it was not or cannot. Raises reuse.Interrupted when Ctrl-C
-    stops the run. Returns the path of the table."""
+    now (its STEM.h5 says which; the thread count aside), else run_reuse.Stale is raised. An interrupted run
+    (its partial table and output left) continues from its last checkpoint (`grains resume`: a stage's end, or
+    where Ctrl-C stopped it) if it was started with the same scene and overrides, or runs again from the start,
+    over its file (`grains consolidate --overwrite`), when it was not or cannot. Raises child_runs.Interrupted
+    when Ctrl-C stops the run. Returns the path of the table."""
     table = stem.with_suffix(".csv")
     partial, h5 = stem.with_suffix(".partial.csv"), stem.with_suffix(".h5")
-    if problem := reuse.not_a_file_to_write(h5, "a sample's", label):   # below, an unfinished sample's file is replaced
-        raise reuse.RunFailed(problem)
-    now = reuse.resolve(grains, scene_file, overrides)
+    if problem := run_files.not_a_file_to_write(h5, "a sample's", label):   # below, an unfinished sample's file is replaced
+        raise child_runs.RunFailed(problem)
+    now = scene_check.resolve(grains, scene_file, overrides)
     if table.exists():
-        differs = reuse.difference(now, h5) if h5.exists() else None   # no HDF5 file: an archived table (docs/)
+        differs = run_reuse.difference(now, h5) if h5.exists() else None   # no HDF5 file: an archived table (docs/)
         if differs:
-            raise reuse.Stale(f"{table}: {differs}")
+            raise run_reuse.Stale(f"{table}: {differs}")
         return table
-    if partial.exists() and h5.exists() and reuse.difference(now, h5) is None:
-        if reuse.ended(h5):   # it ended, but the table was not renamed (the tool stopped just then)
+    if partial.exists() and h5.exists() and run_reuse.difference(now, h5) is None:
+        if run_files.ended(h5):   # it ended, but the table was not renamed (the tool stopped just then)
             finish(partial, table, h5)
             return table
         print(f"  resuming {label} from its last checkpoint (log: {stem.with_suffix('.log')})", flush=True)
         with stem.with_suffix(".log").open("a") as log:
-            code = reuse.run_child([grains, "resume", h5], stdout=log, stderr=subprocess.STDOUT)
-        if code == reuse.INTERRUPTED:   # its checkpoint is kept for the next try
-            raise reuse.Interrupted(label)
+            code = child_runs.run_child([grains, "resume", h5], stdout=log, stderr=subprocess.STDOUT)
+        if code == child_runs.INTERRUPTED:   # its checkpoint is kept for the next try
+            raise child_runs.Interrupted(label)
         if code == 0:
             finish(partial, table, h5)
             print(f"  finished {label} (resumed)", flush=True)
@@ -109,11 +114,11 @@ def consolidate(grains, scene_file, overrides, stem, label):
         cmd += ["--set", o]
     print(f"  started {label} (log: {stem.with_suffix('.log')})", flush=True)
     with stem.with_suffix(".log").open("w") as log:
-        code = reuse.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
-    if code == reuse.INTERRUPTED:
-        raise reuse.Interrupted(label)
+        code = child_runs.run_child(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if code == child_runs.INTERRUPTED:
+        raise child_runs.Interrupted(label)
     if code != 0:
-        raise reuse.RunFailed(f"{label}: grains consolidate exited with {code}; see {stem}.log")
+        raise child_runs.RunFailed(f"{label}: grains consolidate exited with {code}; see {stem}.log")
     finish(partial, table, h5)
     print(f"  finished {label}", flush=True)
     return table
@@ -124,8 +129,8 @@ def finish(partial, table, h5):
     file find the table by it)."""
     import h5py
     if not partial.is_file():   # a grains that ended well without writing it (another program given as --grains)
-        raise reuse.RunFailed(f"{table.stem}: the programme ended without its stage table {partial}; see "
-                              f"{table.with_suffix('.log')}")
+        raise child_runs.RunFailed(f"{table.stem}: the programme ended without its stage table {partial}; see "
+                                   f"{table.with_suffix('.log')}")
     partial.rename(table)
     with h5py.File(h5, "r+") as f:
         f["grains"].attrs["stage_table"] = np.bytes_(table.name.encode())   # fixed length, as grains writes it
@@ -133,10 +138,11 @@ def finish(partial, table, h5):
 
 def refuse_occupied_names(ap, samples):
     """Before any sample runs (a report writes none): exits with status 2 when a sample's file name holds a folder
-    or FIFO (reuse.not_a_file_to_write; checked again where each sample starts), which the campaign would otherwise
-    meet only on reaching that sample, the samples before it run or under way. `samples` as check_samples'."""
+    or FIFO (run_files.not_a_file_to_write; checked again where each sample starts), which the campaign would
+    otherwise meet only on reaching that sample, the samples before it run or under way. `samples` as
+    check_samples'."""
     occupied = [problem for _, _, stem in samples
-                if (problem := reuse.not_a_file_to_write(stem.with_suffix(".h5"), "a sample's", stem.name))]
+                if (problem := run_files.not_a_file_to_write(stem.with_suffix(".h5"), "a sample's", stem.name))]
     if occupied:
         ap.exit(2, f"{ap.prog}: error: " + "\n".join(occupied) + "\n")
 
@@ -148,15 +154,15 @@ def check_samples(ap, grains, samples, report=False):
     stale = []
     for scene_file, overrides, stem in samples:
         try:
-            now = reuse.resolve(grains, scene_file, overrides)
-        except reuse.SceneError as error:
+            now = scene_check.resolve(grains, scene_file, overrides)
+        except scene_check.SceneError as error:
             ap.exit(2, f"{ap.prog}: {error}\n")
         tables = [stem.with_suffix(".csv")] + ([stem.with_suffix(".partial.csv")] if report else [])
         table = next((t for t in tables if t.exists()), None)
         if table and not stem.with_suffix(".h5").exists():   # an archived table (docs/campaign-*) keeps no HDF5 file
             print(f"note: {table}: no {stem.name}.h5 beside it, so the settings it ran are not checked", file=sys.stderr)
             continue
-        differs = table and reuse.difference(now, stem.with_suffix(".h5"))
+        differs = table and run_reuse.difference(now, stem.with_suffix(".h5"))
         if differs:
             stale.append(f"  - {table}: {differs}")
     if stale:
@@ -166,17 +172,17 @@ def check_samples(ap, grains, samples, report=False):
 
 def check_arguments(ap, args):
     """The checks shared with runner/initial_states.py: counts of at least 1, --out a folder (with --report it
-    must exist; reuse.make_out makes it once the samples' scenes passed check_samples), and an executable grains binary
-    unless only reporting (the report checks it once it has found tables)."""
-    reuse.refuse_controlled(ap, args.set, {"particles.seed": "--first-seed and --samples", "particles.count": "--count",
-                                           "run.threads": "--threads" if hasattr(args, "threads") else "one thread each"})
+    must exist; tool_args.make_out makes it once the samples' scenes passed check_samples), and an executable
+    grains binary unless only reporting (the report checks it once it has found tables)."""
+    tool_args.refuse_controlled(ap, args.set, {"particles.seed": "--first-seed and --samples", "particles.count": "--count",
+                                               "run.threads": "--threads" if hasattr(args, "threads") else "one thread each"})
     for name, value in (("--samples", args.samples), ("--count", args.count), ("--jobs", args.jobs), ("--first-seed", args.first_seed)):
         if value < 1:
             ap.error(f"{name} = {value}: must be at least 1")
     out = pathlib.Path(args.out)
-    reuse.check_out(ap, out, args.report)
+    tool_args.check_out(ap, out, args.report)
     if not args.report:
-        reuse.require_binary(ap, "--grains", args.grains)
+        tool_args.require_binary(ap, "--grains", args.grains)
 
 
 def provenance(args, names):
@@ -468,12 +474,12 @@ def main():
         partial = {key for key in found if found[key][1]}
         if not tables:   # as the other campaign tools do: nothing to summarise is an error, not an empty report
             ap.error(f"--report: no stage table of {', '.join(scenes)} for seeds {seeds.start}..{seeds.stop - 1} in {out}")
-        reuse.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
+        tool_args.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
         check_samples(ap, args.grains, samples, report=True)
     else:
         refuse_occupied_names(ap, samples)
         check_samples(ap, args.grains, samples)
-        reuse.make_out(ap, out)
+        tool_args.make_out(ap, out)
         import dask
         tasks = {(scene, seed): dask.delayed(run_sample)(args.grains, scene, seed, args.count, threads, args.set, out)
                  for scene in scenes for seed in seeds}
@@ -536,14 +542,14 @@ def main():
 
 
 if __name__ == "__main__":
-    reuse.stop_children_on_term()
+    child_runs.stop_children_on_term()
     try:
         main()
-    except (KeyboardInterrupt, reuse.Interrupted):
+    except (KeyboardInterrupt, child_runs.Interrupted):
         if REPORTING:   # a report runs nothing: there is nothing to resume
             print(f"{pathlib.Path(__file__).name}: interrupted; nothing was run", file=sys.stderr)
-            sys.exit(reuse.INTERRUPTED)
-        sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished samples are kept, interrupted ones continue "
-                                                          "from their last checkpoint"))
-    except reuse.RunFailed as error:
-        sys.exit(reuse.failed(pathlib.Path(__file__).name, error))
+            sys.exit(child_runs.INTERRUPTED)
+        sys.exit(tool_exits.interrupted(pathlib.Path(__file__).name, "finished samples are kept, interrupted ones continue "
+                                                               "from their last checkpoint"))
+    except child_runs.RunFailed as error:
+        sys.exit(tool_exits.failed(pathlib.Path(__file__).name, error))

@@ -30,7 +30,8 @@ import numpy as np
 from scipy.optimize import curve_fit, minimize_scalar
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import run_files  # noqa: E402
+import tool_exits  # noqa: E402
 
 
 def inverse_phi_regime_two(p, inv_phi0, lam, p0):
@@ -156,9 +157,8 @@ def fit_crossover(p, phi, p0=None, guess=None, joined=False):
         raise
     if scanned:
         # The scanned P0* is a fitted parameter too: the covariance of all five from the model's Jacobian. Scaling
-        # curve_fit's four-parameter covariance for the lost degree of freedom alone left out how P0* trades with
-        # lambda: 60 noisy curves of the paper's form scattered lambda 1.9 times, P1* 1.6 times the errors given (a
-        # review, 2026-12-07).
+        # curve_fit's four-parameter covariance for the lost degree of freedom alone leaves out how P0* trades with
+        # lambda: 60 noisy curves of the paper's form scatter lambda 1.9 times, P1* 1.6 times the errors it gives.
         cov = _covariance_with_p0(params, p0, p, ssr, joined)
     inv_phi0, lam, phi_max, alpha = params
     finite = np.all(np.isfinite(cov))
@@ -237,7 +237,7 @@ class StageTable:
 
     def __init__(self, path, empty=False):
         self.path = pathlib.Path(path)
-        if kind := reuse.not_a_regular_file(self.path):   # open would wait on a FIFO until something writes into it
+        if kind := run_files.not_a_regular_file(self.path):   # open would wait on a FIFO until something writes into it
             raise TableError(f"stage table '{self.path}' is {kind}, not a CSV file")
         self.header, self.rows, self.lines = [], [], []
         try:
@@ -302,7 +302,7 @@ def recorded_table(h5):
     """The stage table a `grains consolidate` HDF5 file names (its grains group's stage_table attribute, a path
     relative to the file's folder), or None when the file is unreadable, not a regular file or names none."""
     import h5py
-    if reuse.not_a_regular_file(h5):   # h5py would wait on a FIFO until something writes into it
+    if run_files.not_a_regular_file(h5):   # h5py would wait on a FIFO until something writes into it
         return None
     try:
         with h5py.File(h5, "r") as f:
@@ -350,7 +350,7 @@ def read_stages(path):
     path = pathlib.Path(path)
     if not path.exists():
         raise FileNotFoundError(f"stage table '{path}' does not exist")
-    if kind := reuse.not_a_regular_file(path):   # a FIFO: open and h5py would wait for a writer
+    if kind := run_files.not_a_regular_file(path):   # a FIFO: open and h5py would wait for a writer
         raise TableError(f"stage table '{path}' is {kind}: name the stage table (CSV) or the HDF5 file grains "
                          "consolidate wrote with it")
     if path.suffix in (".h5", ".hdf5"):   # the stage table grains consolidate wrote with it
@@ -446,7 +446,7 @@ def main(argv=None):
         p, phi, branch = read_stages(args.table)
         loading = branch == "loading"
         regime2 = fit_regime_two(p[loading], phi[loading], args.p0, args.regime2_max)
-        if not regime2["lambda"] > max(2 * regime2["lambda_err"], 1e-6):   # falling or flat Phi: lambda <= 0 (a review)
+        if not regime2["lambda"] > max(2 * regime2["lambda_err"], 1e-6):   # falling or flat Phi: lambda <= 0
             raise ValueError(f"regime II fit: lambda = {regime2['lambda']:.4g} +- {regime2['lambda_err']:.2g}: Phi does "
                              f"not grow with P* in the loading stages up to P* = {args.regime2_max:g}, so they hold no "
                              "regime II to fit")
@@ -472,4 +472,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "consolidation_fit.py"))
+    sys.exit(tool_exits.run_read_only(main, "consolidation_fit.py"))

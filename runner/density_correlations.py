@@ -31,8 +31,10 @@ import numpy as np
 from scipy.optimize import OptimizeWarning, curve_fit
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
-from reuse import FramesError, increasing, numbers  # noqa: E402
+import dataset_checks  # noqa: E402
+import run_files  # noqa: E402
+import tool_exits  # noqa: E402
+from dataset_checks import FramesError, increasing, numbers  # noqa: E402
 from consolidation_fit import stage_table_of  # noqa: E402
 from disk_grid import density_field  # noqa: E402
 from pore_sizes import pore_sizes  # noqa: E402
@@ -193,7 +195,7 @@ def read_frames(path, dimensions=(2,), need="density correlations need 2D disks"
                 return np.full(len(steps), np.nan)
             obs_steps = numbers(f, path, f"observables/{name}/step", 1)
             values = numbers(f, path, f"observables/{name}/value", 1)
-            reuse.one_per_step(path, f"observables/{name}", obs_steps, "value", values)
+            dataset_checks.one_per_step(path, f"observables/{name}", obs_steps, "value", values)
             increasing(path, f"observables/{name}/step", obs_steps)
             lookup = dict(zip(obs_steps.tolist(), values.tolist()))
             return np.array([lookup.get(s, np.nan) for s in steps.tolist()], float)
@@ -221,7 +223,7 @@ def target_pressure(row):
     """A stage table row's target P* (so that a stage short of its target is found and drawn where the
     programme meant it); its measured P* where the table has no target (older tables); none (NaN) for the
     aggregation, which runs in a fixed cell: its measured P* is no stage of the loading branch (in a short run it
-    came above the first loading targets and was taken as the branch's top, a review found, 2026-12-07)."""
+    comes above the first loading targets and would be taken as the branch's top)."""
     target = float(row.get("target_pressure") or "nan")
     if math.isfinite(target):
         return target
@@ -297,7 +299,7 @@ def refuse_overwriting(ap, outputs, given, inputs):
     options the user named (the others are defaults beside the first input, and the message says so)."""
     for option, path in outputs.items():
         default = "" if given[option] else f" (the default; give {option})"
-        if kind := reuse.not_a_regular_file(path):
+        if kind := run_files.not_a_regular_file(path):
             ap.error(f"{option} '{path}' is {kind}: name a file to write{default}")
         if not path.resolve().parent.is_dir():
             ap.error(f"{option}: the folder '{path.parent}' of '{path}' does not exist")
@@ -371,7 +373,7 @@ def main(argv=None):
     names = {}   # path -> the name given
     for name in args.h5:
         path = pathlib.Path(name)
-        if problem := reuse.not_a_run_file(path):
+        if problem := run_files.not_a_run_file(path):
             ap.error(f"h5: '{path}' {problem}")
         if first := next((p for p in names if same_file(p, path)), None):   # pooled twice, it made "2 sample(s)"
             print(f"h5: '{name}' is the file '{names[first]}' again: counted once", file=sys.stderr)
@@ -477,4 +479,4 @@ def report(samples, pressures, points_per_diameter=8, k_max=2 * math.pi, out=Non
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "density_correlations.py"))
+    sys.exit(tool_exits.run_read_only(main, "density_correlations.py"))

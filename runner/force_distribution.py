@@ -24,7 +24,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import run_files  # noqa: E402
+import tool_exits  # noqa: E402
 from density_correlations import FramesError, loading_frame, read_frames, refuse_overwriting  # noqa: E402
 
 
@@ -96,7 +97,7 @@ def main(argv=None):
         ap.error(problem)
     paths = [pathlib.Path(p) for p in args.h5]
     for path in paths:
-        if problem := reuse.not_a_run_file(path):
+        if problem := run_files.not_a_run_file(path):
             ap.error(f"h5: '{path}' {problem}")
     stem = paths[0].with_suffix("")
     table = pathlib.Path(args.table) if args.table else stem.parent / f"{stem.name}-forces.csv"
@@ -201,4 +202,4 @@ def plot(panels, out, title, names):
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "force_distribution.py"))
+    sys.exit(tool_exits.run_read_only(main, "force_distribution.py"))

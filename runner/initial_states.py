@@ -28,7 +28,9 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from consolidation_campaign import (ROOT, check_arguments, check_samples, consolidate, provenance,  # noqa: E402
                                     refuse_occupied_names)
 from consolidation_fit import FLAG, NUMBER, SOLID_FRACTION, STEPS, StageTable, TableError  # noqa: E402
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import tool_args  # noqa: E402
+import tool_exits  # noqa: E402
 # name: (scene file, overrides, paper's Phi and error bar)
 STATES = {
     "cohesionless": ("cohesionless", [], (0.811, 0.001)),
@@ -72,9 +74,9 @@ def main():
     ap.add_argument("--grains", default=str(ROOT / "build" / "runner" / "grains"), help="the grains binary (default: build/runner/grains)")
     ap.add_argument("--report", action="store_true", help="run nothing: summarise the tables already in --out")
     args = ap.parse_args()
-    reuse.refuse_controlled(ap, args.set, {"programme.load": "a preparation stops before loading",
-                                           "programme.unload": "a preparation stops before loading",
-                                           "rolling.coefficient": "the state: a name ending in -rr has it"})
+    tool_args.refuse_controlled(ap, args.set, {"programme.load": "a preparation stops before loading",
+                                               "programme.unload": "a preparation stops before loading",
+                                               "rolling.coefficient": "the state: a name ending in -rr has it"})
     check_arguments(ap, args)
     states = args.state or list(STATES)
     seeds = range(args.first_seed, args.first_seed + args.samples)
@@ -89,11 +91,11 @@ def main():
         tables = {key: table for key, table in tables.items() if table.exists()}
         if not tables:
             ap.error(f"--report: no table of {', '.join(states)} for seeds {seeds.start}..{seeds.stop - 1} in {out}")
-        reuse.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
+        tool_args.require_binary(ap, "--grains", args.grains)   # to say whether the tables ran what the summary will say they did
     check_samples(ap, args.grains, runs)
     if not args.report:
         refuse_occupied_names(ap, runs)
-        reuse.make_out(ap, out)
+        tool_args.make_out(ap, out)
         import dask
         tasks = {(s, seed): dask.delayed(run)(args.grains, s, seed, args.count, args.set, out) for s in states for seed in seeds}
         print(f"initial states: {len(tasks)} runs of {args.count} disks, {args.jobs} at a time, logs in {out}/", flush=True)
@@ -152,11 +154,11 @@ def plot(final, path):
 
 
 if __name__ == "__main__":
-    reuse.stop_children_on_term()
+    child_runs.stop_children_on_term()
     try:
         main()
-    except (KeyboardInterrupt, reuse.Interrupted):
-        sys.exit(reuse.interrupted(pathlib.Path(__file__).name, "finished runs are kept, interrupted ones continue from "
-                                                          "their last checkpoint"))
-    except reuse.RunFailed as error:
-        sys.exit(reuse.failed(pathlib.Path(__file__).name, error))
+    except (KeyboardInterrupt, child_runs.Interrupted):
+        sys.exit(tool_exits.interrupted(pathlib.Path(__file__).name, "finished runs are kept, interrupted ones continue from "
+                                                               "their last checkpoint"))
+    except child_runs.RunFailed as error:
+        sys.exit(tool_exits.failed(pathlib.Path(__file__).name, error))

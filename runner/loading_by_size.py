@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import consolidation_campaign as campaign  # noqa: E402
-import reuse  # noqa: E402
+import tool_exits  # noqa: E402
 from consolidation_fit import TableError, crossover_curve, fit_crossover, fit_regime_two, guess_from_line  # noqa: E402
 
 
@@ -289,4 +289,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "loading_by_size.py"))
+    sys.exit(tool_exits.run_read_only(main, "loading_by_size.py"))

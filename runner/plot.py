@@ -26,7 +26,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import dataset_checks  # noqa: E402
+import run_files  # noqa: E402
+import tool_exits  # noqa: E402
 
 MAX_PANELS = 6
 # The default panels by the kind of scene: the first entry whose marker observable the file has gives the panels it
@@ -67,10 +69,10 @@ def fail(message):
 
 
 def read_run(path, read):
-    """read(file) on the file, also while a run still writes it (reuse.read_unlocked); a file that never opens is
+    """read(file) on the file, also while a run still writes it (run_files.read_unlocked); a file that never opens is
     reported."""
     try:
-        return reuse.read_unlocked(path, read)
+        return run_files.read_unlocked(path, read)
     except OSError as e:
         fail(f"cannot open '{path}' as HDF5: {e}")
 
@@ -98,7 +100,7 @@ def stage_window(f, group, path, stage):
              "--stage needs one")
     ends = group["solid_fraction/step"][()]
     # A finished programme has no stage under way after its last record.
-    stages = len(ends) - 1 if reuse.ended_in(f) else len(ends)
+    stages = len(ends) - 1 if run_files.ended_in(f) else len(ends)
     if not 0 <= stage < stages:
         fail(f"--stage {stage}: '{path}' has stages 0 to {stages - 1} ({len(ends) - 1} finished)")
     return ends[stage], ends[stage + 1] if stage + 1 < len(ends) else float("inf")
@@ -144,18 +146,18 @@ def observables_of(f, path, wanted, x_name, stage=None):
     # series' steps, times and values of different lengths: keep the records every series holds whole.
     # A file whose status says its run ended holds every series whole, each step after the one before: one that does
     # not is damaged (a series cut short in it was drawn cut, rotated steps as one point), and is refused.
-    rows, ended, shown = {}, reuse.ended_in(f), f"'{path}'"
+    rows, ended, shown = {}, run_files.ended_in(f), f"'{path}'"
     for n in dict.fromkeys(names + companions + ([x_name] if x_name else [])):
         name = element(n).name.lstrip("/")
         try:   # strings ended in matplotlib's AttributeError, a scalar step in a TypeError
-            step, t = (reuse.numbers(f, shown, f"{name}/{part}", 1) for part in ("step", "time"))
-            v = reuse.numbers(f, shown, f"{name}/value", (1, 2))   # a vector observable: one row of components a record
+            step, t = (dataset_checks.numbers(f, shown, f"{name}/{part}", 1) for part in ("step", "time"))
+            v = dataset_checks.numbers(f, shown, f"{name}/value", (1, 2))   # a vector observable: one row of components a record
             if ended:
                 for part, data in (("time", t), ("value", v)):
-                    reuse.one_per_step(shown, name, step, part, data, f" (its status is '{reuse.status_in(f)}': no "
-                                       "run is adding rows to it)")
-                reuse.increasing(shown, f"{name}/step", step)
-        except reuse.FramesError as error:
+                    dataset_checks.one_per_step(shown, name, step, part, data, f" (its status is '{run_files.status_in(f)}': no "
+                                                "run is adding rows to it)")
+                dataset_checks.increasing(shown, f"{name}/step", step)
+        except dataset_checks.FramesError as error:
             fail(str(error))
         whole = min(len(step), len(t), len(v))
         rows[n] = (step[:whole], t[:whole], v[:whole])
@@ -189,8 +191,8 @@ def read_context(path):
             fail(f"'{path}': parameters@scene.toml, the scene the run ran, is not TOML ({error})")
         name = "observables/aggregation_time/value"
         try:
-            values = reuse.numbers(f, f"'{path}'", name, 1) if name in f else []
-        except reuse.FramesError as error:
+            values = dataset_checks.numbers(f, f"'{path}'", name, 1) if name in f else []
+        except dataset_checks.FramesError as error:
             fail(str(error))
         return scene, float(values[-1]) if len(values) else float("nan")
     scene, t_agg = read_run(path, read)
@@ -218,7 +220,7 @@ def image_formats():
 def image_name_problem(option, out):
     """Why `out` cannot name a plot (its folder missing, no image format matplotlib writes, or a folder, FIFO or device
     at the name, which matplotlib met only after the figure was drawn), or None."""
-    if kind := reuse.not_a_regular_file(out):
+    if kind := run_files.not_a_regular_file(out):
         return f"{option} '{out}' is {kind}, not a file an image can be written to"
     if not Path(out).resolve().parent.is_dir():
         return f"{option}: the folder '{Path(out).parent}' of '{out}' does not exist"
@@ -316,7 +318,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     path = Path(args.run)
-    if problem := reuse.not_a_run_file(path):
+    if problem := run_files.not_a_run_file(path):
         fail(f"run file '{path}' {problem}")
     out = Path(args.out) if args.out else path.with_suffix(".png")
     if problem := image_name_problem("-o/--out" if args.out else "the image (RUN with .png; -o names another)", out):
@@ -346,4 +348,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "plot.py"))
+    sys.exit(tool_exits.run_read_only(main, "plot.py"))

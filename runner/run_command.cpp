@@ -121,7 +121,7 @@ int continue_run(const Scene& scene, Simulation& sim, H5mdWriter& out, long step
                            "cluster_index", "largest_cluster_fraction", "aggregation_time", "fractal_dimension", "normalised_stiffness",
                            "collision_count", "adhesive_collision_count", "adhesive_collision_fraction",
                            "open_collision_count",
-                           // a pressure-controlled cell: where the barostat got to (only in the file until 2026-12-07)
+                           // a pressure-controlled cell: where the barostat got to
                            "pressure_target", "pressure_reduced", "solid_fraction", "equilibrium", "coordination"}) {
     try {
       fmt::print("  {:<27} {:.6g}\n", name, sim.get(name));

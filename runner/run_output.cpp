@@ -56,7 +56,7 @@ void begin_output(H5mdWriter& out, const Scene& scene, const Simulation& sim, co
     write_frame(out, sim);
     write_observables(out, sim, recorded);
     // The initial state's observables run the checks too (an overlap already past the pass-through limit): their
-    // warnings were counted as written, and went neither to the file nor to stderr (an outside review, 2026-12-07).
+    // warnings go to the file and stderr here, not counted as written unseen.
     write_new_warnings(out, sim, from_simulation);
   } catch (const std::exception& e) {
     mark_failed(out, sim, e);

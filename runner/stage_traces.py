@@ -19,7 +19,9 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import reuse  # noqa: E402
+import dataset_checks  # noqa: E402
+import run_files  # noqa: E402
+import tool_exits  # noqa: E402
 from consolidation_fit import BRANCH, FLAG, SOLID_FRACTION, StageTable, TableError, Values, stage_table_of  # noqa: E402
 
 
@@ -60,27 +62,27 @@ def stage_course(h5, stage, start_time):
     def read(f):
         if "grains/trace/stage" not in f:
             return (np.array([]),) * 3
-        ended, shown = reuse.ended_in(f), f"'{h5}'"
-        why = f" (its status is '{reuse.status_in(f)}': no run is adding rows to it)"
+        ended, shown = run_files.ended_in(f), f"'{h5}'"
+        why = f" (its status is '{run_files.status_in(f)}': no run is adding rows to it)"
         parts = {}
         for name in ("stage", "solid_fraction", "pressure_reduced"):
             element = f"grains/trace/{name}"
-            step = reuse.numbers(f, shown, f"{element}/step", 1)
+            step = dataset_checks.numbers(f, shown, f"{element}/step", 1)
             for part in ("time", "value"):
-                parts[name, part] = reuse.numbers(f, shown, f"{element}/{part}", 1)
+                parts[name, part] = dataset_checks.numbers(f, shown, f"{element}/{part}", 1)
                 if ended:
-                    reuse.one_per_step(shown, element, step, part, parts[name, part], why)
+                    dataset_checks.one_per_step(shown, element, step, part, parts[name, part], why)
             if ended:
-                reuse.increasing(shown, f"{element}/step", step)
+                dataset_checks.increasing(shown, f"{element}/step", step)
         phi = parts["solid_fraction", "value"]
         if ended and (bad := [i for i, v in enumerate(phi) if not SOLID_FRACTION.within(v)]):
-            raise reuse.FramesError(f"{shown}: grains/trace/solid_fraction/value holds {phi[bad[0]]} (row {bad[0]}); "
-                                    f"{SOLID_FRACTION.allowed}")
+            raise dataset_checks.FramesError(f"{shown}: grains/trace/solid_fraction/value holds {phi[bad[0]]} (row {bad[0]}); "
+                                             f"{SOLID_FRACTION.allowed}")
         rows = min(len(v) for v in parts.values())
         here = parts["stage", "value"][:rows] == stage
         return (parts["stage", "time"][:rows][here] - start_time, phi[:rows][here],
                 parts["pressure_reduced", "value"][:rows][here])
-    return reuse.read_unlocked(h5, read)
+    return run_files.read_unlocked(h5, read)
 
 
 def first_compression_under_way(h5, rows):
@@ -88,8 +90,8 @@ def first_compression_under_way(h5, rows):
     has `rows` (its finished stages), is inside its first compression; None when it is not (still preparing, or its
     file says it ended). Its status says which: 'running' or 'resumed ...' while a process writes it (a killed one's
     reads the same), 'interrupted ...' (Ctrl-C) or 'failed ...' once it stopped."""
-    status, ended = reuse.read_unlocked(h5, lambda f: (reuse.status_in(f) or "", reuse.ended_in(f)))
-    preparation = (reuse.stored(h5) or {}).get("programme", {}).get("preparation", "none")
+    status, ended = run_files.read_unlocked(h5, lambda f: (run_files.status_in(f) or "", run_files.ended_in(f)))
+    preparation = (run_files.stored(h5) or {}).get("programme", {}).get("preparation", "none")
     if ended or len(rows) != PREPARATION_STAGES.get(preparation, 0):
         return None
     state = "still running" if status == "running" or status.startswith("resumed") else "stopped"
@@ -121,7 +123,7 @@ def labels_of(paths):
 
 def untraced(h5, stage):
     """Why the first compression under way in h5 (stage `stage`) has no trace rows to draw."""
-    scene = reuse.stored(h5) or {}
+    scene = run_files.stored(h5) or {}
     target = scene.get("cell", {}).get("pressure")
     what = f"stage {stage}, to P* = {target:g}" if isinstance(target, (int, float)) else f"stage {stage}"
     if scene.get("programme", {}).get("trace_every") == 0:
@@ -167,7 +169,7 @@ def first_compression(h5, label):
     without trace rows of its first compression."""
     if not h5.is_file():
         return []
-    import h5py  # late, as reuse imports it: --help works without it
+    import h5py  # late, as run_files imports it: --help works without it
     if not h5py.is_hdf5(h5):   # a stage table given in its place, say: read as one, it lacked the trace
         raise OSError("not an HDF5 file")
     table = stage_table_of(h5)
@@ -247,7 +249,7 @@ def main(argv=None):
                     help="image to write (default: first-compression.png in the current folder)")
     args = ap.parse_args(argv)
     for f in args.files:
-        if problem := reuse.not_a_run_file(f):
+        if problem := run_files.not_a_run_file(f):
             ap.error(f"'{f}' {problem}")
     from plot import image_name_problem
     if problem := image_name_problem("-o/--out", args.out):   # said before the files are read, not after
@@ -265,4 +267,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(reuse.run_read_only(main, "stage_traces.py"))
+    sys.exit(tool_exits.run_read_only(main, "stage_traces.py"))

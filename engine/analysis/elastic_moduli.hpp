@@ -13,8 +13,8 @@
 // geometric (prestress) terms F_N / d that the rotation of loaded springs adds are left out. Each is
 // smaller than K_N by F_N / (K_N d), an overlap over a diameter (1e-5 at kappa = 1e5 and P* ~ 1), and
 // with a distant bond's tail (F_N / d against -F0 / D0) by about D0 / a = 1e-3; but they act on the soft
-// transverse modes, and an outside review (2026-12-07) estimated them at up to 1.5e-3 of G (100 type-2
-// disks at P* = 1) and 8e-4 in a cohesionless packing, B less.
+// transverse modes: estimated at up to 1.5e-3 of G (100 type-2 disks at P* = 1) and 8e-4 in a cohesionless
+// packing, B less.
 //
 // The grains relax at fixed strain: U = X eps with K_uu X = -K_u,eps, so the cell sees the condensed
 // stiffness S = K_eps,eps + K_eps,u X (the inverse of the compliance obtained by solving K U = F_ext for

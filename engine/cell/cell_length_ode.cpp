@@ -82,10 +82,9 @@ int CellLengthOde::rhs(double, void* yv, void* ydv, void* self_) {
     // Strain-rate cap: the length moves at most at cap * L. At the cap the rate variable follows the
     // limit as L moves, d(+-cap L)/dt = cap * (cap L) for either sign, unless the forcing takes it back
     // inside: rate = +-cap L is then an invariant that CVODE's linear multistep keeps to round-off (the
-    // 1e-12 band keeps round-off from flipping the branch). Until 2026-12-05 the rate was held fixed
-    // there: compressing, L shrank under it and the rate wound up (7 times the limit after 40 time units
-    // at cap 0.05), so the cell went on shrinking for that much longer once the stress turned; expanding,
-    // the limit outgrew it and the branch flipped at every step (CVODE failed at rtol 1e-10).
+    // 1e-12 band keeps round-off from flipping the branch). A rate held fixed at the cap would wind up while
+    // compressing (L shrinks under it), so the cell would go on shrinking once the stress turned, and expanding
+    // the limit would outgrow it and flip the branch at every step.
     const double limit = p.rate_cap * L;
     if (std::abs(rate) >= limit * (1 - 1e-12)) {
       const double follow = p.rate_cap * limit;
@@ -118,8 +117,8 @@ void CellLengthOde::advance(double t_end, const double* stress_excess) {
     char* name = CVodeGetReturnFlagName(flag);   // malloc'ed by CVODE
     const std::string reason = name ? name : "unknown";
     std::free(name);
-    // Name the likeliest cause from the terms of the equation (a review, 2026-12-07: every failure blamed the mass,
-    // the pressure and the contacts, and quoted a damping without the contacts' share).
+    // Name the likeliest cause from the terms of the equation, and quote the damping with the contacts' share: a
+    // fixed list of suspects (the mass, the pressure, the contacts) misleads where the damping is the cause.
     const double h = t_end - t_, extra = *std::max_element(extra_damping_.begin(), extra_damping_.begin() + p_.axes);
     const double damping_steps = (p_.damping + extra) / p_.mass * h;   // the damping's rate times the step
     const bool finite_excess = std::all_of(excess_.begin(), excess_.begin() + p_.axes, [](double x) { return std::isfinite(x); });

@@ -114,7 +114,7 @@ class SimulationImpl final : public Simulation {
     return std::sqrt(length_unit_ * grain_mass_ / force_scale(reduced_pressure));
   }
   // The strain-rate cap I_a / T0, T0 = sqrt(a m / F0) at every pressure (physics.md section 9, the paper's
-  // eqs. 4-5; until 2026-12-04 it was I_a / T, sqrt(P*) times higher above P* = 1). A cohesionless cell
+  // eqs. 4-5; not I_a / T, which is sqrt(P*) times higher above P* = 1). A cohesionless cell
   // (F0 = 0) has no T0: it takes the pressure's force scale P a^(D-1), as the paper's inertia number does.
   double rate_cap(double reduced_pressure) const {
     const double force = force_unit_ > 0 ? force_unit_ : pressure_force(reduced_pressure);

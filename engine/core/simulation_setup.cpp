@@ -226,9 +226,9 @@ void SimulationImpl<D>::add_contact_module(const Scene& scene, double tc) {
 template <int D>
 double SimulationImpl<D>::add_adhesive_contact_module(const Scene& scene) {
   const double mstar_min = smallest_reduced_mass();
-  // Left out, D0 is the paper's D0 / a = 1e-3 of the grains' size: the fixed 1e-3 (until 2026-12-05) was a length in
-  // whatever units the scene is written (grains of 1e-6 m attracted across a thousand diameters, and the box was
-  // refused as too small for that reach).
+  // Left out, D0 is the paper's D0 / a = 1e-3 of the grains' size: a fixed 1e-3 would be a length in whatever units
+  // the scene is written (grains of 1e-6 m would attract across a thousand diameters, in a box refused as too small
+  // for that reach).
   const double a = unit_grain(scene, sys_.particles).diameter;
   AdhesiveContactLaw law{scene.real("adhesion.stiffness"), scene.real("adhesion.force"),
                          scene.has("adhesion.range") ? scene.real("adhesion.range") : 1e-3 * a,
@@ -305,8 +305,8 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
   const UnitGrain unit = unit_grain(scene, P);
   length_unit_ = unit.diameter;
   grain_mass_ = unit.mass;
-  // Without adhesion no force of the scene gives P* its unit: a fixed F0 = 1 (the default until 2026-12-05) made
-  // the same scene written in other units another pressure (forces x 1e-15: a target past the clamp, CVODE failed).
+  // Without adhesion no force of the scene gives P* its unit: a fixed F0 = 1 would make the same scene written in
+  // other units another pressure (forces x 1e-15: a target past the clamp, where CVODE fails).
   if (!scene.boolean("adhesion.enabled") && !scene.has("cell.force_unit"))
     scene.fail("cell.force_unit", "missing: without adhesion, give the force unit of P* in the scene's units, a value "
                                   "> 0 (P* = P a^(D-1) / value), or 0 (P* = P a^(D-2) / k_n)");
@@ -345,8 +345,8 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
   const double cell_stiffness = kn_ * cells;
   p.damping = scene.real("cell.damping_ratio") * 2 * std::sqrt(p.mass * cell_stiffness);
   // The cell's breathing against the contacts, stepped with the particles' forces frozen over a step, grows every
-  // step when the cell is too light for it (an outside review, 2026-12-07: cell.mass = 1e-4 m blew a 100-disk cell
-  // up to Phi = 0.07, unwarned). Measured thresholds: 3-4e-4 in a 50-disk 2D cell, 2-5e-4 in a 100-sphere 3D cell,
+  // step when the cell is too light for it (cell.mass = 1e-4 m blows a 100-disk cell up to Phi = 0.07). Measured
+  // thresholds: 3-4e-4 in a 50-disk 2D cell, 2-5e-4 in a 100-sphere 3D cell,
   // where M_c >= k_cell dt^2 asks 5.1e-4 and 1.1e-3 (k_cell = K_N (L / a)^(D-2), the cell's stiffness scale above).
   const double lightest = cell_stiffness * dt_ * dt_;
   cell_too_light_ = p.mass < lightest;
@@ -358,7 +358,7 @@ void SimulationImpl<D>::setup_cell(const Scene& scene, double list_reach) {
                      "step (time.steps_per_contact)", p.mass, lightest, cell_stiffness, dt_, default_mass));
   p.rate_cap = rate_cap(target_reduced_);
   // A cap so low that no run strains the cell: a force unit far below the scene's forces (T0 = sqrt(a m / F0) huge) or
-  // a vanishing inertia number held the cell still, with P* far from its target, unwarned (a review, 2026-12-07).
+  // a vanishing inertia number holds the cell still, with P* far from its target.
   if (const double steps = 0.01 / (p.rate_cap * dt_); !(steps <= 1e9))
     warn(fmt::format("cell.inertia_number = {:.6g} over T0 = sqrt(a m / F0) = {:.6g} (F0 = {:.6g}, {}) caps the cell's "
                      "strain rate at {:.6g}: at most {:.3g} of strain a step, {:.3g} steps for 1 %, so the cell cannot "

@@ -25,7 +25,7 @@ namespace grains {
 constexpr std::uint32_t state_format = 0x47524e11;
 
 // GCC 12 inlines the writer's first insert into its empty vector here and wrongly flags it as overflowing
-// (-Wstringop-overflow); in the one file the class once was, it inlined less and said nothing.
+// (-Wstringop-overflow).
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wstringop-overflow"
 template <int D>

@@ -160,7 +160,7 @@ void SimulationImpl<D>::describe_variables(const Scene& scene) {
                                           "slide (the consolidation paper finds none in equilibrium); NaN without friction");
     out("contacts_at_rolling_bound", "", "fraction of the contacts with a rolling spring whose |Gamma_R| is at mu_R F_N^e (to "
                                          "1e-6): ready to roll; NaN without rolling resistance");
-    // Each bin says its own range: every bin's text said "(the first bin also holds what is below)" until 2026-12-05.
+    // Each bin says its own range: only the first bin also holds what is below.
     for (int b = 0; b <= network_bins_; ++b)
       out(fmt::format("force_histogram_{:02}", b), "",
           fmt::format("fraction of interactions with F_N / F0 {} (static normal force; F0 = 0: over the mean |F_N|)",

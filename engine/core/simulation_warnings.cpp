@@ -72,7 +72,7 @@ void SimulationImpl<D>::warn_damped_packing_step(double tc) {
 namespace {
 // 4 m / (c + sqrt(c^2 + 4 k m)), the root scaled by the larger term so that it neither overflows nor underflows
 // (friction.damping_ratio takes c from 0 to 1e300). Not std::hypot: glibc 2.35 versioned it anew, and the FMUs
-// must load with glibc 2.34 (a review, 2026-12-07, found GLIBC_2.35 in them).
+// must load with glibc 2.34 (std::hypot binds GLIBC_2.35).
 double sticking_stable_step(double k, double c, double m) {
   const double s = 2 * std::sqrt(k) * std::sqrt(m), g = std::max(c, s);
   if (!(g > 0)) return std::numeric_limits<double>::infinity();
@@ -129,8 +129,8 @@ void SimulationImpl<D>::warn_sticking_spring_step(const Scene& scene, double tc)
 // the mode it bounds has alternating spins on every contact, which a lattice that is not bipartite lacks (a second
 // review: the named beta was stable everywhere, 1.2-2.3 times below the measured limits). The worst pair is not the
 // two smallest grains: a small grain against a large one has c_r / I_i larger by about R_large / R_small (a 200-disk
-// packing of diameters 0.05-1 blew up at beta = 1, unwarned: the rule looked at the smallest pair only, one contact
-// each, and only with a rolling spring; two reviews, 2026-12-07). Each grain is paired with the few partners that could be worst for it:
+// packing of diameters 0.05-1 blows up at beta = 1, which a rule looking at the smallest pair only, one contact
+// each, does not see). Each grain is paired with the few partners that could be worst for it:
 // the two of the smallest inertia, the largest and the heaviest grain. Also checked when a host or the programme's
 // quench sets beta (once per run, as the setting's own warning).
 template <int D>
@@ -188,8 +188,8 @@ void SimulationImpl<D>::warn_rolling_step(double beta, const std::string& settin
 // rate in M_c / eta. CVODE's non-stiff (Adams) method must resolve that time: where it is far below the particle step
 // it takes about 1.3 eta / M_c dt steps per particle step (measured, 200 disks, M_c = 30: 11 at cell.damping_ratio
 // 1000, 21 at 2000, 103 at 1e4, where eta / M_c dt is 8.2, 16 and 82; about 0.5 without damping in a cycle, 1.2 % of its
-// time), and fails beyond 100000. A review (2026-12-07) found a run 470 times slower at cell.contact_damping = 1e6,
-// unwarned. Warned once, where eta / M_c dt passes 10, and only while the cell moves: a held cell (a type-2 sample
+// time), and fails beyond 100000 (a run at cell.contact_damping = 1e6 is 470 times slower). Warned once, where
+// eta / M_c dt passes 10, and only while the cell moves: a held cell (a type-2 sample
 // aggregating) runs no CVODE, and is checked when released.
 constexpr double stiff_cell_damping = 10;
 template <int D>
@@ -213,8 +213,8 @@ void SimulationImpl<D>::warn_stiff_cell_damping() {
 // collision, nothing said); at 1e11 radii the collision's restitution was off by 4e-4, at 1e8 by 1e-6. Warned where
 // the spacing passes a thousandth of the smallest such length: the contacts' overlaps (the clamp depth, taken at most
 // a tenth of R_min: the gas scenes' overlap_limit = 1 set it at half a radius, and an elastic gas 1e12 out gained 0.9 %
-// of its energy in 1e5 steps, 3e12 out 4.3 %, unwarned), the softening length without contacts, and the grains' radius (gravity
-// without contacts went unchecked: an eccentric binary 1e12 out lost its angular momentum; a review, 2026-12-07).
+// of its energy in 1e5 steps, 3e12 out 4.3 %), the softening length without contacts, and the grains' radius (gravity
+// without contacts has no overlaps to compare with: an eccentric binary 1e12 out loses its angular momentum).
 template <int D>
 void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin, bool contacts) {
   double far = 0;
@@ -228,13 +228,13 @@ void SimulationImpl<D>::warn_coarse_coordinates(const Scene& scene, double rmin,
   if (const double f = contacts ? std::min(scene.real("contact.overlap_limit"), 0.1) : 0; f > 0 && f * rmin < length)
     length = f * rmin, what = fmt::format("the contacts' overlaps, min(contact.overlap_limit, 0.1) R_min");
   bool softening = false;   // the limit: then gravity.softening is the key to change (only without contacts, which
-                            // keep centres a diameter apart; a review, 2026-12-07)
+                            // keep centres a diameter apart)
   if (!contacts && scene.boolean("gravity.enabled"))
     if (const double eps = scene.real("gravity.softening") * rmin; eps > 0 && eps < length)
       length = eps, what = "the softening length gravity.softening R_min", softening = true;
   const std::string layout = scene.text("particles.layout");
   // What put the grains that far: their listed places, the box's corner, or its size (a box sized from a tiny
-  // particles.solid_fraction was blamed on an unset box.lower; a review, 2026-12-07).
+  // particles.solid_fraction is not an unset box.lower's doing).
   double corner = 0, size = 0;
   for (int a = 0; a < D; ++a)
     corner = std::max(corner, std::abs(sys_.box.lower[a])), size = std::max(size, sys_.box.length[a]);
@@ -292,8 +292,8 @@ void SimulationImpl<D>::warn_gravity_step(const Scene& scene, double rmin, bool 
     warn(fmt::format("time.dt = {:.6g} exceeds T_orb / 20 = {:.6g} ({}): close gravitational encounters are resolved by "
                      "fewer than 20 steps", dt_, rule.step(), orbit_rule_terms(rule)));
   } else if (rule.orbit == 0 && !orbit_rule_->contacts) {
-    // Unsoftened without contacts: nothing bounds the closest approach, and the rule has no step (a review, 2026-12-07:
-    // the collapse scene at softening 0 ended at Q = 2380, said only by the energy check). With contacts the rule's
+    // Unsoftened without contacts: nothing bounds the closest approach, and the rule has no step (the collapse scene
+    // at softening 0 ends at Q = 2380, else said only by the energy check). With contacts the rule's
     // "cannot keep grains apart" compares the whole cloud's pull on one grain, the usual case, and the aggregation
     // scene at softening 0 ran sound (energy falling, overlaps 0.16 R): not warned.
     orbit_rule_warned_ = true;
@@ -451,8 +451,8 @@ void SimulationImpl<D>::check_pass_through() const {
                             "(the start-up warning on unresolved approaches says so): the clusters, D_f and aggregation time "
                             "from here on are artefacts; raise k* (a shorter contact.duration), contact.overlap_limit or "
                             "time.steps_per_contact", o.at("normalised_stiffness")));
-  // Without gravity too (an outside review, 2026-12-07): a head-on pair at a contact time of 3 swapped sides, and
-  // a heavy pair under the lightest pair's k_n passed through, both unwarned.
+  // Without gravity too: a head-on pair at a contact time of 3 swaps sides, and a heavy pair under the lightest pair's
+  // k_n passes through.
   else
     warn(what + "which cannot stop grains that meet with more energy than the clamped spring stores (the global "
                 "calibration takes k_n from the lightest pair: heavier pairs meet it softer) or that the step misses: "

@@ -19,7 +19,7 @@ void note_dense_evaluation() { dense_evaluations_.fetch_add(1, std::memory_order
 long dense_evaluations() { return dense_evaluations_.load(); }
 
 // The attraction's tail and the shell's quiet pairs completed here too: 4.5 % less processor time on the
-// bench disks (2026-12-05).
+// bench disks.
 long evaluate_avx512(const Input& in, const std::uint32_t* rows, const std::uint32_t* pairs, const std::uint8_t* images,
                      std::size_t n, const Output& out) {
   return Kernel<pair_avx512::Width8, true>::evaluate(in, rows, pairs, images, n, out);

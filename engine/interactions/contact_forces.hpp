@@ -747,9 +747,9 @@ class ContactForces final : public ForceModule<D> {
   // flow: the pair's relative velocity from the cell's affine deformation (zero in a fixed cell); cn: the pair's c_n.
   // Sliding (|F_t| > mu F_n): F_t is capped, and the spring, if it alone exceeds the bound, is shortened to
   // |k_t xi| = mu F_n (physics.md section 4), never lengthened. With a tangential dashpot the trial force can
-  // pass the bound while the spring is below it; stretching the spring to the bound then (as this code did
-  // until 2026-12-02) stored energy that no motion had put there: an oblique frictional collision (e = 0.9,
-  // c_t = c_n / 2, impact parameter 0.7 d) came out with 1.7 % more energy than it went in with. Shortening
+  // pass the bound while the spring is below it; stretching the spring to the bound then would store energy that
+  // no motion had put there (an oblique frictional collision, e = 0.9, c_t = c_n / 2, impact parameter 0.7 d,
+  // comes out with 1.7 % more energy than it went in with). Shortening
   // only is passive: the capped force does at most the work the spring and the dashpot would have done.
   // Without a dashpot (c_t = 0, the consolidation scenes) the trial force is the spring's and both rules agree.
   Vec<D> tangential_force(const Particles<D>& P, std::size_t i, std::size_t j, std::size_t k, const Vec<D>& n,
@@ -827,11 +827,11 @@ class ContactForces final : public ForceModule<D> {
 
   // 3D springs (xi, theta_R) follow the contact: v, in the plane normal to n_before, is turned by the rotation
   // that takes n_before to n (about n_before x n, which keeps its length and its direction about n), then what
-  // rounding left along n is taken off. Until 2026-12-05 v was projected into the new plane and rescaled to its
-  // old length: that turns it towards the rotation axis by (w h)^2 / 2 a step, first order in a turning contact
+  // rounding left along n is taken off. Not projected into the new plane and rescaled to its old length: that
+  // turns it towards the rotation axis by (w h)^2 / 2 a step, first order in a turning contact
   // (docs/accuracy.md, "Order of whole scenes").
-  // A normal turned by (nearly) half a turn in one step, a pair whose centres crossed, has no such rotation (0 / 0 gave
-  // NaN, 2026-12-07): v is then only projected into the new plane (linear_contacts::spring_turnable). Elsewhere the
+  // A normal turned by (nearly) half a turn in one step, a pair whose centres crossed, has no such rotation (0 / 0 would
+  // give NaN): v is then only projected into the new plane (linear_contacts::spring_turnable). Elsewhere the
   // turn is well-conditioned.
   static void turn_into_tangent_plane(Vec<3>& v, const Vec<3>& n_before, const Vec<3>& n) {
     const double c = 1 + n_before.dot(n);

@@ -61,12 +61,12 @@ inline double onset_lag(const ContactStep& p, double damping_per_reduced_mass) {
 // within one step. The parting is a prediction: a pair predicted to part before the next evaluation but
 // still overlapping there has its charge taken back there (contact_forces.hpp), else it would be charged
 // twice (realised e_N 1.3 % low at e_N = 0.5, 5.5 % at 0.015, for touching times in a few per cent of a
-// step, until 2026-12-04).
+// step).
 // The initial evaluation (dt = 0) is charged over the first half kick only, [0, h/2]: a pair parting at
 // sigma h needs its dashpot over [0, sigma h], w = 2 sigma, and the elastic force's exact impulse
 // k v_n sigma^2 h^2 / 2, an extra overlap travel sigma (sigma - 1). Charged over [0, h/2] as at any step
-// (w = 1), a contact present at the start and parting at 0.74 of the first step left 3.5 % too fast
-// (1.3 % too slow at 0.38), until 2026-12-04.
+// (w = 1), a contact present at the start and parting at 0.74 of the first step would leave 3.5 % too fast
+// (1.3 % too slow at 0.38).
 inline Onset parting(const ContactStep& p, Onset on) {
   const bool initial = p.dt <= 0;
   const double travel = p.vn * (initial ? p.first_step : p.dt);   // the overlap lost over the step ahead

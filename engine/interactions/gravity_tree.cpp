@@ -113,9 +113,9 @@ Sums particle_sums_portable(const Lists& L, std::size_t self, double eps2) {
 // the centre of mass; not traceless) and S = tr Q / 3 = sum m |d|^2,
 // phi = -(M / h + r.Q.r / (2 h^5) - S / (2 h^3)), a = (M / h^3 + 5/2 (r.Q.r) / h^7 - 3/2 S / h^5) r - Q r / h^5.
 // The S terms are the softening's part of the second order (the kernel's Hessian is -I / h^3 + 3 r r^T / h^5, not
-// traceless where eps > 0): until 2026-12-07 Q was traceless and they were missing, which a review found as
-// force errors of 1e-5 where 2e-7 was due (cells seen at 150 from a softening of 600) and a median of 1.2e-3 in a
-// ball at softening 10 (2.4e-4 expected). With eps = 0 they cancel the trace exactly.
+// traceless where eps > 0): without them (a traceless Q) the force errs by 1e-5 where 2e-7 is due (cells seen at 150
+// from a softening of 600), with a median of 1.2e-3 in a ball at softening 10 (2.4e-4 expected). With eps = 0 they
+// cancel the trace exactly.
 void cell_sums_portable(const Lists& L, double xi, double yi, double zi, double eps2, Sums& s) {
   const Columns<double>& c = L.cells64;
   for (std::size_t j = 0; j < L.cells; ++j) {
@@ -501,7 +501,7 @@ void Tree::moments(int id) {
   // convergence radius) even when the centre of mass sits near one edge. For cells along the box's diagonal
   // b_max is 0.87 s: from theta = 1.15 on b_max decides, and at theta = 1 a cell beside the group is used whole with
   // b / d up to 0.87 (a line of grains along the diagonal: errors of 0.29 of the terms' scale at theta 1, 1.6e-3
-  // at 0.9; a review, 2026-12-07). The schema says so.
+  // at 0.9). The schema says so.
   double edge = 0, b2 = 0;
   for (int a = 0; a < 3; ++a) {
     edge = std::max(edge, c.hi[a] - c.lo[a]);

@@ -38,7 +38,7 @@ struct LinearContactLaw {
       if (initial) {
         // The initial evaluation is charged over [0, h/2] only: released sigma < 1 of the first step ahead,
         // the force's exact impulse f sigma h / 2 is that window's times sigma (released later: the next
-        // evaluation's correction spreads it). Until 2026-12-04 none: 5.2e-4 too fast at sigma = 0.5, n_c = 50.
+        // evaluation's correction spreads it). Without it: 5.2e-4 too fast at sigma = 0.5, n_c = 50.
         const double fall = p.first_step * slope;
         if (f * mm < fall) f *= f * mm / fall;
       } else if (!p.first) {

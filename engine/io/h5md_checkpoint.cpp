@@ -100,7 +100,7 @@ RunCheckpoint read_checkpoint(const std::string& path, int skip) {
       cp.state.resize(slot_bytes(d.get(), path));
       read_slot_attributes(d.get(), step, warning_rows, path, cp);
       place = checkpoint_place(cp.step, cp.stage, programme);
-      written_with = h5::read_attr_string(d.get(), "scene_check_sum", "", path);   // "": before 2026-12-05
+      written_with = h5::read_attr_string(d.get(), "scene_check_sum", "", path);   // "": a file older than the attribute
       if (!cp.state.empty() && H5Dread(d.get(), H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, cp.state.data()) < 0)
         defect = "its checksum fails";
     } catch (const std::runtime_error& e) {

@@ -16,7 +16,7 @@ struct RunCheckpoint {
   long unreached = 0;                     // `grains consolidate`: stages up to `stage` that missed their budget
   double time = 0, wall_seconds = 0;      // simulated time; wall time of the run up to the checkpoint
   double cvode_seconds = 0;               // CVODE's share of that wall time (a pressure-controlled cell)
-  // The worker threads the run used (0: not recorded, before 2026-12-05): a resume uses as many, since the
+  // The worker threads the run used (0: not recorded, a file older than the record): a resume uses as many, since the
   // sums' order, and so the results' last bits, depend on the count (automatic counts follow the cores).
   int threads = 0;
   // The gravity kernels' instruction set ("avx512", "avx2", "portable"; "" where not recorded): their sums' last bits

@@ -100,8 +100,8 @@ std::string describe_space(hid_t space) {
 
 // The value of a scalar string of the stored `type`, which `read(memory type, buffer)` reads. Fixed length: read as
 // stored, up to its first null. Variable length: a reference into the file's global heap, which HDF5 1.10.8 follows as
-// it stands (one flipped bit of its object index crashed H5HG_read); grains writes none that it reads back since its
-// twenty-sixth session, and reads those of older files as before.
+// it stands (one flipped bit of its object index crashes H5HG_read); grains writes none that it reads back, and
+// reads those of older files.
 template <class Read>
 std::string read_string(hid_t type, hid_t space, Read read, const std::string& file, const std::string& what) {
   if (H5Tget_class(type) != H5T_STRING || H5Sget_simple_extent_npoints(space) != 1)

@@ -123,7 +123,7 @@ std::vector<double> read_doubles(hid_t dataset, const std::string& file, const s
 // Row `row` (first axis) of a dataset of doubles, flattened.
 std::vector<double> read_row(hid_t dataset, hsize_t row, const std::string& file, const std::string& what);
 // A scalar string dataset's or attribute's value, fixed length (dataset_string's, attr_string's) or variable length
-// (as grains wrote them until its twenty-fifth session, and h5py writes a str).
+// (as older grains files hold them, and h5py writes a str).
 std::string read_dataset_string(hid_t parent, const std::string& name, const std::string& file);
 // An attribute's value, or `fallback` when the object has no such attribute. Anything but one number (a scalar of
 // an integer or float type) is refused (std::runtime_error naming the object, the attribute and what it holds).

@@ -350,7 +350,7 @@ H5mdWriter::H5mdWriter(const std::string& path, int dimension, const std::vector
     throw OutputError(fmt::format("cannot create output file '{}': renaming '{}' to it failed ({})", path, creating,
                                   ec.message()));
   }
-  // A companion an earlier run of this name left would show that run's frames, or none (an outside review, 2026-12-07).
+  // A companion an earlier run of this name left would show that run's frames, or none.
   if (!write_xdmf) remove_stale_xdmf_beside(path);
 }
 

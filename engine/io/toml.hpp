@@ -1,5 +1,5 @@
 // toml++, as the engine includes it: two defects of toml++ 3.3.0 (Debian 12's) that a malformed scene reached,
-// both found by fuzzing the scene parser (tests/fuzz/fuzz_scene, 2026-12-05). Each only reports a syntax error.
+// both found by fuzzing the scene parser (tests/fuzz/fuzz_scene). Each only reports a syntax error.
 #pragma once
 #include <toml++/impl/preprocessor.h>   // its #pragma once keeps the redefinitions below for the headers after it
 

@@ -35,7 +35,7 @@ void drop_xdmf_views_from(hid_t file, std::size_t first, const std::string& path
 // past end of allocation"), or, with no call failing, later views went missing from the group's listing (12 of 36
 // after a resume). The views hold no data, so the whole group is unlinked, its reference count raised first, for
 // HDF5 would otherwise free it, walking the damaged links (and fail there too); its space stays unused in the file,
-// which no longer reaches it. Found by killing runs at chosen writes of HDF5 (2026-12-07).
+// which no longer reaches it. Found by killing runs at chosen writes of HDF5 (tests/python/test_runner_killed_mid_write.py).
 void set_aside_xdmf_views(hid_t file, const std::string& path);
 // Makes the connectivity dataset hold at least `count` indices.
 void write_xdmf_vertices(hid_t file, std::size_t count, const std::string& path);

@@ -361,7 +361,7 @@ void NeighbourList<D>::build(const std::vector<Vec<D>>& x, const std::vector<dou
   }
   if (history_) {   // each entry's entry in the previous list: the old row's partners sorted in scratch, each new entry looked up there
     // The rows keep their order of discovery: the pair loop sums each particle's forces in row order, and rows sorted
-    // here (until 2026-12-05) made a run with the collision log part from the same run without it in the last bits.
+    // here would make a run with the collision log part from the same run without it in the last bits.
     previous_entry_.assign(partner.size(), -1);
 #pragma omp parallel num_threads(nthreads)
     {

@@ -41,8 +41,8 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
     scene.fail("cell.pressure_final", fmt::format("value {} ramps the pressure, which the programme sets stage by stage: "
                                                   "drop it (a ramp is for `grains run` and hosts)",
                                                   scene.real("cell.pressure_final")));
-  // The loading ladder multiplies the start pressure: from 0 it never rises, and stages were planned until memory ran
-  // out (an outside review, 2026-12-07).
+  // The loading ladder multiplies the start pressure: from 0 it never rises, and stages would be planned until memory
+  // ran out.
   if (p.load && !(p.start_pressure > 0))
     scene.fail("cell.pressure", fmt::format("value {} starts the loading stages (P* times 10^(k / "
                                             "programme.stages_per_decade)), which never rise from 0: allowed a value > 0 "
@@ -80,7 +80,7 @@ ProgrammeSettings ProgrammeSettings::from_scene(const Scene& scene) {
 
 // A floor above the start would be no step-down at all; said, not clamped silently (the default floor stays quiet
 // under a smaller quench_drag: the drag then keeps that value). Only for the scene a user gives: a resumed
-// programme's stored scene spells out the default, and a review found the check refusing such resumes.
+// programme's stored scene spells out the default, which the check would refuse.
 void ProgrammeSettings::refuse_floor_above_drag(const Scene& scene) {
   const double drag = scene.real("programme.quench_drag"), floor = scene.real("programme.quench_drag_min");
   if (scene.has("programme.quench_drag_min") && drag > 0 && scene.integer("programme.quench_patience") > 0 && floor > drag)

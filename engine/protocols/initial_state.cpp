@@ -57,8 +57,8 @@ Vec<D> to_vec(const Scene& s, std::string_view key, const std::vector<double>& v
 }
 
 // The placed particles by cell: an open-addressed table of the occupied cells' keys (non-negative), each with
-// the last particle placed there, and a chain through the earlier ones. std::unordered_multimap took 75-110 s
-// for 1e6 spheres at solid fraction 0.3 (a large-N review, 2026-12-07); which particles a cell holds is all a
+// the last particle placed there, and a chain through the earlier ones. std::unordered_multimap takes 75-110 s
+// for 1e6 spheres at solid fraction 0.3; which particles a cell holds is all a
 // candidate's test reads, so the placements are the same.
 class PlacedByCell {
  public:
@@ -300,10 +300,9 @@ InitialState<D> make_initial_state(const Scene& s, const PreparationProgress& pr
   if (layout != "list" && layout != "file") {
     N = std::size_t(s.integer("particles.count"));
     // Refuse what cannot fit before allocating (Linux would hand out the memory and kill the run later). The
-    // least a run keeps per particle, its peak resident memory measured (thirty-first session): in 3D 750 bytes
-    // (the aggregation FMU; `grains run` of the gas 800-950 from 8k to 512k spheres), in 2D 320 (the consolidation
-    // FMU; a lean `grains run` 530). The 250 bytes of before let 3D counts of 3e7-1e8 through on a 25 GB machine,
-    // to be killed when they touched the memory.
+    // least a run keeps per particle, its peak resident memory measured: in 3D 750 bytes (the aggregation FMU;
+    // `grains run` of the gas 800-950 from 8k to 512k spheres), in 2D 320 (the consolidation FMU; a lean
+    // `grains run` 530). A lower figure lets 3D counts through that are killed when they touch the memory.
     const double per_particle = D == 3 ? 750.0 : 300.0;
     const double need = per_particle * double(N), have = usable_memory_bytes();
     if (have > 0 && need > have)
@@ -483,7 +482,7 @@ InitialState<D> make_initial_state(const Scene& s, const PreparationProgress& pr
     if (vel == "list") s.fail("particles.velocities", fmt::format("row {}: {}", i, what));
     s.fail("particles.file", fmt::format("{}:{}: {}", file_path.string(), row_lines[i], what));
   }
-  // A file's spin columns (a spinning body of more grains than a scene's text may list: an outside review, 2026-12-07)
+  // A file's spin columns (a spinning body of more grains than a scene's text may list)
   const bool file_spins = layout == "file" && rows[0].size() == std::size_t(2 * D + 2 + spin_columns);
   if (file_spins && s.has("particles.angular_velocities"))
     s.fail("particles.angular_velocities", fmt::format("particles.file '{}' gives spins too (its last {} columns): give them "

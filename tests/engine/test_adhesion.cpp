@@ -248,8 +248,8 @@ TEST_CASE("a bonded pair pulled apart: escape threshold and final speed against 
 }
 
 // A bond present at the start that parts within the first step: the initial force evaluation is charged over
-// the first half kick only, so its parting correction differs from a later step's (contact_step.hpp). Until
-// 2026-12-04 it had none: the final speed was 3.5 % high for parting at 0.74 of the step, 1.3 % low at 0.38.
+// the first half kick only, so its parting correction differs from a later step's (contact_step.hpp). Without it
+// the final speed is 3.5 % high for parting at 0.74 of the step, 1.3 % low at 0.38.
 TEST_CASE("a bond present at the start and parting within the first step leaves at the exact speed", "[adhesion]") {
   const double escape = std::sqrt(2 * F0 * D0), nc = 50;
   const double dt = M_PI * std::sqrt(0.5 / KN) / nc;   // t_c / n_c, t_c of the pair (m* = 1/2)

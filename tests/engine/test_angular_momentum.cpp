@@ -1,7 +1,7 @@
 // The angular-momentum observable in a periodic cell is the one the written (wrapped) positions give:
 // the engine wraps its own positions only when it rebuilds its lists, so between rebuilds a grain that
 // crossed the boundary sits one cell outside, and an observable from those positions could not be
-// reproduced from the output (until 2026-12-05 it was not, in 2 of 11 records of a 3D test run).
+// reproduced from the output.
 #include <catch2/catch.hpp>
 
 #include <cmath>

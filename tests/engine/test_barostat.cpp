@@ -136,7 +136,7 @@ TEST_CASE("barostat: the reduced units take a from the size distribution, not fr
           "[barostat]") {
   // physics.md section 9: a is the largest diameter of the distribution (uniform in [a/2, a]) and m the mass of
   // a grain of diameter a. The largest of 40 drawn diameters falls short of a (here by about 1 %), and with it
-  // P = P* F0 / a^(D-1), T0 and K_R used to be off by as much.
+  // P = P* F0 / a^(D-1), T0 and K_R would be off by as much if taken from it.
   for (int D : {2, 3}) {
     const std::string scene = fmt::format(R"(
 [scene]
@@ -518,10 +518,10 @@ TEST_CASE("barostat: an undamped cell oscillation keeps its amplitude (the stres
 
 TEST_CASE("cell ODE: at the strain-rate cap the rate follows the limit, without wind-up, at any tolerance", "[barostat]") {
   // Compressing at the cap for 40 time units (cap 0.05: L shrinks 7.4 times), then a stress that pushes back.
-  // Until 2026-12-05 the rate was held fixed at the cap while the limit cap L shrank under it: the rate variable
-  // ended at 7.4 times the limit and the cell went on shrinking for 0.37 time units after the stress turned,
-  // against 0.05 for a rate at the limit (0.034 / 0.68). Expanding, the same rule made the branch flip at every
-  // step, which CVODE could not follow at rtol 1e-10 (too much work).
+  // A rate held fixed at the cap while the limit cap L shrinks under it ends at 7.4 times the limit, and the cell
+  // goes on shrinking for 0.37 time units after the stress turns, against 0.05 for a rate at the limit
+  // (0.034 / 0.68). Expanding, that rule flips the branch at every step, which CVODE cannot follow at rtol 1e-10
+  // (too much work).
   for (const double rtol : {1e-8, 1e-12}) {
     CellLengthParameters p;
     p.axes = 2, p.mass = 1.0, p.damping = 0.0, p.rate_cap = 0.05, p.rtol = rtol, p.atol_length = rtol * 1e-2;

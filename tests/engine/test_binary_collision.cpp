@@ -222,8 +222,8 @@ Release exact_release(double x0, double u0, double zeta, double w0) {
 // the first half kick only, [0, h/2], so a clamp release within the first step needs its own correction there
 // (linear_contact_law.hpp). Two unit-mass disks overlapping by x0 and separating at relative speed 1, e = 0.5,
 // n_c = 50: the final relative speed against the closed-form oscillator solution, for releases at shares of
-// the first steps. Until 2026-12-04 a release within the first step left 2e-4 to 5.2e-4 too fast (0.9 and 0.5
-// of the step); now below 1.3e-5. A release after the first step keeps velocity Verlet's second-order term of
+// the first steps. Without that correction a release within the first step leaves 2e-4 to 5.2e-4 too fast (0.9 and
+// 0.5 of the step); with it below 1.3e-5. A release after the first step keeps velocity Verlet's second-order term of
 // a half first kick, f' h^2 / 8 (the kicks after it are midpoint windows, the release's correction assumes
 // so): 3.8e-4 to 4.5e-4 measured, the linear estimate 5.6e-4.
 TEST_CASE("a contact present at the start and released within the first steps leaves at the exact speed",

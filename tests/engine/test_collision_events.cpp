@@ -159,10 +159,10 @@ TEST_CASE("collision log: off by default, and refused without contacts", "[colli
 }
 
 // The log is an observation: the run it watches is the run without it, bit for bit. It carries its per-pair
-// state across list rebuilds by each pair's entry in the previous list; until 2026-12-05 it had the list sort
-// its rows by partner for that, and the pair loop, which sums each particle's forces in row order, then summed
-// them in another order: a frictional gas of 500 spheres parted in the last bits within 300 steps (a frictionless
-// 17,576-sphere gas within 300, the aggregation scene within 3000 steps).
+// state across list rebuilds by each pair's entry in the previous list. Rows sorted by partner for that would have
+// the pair loop, which sums each particle's forces in row order, sum them in another order: a frictional gas of 500
+// spheres parts in the last bits within 300 steps (a frictionless 17,576-sphere gas within 300, the aggregation
+// scene within 3000 steps).
 TEST_CASE("collision log: the trajectory is the one without the log, bit for bit", "[collisions]") {
   for (int threads : {1, 2}) {
     INFO(threads << " thread(s)");

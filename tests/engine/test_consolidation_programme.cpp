@@ -105,8 +105,8 @@ preparation = "type1"
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(forceless), Catch::Contains("cell.force_unit"));
   auto low_top = Scene::from_string(small_programme(10), "bad", {"programme.top_pressure=1e-4"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(low_top), Catch::Contains("programme.top_pressure"));
-  // Found by an outside review (2026-12-07): a loading ladder from P* = 0 planned stages until memory ran out; a top
-  // pressure past what a stage can set failed at that stage, after the others. Both are refused up front now.
+  // A loading ladder from P* = 0 would plan stages until memory ran out; a top pressure past what a stage can set
+  // would fail at that stage, after the others. Both are refused up front.
   auto from_zero = Scene::from_string(small_programme(10000), "bad", {"cell.pressure=0", "cell.force_unit=1"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(from_zero), Catch::Contains("cell.pressure") && Catch::Contains("never rise from 0"));
   from_zero.set_value("programme.load", "false");
@@ -114,7 +114,7 @@ preparation = "type1"
   CHECK_NOTHROW(ProgrammeSettings::from_scene(from_zero));
   auto too_high = Scene::from_string(small_programme(10000), "bad", {"programme.top_pressure=1e9"});
   CHECK_THROWS_WITH(ProgrammeSettings::from_scene(too_high), Catch::Contains("programme.top_pressure") && Catch::Contains("out of range"));
-  // A drag floor above the quench's drag was clamped to it silently (2026-12-07); given, it is refused. The default
+  // A drag floor above the quench's drag, given, is refused rather than clamped to it silently. The default
   // floor under a smaller drag keeps that drag, and with no step-down (patience 0) the floor does not matter.
   auto high_floor = Scene::from_string(small_programme(10000), "bad", {"programme.quench_drag=0.5", "programme.quench_drag_min=2"});
   CHECK_THROWS_WITH(ProgrammeSettings::refuse_floor_above_drag(high_floor),
@@ -124,7 +124,7 @@ preparation = "type1"
   const auto low_drag = Scene::from_string(small_programme(10000), "ok", {"programme.quench_drag=0.1"});
   CHECK_NOTHROW(ProgrammeSettings::refuse_floor_above_drag(low_drag));
   // The stored scene a resume reads spells out the default floor, and the resume reads it with from_scene alone,
-  // which does not refuse it (a review found such resumes refused, 2026-12-07)
+  // which does not refuse it
   CHECK_NOTHROW(ProgrammeSettings::from_scene(Scene::from_string(low_drag.resolved_toml(), "stored")));
 }
 

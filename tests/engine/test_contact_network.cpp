@@ -81,7 +81,7 @@ TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[n
   CHECK(s->get("coordination_tensile") == Approx(0.5));
   CHECK(s->get("coordination_compressive") == 0);
   // Grain 3 alone is a rattler: grain 0's bond at zero force still holds it (the paper's cohesive samples have none;
-  // until 2026-12-07 grain 0 counted too, x0 = 0.5)
+  // counting grain 0 too would give x0 = 0.5)
   CHECK(s->get("rattler_fraction") == Approx(0.25));
   CHECK(s->get("backbone_coordination") == Approx(4.0 / 3));
   CHECK(s->get("distant_bonds") == 1);
@@ -107,8 +107,7 @@ TEST_CASE("the Simulation reports the contact network of an adhesion scene", "[n
 
 TEST_CASE("the contact network carries the force the clamped law applies", "[network][adhesion]") {
   // Two unit disks overlapping by 1e-3 where the clamp holds the overlap at f_max R = 1e-4 * 0.5: the law applies
-  // K_N 5e-5 - F0 = 4 F0, which the network must report. Until 2026-12-07 it took the raw overlap, 99 F0 (an outside
-  // audit against physics.md section 2).
+  // K_N 5e-5 - F0 = 4 F0, which the network must report, not the raw overlap's 99 F0.
   ListedParticles p;
   p.positions = {{0, 0}, {0.999, 0}};
   p.velocities = {{0, 0}, {0, 0}};
@@ -123,7 +122,7 @@ TEST_CASE("the contact network carries the force the clamped law applies", "[net
 
 TEST_CASE("without an adhesion force a pair within D0 of contact is no distant bond", "[network][adhesion]") {
   // The same chain with F0 = 0 (the cohesionless reference): 0-1 in contact, 1-2 at a gap of D0 / 2, which
-  // attracts nothing. Until 2026-12-04 that pair counted in z and z0 as a distant bond.
+  // attracts nothing, so it must not count in z and z0 as a distant bond.
   auto s = Simulation::create(Scene::from_string(adhesive_scene(2, chain_of_four(), "force = 0.0\n"), "cohesionless network"));
   CHECK(s->get("distant_bonds") == 0);
   CHECK(s->get("coordination") == Approx(0.5));   // one contact among four grains

@@ -70,7 +70,7 @@ std::pair<double, double> run_reading(Simulation& sim, long steps, long every) {
 TEST_CASE("energy check: two soft grains passing through each other are warned about, once", "[gravity][energy]") {
   auto sim = Simulation::create(Scene::from_string(two_grains(0.49682878898616584), "pass"));
   CHECK(sim->get("normalised_stiffness") == Approx(10).epsilon(1e-9));
-  // The start-up orbit rule no longer takes the contacts for a wall: d = 0, and dt = t_c / 30 is past T_orb / 20.
+  // The start-up orbit rule does not take the contacts for a wall: d = 0, and dt = t_c / 30 is past T_orb / 20.
   REQUIRE(sim->warnings().size() == 1);
   CHECK_THAT(sim->warnings()[0], Contains("T_orb") && Contains("d = 0 ") && Contains("cannot keep grains apart"));
   const double E0 = total_energy(*sim);

@@ -233,7 +233,7 @@ TEST_CASE("extremes: a huge time step blows up into a SimulationError naming the
   } catch (const SimulationError& err) {
     const std::string what = err.what();
     INFO(what);
-    // Non-finite, or (first, since the twenty-fourth session) a particle flung a million cell lengths between builds.
+    // Non-finite, or (first) a particle flung a million cell lengths between builds.
     CHECK_THAT(what, Contains("particle") && Contains("step") &&
                          (Contains("non-finite") || Contains("cell lengths from the periodic cell")));
     CHECK_THAT(what, Contains("the checks warned") && Contains(sim->warnings()[0]));   // the broken rule named
@@ -405,7 +405,7 @@ TEST_CASE("extremes: coordinates too far out for the contacts' overlaps are warn
                                      Contains("a scene near the origin, and no larger"));
   CHECK(collide(*far) == 1.0);   // what it warns about: they never met
   // The clamp depth is taken at most a tenth of R_min: at overlap_limit = 1 (the gas scenes') an elastic gas 1e12 out,
-  // doubles 1.2e-4 apart, gained 0.9 % of its energy unwarned (a review, 2026-12-07).
+  // doubles 1.2e-4 apart, gains 0.9 % of its energy.
   auto gas_far = pair_at(1e12);
   REQUIRE(gas_far->warnings().size() == 1);
   CHECK_THAT(gas_far->warnings()[0], Contains("more than 1e-3 of the contacts' overlaps, min(contact.overlap_limit, 0.1) "
@@ -491,9 +491,9 @@ TEST_CASE("extremes: a restitution so small that one collision is unresolved say
   for (const auto& w : mild->warnings()) CHECK_THAT(w, !Contains("binary collision"));
 }
 
-// Found by fuzzing (tests/fuzz/fuzz_particle_file, 2026-12-05): the set-up's cell grids (random insertion, the
-// initial overlap check) converted L / d to an integer, beyond its range for grains 1e-30 wide in a box of 10
-// (undefined behaviour; UBSan reported it, a Release build happened to make one cell). At most 1e6 cells an axis now.
+// Found by fuzzing (tests/fuzz/fuzz_particle_file): the set-up's cell grids (random insertion, the initial overlap
+// check) convert L / d to an integer, beyond its range for grains 1e-30 wide in a box of 10 (undefined behaviour,
+// which UBSan reports) unless they keep to at most 1e6 cells an axis.
 TEST_CASE("extremes: grains 1e-30 wide in a box of 10 are set up and step", "[extremes]") {
   for (const std::string layout : {"lattice", "random"}) {
     INFO(layout);
@@ -518,8 +518,8 @@ threads = 1
 }
 
 TEST_CASE("extremes: a gravitational constant whose closest pair force overflows is named as the cause", "[extremes][gravity]") {
-  // gravity.G = 1e308 is in range; the failure named only the particle and "coincident or deeply overlapping
-  // particles" (an adversarial review of the FMU, 2026-12-07).
+  // gravity.G = 1e308 is in range; the failure must name it, not only the particle and "coincident or deeply
+  // overlapping particles".
   const auto scene = [](const char* G) {
     return Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/aggregation.toml",
                             {"run.threads=1", fmt::format("gravity.G={}", G)});
@@ -529,8 +529,7 @@ TEST_CASE("extremes: a gravitational constant whose closest pair force overflows
   auto fine = Simulation::create(scene("1.0"));
   fine->step_n(10);
   CHECK(std::isfinite(fine->get("kinetic_energy")));
-  // Without softening the closest pair's force has no bound: coincident grains under a tiny G are not G's doing (the
-  // hint blamed G there for a while; a code review, 2026-12-07).
+  // Without softening the closest pair's force has no bound: coincident grains under a tiny G are not G's doing.
   const auto unsoftened = Scene::from_string(
       "[scene]\nname = \"nosoft\"\ndimension = 3\n[particles]\nlayout = \"list\"\n"
       "positions = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]\ndiameter = 1.0\nmass = 1.0\n"
@@ -549,7 +548,7 @@ TEST_CASE("extremes: a gravitational constant whose closest pair force overflows
 TEST_CASE("extremes: energies that overflow while every particle stays finite stop the run, not inf in the outputs",
           "[extremes][gravity]") {
   // Two heavy, wide spheres falling through each other's softened core at a step 30 times their orbit's: each pass
-  // gains energy until ½ m v² overflows while v does not. The outputs read inf and the run went on (a review, 2026-12-07).
+  // gains energy until ½ m v² overflows while v does not; unstopped, the outputs would read inf and the run go on.
   // The stepping call that overflows stops (as a host's step does), whether or not anything reads the outputs.
   auto sim = make(R"(
 [scene]

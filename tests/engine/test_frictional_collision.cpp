@@ -94,10 +94,8 @@ TEST_CASE("frictional collision: sticking throughout reverses the slip (beta = -
     WARN(fmt::format("sticking, {}D: beta + 1 = {:.3g}, spin rel. error {:.3g}, J_t rel. error {:.3g}, tangential change rel. "
                      "error {:.3g}", dim, beta + 1, o.spin_i / (-R * 2 * mt * 0.5 / I) - 1, Jt / (2 * mt * 0.5) - 1,
                      o.tangential_change / (2 * mt * 0.5 / mstar) - 1));
-    // Measured (2D, 3D): beta + 1 = -1.15e-6, -1.08e-6; J_t from the slip 5.7e-7, 5.4e-7; spins 6.4e-5, 6.6e-5 and the
-    // centres' tangential velocity change 1.3e-4, 1.6e-4 (their errors cancel in the slip). Bounds 3-5x those. With the
-    // second-order springs (twenty-fourth session; the pair turns during the contact) beta + 1 = -1.24e-6, -1.21e-6 and
-    // J_t 6.2e-7, 6.0e-7, the rest the same.
+    // Measured (2D, 3D): beta + 1 = -1.24e-6, -1.21e-6; J_t from the slip 6.2e-7, 6.0e-7; spins 6.4e-5, 6.6e-5 and the
+    // centres' tangential velocity change 1.3e-4, 1.6e-4 (their errors cancel in the slip). Bounds 3-5x those.
     CHECK(beta == Approx(-1.0).epsilon(5e-6));
     // J_t = m_t (1 - beta) v_t0 = 2 m_t * 0.5 along +y on j: spins -R J_t / I each.
     CHECK(Jt == Approx(2 * mt * 0.5).epsilon(2e-6));
@@ -108,9 +106,9 @@ TEST_CASE("frictional collision: sticking throughout reverses the slip (beta = -
 }
 
 TEST_CASE("frictional collision: with a tangential dashpot an oblique contact never gains energy", "[friction][energy]") {
-  // Until 2026-12-02 a sliding contact's spring was stretched to the Coulomb bound whenever the spring and
-  // the dashpot together passed it: at b = 0.7 d (3D, c_t = c_n / 2) the total energy rose by 15 % during
-  // loading and the pair left with 1.7 % more than it came with.
+  // A sliding contact's spring stretched to the Coulomb bound whenever the spring and the dashpot together pass
+  // it gains energy: at b = 0.7 d (3D, c_t = c_n / 2) the total energy rises by 15 % during loading and the pair
+  // leaves with 1.7 % more than it came with.
   for (int dim : {2, 3})
     for (double b : {0.3, 0.5, 0.7, 0.85})
       for (double damping : {0.5, 1.0}) {

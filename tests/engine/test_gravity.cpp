@@ -171,7 +171,7 @@ TEST_CASE("gravity: Barnes-Hut forces converge to direct summation as theta decr
   const auto pos = uniform_ball(3000, 1.0, 7);
   const auto P = particles_from<3>(pos, 1.0 / 3000);
   const double eps = 1e-3;
-  // Bounds about twice the medians measured (2026-12-03: 1.33e-5, 1.76e-4, 3.84e-4, 8.26e-4, 1.8e-3; the same
+  // Bounds about twice the medians measured (1.33e-5, 1.76e-4, 3.84e-4, 8.26e-4, 1.8e-3; the same
   // to three digits with the AVX-512, AVX2 and portable kernels): a worse opening rule or expansion fails.
   struct Case { double theta, bound; };
   const Case cases[] = {{0.2, 3e-5}, {0.4, 3.5e-4}, {0.5, 8e-4}, {0.6, 1.7e-3}, {0.8, 3.6e-3}};
@@ -309,8 +309,8 @@ TEST_CASE("gravity: the tree is identical on 1 and 2 threads, and its kernels ag
 TEST_CASE("gravity: a tree cell seen through a wide softening carries the softening's quadrupole term", "[gravity]") {
   // A clump of 16 unit masses (radius 5) seen by 60 light probes 150 away through a softening of 600: the expansion's
   // second order has a term -eps^2 sum m |d|^2 / (2 h^5) in the potential that a traceless quadrupole lacks; without
-  // it the probes' forces were off by 1.1e-5 (theta 0.3) and 2.3e-5 (0.5), with it 1.6e-7 and 3e-8 (a review,
-  // 2026-12-07, by its own expansion). Every kernel set, potential too.
+  // it the probes' forces are off by 1.1e-5 (theta 0.3) and 2.3e-5 (0.5), with it 1.6e-7 and 3e-8 (by an
+  // independent expansion). Every kernel set, potential too.
   std::vector<Eigen::Vector3d> pos = uniform_ball(16, 5.0, 31);
   const auto probes = uniform_ball(60, 1.0, 32);
   for (const auto& x : probes) pos.push_back(150 * x.normalized());
@@ -343,8 +343,8 @@ TEST_CASE("gravity: a tree cell seen through a wide softening carries the soften
 
 TEST_CASE("gravity: a line of grains along the box's diagonal: the tree's error below theta = 1 and at it", "[gravity]") {
   // A line along the diagonal of the cells' boxes is the expansion's worst geometry: b_max = 0.87 s, so from theta = 1
-  // a cell beside the group is used whole with b / d up to 0.87 (a review, 2026-12-07, found grain 188's force 330
-  // times too large: 0.29 of the terms' scale). The schema's text on opening_angle quotes these two figures.
+  // a cell beside the group is used whole with b / d up to 0.87 (grain 188's force 330 times too large: 0.29 of the
+  // terms' scale). The schema's text on opening_angle quotes these two figures.
   std::vector<Eigen::Vector3d> pos;
   for (int k = 0; k < 600; ++k) pos.emplace_back(0.7 * k, 0.7 * k, 0.7 * k);
   const auto P = particles_from<3>(pos, 1.0);
@@ -429,9 +429,8 @@ TEST_CASE("gravity: the vector tree kernels keep FP64 where FP32 would not serve
 TEST_CASE("gravity: a tree cell holding the group is never used whole, even with the group at its far corner", "[gravity]") {
   // A clump of 100 in one octant, one particle near that octant's far corner, 100 elsewhere. The outlier's leaf
   // is its group; the octant's cell holds it, and its centre of mass lies exactly b_max from the outlier when the
-  // outlier is the corner of the cell's box, where rounding once let the cell pass as a multipole (a review of
-  // 2026-12-07: in about 30 % of these trees at theta 0.7 and 1.0, the outlier's force then off by up to 4.9 %;
-  // now at most 1e-3).
+  // outlier is the corner of the cell's box, where rounding can let the cell pass as a multipole (in about 30 % of
+  // these trees at theta 0.7 and 1.0, the outlier's force is then off by up to 4.9 %; opened, by at most 1e-3).
   using gravity_direct::Isa;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -645,7 +644,7 @@ TEST_CASE("gravity: momentum and angular momentum are conserved with gravity, co
                      "rotational energy {:.3g}", worst_p, p_scale, worst_l, l_scale, sim->get("rotational_energy")));
     REQUIRE(contacts >= 10);                           // the cloud collapsed into contacts
     REQUIRE(sim->get("rotational_energy") > 1e-3 * sim->get("kinetic_energy"));   // friction spun grains up
-    // Measured 3.5e-16 to 4.9e-16 of the scales, 1 and 2 threads (2026-12-07; 2.3e-16 to 3.6e-16 on 2026-12-05);
+    // Measured 3.5e-16 to 4.9e-16 of the scales, 1 and 2 threads;
     // lever arms R instead of R - delta/2 leave
     // 9e-8 of the angular momentum's.
     CHECK(worst_p < 1e-13 * p_scale);

@@ -83,8 +83,8 @@ TEST_CASE("gravity step rule: warns past T_orb / 20 and names both numbers", "[g
 
 TEST_CASE("gravity step rule: unsoftened gravity without contacts is warned about, with contacts it is not",
           "[gravity]") {
-  // With softening 0 the rule's closest approach d = 0 has no orbit to resolve: it said nothing, and a cloud whose
-  // grains met at softening 0 gained 101 % energy by step 200 (a review, 2026-12-07).
+  // With softening 0 the rule's closest approach d = 0 has no orbit to resolve, and a cloud whose grains meet at
+  // softening 0 gains 101 % energy by step 200.
   const auto unsoftened = [](const std::string& contact) {
     std::string text = scene(contact, 1e-4);
     text.replace(text.find("softening = 0.5"), 15, "softening = 0.0");
@@ -100,7 +100,7 @@ TEST_CASE("gravity step rule: unsoftened gravity without contacts is warned abou
   CHECK(said(*none) == 1);
   CHECK_THAT(none->warnings().back(), Contains("with no contacts") && Contains("give gravity.softening > 0"));
   // With contacts, even ones the rule counts as not holding grains apart (the whole cloud's pull on one grain, the
-  // usual case): the aggregation scene at softening 0 ran sound (a second review): not warned.
+  // usual case): the aggregation scene at softening 0 runs sound: not warned.
   CHECK(said(*soft) == 0);
   CHECK(said(*stiff) == 0);
 }

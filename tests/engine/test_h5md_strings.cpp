@@ -30,7 +30,7 @@ TEST_CASE("string attributes and the scene dataset are fixed length, and older f
     h5::attr_string(file.get(), "empty", "", path);
     h5::attr_string(file.get(), "long", long_value, path);
     h5::dataset_string(file.get(), "scene.toml", scene, path);
-    // as grains wrote them until its twenty-fifth session
+    // as older grains files hold them
     h5::Handle vlen = h5::vlen_string_type(path);
     h5::Handle space(H5Screate(H5S_SCALAR), H5Sclose);
     const char* old_value = "complete";

@@ -76,7 +76,7 @@ TEST_CASE("random layout: particles are numbered along a Z-order curve, sizes mo
 
 TEST_CASE("random layout: polydisperse spheres at solid fraction 0.3 start for every seed", "[layout]") {
   // In the particles' order the insertion jams near 0.3 for most seeds of the 3D consolidation scenes (a
-  // large sphere finds no hole late in the filling; seeds 2-5 of 1000 failed until 2026-12-04); it then
+  // large sphere finds no hole late in the filling; seeds 2-5 of 1000 fail so); it then
   // places them largest first.
   for (int seed = 1; seed <= 5; ++seed) {
     INFO("seed " << seed);

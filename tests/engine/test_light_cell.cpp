@@ -1,6 +1,6 @@
 // A cell too light for the step: its breathing against the contacts, stepped with the particles' forces frozen
-// over a step, grows every step (an outside review, 2026-12-07: cell.mass = 1e-4 m blew a 100-disk cell up to
-// a solid fraction of 0.07, unwarned). Warned at set-up below M_c = k_cell dt^2, k_cell = K_N (L / a)^(D-2).
+// over a step, grows every step (cell.mass = 1e-4 m blows a 100-disk cell up to a solid fraction of 0.07). Warned
+// at set-up below M_c = k_cell dt^2, k_cell = K_N (L / a)^(D-2).
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -58,7 +58,7 @@ TEST_CASE("a cell lighter than the step can follow is warned about, and is unsta
 
 TEST_CASE("a strain-rate cap so low that the cell cannot move in any run is warned about", "[barostat][extremes]") {
   // cell.inertia_number = 1e-20 (or a force unit far below the scene's forces, T0 = sqrt(a m / F0) huge) held the cell
-  // still with P* far from its target, unwarned (a review, 2026-12-07). Warned where 1 % of strain takes 1e9 steps.
+  // still with P* far from its target. Warned where 1 % of strain takes 1e9 steps.
   for (int dim : {2, 3}) {
     INFO("dimension " << dim);
     const auto cell = [&](const char* inertia) {

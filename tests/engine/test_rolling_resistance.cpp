@@ -88,7 +88,7 @@ TEST_CASE("rolling resistance, rolling regime: the moment is capped at mu_R K_N 
 }
 
 // A rolling spring so stiff that its moment squared overflows a double (3D; 2D takes no square): the cap divided by
-// sqrt(inf) and zeroed the moment, rolling resistance off unsaid (found with friction by a review, 2026-12-07).
+// sqrt(inf) and zero the moment, rolling resistance off unsaid.
 TEST_CASE("rolling resistance: a spring whose moment squared overflows still rolls at the bound", "[rolling]") {
   const double inertia = 0.4 * 1.0 * 0.25, mu_r = 0.005, w0 = 1.0;
   std::string scene = spinning_pair(3, w0, mu_r);
@@ -138,9 +138,8 @@ TEST_CASE("adhesion + friction + rolling conserve momentum and angular momentum"
                                             "angular_momentum_y", "angular_momentum_z"};
     std::vector<double> start;
     for (const auto& n : names) start.push_back(read(n));
-    // Scale of the sums: total |m v|. Measured changes (2D, 3D; 2026-12-05): momentum 7.9e-17 and 1.2e-16 of it at most,
-    // angular momentum 9.1e-14 and 1.4e-14 (round-off): bounds 1e-14 and 1e-12. With the second-order springs (the
-    // twenty-fourth session) momentum 2.7e-16 and 1.5e-16, angular momentum 9.0e-14 and 1.4e-14.
+    // Scale of the sums: total |m v|. Measured changes (2D, 3D): momentum 2.7e-16 and 1.5e-16 of it at most,
+    // angular momentum 9.0e-14 and 1.4e-14 (round-off): bounds 1e-14 and 1e-12.
     double scale = 0;
     const auto v = s->particles();
     for (std::size_t i = 0; i < v.count; ++i)

@@ -372,10 +372,10 @@ void check_second_order(const Orders& o, const std::vector<std::string>& quantit
 
 // The tangential and rolling springs of a turning cluster: they are turned with their contact from the
 // normal at the step's start to its end and advance with the relative velocity at the middle of the step.
-// Before 2026-12-05 they were projected into the new tangent plane and rescaled, and advanced with the
-// half-step velocity seen along the end-of-step normal: first order (positions 1.01 in 3D; 2D 1.66, 1.42).
+// Projected into the new tangent plane and rescaled, and advanced with the half-step velocity seen along the
+// end-of-step normal, they are first order (positions 1.01 in 3D; 2D 1.66, 1.42).
 TEST_CASE("scene convergence: a spinning bonded cluster with friction and rolling springs is second order", "[order]") {
-  // 2D: the old error (v_n times the turning rate) is small beside the second-order one until fine steps.
+  // 2D: that first-order error (v_n times the turning rate) is small beside the second-order one until fine steps.
   const Modules disks{.friction = 10, .rolling = 10, .spin = 0.3};
   const auto o2 = observed_orders(bonded_cluster(2, disks), 0.2, 8000, 4, "2D spinning cluster");
   check_second_order(o2, {"position", "velocity", "spin", "orientation", "elastic energy"});
@@ -400,7 +400,7 @@ TEST_CASE("scene convergence: barostat with springs, module by module (prints th
 
 
 // Softened self-gravity and the linear law's batched 3D kernel with friction: a turning tetrahedron held
-// together by gravity and a sphere orbiting it (orientations first order before 2026-12-05, see above).
+// together by gravity and a sphere orbiting it (orientations first order with projected springs, see above).
 TEST_CASE("scene convergence: gravitating spheres with frictional contacts are second order", "[order]") {
   const auto o = observed_orders(gravitating_spheres(0.5, 10, 0, 1), 0.5, 2000, 4, "gravitating tetrahedron");
   check_second_order(o, {"position", "velocity", "spin", "orientation"});

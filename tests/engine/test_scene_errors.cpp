@@ -134,11 +134,11 @@ TEST_CASE("scene errors: a scene name that cannot be a file name is refused", "[
                             Contains("A-Z a-z 0-9 . _ -, not starting with '.'"));
   }
   REQUIRE_NOTHROW(build(good, {"scene.name=\"gas-2_run.v1\""}));
-  // A NUL (TOML's \u0000) in any text value: a file name would end there where the system reads it (found by an
-  // adversarial review, 2026-12-07: particles.file = "p.txt\u0000junk" read p.txt).
+  // A NUL (TOML's \u0000) in any text value: a file name would end there where the system reads it
+  // (particles.file = "p.txt\u0000junk" would read p.txt).
   for (const std::string& set : {std::string("output.file=\"o.h5\\u0000zz\""), std::string("particles.layout=\"file\\u0007\"")})
     REQUIRE_THROWS_WITH(build(good, {set}), Contains("holds a control character") && Contains("allowed text without control"));
-  // Tabs and line ends stay: a description of several lines (refused for a while on 2026-12-07, found by a code review).
+  // Tabs and line ends stay: a description of several lines.
   REQUIRE_NOTHROW(build(good, {"scene.description=\"First line.\\nSecond\\tline.\\r\""}));
   REQUIRE_NOTHROW(build(good, {"scene.name=\"" + std::string(100, 'a') + "\""}));
 }
@@ -150,7 +150,7 @@ TEST_CASE("scene errors: a TOML syntax error gives the file and line", "[scene][
   REQUIRE_THROWS_WITH(build("[scene\ndimension = 3\n"), Contains("bad.toml:1") && Contains("syntax"));
 }
 
-// Found by fuzzing (tests/fuzz/fuzz_scene, 2026-12-05), two defects of toml++ 3.3.0 behind a syntax error
+// Found by fuzzing (tests/fuzz/fuzz_scene), two defects of toml++ 3.3.0 behind a syntax error
 // (io/toml.hpp): a table header whose name starts with neither a key's character nor a quote broke an assertion, which
 // aborted a build without NDEBUG (Debug, the sanitized builds); a character such as U+00A1 or U+FEFD where whitespace
 // may stand reached __builtin_unreachable() (undefined behaviour, which UBSan reports). A Release build reported both.
@@ -255,13 +255,13 @@ TEST_CASE("scene errors: a particle file's word that is not a number is named wi
                                          "box.periodic=false"};
   REQUIRE_THROWS_WITH(build(good_uncounted, file), Contains("particles.file") && Contains("grains-bad-rows.txt:4") &&
                                              Contains("column 5") && Contains("'np.float64(1.0)' is not a decimal number"));
-  // C's hexadecimal numbers, which strtod reads (0x10 = 16), and control bytes, shown escaped (a NUL ended the message,
-  // an escape sequence drove the terminal; found by an adversarial review, 2026-12-07).
+  // C's hexadecimal numbers, which strtod reads (0x10 = 16), and control bytes, shown escaped (a NUL would end the
+  // message, an escape sequence drive the terminal).
   for (const auto& [word, shown] : {std::pair<std::string, std::string>{"0x10", "'0x10'"},
                                     std::pair<std::string, std::string>{std::string("\0\x01", 2), "'\\x00\\x01'"},
                                     std::pair<std::string, std::string>{"\x1b[31mRED", "'\\x1b[31mRED'"},
-                                    // a NUL inside a number: strtod stopped there and "3\077" was read as 3 (a review,
-                                    // 2026-12-07), as a crash's zero-filled block would be
+                                    // a NUL inside a number: strtod stops there and would read "3\077" as 3, as a
+                                    // crash's zero-filled block would be
                                     std::pair<std::string, std::string>{std::string("3\0" "77", 4), "'3\\x0077'"},
                                     // a 20 MB word was echoed whole: now its start and its length
                                     std::pair<std::string, std::string>{std::string(100000, '7') + "z",
@@ -384,7 +384,7 @@ TEST_CASE("scene errors: a section written as a key, and a key written as a sect
   // `box = 4` was "unknown key 'box'", followed by a list of sections that includes box.
   REQUIRE_THROWS_WITH(build("box = 4\n" + good),
                       Contains("'box' is a section, not a key: write its keys under [box] (got box = 4)"));
-  // The same by --set was still "unknown key 'box'" (a review of the documentation, 2026-12-05).
+  // The same by --set, not "unknown key 'box'".
   std::string set_section = "no error";
   try {
     build(good, {"box=4"});
@@ -420,7 +420,7 @@ TEST_CASE("scene errors: a skin too thick for the periodic box names neighbours.
 }
 
 TEST_CASE("scene errors: a lattice too dense for its given box names box.lengths", "[scene][errors]") {
-  // The box came from box.lengths, not from the solid fraction the message used to name.
+  // The box comes from box.lengths: the message must not name the solid fraction.
   const std::string boxed = with("solid_fraction = 0.2", "diameter = 5.0\n[box]\nlengths = [1.0, 1.0, 1.0]");
   REQUIRE_THROWS_WITH(build(boxed), Contains("box.lengths") && Contains("lattice spacing 0.3333") &&
                                         Contains("largest diameter 5") && !Contains("solid_fraction"));
@@ -429,7 +429,7 @@ TEST_CASE("scene errors: a lattice too dense for its given box names box.lengths
 }
 
 TEST_CASE("scene errors: a kinetic energy whose total overflows names particles.kinetic_energy", "[scene][errors]") {
-  // It used to surface as a non-finite velocity at the first step, naming no key.
+  // Unrefused, it surfaces as a non-finite velocity at the first step, naming no key.
   const std::string hot = with("solid_fraction = 0.2", "solid_fraction = 0.2\nvelocity = \"gaussian\"");
   REQUIRE_THROWS_WITH(build(hot, {"particles.kinetic_energy=1e308"}),
                       Contains("particles.kinetic_energy") && Contains("value 1e+308") && Contains("27 particles"));
@@ -573,7 +573,7 @@ TEST_CASE("scene errors: a key given where the scene does not read it names the 
   REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=1", "cell.pressure=0.5", "cell.pressure_final=2",
                                "cell.ramp_duration=10"}));
 
-  // Found by a review (2026-12-05), each accepted without a word: the tree's opening angle with direct
+  // Each of these would be accepted without a word: the tree's opening angle with direct
   // summation, a programme without a cell, one diameter for drawn sizes.
   const std::vector<std::string> open_gravity = {"box.periodic=false", "box.lengths=[4.2, 4.2, 4.2]", "gravity.enabled=true"};
   auto plus = [&](std::string extra) { auto v = open_gravity; v.push_back(std::move(extra)); return v; };
@@ -606,7 +606,7 @@ TEST_CASE("scene errors: a cell without adhesion names its force unit", "[scene]
                                "units, a value > 0") && Contains("or 0 (P* = P a^(D-2) / k_n)"));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=1", "cell.pressure=0.01"}));
   REQUIRE_NOTHROW(build(good, {"cell.enabled=true", "cell.force_unit=0", "cell.pressure=0.01"}));
-  // A subnormal unit overflowed P* and the time unit to inf, which reached the outputs (a review, 2026-12-07).
+  // A subnormal unit overflows P* and the time unit to inf, which would reach the outputs.
   REQUIRE_THROWS_WITH(build(good, {"cell.enabled=true", "cell.force_unit=1e-320", "cell.pressure=0.01"}),
                       Contains("cell.force_unit: value 9.99989e-321 as the force unit of P* is below the smallest normal "
                                "double") && Contains("allowed 0 (cohesionless) or at least 2.22507e-308"));
@@ -615,7 +615,7 @@ TEST_CASE("scene errors: a cell without adhesion names its force unit", "[scene]
 TEST_CASE("scene errors: a key another given key replaces is warned about, not refused, and not resolved", "[scene][errors]") {
   // An override cannot remove the scene's own key, so refusing would forbid --set time.dt on a scene that
   // gives steps per contact (and the FMUs' hosts the same); instead the warning names both, and grains check's
-  // resolved scene leaves the replaced key out. Until 2026-12-05 nothing said so.
+  // resolved scene leaves the replaced key out.
   const Scene scene = Scene::from_string(good, "s.toml", {"time.steps_per_contact=20", "time.dt=0.001",
                                                           "particles.density=5", "particles.mass=2", "box.lengths=[6, 6, 6]"});
   const auto sim = Simulation::create(scene);
@@ -657,7 +657,7 @@ TEST_CASE("scene errors: drawn or listed velocities in place of a particle file'
 }
 
 TEST_CASE("scene errors: a particle file's spin columns spin the grains, in one place only", "[scene][errors]") {
-  // A spinning body could take its spins only from the scene's text, one row per grain (an outside review, 2026-12-07).
+  // A spinning body of many grains takes its spins from its file, not only from the scene's text, one row per grain.
   const auto path = std::filesystem::temp_directory_path() / "grains-spinning-rows.txt";
   {
     std::ofstream f(path);
@@ -789,7 +789,7 @@ TEST_CASE("scene errors: defaults are never refused as unread, and the resolved 
 }
 
 TEST_CASE("scene errors: an integer just past its bound is refused, not rounded onto it", "[scene][errors]") {
-  // As a double 9200000000000000001 is 9.2e18, the bound itself (found by an adversarial review, 2026-12-07).
+  // As a double 9200000000000000001 is 9.2e18, the bound itself.
   REQUIRE_NOTHROW(build(good, {"particles.seed=9200000000000000000"}));
   REQUIRE_THROWS_WITH(build(good, {"particles.seed=9200000000000000001"}),
                       Contains("particles.seed") && Contains("9200000000000000001 is out of range"));

@@ -1,6 +1,6 @@
 // Every number of the scene schema declares its dimension, a pure number's too: the FMUs' parameter units, the
 // scene reference's unit column and the unit-scaling tests read it there, so a number with none would be
-// forgotten by all three (until 2026-12-05 the FMUs' units were a table of their own, which a new key could miss).
+// forgotten by all three.
 #include <catch2/catch.hpp>
 
 #include "io/scene.hpp"

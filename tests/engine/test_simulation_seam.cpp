@@ -198,8 +198,8 @@ std::vector<std::byte> resealed(std::vector<std::byte> bytes) {   // a new check
 }
 }  // namespace
 
-// Found by fuzzing (tests/fuzz/fuzz_state, 2026-12-05): the particle arrays' lengths were never compared with the
-// particle count, so a state with a row too few was taken, and the next step read past the array's end.
+// Found by fuzzing (tests/fuzz/fuzz_state): unless the particle arrays' lengths are compared with the particle
+// count, a state with a row too few is taken, and the next step reads past the array's end.
 TEST_CASE("a saved state whose particle arrays have a row too few is refused even under a valid check sum", "[seam]") {
   auto s = Simulation::create(Scene::from_string(small_gas, "gas"));
   s->step_n(20);

@@ -317,8 +317,8 @@ TEST_CASE("orbit rule: a host's G moves its step and whether contacts hold grain
 }
 
 TEST_CASE("a host's G moves k* with it, and t_ff keeps the initial cloud's G", "[gravity]") {
-  // k* stayed at the initial G's value after a host changed G (found in the forty-third session), so the energy
-  // check's "contacts too soft (k* = ...)" quoted a k* a thousand times too stiff after G was raised a thousandfold.
+  // k* kept at the initial G's value after a host changes G would have the energy check's "contacts too soft
+  // (k* = ...)" quote a k* a thousand times too stiff after G is raised a thousandfold.
   auto sim = Simulation::create(
       Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/aggregation.toml", {"run.threads=1", "particles.count=50"}));
   const double G = sim->get(sim->index_of("gravity.G")), k_star = sim->get("normalised_stiffness");
@@ -327,7 +327,7 @@ TEST_CASE("a host's G moves k* with it, and t_ff keeps the initial cloud's G", "
   sim->step_n(1);
   CHECK(sim->get("normalised_stiffness") == Approx(k_star / 1000).epsilon(1e-12));
   CHECK(sim->get("free_fall_time") == t_ff);
-  set_G(*sim, 0.0);   // gravity off: no k*, rather than inf in the outputs (a review, 2026-12-07)
+  set_G(*sim, 0.0);   // gravity off: no k*, rather than inf in the outputs
   sim->step_n(1);
   CHECK(std::isnan(sim->get("normalised_stiffness")));
 }

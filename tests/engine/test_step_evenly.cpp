@@ -42,5 +42,5 @@ TEST_CASE("step_evenly: equal steps keep a collision's restitution that a short 
   auto even = head_on();
   const double e_even = restitution_after(*even, 1.37 * dt, 220, true);      // 0.685 dt, twice
   CHECK(std::abs(e_even / e_whole - 1) < 5e-4);
-  CHECK(std::abs(e_uneven / e_whole - 1) > 1e-3);   // what the FMU did until 2026-12-05
+  CHECK(std::abs(e_uneven / e_whole - 1) > 1e-3);   // whole steps and a shorter one: the restitution spoilt
 }

@@ -51,13 +51,13 @@ TEST_CASE("a tangential spring or dashpot too stiff for the step is warned about
   CHECK_THAT(damped->warnings()[0], Contains("friction.damping_ratio = 30"));
   CHECK(oblique(1, 3, 0.5)->warnings().empty());
   CHECK_THAT(damped->warnings()[0], Contains("lower the ratio or the step (time.steps_per_contact"));
-  // A ratio no step can follow: the bound computed without overflow (it said "exceeds 0", with c_t^2 = inf), and only
-  // the ratio offered as the remedy (it offered "time.steps_per_contact inf or more"; an adversarial review, 2026-12-07).
+  // A ratio no step can follow: the bound computed without overflow (not "exceeds 0", with c_t^2 = inf), and only
+  // the ratio offered as the remedy (not "time.steps_per_contact inf or more").
   auto absurd = oblique(1, 1e300, 0.5);
   REQUIRE(absurd->warnings().size() == 1);
   CHECK_THAT(absurd->warnings()[0], Contains("friction.damping_ratio = 1e+300") && !Contains("exceeds 0,") &&
                                         Contains("lower the ratio (no practical step is below it") && !Contains("inf"));
-  // And a vanishing ratio is no ratio: 4 k m / c^2 overflowed there for a while (a code review, 2026-12-07).
+  // And a vanishing ratio is no ratio: 4 k m / c^2 would overflow there.
   CHECK(oblique(1, 1e-200, 0.5)->warnings().empty());
 }
 
@@ -72,7 +72,7 @@ TEST_CASE("a rolling spring too stiff for the step is warned about", "[extremes]
   // w h = sqrt(ratio K_N / (1/16)) pi sqrt(0.5 / K_N) / 50 = 0.178 sqrt(ratio): a lone pair's bound 2 at ratio 126. The
   // rule assumes every grain has as many contacts as fit (6 equal disks; I* = I / 12, not I / 2), so it warns from
   // ratio 21: cautious for this pair, but a triangular lattice of such disks gained 12 and 35 times its kinetic
-  // energy in 20,000 steps at ratios 60 and 100, where the one-contact rule (until 2026-12-07) said nothing.
+  // energy in 20,000 steps at ratios 60 and 100, where a one-contact rule says nothing.
   CHECK(bonded(15)->warnings().empty());
   auto stiff = bonded(30);
   REQUIRE(stiff->warnings().size() == 1);
@@ -82,10 +82,10 @@ TEST_CASE("a rolling spring too stiff for the step is warned about", "[extremes]
 
 TEST_CASE("a rolling dashpot too strong for a small grain between large ones is warned about, spring or none",
           "[extremes][rolling]") {
-  // A disk of diameter 0.05 bonded between two of diameter 1, spinning. The rule looked at the two smallest grains
-  // only, one contact each, and only with a rolling spring: rolling.damping_ratio = 1 (the schema's stated stable
-  // maximum) blew this up unwarned, and the error blamed the initial state; so did 0.45 once a single pair was
-  // looked at (two reviews, 2026-12-07). The small grain's spin feels both dashpots: its limit is half a pair's,
+  // A disk of diameter 0.05 bonded between two of diameter 1, spinning. A rule looking at the two smallest grains
+  // only, one contact each, and only with a rolling spring, misses it: rolling.damping_ratio = 1 (the schema's stated
+  // stable maximum) blows it up, and the error blames the initial state; so does 0.45, which a rule for a single pair
+  // allows. The small grain's spin feels both dashpots: its limit is half a pair's,
   // 0.249 in 2D and 0.199 in 3D at this step (the two contacts the geometry allows; 0.3 and 0.25 blow up).
   for (const int dim : {2, 3}) {
     INFO("dimension " << dim);

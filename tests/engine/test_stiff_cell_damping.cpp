@@ -1,6 +1,6 @@
 // A cell damping whose relaxation time is far below the particle step: CVODE's non-stiff method resolves it with
-// about 1.3 eta / M_c dt steps per particle step (a review, 2026-12-07: a run 470 times slower at
-// cell.contact_damping = 1e6, unwarned, and every failure blamed cell.mass and the pressure). Warned once past 10;
+// about 1.3 eta / M_c dt steps per particle step (a run at cell.contact_damping = 1e6 is 470 times slower, and a
+// failure must name the damping, not cell.mass and the pressure). Warned once past 10;
 // a failure names the damping.
 #include <catch2/catch.hpp>
 

@@ -238,9 +238,9 @@ TEST_CASE("every shipped scene in units scaled by powers of two runs bit for bit
   CHECK(scenes >= 13);
 }
 
-// The grid of an open box spans the particles, widened a little at the top: by 1e-9 (1 + |hi|) until
-// 2026-12-05, an absolute pad that in units of 2^-40 was far wider than the cloud, so the grid had other
-// cells and the list its pairs in another order (the forces then summed in another order).
+// The grid of an open box spans the particles, widened a little at the top, in the scene's lengths: an absolute pad
+// such as 1e-9 (1 + |hi|) is, in units of 2^-40, far wider than the cloud, so the grid would have other cells and
+// the list its pairs in another order (the forces then summed in another order).
 TEST_CASE("the neighbour list of an open box lists a scaled configuration's pairs in the same order", "[units]") {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(0, 1);

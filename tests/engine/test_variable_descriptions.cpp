@@ -1,5 +1,5 @@
 // Every variable of every shipped scene says what it is: the runner's summary and the FMUs' model
-// descriptions show these texts (until 2026-12-05 the force modules' observables said only "see the README").
+// descriptions show these texts.
 #include <catch2/catch.hpp>
 
 #include <string>
@@ -25,7 +25,7 @@ TEST_CASE("every variable of the shipped scenes has a description", "[observable
 }
 
 TEST_CASE("each force-histogram bin's description gives its own range", "[observables]") {
-  // Every bin's text said "(the first bin also holds what is below)" (a review of the documentation, 2026-12-05).
+  // Only the first bin's text says it also holds what is below.
   auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/consolidation.toml", {"run.threads=1"}));
   int seen = 0;
   for (const auto& v : s->variables()) {
@@ -41,8 +41,8 @@ TEST_CASE("each force-histogram bin's description gives its own range", "[observ
 }
 
 TEST_CASE("declared units: stresses and moduli per length in 2D and per area in 3D and G with its dimension", "[observables]") {
-  // Every scene declared "Pa" until 2026-12-05, but a 2D stress is a force per length (the FMUs' model
-  // descriptions show these units), and G had none.
+  // A 2D stress is a force per length, not "Pa" (the FMUs' model descriptions show these units), and G has a
+  // dimension.
   for (const char* name : {"consolidation", "consolidation-3d", "aggregation"}) {
     auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/" + name + ".toml", {"run.threads=1"}));
     const std::string stress = s->dimension() == 3 ? "Pa" : "N/m";
@@ -66,8 +66,8 @@ TEST_CASE("declared units: stresses and moduli per length in 2D and per area in 
 }
 
 TEST_CASE("a variable named after a scene key has the key's unit, the schema's", "[observables][units]") {
-  // The engine's parameters and controls (time.dt, adhesion.force, gravity.G, drag.rate, ...) wrote their units out
-  // until 2026-12-05, beside the FMUs' own table of the scene keys' units.
+  // The engine's parameters and controls (time.dt, adhesion.force, gravity.G, drag.rate, ...) take their units from
+  // the schema, not from a table of their own that could disagree with it.
   int seen = 0;
   for (const char* name : {"aggregation", "collision", "consolidation", "consolidation-rr-3d", "cohesionless"}) {
     auto s = Simulation::create(Scene::from_file(std::string(GRAINS_MODELS_DIR) + "/" + name + ".toml", {"run.threads=1"}));

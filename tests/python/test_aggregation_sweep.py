@@ -15,7 +15,7 @@ from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "runner"))
 import aggregation_sweep as sweep  # noqa: E402
-import reuse  # noqa: E402
+import scene_check  # noqa: E402
 
 
 def test_damping_ratio_and_restitution_are_inverse():
@@ -66,7 +66,7 @@ def test_an_override_of_a_sweep_default_replaces_it_and_each_key_is_given_once(g
         settings = sweep.run_settings(0.9, 10.0, 1, m_star, k_g, 1, overrides + ["time.steps_per_contact=40"], own)
         keys = [s.split("=", 1)[0] for s in settings]
         assert len(keys) == len(set(keys)), settings
-        scene = reuse.resolve(grains_bin, sweep.SCENE, settings)   # grains takes them as they are
+        scene = scene_check.resolve(grains_bin, sweep.SCENE, settings)   # grains takes them as they are
         assert scene["output"]["snapshots_every"] == snapshots and scene["time"]["steps_per_contact"] == 92
 
 
@@ -143,15 +143,15 @@ def test_findings_follow_the_measured_trends():
 
 
 def test_a_trend_over_two_points_is_not_decided_and_a_curve_that_stays_high_does_not_cross():
-    """Found by a review (2026-12-05): two damping points gave the rank correlation NaN, read as "no", and the
-    text "crosses 0.5 between zeta none"."""
+    """Two damping points give the rank correlation NaN, which must not read as "no", nor give the text "crosses 0.5
+    between zeta none"."""
     lines = sweep.findings([point(0.1, 100, 0.9, 2.0), point(0.5, 100, 0.8, 1.0)], [], 100, 0.1)
     assert lines[2].endswith(f"| {sweep.TOO_FEW} |"), lines[2]
     assert "does not cross 0.5" in lines[3] and "none" not in lines[3]
 
 
 def test_a_trend_over_one_point_is_not_decided():
-    """Found by a review (2026-12-07): one damping point gave "no" for the logistic fall and "yes" for Q's peaks."""
+    """One damping point decides neither the logistic fall (it gave "no") nor Q's peaks (it gave "yes")."""
     lines = sweep.findings([point(0.1, 100, 0.9, 2.0)], [point(0.1, 1e4, 0.6, 2.5)], 100, 0.1)
     assert lines[3].endswith("| not decided: needs 3 points or more |"), lines[3]
     assert lines[4].endswith("| not decided: needs 2 points or more |"), lines[4]
@@ -208,7 +208,7 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
     again = subprocess.run(cmd + ["--report"], capture_output=True, text=True)   # nothing rerun (the same --set)
     assert again.returncode == 0 and "finished" not in again.stdout
     # The values in another order, or given twice, are the same sweep: its verdicts read it from the weakest damping
-    # (found by a review, 2026-12-07: "--damping 0.2 0.1 0.01" reversed two verdicts).
+    # ("--damping 0.2 0.1 0.01" must not reverse two verdicts).
     reordered = [a if a not in ("0.1", "0.5") else {"0.1": "0.5", "0.5": "0.1"}[a] for a in cmd] + ["--damping", "0.5", "0.1", "0.5"]
     report = subprocess.run(reordered + ["--report"], capture_output=True, text=True)
     assert report.returncode == 0, report.stderr
@@ -229,9 +229,9 @@ def test_a_small_sweep_runs_end_to_end_and_names_bad_input(grains_bin, tmp_path)
 
 
 def test_a_point_grains_refuses_stops_the_sweep_before_any_run(grains_bin, tmp_path):
-    """Every point is resolved by grains first. Until 2026-12-06 a stiffness the scene refuses (k* = 1e-300: a
-    contact so soft the run's free-fall times round to no step) stopped the sweep only in its turn, after the
-    damping sweep had run."""
+    """Every point is resolved by grains first: a stiffness the scene refuses (k* = 1e-300: a contact so soft the
+    run's free-fall times round to no step) stops the sweep before any run, not in its turn after the damping sweep
+    has run."""
     out = tmp_path / "sweep"
     cmd = [sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out", str(out),
            "--damping", "0.1", "--stiffness", "100", "1e-300", "--set", "particles.count=40"]
@@ -243,8 +243,8 @@ def test_a_point_grains_refuses_stops_the_sweep_before_any_run(grains_bin, tmp_p
 
 
 def test_a_stiffness_option_without_values_runs_the_damping_sweep_alone(grains_bin, tmp_path):
-    """Until 2026-12-05 every sweep ran the stiffness sweep after the damping one (six more runs by default), so a user
-    asking for two dampings got eight runs; `--stiffness` with no value now leaves it out. The help lists the defaults."""
+    """`--stiffness` with no value leaves the stiffness sweep out (by default it runs after the damping one, six more
+    runs: a user asking for two dampings would get eight). The help lists the defaults."""
     small = ["--set", "particles.count=30", "--set", "time.duration=0.5", "--set", "analysis.every=20",
              "--set", "output.observables_every=50"]
     tool = [sys.executable, str(ROOT / "runner/aggregation_sweep.py")]
@@ -276,8 +276,8 @@ def test_a_map_or_a_fixed_damping_without_stiffnesses_is_refused(grains_bin, tmp
 
 
 def test_a_stiffness_that_names_its_runs_as_the_scene_k_star_does_is_that_point(grains_bin, tmp_path):
-    """The scene's k* (6468.79) and --stiffness 6469 both name their runs k6469: until 2026-12-05 the second was
-    refused as a run with other settings, and the sweep stopped."""
+    """The scene's k* (6468.79) and --stiffness 6469 both name their runs k6469: the second is that point, not a run
+    with other settings that stops the sweep."""
     small = ["--set", "particles.count=30", "--set", "time.duration=0.5", "--set", "analysis.every=20",
              "--set", "output.observables_every=50"]
     run = subprocess.run([sys.executable, str(ROOT / "runner/aggregation_sweep.py"), "--grains", grains_bin, "--out",
@@ -333,7 +333,7 @@ def test_a_folder_or_fifo_at_a_run_name_is_refused_not_deleted(grains_bin, tmp_p
     assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
     assert sorted(f.name for f in tmp_path.iterdir()) == ["z0p3-k6469-s1.h5", "z0p5-k6469-s1.h5"]   # nothing ran
     for zeta, kind in ((0.3, "a FIFO (named pipe)"), (0.5, "a folder")):   # no grains to run: it must not get there
-        with pytest.raises(sweep.reuse.RunFailed, match=re.escape(f"{sweep.run_name(zeta, 6469, 1)}.h5 is {kind}, ")):
+        with pytest.raises(sweep.child_runs.RunFailed, match=re.escape(f"{sweep.run_name(zeta, 6469, 1)}.h5 is {kind}, ")):
             sweep.run_point(tmp_path / "no-grains", zeta, 6469.0, 1, 0.5, 1.0, 1, [], tmp_path)
     assert (tmp_path / "z0p3-k6469-s1.h5").is_fifo() and (tmp_path / "z0p5-k6469-s1.h5").is_dir()
 
@@ -355,8 +355,8 @@ def test_a_run_left_interrupted_is_run_again_over_its_file(grains_bin, tmp_path)
            "--damping", "0.3", "--stiffness", "--jobs", "1", "--threads", "1", *small]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "finished zeta 0.3" in r.stdout, r.stdout + r.stderr
-    ran = sweep.reuse.stored(h5)   # the sweep's point, not the gas left there
-    assert sweep.reuse.ended(h5) and ran["scene"]["name"] == "aggregation" and ran["particles"]["count"] == 30
+    ran = sweep.run_files.stored(h5)   # the sweep's point, not the gas left there
+    assert sweep.run_files.ended(h5) and ran["scene"]["name"] == "aggregation" and ran["particles"]["count"] == 30
 
 
 def test_rank_correlation_gives_ties_their_mean_rank():

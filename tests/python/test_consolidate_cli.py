@@ -34,10 +34,10 @@ def test_consolidate_writes_a_row_per_stage_and_reports_unreached_stages(grains_
     assert all(row["reached"] == "0" and row["steps"] == "300" for row in rows)
     assert r.stderr.count("did not reach equilibrium") == 3
     assert "3 not reached" in r.stdout and "CVODE" in r.stdout
-    # Said up front (2026-12-07): 300 steps cannot hold the 5 confirming checks of 100 steps each
+    # Said up front: 300 steps cannot hold the 5 confirming checks of 100 steps each
     assert ("programme.stage_budget = 300 holds fewer than the programme.confirm_checks = 5 checks (one every "
             "programme.check_every = 100 steps, and one at the budget's end)") in r.stderr
-    # 450 steps hold them: checks at 100, 200, 300, 400 and the budget's end (a review found this warned too)
+    # 450 steps hold them: checks at 100, 200, 300, 400 and the budget's end (not warned about)
     r = run(grains_bin, "consolidate", root / "models" / "cohesionless.toml", "--table", tmp_path / "t450.csv", "--out",
             tmp_path / "t450.h5", "--set", "particles.count=60", "--set", "programme.load=false", "--set",
             "programme.unload=false", "--set", "programme.stage_budget=450", "--quiet")
@@ -151,7 +151,7 @@ def test_consolidate_acts_on_an_interrupt_between_rare_checks(grains_bin, root, 
 
 
 def test_a_programme_that_fails_says_so_in_its_file(grains_bin, root, tmp_path):
-    """Until 2026-12-05 a programme stopped by an error left the status "running" of a killed one."""
+    """A programme stopped by an error says so in its file, not with the status "running" of a killed one."""
     out = tmp_path / "blown.h5"
     r = run(grains_bin, "consolidate", root / "models/cohesionless.toml", "--set", "particles.count=100", "--set",
             "time.dt=10", "--set", "run.threads=1", "--out", out, "--table", tmp_path / "blown.csv", "--quiet")
@@ -231,8 +231,8 @@ def test_consolidate_traces_every_stage_at_its_checks_and_its_end_and_changes_no
 
 def test_the_trace_and_record_of_an_aggregation_in_its_fixed_cell_have_no_target(grains_bin, root, tmp_path):
     """The type-2 aggregation holds the cell fixed: its trace's target and its stage record's are NaN, as in the stage
-    table, not the cell.pressure the scene gives for later (the record held that until 2026-12-06, and the initial
-    state's record, before the aggregation, until the thirtieth session)."""
+    table, not the cell.pressure the scene gives for later (nor does the initial state's record, before the
+    aggregation)."""
     out = tmp_path / "agg.h5"
     r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--set", "particles.count=100", "--set",
             "programme.aggregation_budget=3000", "--set", "programme.stage_budget=2000", "--set", "programme.load=false",
@@ -265,8 +265,8 @@ def test_the_trace_and_record_of_an_aggregation_in_its_fixed_cell_have_no_target
 
 
 def test_a_stage_ending_with_contacts_past_the_overlap_clamp_is_warned_about_once(grains_bin, root, tmp_path):
-    """Counted in the outputs only, a stage in "equilibrium" with contacts past the clamp went by unsaid (a review,
-    2026-12-07). 60 disks at kappa = 1e4 with the clamp at 0.2 R_min: P* = 100 holds (largest overlap 0.07 R_min),
+    """Counted in the outputs only, a stage in "equilibrium" with contacts past the clamp would go by unsaid. 60 disks
+    at kappa = 1e4 with the clamp at 0.2 R_min: P* = 100 holds (largest overlap 0.07 R_min),
     P* = 1000 crushes the packing past it."""
     out = tmp_path / "crushed.h5"
     r = run(grains_bin, "consolidate", root / "models" / "consolidation.toml", "--out", out, "--table",

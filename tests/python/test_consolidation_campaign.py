@@ -18,7 +18,9 @@ from interrupt import interrupted
 
 sys.path.insert(0, str(ROOT / "runner"))
 import consolidation_campaign as campaign  # noqa: E402
-import reuse  # noqa: E402
+import child_runs  # noqa: E402
+import run_files  # noqa: E402
+import run_reuse  # noqa: E402
 
 
 def write_table(path, rows):
@@ -205,7 +207,7 @@ def test_an_interrupted_sample_continues_from_its_last_finished_stage(grains_bin
     table = campaign.consolidate(grains_bin, scene, other, stem, "sample")
     assert "resuming" not in stem.with_suffix(".log").read_text() and table.read_text() != whole.read_text()
     # A finished sample is not taken as one run with other settings, nor run again over: refused, naming them.
-    with pytest.raises(reuse.Stale, match="programme.stage_budget = 20000 there, 10000 now"):
+    with pytest.raises(run_reuse.Stale, match="programme.stage_budget = 20000 there, 10000 now"):
         campaign.consolidate(grains_bin, scene, other, tmp_path / "whole", "whole")
     assert campaign.consolidate(grains_bin, scene, small + ["run.threads=2"], tmp_path / "whole", "whole") == whole
 
@@ -278,8 +280,8 @@ def grains_processes_writing_in(folder):
 
 @pytest.mark.parametrize("tool", ["consolidation_campaign.py", "aggregation_sweep.py"])
 def test_sigterm_to_a_tool_alone_stops_its_runs_as_ctrl_c_does(grains_bin, tmp_path, tool):
-    """`kill PID` of the tool (not of its process group) used to end it silently while its grains runs went on
-    alone; now they get SIGTERM, stop with a checkpoint, and the tool says how to resume."""
+    """`kill PID` of the tool (not of its process group) must not end it silently with its grains runs going on
+    alone: they get SIGTERM, stop with a checkpoint, and the tool says how to resume."""
     if tool == "consolidation_campaign.py":
         args = ["--samples", "1", "--count", "80", "--scene", "consolidation", "--jobs", "1", "--threads", "1",
                 "--set", "programme.stage_budget=50000", "--set", "programme.aggregation_budget=300000"]
@@ -338,8 +340,8 @@ def test_a_set_the_engine_refuses_leaves_no_out_folder(grains_bin, tmp_path, too
 
 
 def test_a_sample_that_fails_ends_the_campaign_with_one_line_naming_its_log(grains_bin, tmp_path):
-    """A run that grains ends with an error (8 disks pass the scene checks but cannot be prepared) used to end the
-    campaign with a Python traceback."""
+    """A run that grains ends with an error (8 disks pass the scene checks but cannot be prepared) ends the campaign
+    with one line naming its log, not a Python traceback."""
     r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--samples", "1", "--count", "8",
                         "--scene", "consolidation", "--set", "programme.stage_budget=5000", "--set",
                         "programme.aggregation_budget=20000", "--grains", str(grains_bin), "--out", str(tmp_path)],
@@ -370,9 +372,9 @@ def test_the_spread_over_resampled_samples_shows_what_the_mean_curves_fit_error_
 
 
 def test_a_sample_whose_fit_has_no_plateau_below_phimax_is_left_out_of_the_mean():
-    """Seed 11 without rolling resistance (the ten-sample campaign of 2026-12-05): the crossover form reaches
-    its stages only with Phi0 above Phimax (Phi0 = 4e14 at the old bound 1/Phi0 >= 0, P1* below P0*), and its
-    lambda of 3.5 +- 51 entered the per-sample mean. Such a fit is refused: the sample gives no lambda."""
+    """Seed 11 without rolling resistance (the ten-sample campaign in docs/): the crossover form reaches its stages
+    only with Phi0 above Phimax (Phi0 = 4e14 at a bound of 1/Phi0 >= 0, P1* below P0*), and its lambda of 3.5 +- 51
+    would enter the per-sample mean. Such a fit is refused: the sample gives no lambda."""
     table = ROOT / "docs" / "campaign-1400-10-samples-14e3020" / "consolidation-seed11.csv"
     s = campaign.summarise(table)
     assert math.isnan(s["lambda"]) and math.isnan(s["phi_max"])
@@ -424,7 +426,7 @@ def test_report_beside_a_running_campaign_reads_the_sample_it_is_writing(grains_
         assert tool_run.poll() is None and grains_processes_writing_in(tmp_path), tool_run.communicate()
         with pytest.raises(OSError):   # the run holds HDF5's lock
             h5py.File(h5, "r").close()
-        assert reuse.stored(h5)["particles"]["count"] == 80
+        assert run_files.stored(h5)["particles"]["count"] == 80
         report = subprocess.run([sys.executable, script, *args, "--report"], capture_output=True, text=True)
         assert report.returncode == 0 and "other settings" not in report.stderr, report.stderr
         assert "consolidation: seeds 1–1, 80 disks;" in (tmp_path / "summary.md").read_text()
@@ -435,23 +437,23 @@ def test_report_beside_a_running_campaign_reads_the_sample_it_is_writing(grains_
 
 
 def test_a_fifo_at_a_runs_path_is_taken_as_not_ended_without_waiting(tmp_path):
-    """reuse.ended opened whatever the path held with h5py, which waits on a FIFO until something writes into it."""
+    """run_files.ended opened whatever the path held with h5py, which waits on a FIFO until something writes into it."""
     fifo = tmp_path / "run.h5"
     os.mkfifo(fifo)
-    code = f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse; print(reuse.ended({str(fifo)!r}))"
+    code = f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import run_files; print(run_files.ended({str(fifo)!r}))"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert (r.returncode, r.stdout) == (0, "False\n"), r.stderr
 
 
 def test_reading_or_comparing_a_fifo_at_a_runs_path_neither_waits_nor_calls_it_missing(tmp_path):
-    """reuse.read_unlocked opened a FIFO with h5py, which waits until something writes into it; reuse.difference
-    then said a FIFO at a sample's path was "missing"."""
+    """run_files.read_unlocked opened a FIFO with h5py, which waits until something writes into it;
+    run_reuse.difference then said a FIFO at a sample's path was "missing"."""
     fifo = tmp_path / "run.h5"
     os.mkfifo(fifo)
-    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import reuse\n"
-            f"try:\n    reuse.read_unlocked({str(fifo)!r}, lambda f: 1)\n"
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'runner')!r}); import run_files, run_reuse\n"
+            f"try:\n    run_files.read_unlocked({str(fifo)!r}, lambda f: 1)\n"
             f"except OSError as e:\n    print(e)\n"
-            f"print(reuse.difference({{}}, {str(fifo)!r}))")
+            f"print(run_reuse.difference({{}}, {str(fifo)!r}))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert (r.returncode, r.stdout) == (0, f"'{fifo}' is a FIFO (named pipe), not an HDF5 file grains wrote\n"
                                            f"{fifo} is a FIFO (named pipe), not an HDF5 file grains wrote\n"), r.stderr
@@ -465,7 +467,7 @@ def test_a_folder_or_fifo_at_a_samples_name_is_refused_not_deleted(tmp_path):
     (tmp_path / "consolidation-seed5.h5").mkdir()
     for seed, kind in ((4, "a FIFO (named pipe)"), (5, "a folder")):
         stem = tmp_path / f"consolidation-seed{seed}"
-        with pytest.raises(reuse.RunFailed, match=re.escape(f"seed{seed}.h5 is {kind}, not a sample's HDF5 file")):
+        with pytest.raises(child_runs.RunFailed, match=re.escape(f"seed{seed}.h5 is {kind}, not a sample's HDF5 file")):
             campaign.consolidate(tmp_path / "no-grains", ROOT / "models/consolidation.toml", [], stem, f"seed {seed}")
     assert (tmp_path / "consolidation-seed4.h5").is_fifo() and (tmp_path / "consolidation-seed5.h5").is_dir()
 
@@ -500,8 +502,8 @@ def test_a_folder_at_a_samples_name_is_refused_before_initial_states_runs_but_no
 
 
 def test_a_programme_that_ends_without_its_stage_table_is_named_not_a_traceback(tmp_path):
-    """A --grains that exits 0 without writing the table ended the campaign in FileNotFoundError (a review,
-    2026-12-07); and the console says when a sample starts."""
+    """A --grains that exits 0 without writing the table is named, not a FileNotFoundError; and the console says when
+    a sample starts."""
     r = subprocess.run([sys.executable, str(ROOT / "runner/consolidation_campaign.py"), "--grains", "/bin/true", "--out",
                         str(tmp_path / "c"), "--samples", "1", "--scene", "consolidation"], capture_output=True, text=True,
                        timeout=120)

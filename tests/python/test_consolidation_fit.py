@@ -42,8 +42,8 @@ def test_crossover_fit_recovers_the_parameters_and_p1():
 
 
 def test_crossover_fit_finds_where_regime_two_starts():
-    """P0* lies between the scan's grid points: the refinement finds it (the grid's best point alone was 3 %
-    off in P0* and 2 % in lambda until 2026-12-05)."""
+    """P0* lies between the scan's grid points: the refinement finds it (the grid's best point alone is 3 %
+    off in P0* and 2 % in lambda)."""
     p = programme()
     fit = cf.fit_crossover(p, synthetic_phi(p))
     assert fit["P0"] == pytest.approx(P0, rel=1e-5)
@@ -250,8 +250,8 @@ def test_a_plateau_joined_to_the_curve_has_no_step_where_p1_is_a_few_p0():
 
 def test_the_errors_of_a_scanned_fit_are_the_spread_of_its_estimates():
     """The scanned P0* is fitted too: its covariance with lambda belongs in the errors. Scaling a four-parameter
-    covariance for the lost degree of freedom alone gave errors 0.53 (lambda) and 0.61 (P1*) times the scatter of
-    60 noisy curves' estimates (a review, 2026-12-07; 0.54 and 0.64 over the 16 here); with the five-parameter Jacobian
+    covariance for the lost degree of freedom alone gives errors 0.53 (lambda) and 0.61 (P1*) times the scatter of
+    60 noisy curves' estimates (0.54 and 0.64 over the 16 here); with the five-parameter Jacobian
     0.85 and 0.90 here, 0.7 and 0.8 over 60 (the plateau's kink, which no linearisation sees, keeps them below 1)."""
     rng = np.random.default_rng(7)
     p = programme()
@@ -279,7 +279,7 @@ def test_a_line_and_its_start_need_a_stage_left_over():
 
 @pytest.mark.parametrize("shape", ["falling", "flat"])
 def test_stages_whose_phi_does_not_grow_hold_no_regime_two(tmp_path, shape):
-    """A falling Phi gave lambda = -0.022 and a flat one lambda = 0, exit status 0 (a review, 2026-12-07)."""
+    """A falling Phi gives lambda = -0.022 and a flat one lambda = 0: no regime II, not a fit with exit status 0."""
     p = programme()
     phi = synthetic_phi(p)[::-1] if shape == "falling" else np.full(p.size, 0.6)
     table = tmp_path / "t.csv"
@@ -291,8 +291,8 @@ def test_stages_whose_phi_does_not_grow_hold_no_regime_two(tmp_path, shape):
 
 
 def test_a_stage_given_twice_is_refused_naming_both_lines(tmp_path):
-    """A duplicated row (the same P* and branch twice) was fitted as two stages and moved Phimax (0.8814 -> 0.8859 in
-    a review, 2026-12-07); a loading and an unloading stage at one P* are two stages."""
+    """A duplicated row (the same P* and branch twice) fitted as two stages would move Phimax (0.8814 -> 0.8859); a
+    loading and an unloading stage at one P* are two stages."""
     p = programme()
     phi = synthetic_phi(p)
     rows = ["P_star,phi,branch"] + [f"{a:.17g},{b:.17g},loading" for a, b in zip(p, phi)]
@@ -309,8 +309,8 @@ def test_a_stage_given_twice_is_refused_naming_both_lines(tmp_path):
 
 
 def test_a_joined_fit_takes_its_errors_from_its_own_model():
-    """The five-parameter covariance of a scanned P0* differentiated the flat plateau's model for a joined fit too:
-    Phi0's error 4.6 times too small where P1* is a few P0* (a review, 2026-12-07)."""
+    """The five-parameter covariance of a scanned P0* differentiates a joined fit's own model: the flat plateau's
+    gives Phi0's error 4.6 times too small where P1* is a few P0*."""
     rng = np.random.default_rng(3)
     p = np.geomspace(1e-4, 10, 24)
     truth = (1 / 0.40, 0.12, 0.4223, 1.0, 3e-3)

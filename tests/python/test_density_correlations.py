@@ -290,7 +290,7 @@ def test_the_same_file_given_twice_is_one_sample(tmp_path):
 
 
 def test_a_blob_fit_that_does_not_converge_finds_no_fractal_range(monkeypatch):
-    """curve_fit's RuntimeError (no convergence within maxfev) ended the tool in a traceback until 2026-12-06."""
+    """curve_fit's RuntimeError (no convergence within maxfev) means no fractal range, not a traceback."""
     def gives_up(*args, **kwargs):
         raise RuntimeError("Optimal parameters not found: Number of calls to function has reached maxfev = 20000.")
     monkeypatch.setattr(dc, "curve_fit", gives_up)
@@ -301,8 +301,8 @@ def test_a_blob_fit_that_does_not_converge_finds_no_fractal_range(monkeypatch):
 
 
 def test_the_aggregation_is_no_stage_of_the_loading_branch():
-    """In a short run the aggregation's measured P* (a fixed cell: no target) came above the first loading targets and
-    was taken as the branch's top, so P* = 0.01 was "no loading stage" (a review, 2026-12-07)."""
+    """In a short run the aggregation's measured P* (a fixed cell: no target) comes above the first loading targets,
+    and taken as the branch's top it would make P* = 0.01 "no loading stage"."""
     rows = [{"phase": "aggregation", "target_pressure": "nan", "P_star": "0.0183"},
             {"phase": "equilibrate", "target_pressure": "0", "P_star": "0.0146"},
             {"phase": "equilibrate", "target_pressure": "0.01", "P_star": "0.0090"},
@@ -315,7 +315,7 @@ def test_the_aggregation_is_no_stage_of_the_loading_branch():
 
 def test_a_disk_reaching_round_a_small_cell_onto_itself_is_drawn_whole():
     """Where a disk's index range wraps onto itself (2 R + 2 h > L), the grid's |= kept one write per point, and a
-    point the disk covers through one image but not the other could end free (a review, 2026-12-07)."""
+    point the disk covers through one image but not the other could end free."""
     edge, radius, spacing = 2.0, 0.95, 0.2
     chi, h = dc.density_field(np.array([[1.0, 1.0]]), np.array([radius]), np.array([edge, edge]), spacing)
     centres = (np.arange(10) + 0.5) * h[0]

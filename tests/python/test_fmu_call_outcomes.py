@@ -1,8 +1,8 @@
 """What a call tells the host besides its values: Warning when it raised a warning, nothing kept of a refused set
 call, the snapshot file closed by Terminate, and (FMI 3) the structural particle count fixed once Initialization Mode
-begins. Each was found by an adversarial review (2026-12-07): a warning was logged only with logging on and the call
-returned OK, a set call refused at its second value kept the first, the snapshot file stayed locked until
-FreeInstance, and FMI 3 took a new particle count in Initialization Mode."""
+begins. Each guards against a failure: a warning logged only with logging on and the call returning OK, a set call
+refused at its second value keeping the first, the snapshot file locked until FreeInstance, and FMI 3 taking a new
+particle count in Initialization Mode."""
 import ctypes
 import math
 
@@ -153,10 +153,10 @@ def test_a_refused_state_names_the_parameters_that_differ(version):
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_state_restores_where_the_pressure_input_started_elsewhere_and_runs_on_as_saved(version):
     """The barostat's tolerance on the cell's rates has a time unit from the start value of cell.pressure (above
-    P* = 1 it depends on P*). It was not in the state: a state saved at P* = 0.01 was refused where the input started
-    at 3 ("history does not lead to the saved cell lengths"), and one saved at 3 right after initialization was taken
-    where it started at 0.01 and then ran otherwise (cell_length_x 10.8712046 against 10.8712040 after 10,000 dt). An
-    outside review, 2026-12-07."""
+    P* = 1 it depends on P*), which the state must hold: without it a state saved at P* = 0.01 is refused where the
+    input started at 3 ("history does not lead to the saved cell lengths"), and one saved at 3 right after
+    initialization is taken where it started at 0.01 and then runs otherwise (cell_length_x 10.8712046 against
+    10.8712040 after 10,000 dt)."""
     path = fmu_path("consolidation", version)
 
     def outputs(unit):   # NaN as a string, so that equal NaNs compare equal
@@ -181,8 +181,8 @@ def test_a_state_restores_where_the_pressure_input_started_elsewhere_and_runs_on
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_value_the_engine_refuses_takes_back_those_set_before_it_in_the_call(version):
-    """A value within its declared range that the engine refuses (P* = 0 in a cohesionless cell) left the values before
-    it in the call applied (a code review, 2026-12-07)."""
+    """A value within its declared range that the engine refuses (P* = 0 in a cohesionless cell) must not leave the
+    values before it in the call applied."""
     unit = Unit(fmu_path("consolidation", version))
     unit.initialize({"particles.count": 30, "adhesion.force": 0.0, "cell.pressure": 0.5})
     set_real = unit.fmu.setReal if version == 2 else unit.fmu.setFloat64
@@ -197,8 +197,8 @@ def test_a_value_the_engine_refuses_takes_back_those_set_before_it_in_the_call(v
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_set_call_that_raises_a_warning_returns_it_itself(version):
-    """A pressure past what the contacts' clamp holds is warned of as it is set: that call returned OK and the next,
-    unrelated one Warning (a code review, 2026-12-07)."""
+    """A pressure past what the contacts' clamp holds is warned of as it is set: that call returns Warning, not OK
+    with the next, unrelated one returning Warning."""
     unit = Unit(fmu_path("consolidation", version)).initialize({"particles.count": 30})
     c, pressure = unit.fmu.component, unit.variables["cell.pressure"].valueReference
     if version == 2:

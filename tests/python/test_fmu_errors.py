@@ -152,7 +152,7 @@ def test_simulation_going_non_finite_is_an_error_then_reset_recovers(unit):
 
 def test_a_step_whose_kinetic_energy_overflows_is_an_error_though_every_grain_stays_finite(unit):
     """Heavy, wide grains falling through each other's softened cores at far too long a step gain energy until
-    1/2 m v^2 overflows while v does not: the step returned OK and the outputs read inf (a review, 2026-12-07)."""
+    1/2 m v^2 overflows while v does not: the step is an error, not OK with the outputs reading inf."""
     unit.initialize({"particles.count": 50, "particles.mass": 1e150, "particles.diameter": 1e10})
     unit.set("gravity.G", 5e17)
     dt = unit.get("time.dt")
@@ -295,8 +295,8 @@ def test_fmi2_refuses_the_fmi3_arrays_whatever_their_size():
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_the_moduli_switch_is_not_a_parameter(version):
-    """analysis.elastic_moduli was a parameter whose only other value (false) removed the moduli outputs, which the
-    FMU then refused (an outside review, 2026-12-07): like the modules' switches it is the packaged scene's."""
+    """analysis.elastic_moduli is no parameter: its only other value (false) would remove the moduli outputs, which
+    the FMU refuses; like the modules' switches it is the packaged scene's."""
     unit = Unit(fmu_path("consolidation", version))
     try:
         names = {v.name for v in unit.md.modelVariables}
@@ -503,7 +503,7 @@ def test_no_parameter_value_changes_the_set_of_variables(model):
     """The FMU's variables are fixed by its modelDescription: a parameter whose value would add or remove outputs (as
     analysis.elastic_moduli = false did) is the packaged scene's, not a parameter. Every fixed parameter, set to 0 and
     to another value, builds a simulation with the same variables or is refused for its value, never for changing
-    them (the refusal stays as a guard; an outside review, 2026-12-07, found it no longer reachable)."""
+    them (the refusal stays as a guard, though no parameter reaches it)."""
     probe = Unit(fmu_path(model, 2))
     parameters = [v for v in probe.md.modelVariables if v.causality == "parameter" and v.variability == "fixed"]
     probe.free()

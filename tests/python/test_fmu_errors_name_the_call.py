@@ -1,6 +1,5 @@
 """Every error the FMU logs begins with the FMI function the host called, in its version's spelling: a host's log
-interleaves many calls, and "unknown value reference 9999" alone did not say which one was refused. Until 2026-12-06
-the value, initialization and instantiation errors were unnamed (the step and FMU-state errors named their call)."""
+interleaves many calls, and "unknown value reference 9999" alone does not say which one was refused."""
 import pytest
 
 from fmu_host import Unit, fmu_path

@@ -21,8 +21,8 @@ def test_each_fmi2_instance_logs_to_its_own_unit():
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_parameter_set_again_does_not_repeat_the_start_up_warnings(version):
-    """A host that sets its parameters again in Initialization Mode (libcosim does) rebuilt the simulation and had every
-    start-up warning twice (an outside review, 2026-12-07). A reset starts a new experiment: they are said again."""
+    """A host that sets its parameters again in Initialization Mode (libcosim does) rebuilds the simulation, which must
+    not say every start-up warning twice. A reset starts a new experiment: they are said again."""
     unit = Unit(fmu_path("collision", version))
     coarse = "time.steps_per_contact"   # 10: dt past t_c / 20, a start-up warning
     said = lambda: sum("exceeds t_c / 20" in m for m in unit.warnings())
@@ -90,10 +90,10 @@ else:
 
 def test_a_logger_calling_back_into_its_instance_is_served_once_and_safely():
     """A host's logger may call back into the instance it logs for, on the same thread (which is why a call claims its
-    instance for a thread, not for good). A logger reading an output had the first warning twice, and the next rebuild
-    read past the end of the warnings (SIGSEGV); a logger freeing the instance freed it under the call (an outside
-    review, 2026-12-07). Now each warning is said once, and such a free is done when the call ends. A set from there
-    is refused (it had been lost to the rebuild around it: steps_per_contact read 200, the step was 10's)."""
+    instance for a thread, not for good). A logger reading an output must not have the first warning twice, nor the
+    next rebuild read past the end of the warnings (SIGSEGV); a logger freeing the instance must not free it under the
+    call. Each warning is said once, and such a free is done when the call ends. A set from there is refused (it would
+    be lost to the rebuild around it: steps_per_contact would read 200, the step be 10's)."""
     read = host_process(REENTRANT_HOST, "read", timeout=60)
     assert read.returncode == 0, (read.returncode, read.stderr)
     assert read.stdout.split() == ["warnings", "2", "after", "the", "rebuild", "2"], read.stdout
@@ -108,8 +108,8 @@ def test_a_logger_calling_back_into_its_instance_is_served_once_and_safely():
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_parameter_that_changes_what_an_input_means_is_said(version):
     """adhesion.force = 0 makes the cell cohesionless, where P* is reduced by k_n, not F0: the input cell.pressure's
-    target moved by orders of magnitude while the modelDescription still said a P / F0, and nothing was logged (an
-    outside review, 2026-12-07). Each new meaning is said once, naming the value that caused it."""
+    target moves by orders of magnitude while the modelDescription still says a P / F0. Each new meaning is said once,
+    naming the value that caused it."""
     unit = Unit(fmu_path("consolidation", version))
     meaning = lambda name: [m for m in unit.warnings() if f"'{name}' is:" in m]
     unit.initialize({"particles.count": 100})

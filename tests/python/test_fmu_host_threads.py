@@ -67,8 +67,8 @@ def test_instances_stepped_from_host_threads_at_once_equal_each_alone():
 
 def test_a_call_from_a_second_thread_while_one_is_inside_is_refused_not_raced():
     """FMI allows one call at a time on an instance; a host that stepped one instance from two threads (Ecos, with two
-    slots loaded from one FMU path: an outside review, 2026-12-07) corrupted the heap, 1 run in 6 aborting the host.
-    A second thread's call now returns Error naming the rule, and the call inside goes on; a free asked meanwhile is
+    slots loaded from one FMU path) would corrupt the heap, 1 run in 6 aborting the host. A second thread's call
+    returns Error naming the rule, and the call inside goes on; a free asked meanwhile is
     done when that call ends."""
     for version in (2, 3):
         unit = Unit(fmu_path("aggregation", version), name="shared")

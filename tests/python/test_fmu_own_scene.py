@@ -1,6 +1,5 @@
 """A user's own scene packaged as an FMU (fmu/package_fmu.cmake, what `-DGRAINS_FMU_SCENES=...` runs): its particle file
-travels in resources/. Until 2026-12-07 the build packaged a particles.file scene without its file, and the FMU could not
-be instantiated (an outside review)."""
+travels in resources/, without which the FMU cannot be instantiated."""
 import os
 import pathlib
 import subprocess

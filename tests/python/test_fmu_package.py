@@ -78,8 +78,8 @@ def fork_guard_of(path, version):
     return f"{extracted(path)}/binaries/{PLATFORM[version]}/grains_fork_guard.so"
 
 
-# Scene keys with a dimension, by the packaged scenes that expose them: until 2026-12-05 the FMUs declared units for
-# their outputs only, and a host saw the grains' diameter or the adhesion's force as pure numbers.
+# Scene keys with a dimension, by the packaged scenes that expose them: a host must see the grains' diameter or the
+# adhesion's force with their units, not as pure numbers.
 DIMENSIONED_PARAMETERS = {
     "aggregation": {"particles.diameter": "m", "particles.density": "kg/m^3", "contact.duration": "s"},
     "collision": {"particles.diameter": "m", "contact.duration": "s"},
@@ -90,9 +90,9 @@ PURE_NUMBERS = {"contact.restitution", "friction.coefficient", "gravity.softenin
                 "particles.solid_fraction", "adhesion.restitution", "contact.overlap_limit"}
 
 
-# What a host reads before stepping: until 2026-12-05 the FMU's page said a step that is not a whole number of dt ends
-# with one shorter step (the rule before equal steps), and the consolidation FMU's description promised the type-2
-# aggregation and the stepwise loading of `grains consolidate`, which the FMU does not run.
+# What a host reads before stepping: a step that is not a whole number of dt is taken in equal steps (not with one
+# shorter step), and the consolidation FMU runs no preparation or programme (not the type-2 aggregation and the
+# stepwise loading of `grains consolidate`).
 def test_documentation_states_how_a_communication_step_is_taken(fmu):
     _, _, path = fmu
     page = zipfile.ZipFile(path).read("documentation/index.html").decode()
@@ -166,8 +166,8 @@ def snapshots_of(path, version):
 
 @pytest.mark.parametrize("library", [binary_of, fork_guard_of, snapshots_of], ids=["binary", "fork_guard", "snapshots"])
 def test_binary_needs_no_symbol_newer_than_glibc_2_34_and_gcc_11(fmu, library):
-    """std::hypot bound GLIBC_2.35 (glibc versioned hypot anew then), so the FMUs no longer loaded on RHEL 9, which the
-    README names (a review, 2026-12-07); the list of libraries above could not see it."""
+    """std::hypot binds GLIBC_2.35 (glibc versioned hypot anew then), which RHEL 9, named by the README, lacks; the
+    list of libraries above cannot see a symbol's version."""
     _, version, path = fmu
     listing = subprocess.run(["readelf", "-V", "-W", library(path, version)], capture_output=True, text=True,
                              check=True).stdout

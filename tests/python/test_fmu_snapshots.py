@@ -31,8 +31,8 @@ def test_snapshots_equal_the_runner_frames(grains_bin, root, tmp_path, monkeypat
 @pytest.mark.parametrize("version", [2, 3])
 def test_instance_name_that_is_not_a_file_name_is_made_one_in_the_working_directory(tmp_path, monkeypatch, version):
     """The snapshots go to <instance name>.h5 in the working directory: "../snap" would write beside it, so it is made
-    a plain file name there, and the host told which. Until 2026-12-07 such a name failed initialization, and a host
-    that names its instances by the FMU's path (Ecos: an outside review) could take no snapshots."""
+    a plain file name there, and the host told which: a host that names its instances by the FMU's path (Ecos) takes
+    snapshots too."""
     work = tmp_path / "work"
     work.mkdir()
     monkeypatch.chdir(work)
@@ -125,8 +125,7 @@ print("freed")
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_failed_snapshot_write_is_an_error_and_the_host_exits_cleanly(tmp_path, version):
     """A write that fails (here a file-size limit, as a full disk does) is an Error naming the file; the host then
-    terminated and freed the instance, and crashed at its exit (SIGSEGV in HDF5's exit handler; an outside review,
-    2026-12-07)."""
+    terminates and frees the instance, and exits cleanly (not SIGSEGV in HDF5's exit handler)."""
     r = host_process(FILE_SIZE_LIMIT_HOST, version, timeout=120, cwd=tmp_path)
     assert r.returncode == 0, (r.returncode, r.stdout, r.stderr)
     assert "refused:" in r.stdout and "limited.h5" in r.stdout and r.stdout.rstrip().endswith("freed"), r.stdout

@@ -1,7 +1,6 @@
 """A warning raised while a host reads the outputs reaches the host's logger in that read. The energy and
-pass-through checks of a gravity scene run as the outputs are computed, which in an FMU is when they are read; until
-2026-12-05 such a warning waited for the next DoStep, so one raised by the last read before Terminate was never
-logged."""
+pass-through checks of a gravity scene run as the outputs are computed, which in an FMU is when they are read; were
+such a warning to wait for the next DoStep, one raised by the last read before Terminate would never be logged."""
 import pytest
 
 from fmu_host import Unit, fmu_path

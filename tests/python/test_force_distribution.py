@@ -81,8 +81,8 @@ def test_the_command_writes_both_panels_and_refuses_what_it_cannot_read(programm
 
 
 def test_outputs_that_would_overwrite_what_the_programme_wrote_are_refused(programmes, tmp_path):
-    """The documented command once named the programme's own stage table as --table, which the tool overwrote (a review,
-    2026-12-07); the table and the plot naming one file, the plot replaced the table."""
+    """A --table naming the programme's own stage table (as the documented command once did) would be overwritten;
+    the table and the plot naming one file, the plot would replace the table."""
     h5 = programmes["type2"]
     for args, said in ((["--table", str(h5.with_suffix(".csv"))], "is the stage table of the input"),
                        (["-o", str(tmp_path / "x.png"), "--table", str(tmp_path / "x.png")], "both name")):
@@ -94,7 +94,7 @@ def test_outputs_that_would_overwrite_what_the_programme_wrote_are_refused(progr
 
 
 def test_the_attraction_range_defaults_to_the_largest_given_diameters(tmp_path):
-    """Listed particles have no size distribution: D0 was NaN, and every interaction was lost (a review, 2026-12-07).
+    """Listed particles have no size distribution, which must not make D0 NaN (every interaction lost).
     The engine's default is 1e-3 of the largest given diameter."""
     h5 = tmp_path / "listed.h5"
     with h5py.File(h5, "w") as f:

@@ -1,6 +1,6 @@
-"""A tangential spring so stiff that |F_t|^2 overflows a double (friction.stiffness_ratio = 1e160; an outside review,
-2026-12-07): the Coulomb cap divided by sqrt(inf) and set the force to zero, friction off without a word. The force is
-capped at mu F_n instead: the collision is the same as with any spring stiff enough to slide at once."""
+"""A tangential spring so stiff that |F_t|^2 overflows a double (friction.stiffness_ratio = 1e160): the Coulomb cap
+would divide by sqrt(inf) and set the force to zero, friction off without a word. The force is capped at mu F_n
+instead: the collision is the same as with any spring stiff enough to slide at once."""
 import os
 import subprocess
 

@@ -1,6 +1,6 @@
-"""Grains passing through each other in scenes without gravity (an outside review, 2026-12-07): a head-on pair at a
-contact time of 3 swapped sides unwarned, and with 3D friction the crossing pair's tangential spring turned by
-0 / 0 (its normal reversed within one step), stopping the run with a non-finite value blamed on the initial state."""
+"""Grains passing through each other in scenes without gravity: a head-on pair at a contact time of 3 swaps sides,
+which is warned about, and with 3D friction the crossing pair's tangential spring must not be turned by 0 / 0 (its
+normal reversed within one step), which would stop the run with a non-finite value blamed on the initial state."""
 import os
 import subprocess
 
@@ -55,8 +55,8 @@ def test_a_frictional_pair_whose_normal_reverses_in_a_step_stays_finite_and_alik
 
 
 def test_the_adhesive_law_gets_its_own_advice(grains_bin, root, tmp_path):
-    """The cohesionless reference (the adhesive law with F0 = 0) was told to shorten contact.duration, a key that law
-    does not read (a review, 2026-12-07): it is told adhesion.stiffness."""
+    """The cohesionless reference (the adhesive law with F0 = 0) is told adhesion.stiffness, not to shorten
+    contact.duration, a key that law does not read."""
     scene = tmp_path / "deep.toml"
     scene.write_text('[scene]\nname = "deep"\ndimension = 2\n[particles]\nlayout = "list"\n'
                      'positions = [[5.0, 5.0], [5.2, 5.0]]\ndiameter = 1.0\nmass = 1.0\n[box]\nlengths = [10.0, 10.0]\n'

@@ -1,7 +1,7 @@
 """The side-by-side scripts give LAMMPS and grains the same contact law: the LAMMPS pair style written for
 the frictional gas reads back as grains' scene law, and disks2d.lmp's pair style (dampflag 0: no
-tangential dashpot) as the law grains runs beside it. Until 2026-12-04 both scripts ran LAMMPS with
-dampflag 0 against grains' damped tangential spring, a 14 % difference in what a collision dissipates."""
+tangential dashpot) as the law grains runs beside it: LAMMPS with dampflag 0 against grains' damped tangential
+spring differs by 14 % in what a collision dissipates."""
 import math
 import sys
 import tomllib

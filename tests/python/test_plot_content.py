@@ -51,8 +51,8 @@ def panel(fig, title_start):
 
 
 def test_virial_ratio_of_a_cold_start_on_a_log_axis(tmp_path, monkeypatch):
-    """Q starts at 0 (the cloud at rest) and decays over decades after its peak: on the linear axis the old rule gave
-    it (a zero barred the log axis) the decay and any second peak were a flat line at 0."""
+    """Q starts at 0 (the cloud at rest) and decays over decades after its peak: on a linear axis (a zero must not bar
+    the log axis) the decay and any second peak would be a flat line at 0."""
     q = [0.0, 1e-3, 0.1, 0.43, 0.01, 1e-4, 3e-4, 1e-5, 5e-6, 6e-6, 5e-6]
     path = run_file(tmp_path / "cloud.h5", {"virial_ratio": q, "time_over_free_fall": np.linspace(0, 3, len(q)),
                                             "largest_cluster_fraction": np.linspace(0.001, 1, len(q)),
@@ -265,8 +265,8 @@ def test_a_finished_programme_has_no_stage_under_way(tmp_path, monkeypatch):
 
 
 def test_an_element_without_a_course_in_time_is_left_out_and_named_when_asked_for(tmp_path, monkeypatch):
-    """H5MD's time-independent element (a plain dataset) and a group without its step ended the plot in a traceback
-    (a review, 2026-12-07). They are not offered; asked for by name, the refusal says why."""
+    """H5MD's time-independent element (a plain dataset) and a group without its step must not end the plot in a
+    traceback. They are not offered; asked for by name, the refusal says why."""
     path = run_file(tmp_path / "odd.h5", {"kinetic_energy": [1, 2, 3, 4]})
     with h5py.File(path, "r+") as f:
         f["observables/constant"] = np.arange(3.0)

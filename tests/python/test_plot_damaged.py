@@ -1,6 +1,6 @@
 """runner/plot.py refuses a damaged run file in one line naming the file, the dataset or attribute, the value and what
-is allowed, with exit status 2 and no image (a review, 2026-12-08, found tracebacks, and a complete file's series cut
-short or its steps rotated drawn without a word). The files are written here with h5py in grains' layout."""
+is allowed, with exit status 2 and no image (not a traceback, nor a complete file's series cut short or its steps
+rotated drawn without a word). The files are written here with h5py in grains' layout."""
 import subprocess
 import sys
 

@@ -47,8 +47,8 @@ def test_bad_scene_fails_without_clobbering_existing_output(grains_bin, root, tm
     ("GRAINS_GRAVITY_ISA", "AVX2", "allowed portable, avx2, avx512"),
 ])
 def test_an_unknown_vector_code_choice_in_the_environment_stops_the_run(grains_bin, root, tmp_path, variable, value, allowed):
-    """These variables choose the vector code for tests and benchmarks; a misspelt one used to be ignored, so a
-    benchmark measured other code than the one asked for."""
+    """These variables choose the vector code for tests and benchmarks; a misspelt one, ignored, would have a
+    benchmark measure other code than the one asked for."""
     out = tmp_path / "never.h5"
     r = subprocess.run([str(grains_bin), "run", str(root / "models" / "aggregation.toml"), "--out", str(out), "--quiet",
                         "--set", "time.steps=10"], capture_output=True, text=True, env=dict(os.environ, **{variable: value}))
@@ -217,8 +217,8 @@ def test_check_prints_the_stiffness_and_free_fall_time_a_run_records(grains_bin,
 
 
 def test_check_says_when_direct_gravity_is_the_slower_choice(grains_bin, root):
-    """A large-N review (2026-12-07) ran 10^5 spheres by direct summation, 32 times the tree's time, unwarned: `check`
-    now says what a step sums from 2000 particles on, where the tree is faster, and not below or with the tree."""
+    """10^5 spheres by direct summation take 32 times the tree's time: `check` says what a step sums from 2000
+    particles on, where the tree is faster, and not below or with the tree."""
     said = lambda r: [line for line in r.stdout.splitlines() if "gravity by direct summation" in line]
     r = run(grains_bin, "check", root / "models" / "aggregation.toml", "--set", "particles.count=2000")
     assert r.returncode == 0 and said(r) == ["# derived: gravity by direct summation, 2e+06 pairs a step; the tree "
@@ -251,8 +251,8 @@ def _stderr_on_a_terminal(grains_bin, *args):
 
 
 def test_a_long_random_insertion_shows_its_progress(grains_bin, root):
-    """Random insertion of 10^6 spheres took one to two minutes before the first step with nothing on the screen (a
-    large-N review, 2026-12-07): a status line now says how many are placed, and ends before any error."""
+    """Random insertion of 10^6 spheres takes one to two minutes before the first step: a status line says how many
+    are placed, and ends before any error."""
     import re
     sets = ["--set", "particles.count=50000", "--set", 'particles.layout="random"']
     status, shown = _stderr_on_a_terminal(grains_bin, "check", root / "models" / "gas.toml", *sets,
@@ -441,7 +441,7 @@ def _start_long_run(grains_bin, root, out, scene="gas", sets=("time.steps=100000
 
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGHUP])
 def test_interrupted_run_closes_a_complete_file(grains_bin, root, tmp_path, stop):
-    """Ctrl-C, and a closed terminal (SIGHUP: until 2026-12-05 it killed the run like SIGKILL)."""
+    """Ctrl-C, and a closed terminal (SIGHUP, which unhandled kills the run like SIGKILL)."""
     out = tmp_path / "gas.h5"
     p = _start_long_run(grains_bin, root, out)
     time.sleep(1.5)
@@ -477,8 +477,8 @@ def test_a_run_started_to_outlive_its_terminal_ignores_a_hang_up(grains_bin, roo
 
 @pytest.mark.parametrize("limit", [20_000, 1_000_000])
 def test_a_full_disk_ends_the_run_with_an_error_not_a_crash(grains_bin, root, tmp_path, limit):
-    """A file size limit stands in for a full disk (the write fails with EFBIG instead of ENOSPC). Until
-    2026-12-05 HDF5's exit handler closed the file whose flush had failed a second time and crashed (SIGSEGV)."""
+    """A file size limit stands in for a full disk (the write fails with EFBIG instead of ENOSPC). HDF5's exit
+    handler must not close the file whose flush failed a second time, where it crashes (SIGSEGV)."""
     def limited():
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)   # a failed write, not a killed process
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
@@ -493,8 +493,8 @@ def test_a_full_disk_ends_the_run_with_an_error_not_a_crash(grains_bin, root, tm
 def test_killed_run_leaves_a_readable_file(grains_bin, root, tmp_path, scene):
     # SIGKILL cannot be caught: what the file holds is what the last flush wrote (observables flush about a
     # second apart, as a new record begins; frames at once). The aggregation scene with a record every step
-    # and no snapshots (a frame flushes between records): a flush within a record (until 2026-12-05) left
-    # its first observable a row ahead of the others in every killed file.
+    # and no snapshots (a frame flushes between records): a flush within a record would leave its first
+    # observable a row ahead of the others in every killed file.
     out = tmp_path / f"{scene}.h5"
     sets = (("time.steps=100000000", "particles.count=512") if scene == "gas"
             else ("output.observables_every=1", "output.snapshots_every=0"))
@@ -612,9 +612,9 @@ def test_xdmf_beside_the_output_may_not_overwrite_it_or_an_input(grains_bin, roo
 
 
 def test_an_earlier_runs_xdmf_goes_when_the_new_file_writes_none_and_a_colon_is_refused(grains_bin, root, tmp_path):
-    """Found by an outside review (2026-12-07): a run with output.xdmf = false over an earlier run's file left that
-    run's .xdmf beside it, naming arrays the new file lacks (ParaView failed on it); and a ':' in the file's name made
-    an .xdmf that ParaView's readers cut at the colon ('co:lon.h5' read as 'lon.h5')."""
+    """A run with output.xdmf = false over an earlier run's file must not leave that run's .xdmf beside it, naming
+    arrays the new file lacks (ParaView fails on it); and a ':' in the file's name would make an .xdmf that
+    ParaView's readers cut at the colon ('co:lon.h5' read as 'lon.h5')."""
     short = [root / "models" / "aggregation.toml", "--set", "particles.count=20", "--set", "time.steps=200",
              "--set", "output.snapshots_every=100", "--set", "run.threads=1", "--quiet"]
     out = tmp_path / "again.h5"
@@ -715,7 +715,7 @@ def test_the_resolved_scene_that_check_prints_runs_as_it_is(grains_bin, root, tm
 
 def test_a_run_killed_as_its_output_file_appears_leaves_a_readable_file(grains_bin, root, tmp_path):
     """The file appears under its name only once it is valid HDF5 (made as FILE.part, renamed after its first
-    flush): killed the moment it appeared, 6 of 10 files had 0 or 96 bytes until 2026-12-05."""
+    flush), so that a run killed the moment it appears leaves a readable file."""
     for attempt in range(5):
         out = tmp_path / f"early{attempt}.h5"
         p = subprocess.Popen([grains_bin, "run", root / "models" / "aggregation.toml", "--out", out, "--quiet"],
@@ -859,8 +859,8 @@ def test_a_count_the_memory_cannot_hold_is_refused_before_it_is_allocated(grains
 
 
 def test_a_warning_the_initial_state_raises_is_shown_and_kept(grains_bin, tmp_path):
-    """The initial state's observables run the contact check: its warning was counted in the summary but written
-    neither to stderr nor to the file (an outside review, 2026-12-07)."""
+    """The initial state's observables run the contact check: its warning goes to stderr and to the file, not only
+    into the summary's count."""
     scene = tmp_path / "deep.toml"
     scene.write_text('[scene]\nname = "deep"\n[particles]\nlayout = "list"\npositions = [[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]]\n'
                      'diameter = 1.0\nmass = 1.0\n[box]\nperiodic = false\n[contact]\nrestitution = 0.5\nduration = 0.02\n'
@@ -876,7 +876,7 @@ def test_a_warning_the_initial_state_raises_is_shown_and_kept(grains_bin, tmp_pa
 
 
 def test_the_summary_of_a_pressure_controlled_run_says_where_the_cell_got_to(grains_bin, root, tmp_path):
-    """A user running a cell scene found P*, its target and Phi only in the file (an outside review, 2026-12-07)."""
+    """The summary of a cell scene shows P*, its target and Phi, not only the file."""
     out = tmp_path / "cell.h5"
     r = run(grains_bin, "run", root / "models" / "consolidation.toml", "--out", out, "--quiet", "--set", "particles.count=60",
             "--set", "time.steps=300", "--set", "analysis.elastic_moduli=false", "--set", "run.threads=1")
@@ -889,8 +889,8 @@ def test_the_summary_of_a_pressure_controlled_run_says_where_the_cell_got_to(gra
 
 
 def test_a_run_out_of_memory_in_its_first_frame_says_it_failed(grains_bin, root, tmp_path):
-    """A run whose first frame or record cannot be allocated ended with its file saying 'running', which reads as
-    killed (a large-N review, 2026-12-07). The address space is capped at limits from below the simulation's
+    """A run whose first frame or record cannot be allocated must not leave its file saying 'running', which reads as
+    killed. The address space is capped at limits from below the simulation's
     own needs to above the first record's: wherever the run stops, a file it leaves says why."""
     reasons = []
     for mb in range(200, 440, 20):

@@ -1,9 +1,8 @@
 """A run killed while HDF5 writes its file resumes to the records of the unbroken run, and leaves a file h5py reads
-whole. Found by an adversarial review (2026-12-07): 3 of 45 SIGKILLs of a 4096-sphere gas left an XDMF view group
-that `grains resume` could not cut back ("bad heap free list", "address of object past end of allocation"), after it
-had cut the records back already, so the run could never go on. Here kill_at_write.cpp, preloaded, kills a smaller
-run at chosen pwrite calls of HDF5: before the fix, 14 of 34 points of a finer sweep (every 131st call) failed so, and
-this test at its sixth point."""
+whole. A SIGKILL can leave an XDMF view group that `grains resume` cannot cut back ("bad heap free list", "address of
+object past end of allocation"; 3 of 45 SIGKILLs of a 4096-sphere gas), after it has cut the records back already, so
+that the run could never go on. Here kill_at_write.cpp, preloaded, kills a smaller run at chosen pwrite calls of
+HDF5."""
 import os
 import shutil
 import subprocess
@@ -84,9 +83,9 @@ PROGRAMME = ["--set", "particles.count=100", "--set", "programme.stage_budget=30
 
 def test_a_programme_killed_inside_hdf5_writes_resumes_to_the_unbroken_table_and_views(grains_bin, root, tmp_path,
                                                                                         kill_shim):
-    """A 100-disk type-2 programme (35 stages, about 20,700 writes). Killed at its 12,500th write, its resume ended
+    """A 100-disk type-2 programme (35 stages, about 20,700 writes). Killed at its 12,500th write, its resume can end
     with records and stage table right but the XDMF views of 24 of its 36 frames gone from their groups' listings,
-    with no call failing (2026-12-07): the resume now sets every view aside and makes the kept frames' anew."""
+    with no call failing: the resume sets every view aside and makes the kept frames' anew."""
     scene = root / "models" / "consolidation.toml"
     whole, table = tmp_path / "whole.h5", tmp_path / "whole.csv"
     subprocess.run([grains_bin, "consolidate", scene, "--table", table, "--out", whole, *PROGRAMME], check=True,

@@ -28,8 +28,8 @@ def test_a_run_ramps_the_pressure_geometrically_and_the_packing_follows(grains_b
     # advances (what a saved state carries), never for the ramp
     assert np.all(restarts == 1 + np.maximum(steps - 1, 0) // 500)
     # Jammed by t = 14 (Phi 0.75 to 0.79) and settled by t = 20: from there the stress follows the ramp without
-    # lag, apart from the odd rearrangement. Measured over seeds 1-4 with records 5000 steps apart, with the barostat
-    # of 2026-12-04 and with the stress extrapolated to mid-step (2026-12-05): the relative deviation's median
+    # lag, apart from the odd rearrangement. Measured over seeds 1-4 with records 5000 steps apart, with two versions
+    # of the barostat: the relative deviation's median
     # 1.5e-5 to 4.8e-5, its mean (a lag would show there) within 6.2e-5 of 0, its largest 4.5e-4 to 1.6e-3.
     late = t > 20
     deviation = measured[late] / target[late] - 1

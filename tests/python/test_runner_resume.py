@@ -138,7 +138,7 @@ def test_a_resume_with_other_gravity_kernels_says_so(grains_bin, root, tmp_path)
 
 
 def test_a_file_whose_series_lost_rows_is_refused_not_resumed_out_of_step(grains_bin, root, tmp_path):
-    """A series whose values are shorter than its steps (a damaged file) used to be extended with fill values and
+    """A series whose values are shorter than its steps (a damaged file) is refused, not extended with fill values and
     resumed to 'complete', its steps and values no longer matching."""
     whole = tmp_path / "whole.h5"
     assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
@@ -239,11 +239,11 @@ def checkpoint_1_a_group(f):
     f.create_group("grains/checkpoint_1").attrs.update({"valid": 1.0, "step": 400.0})
 
 
-# An outside review, 2026-12-07: a checkpoint's attributes were converted as they stood (step 1e300 read as step
-# -9223372036854775808, a thread count of 1e12 or NaN converted with undefined behaviour and ignored), and an attribute
-# or a slot of another shape than grains writes was read into a buffer sized for grains' own (HDF5 crashed, said the
-# child that reads first: it was grains). Since 2026-12-07 such a slot is passed over as one whose checksum fails is,
-# where it had refused the file whatever the other slot held.
+# A checkpoint's attributes are checked before they are converted (step 1e300 would read as step -9223372036854775808,
+# a thread count of 1e12 or NaN convert with undefined behaviour), and an attribute or a slot of another shape than
+# grains writes is not read into a buffer sized for grains' own (HDF5 crashes; the child that reads first says it is
+# grains). Such a slot is passed over as one whose checksum fails is, not a refusal of the file whatever the other
+# slot holds.
 CP1 = "of /grains/checkpoint_1"
 DAMAGED_SLOT = [
     (set_checkpoint_1_attribute("step", 1e300),
@@ -327,7 +327,7 @@ def test_a_file_whose_checkpoints_are_both_damaged_is_refused_naming_each(grains
 
 
 # Whether the records at the checkpoint's step are the unbroken run's follows from the scene's cadences: a flag saying
-# otherwise had the record at that step dropped for good (an outside review, 2026-12-07).
+# otherwise would have the record at that step dropped for good.
 @pytest.mark.parametrize("damage, message", [
     (set_checkpoint_1_attribute("observables_at_step", 0.0),
      "its checkpoint at step 400 has the attribute 'observables_at_step' = 0, where output.observables_every = 100 makes it 1"),
@@ -355,9 +355,9 @@ def replace_dataset(path, make):
     return damage
 
 
-# An outside review, 2026-12-07: a series hard-linked to another (both appended into one dataset), steps out of order,
-# a series or the box's edges removed (made anew with the resumed rows alone) and a file without /h5md resumed to
-# "complete"; others were refused without the object's path, or as a changed particle file.
+# Each refused naming the object: a series hard-linked to another (both appended into one dataset), steps out of order,
+# a series or the box's edges removed (made anew with the resumed rows alone) and a file without /h5md would resume to
+# "complete"; others would be refused without the object's path, or as a changed particle file.
 @pytest.mark.parametrize("damage, message", [
     (lambda f: (f.__delitem__("observables/kinetic_energy"), f.__setitem__("observables/kinetic_energy",
                                                                            f["observables/rotational_energy"])),
@@ -392,9 +392,9 @@ def replace_dataset(path, make):
 ], ids=["series-linked", "steps-out-of-order", "series-removed", "edges-removed", "velocity-removed", "h5md-removed",
         "step-removed", "extra-group", "contiguous-series", "position-of-4-columns", "integer-radius", "fewer-particles"])
 def test_a_file_whose_series_do_not_go_together_is_refused_naming_the_object(grains_bin, root, tmp_path, damage, message):
-    """Refused as it was, byte for byte: until 2026-12-07 the checks of the series' steps, of the series as they go
-    together and of the observables the run records ran as the series were cut back, so that a file refused had lost
-    its records after the checkpoint, its other checkpoint slot and its later warnings."""
+    """Refused as it was, byte for byte: the checks of the series' steps, of the series as they go together and of
+    the observables the run records run before the series are cut back, else a file refused would have lost its
+    records after the checkpoint, its other checkpoint slot and its later warnings."""
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:
@@ -428,11 +428,11 @@ def test_a_programme_refused_for_its_file_leaves_its_file_and_stage_table_as_the
 
 
 def test_a_checkpoint_slot_whose_layout_is_damaged_is_not_written_over(grains_bin, root, tmp_path):
-    """A resumed run wrote its next checkpoint over the slot not holding the newest valid one (H5Dset_extent, H5Dwrite),
-    which HDF5 1.10.8 takes as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in the
-    series above), H5Dwrite's Fletcher-32 summed that many and the resume died of SIGSEGV; from 2026-12-05 it was
-    refused. Since 2026-12-06 the resume keeps only the slot it resumed from and makes the other anew, so such a slot is
-    never written: the resume ends as the unbroken run, its slots laid out as grains writes them."""
+    """A resumed run writing its next checkpoint over the slot not holding the newest valid one (H5Dset_extent,
+    H5Dwrite) would take it as its layout says: its chunks of 65,536 bytes made 67,174,400 by one flipped bit (as in
+    the series above), H5Dwrite's Fletcher-32 sums that many and the resume dies of SIGSEGV. The resume keeps only the
+    slot it resumed from and makes the other anew, so such a slot is never written: the resume ends as the unbroken
+    run, its slots laid out as grains writes them."""
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
     killed = killed_copy(whole, tmp_path / "killed.h5")
     with h5py.File(killed, "r+") as f:   # killed while writing step 400's checkpoint: the resume writes it again
@@ -526,9 +526,9 @@ def views_match_their_frames(path):
                                           f[f"particles/all/{name}/value"][k]), (name, k)
 
 
-# Found by an adversarial review (2026-12-07), 3 of 45 kills of a 4096-sphere gas: a run killed while it wrote a frame's
-# XDMF views left their group unreadable ("bad heap free list", "address of object past end of allocation"), and
-# `grains resume` stopped there for good, having cut the records back already. The views hold no data: a group that
+# A run killed while it writes a frame's XDMF views can leave their group unreadable ("bad heap free list", "address
+# of object past end of allocation"; 3 of 45 kills of a 4096-sphere gas), where `grains resume` would stop for good,
+# having cut the records back already. The views hold no data: a group that
 # cannot be cut back is set aside, and the frames kept get new views.
 def test_a_view_damaged_by_a_kill_in_a_frame_the_resume_drops_does_not_stop_it(grains_bin, root, tmp_path):
     whole = checkpointed_gas(grains_bin, root, tmp_path / "whole.h5")
@@ -613,8 +613,8 @@ def test_a_run_stopped_by_a_signal_resumes_where_it_stopped(grains_bin, root, tm
     assert f"resumed      at step {step}" in resumed.stdout
     # The records of the step it stopped at, between its scheduled ones, are dropped on resuming.
     assert_same_records(whole, stopped)
-    # A run stopped by the signal closed its file whole: its XDMF views are cut back, not set aside (each resume cost
-    # their space for a while on 2026-12-07, a code review found); a killed one's are set aside and made anew.
+    # A run stopped by the signal closed its file whole: its XDMF views are cut back, not set aside (which would cost
+    # their space at each resume); a killed one's are set aside and made anew.
     assert view_group(stopped) == views_before
     assert run(grains_bin, "resume", killed, "--quiet").returncode == 0
     assert view_group(killed) != views_before
@@ -630,7 +630,7 @@ def view_group(path):
 @pytest.mark.parametrize("command", ["run", "consolidate"])
 def test_ctrl_c_the_moment_the_output_file_is_touched_leaves_a_readable_file(grains_bin, root, tmp_path, command):
     """The signal handler is in place before the output file is created: a Ctrl-C as the writer lays the file
-    out used to kill the process and leave it truncated and unreadable (10 of 10 tries before the fix)."""
+    out would kill the process and leave it truncated and unreadable."""
     scene = root / ("models/gas.toml" if command == "run" else "models/cohesionless.toml")
     out, earlier = tmp_path / "out.h5", tmp_path / "earlier.h5"
     sets = ["--set", f"particles.count={216 if command == 'run' else 200}", "--set", "run.threads=1", "--quiet"]
@@ -721,7 +721,8 @@ def test_a_path_that_is_not_a_regular_file_is_refused_naming_what_it_is(grains_b
 
 @pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
 def test_a_programme_whose_stage_table_is_not_a_file_is_refused_naming_what_it_is(grains_bin, root, tmp_path, kind):
-    """The resume reads the stage table back and rewrites it: one that is no longer a file was said to be "gone"."""
+    """The resume reads the stage table back and rewrites it: one that is no longer a file is named as what it is,
+    not said to be "gone"."""
     _, _, killed, killed_table, _ = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
                                                      lambda rows: rows[:3])
     killed_table.unlink()
@@ -753,8 +754,8 @@ def test_an_xdmf_beside_that_is_not_a_file_is_refused_before_anything_is_rewritt
 
 
 def test_a_stage_table_another_run_has_rewritten_is_refused_not_continued(grains_bin, root, tmp_path):
-    """The resume kept any table whose rows were numbered 0, 1, ... (an outside review, 2026-12-07): one that another
-    programme had written since was continued below that programme's rows. Its rows must repeat the stage records."""
+    """A table whose rows are numbered 0, 1, ... may have been written since by another programme, whose rows the
+    resume would continue below. Its rows must repeat the stage records."""
     _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
                                                         lambda rows: rows[:3])
     header = rows[0].split(",")
@@ -801,14 +802,14 @@ def add_one(fields):
     fields.append("x")
 
 
-# A header one column short or long named the last column that matched (a review of the check, 2026-12-07): the
-# first that differs is the one past the shorter header.
+# A header one column short or long: the first column that differs is the one past the shorter header, not the last
+# that matched.
 @pytest.mark.parametrize("edit, column", [(swap_p_star_and_phi, 5), (drop_quench_start, 10), (drop_last, "LAST"),
                                           (add_one, "NEXT")], ids=["swapped", "dropped", "last-dropped", "one-added"])
 def test_a_stage_table_whose_columns_were_moved_or_removed_is_refused(grains_bin, root, tmp_path, edit, column):
-    """The resume appended its rows in grains' column order under whatever header the table had (an outside review,
-    2026-12-07): with P_star and phi swapped it wrote each under the other's name, with quench_start deleted 67
-    fields under a 66-field header. The header must be grains' own, or the file and table are left as they were."""
+    """Rows appended in grains' column order under whatever header the table has would go, with P_star and phi
+    swapped, each under the other's name, and with quench_start deleted 67 fields under a 66-field header. The header
+    must be grains' own, or the file and table are left as they were."""
     _, _, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000),
                                                         lambda rows: moved_columns(rows[:3], edit))
     found = killed_table.read_text().splitlines()[0]
@@ -822,7 +823,7 @@ def test_a_stage_table_whose_columns_were_moved_or_removed_is_refused(grains_bin
 
 
 def test_a_stage_table_with_crlf_line_ends_keeps_them_in_the_rows_the_resume_writes(grains_bin, root, tmp_path):
-    """A table saved with CRLF line ends got its new rows with LF (an outside review, 2026-12-07)."""
+    """A table saved with CRLF line ends gets its new rows with CRLF too, not LF."""
     whole, whole_table, killed, killed_table, rows = killed_programme(
         grains_bin, tmp_path, cohesionless_programme(root, 1.8e-5, 1000), lambda rows: rows[:3])
     killed_table.write_bytes("".join(line + "\r\n" for line in rows[:3]).encode())
@@ -833,7 +834,7 @@ def test_a_stage_table_with_crlf_line_ends_keeps_them_in_the_rows_the_resume_wri
 
 def test_a_programme_with_a_drag_below_the_default_floor_resumes(grains_bin, root, tmp_path):
     """The refusal of a quench_drag_min above quench_drag read the stored scene, which spells out the default floor
-    (0.125): every programme run with quench_drag = 0.1 was refused on resuming (a review, 2026-12-07)."""
+    (0.125): every programme run with quench_drag = 0.1 would be refused on resuming."""
     programme = cohesionless_programme(root, 1.8e-5, 1000) + ["--set", "programme.quench_drag=0.1"]
     whole, whole_table, killed, killed_table, rows = killed_programme(grains_bin, tmp_path, programme, lambda rows: rows[:3])
     resumed = run(grains_bin, "resume", killed, "--quiet")
@@ -863,7 +864,7 @@ def test_a_killed_consolidation_programme_resumes_from_its_last_finished_stage(g
 
 def test_a_resumed_programme_replaces_its_stage_table_whole_and_keeps_a_link_to_it(grains_bin, root, tmp_path):
     """The resume writes the rows it keeps to a new file that then takes the table's name (a kill in between leaves
-    the old table whole; until 2026-12-06 it cut the table to nothing first). A table reached through a link stays
+    the old table whole, where cutting the table to nothing first would not). A table reached through a link stays
     a link, the file it names holding the rows, and nothing is left beside it."""
     programme = [root / "models/consolidation-type1.toml", "--set", "particles.count=100", "--set",
                  "programme.top_pressure=0.1", "--set", "programme.stage_budget=20000", "--quiet"]
@@ -947,8 +948,8 @@ def test_a_programme_killed_inside_a_stage_resumes_from_its_last_checkpoint_with
 
 def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_that_file(grains_bin, tmp_path):
     """The stored scene's relative particles.file lies beside the scene, wherever `grains resume` runs; a file
-    changed since the run started (other masses, or other positions: until 2026-12-05 those were taken, and the
-    run's length in free-fall times with them) is refused, not silently used."""
+    changed since the run started (other masses, or other positions, and with them the run's length in free-fall
+    times) is refused, not silently used."""
     folder = tmp_path / "scene"
     folder.mkdir()
     (folder / "pair.txt").write_text("-0.6 0 0 1 1 0.5 0 0\n0.6 0 0 1 1 -0.5 0 0\n")
@@ -970,7 +971,7 @@ def test_a_scene_reading_a_particle_file_resumes_from_any_folder_and_only_with_t
     moved = run(grains_bin, "resume", killed)
     assert moved.returncode == 1 and "another position than the run's first frame" in moved.stderr, moved.stderr
     # The file gone: said so, and the stored scene named without a --set override the user never gave (the resume's
-    # own thread count was counted as one until 2026-12-07).
+    # own thread count is no such override).
     (folder / "pair.txt").unlink()
     gone = run(grains_bin, "resume", killed)
     assert gone.returncode == 1 and "pair.txt' (no such file)" in gone.stderr, gone.stderr
@@ -995,7 +996,7 @@ def damage_the_newest_checkpoint(path):
 def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root, tmp_path):
     """Each checkpoint carries a checksum: bytes damaged on disk are detected, and the resume starts from the
     other slot, still ending with the unbroken run's records. It says so: the damaged one passed over, and the one it
-    resumes from (it said nothing of the damage until 2026-12-06)."""
+    resumes from."""
     whole = tmp_path / "whole.h5"
     assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
     killed = killed_copy(whole, tmp_path / "killed.h5")
@@ -1012,9 +1013,9 @@ def test_a_damaged_newest_checkpoint_gives_way_to_the_older_one(grains_bin, root
 
 def test_the_resume_past_a_damaged_checkpoint_keeps_the_good_slot_and_makes_the_other_anew(grains_bin, root, tmp_path):
     """The resumed run's next checkpoint goes into a slot made anew where the damaged one was: the one resumed from
-    stays whole meanwhile, so a kill while that checkpoint is written leaves something to resume from. Until 2026-12-06 the damaged slot stayed
-    marked valid and newest, the next checkpoint went over the good one, and the file ended with a damaged slot
-    marked valid."""
+    stays whole meanwhile, so a kill while that checkpoint is written leaves something to resume from. The damaged
+    slot must not stay marked valid and newest: the next checkpoint would go over the good one, and the file end with
+    a damaged slot marked valid."""
     whole = tmp_path / "whole.h5"
     assert run(grains_bin, "run", root / "models/aggregation.toml", "--out", whole, *CLOUD).returncode == 0
     killed = killed_copy(whole, tmp_path / "killed.h5")
@@ -1138,13 +1139,13 @@ def test_a_programme_resumed_right_after_or_before_a_stage_end_writes_the_unbrok
 
 
 def test_a_run_that_fails_says_so_in_its_file_and_is_not_resumed(grains_bin, root, tmp_path):
-    """Found by a review (2026-12-05): a run stopped by an error kept the status "running" of a killed run, and
-    resume then blamed a missing checkpoint. With checkpoints it would have repeated the error."""
+    """A run stopped by an error must not keep the status "running" of a killed run: resume would then blame a
+    missing checkpoint, or with checkpoints repeat the error."""
     out = tmp_path / "blown.h5"
     failed = run(grains_bin, "run", root / "models/gas.toml", "--set", "time.dt=10", "--set", "time.steps=200",
                  "--set", "run.threads=1", "--set", "output.checkpoint_every=2", "--out", out, "--quiet")
-    # It blows up: a particle flung ~1e8 cell lengths in step 3 (the run stopped at the non-finite value of step 4
-    # until the twenty-fourth session, whose check of the wrapped positions stops it a step before).
+    # It blows up: a particle flung ~1e8 cell lengths in step 3 (the check of the wrapped positions stops it a step
+    # before the non-finite value of step 4).
     assert failed.returncode == 1 and "cell lengths from the periodic cell on axis 0 at step 3" in failed.stderr
     assert status(out).startswith("failed after step 2: particle 1 is"), status(out)
     again = run(grains_bin, "resume", out)
@@ -1154,8 +1155,8 @@ def test_a_run_that_fails_says_so_in_its_file_and_is_not_resumed(grains_bin, roo
 @pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs two cores for the automatic thread count to differ")
 def test_a_run_resumed_on_fewer_cores_keeps_its_thread_count_and_its_results(grains_bin, root, tmp_path):
     """The automatic thread count follows the cores (one per 2000 particles at most): 4096 particles run on two
-    threads. Resumed where only one core is free, the run used one thread until 2026-12-05, and its sums in
-    another order gave other last bits; it now takes its recorded count again."""
+    threads. Resumed where only one core is free, it takes its recorded count again: one thread would sum in another
+    order and give other last bits."""
     whole = tmp_path / "whole.h5"
     gas = ["--set", "particles.count=4096", "--set", "run.threads=0", "--set", "time.steps=600",
            "--set", "output.checkpoint_every=300", "--set", "output.observables_every=100"]

@@ -1,7 +1,7 @@
 """density_correlations.py and force_distribution.py read a programme's frames through one reader
 (density_correlations.read_frames), which refuses damaged frames in one line naming the file, the dataset, the value
-and what is allowed (a review, 2026-12-07, found tracebacks, an exit 0 with negative cell edges, and rotated steps
-that had a stage's observables taken from another stage)."""
+and what is allowed (not a traceback, an exit 0 with negative cell edges, or rotated steps that take a stage's
+observables from another stage)."""
 import subprocess
 import sys
 

@@ -1,7 +1,7 @@
 """Bad stage tables given to the tools that read them (runner/consolidation_fit.py, consolidation_campaign.py --report,
 initial_states.py --report, loading_by_size.py): one line naming the file, the line, the column, the value and what
-the column holds, and exit status 2. They used to end in a traceback (TypeError, KeyError, IndexError,
-IsADirectoryError), fit a negative solid fraction, or wait without end on a FIFO at a table's name."""
+the column holds, and exit status 2: not a traceback (TypeError, KeyError, IndexError, IsADirectoryError), a fit
+of a negative solid fraction, or a wait without end on a FIFO at a table's name."""
 import os
 import subprocess
 import sys

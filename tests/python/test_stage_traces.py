@@ -75,8 +75,8 @@ def test_the_picture_and_its_refusals(programme, tmp_path):
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", lone], capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
     assert "needs a header with columns stage, branch, phi, time and reached; it has stage, phi" in r.stderr, r.stderr
-    # Until 2026-12-06 these ended in tracebacks: a file h5py cannot open (here a CSV), and -o unchecked until the
-    # figure was drawn (a format matplotlib does not write, a missing folder, a folder at the name).
+    # These end in one line, not a traceback: a file h5py cannot open (here a CSV), and an -o checked before the
+    # figure is drawn (a format matplotlib does not write, a missing folder, a folder at the name).
     table = tmp_path / "stages.csv"
     table.write_text("stage,phi\n0,0.5\n")
     (tmp_path / "folder.png").mkdir()
@@ -266,9 +266,9 @@ def damaged_copy(programme, folder, name):
 
 @pytest.mark.parametrize("name", DAMAGE)
 def test_a_damaged_trace_or_stage_table_is_refused_in_one_line(programme, tmp_path, name):
-    """A review (2026-12-08): a trace's dataset missing or cut short ended in tracebacks (KeyError, IndexError); a NaN
-    Phi, a stage index of text, a table's NaN end time or rows out of order drew a first compression without its
-    course, or from another stage's start, with exit status 0."""
+    """A trace's dataset missing or cut short must not end in a traceback (KeyError, IndexError); a NaN Phi, a stage
+    index of text, a table's NaN end time or rows out of order must not draw a first compression without its course,
+    or from another stage's start, with exit status 0."""
     h5 = damaged_copy(programme, tmp_path / "sample", name)
     out = tmp_path / "first.png"
     r = subprocess.run([sys.executable, ROOT / "runner" / "stage_traces.py", h5, "-o", out], capture_output=True,

@@ -72,13 +72,13 @@ def test_bench_cohesive_smallest_cells_make_a_scene_grains_takes(grains_bin, tmp
     """The bound is grains' own: at MIN_CELLS every law's scene passes `grains check`, one fewer does not."""
     sys.path.insert(0, str(ROOT / "runner"))
     import bench_cohesive
-    import reuse
+    import scene_check
     for variant in ("adhesion+friction+rolling", "adhesion+friction", "spring-dashpot+friction"):
         scene, _ = bench_cohesive.grains_scene(tmp_path, bench_cohesive.MIN_CELLS, variant, bench_cohesive.PEER_PAIR_STYLE)
-        reuse.resolve(grains_bin, scene, [])
+        scene_check.resolve(grains_bin, scene, [])
         scene, _ = bench_cohesive.grains_scene(tmp_path, bench_cohesive.MIN_CELLS - 1, variant, bench_cohesive.PEER_PAIR_STYLE)
-        with pytest.raises(reuse.SceneError, match="periodic axis 0"):
-            reuse.resolve(grains_bin, scene, [])
+        with pytest.raises(scene_check.SceneError, match="periodic axis 0"):
+            scene_check.resolve(grains_bin, scene, [])
 
 
 @pytest.mark.skipif(not (ROOT / "build" / "fmus").is_dir() or importlib.util.find_spec("fmpy") is None,
@@ -95,27 +95,27 @@ def test_bench_fmu_refuses_what_grains_would_with_its_reason(tmp_path, args, wor
 
 
 def test_a_failed_grains_command_is_told_in_one_line(tmp_path):
-    """reuse.run_grains ends a tool with grains' reason: grains' stderr (warnings, a heading, the problems) came over
-    several lines after the tool's own words (bench_fmu.py's timing runs); it is one line now, and a grains that said
-    nothing is said to have said nothing."""
+    """child_runs.run_grains ends a tool with grains' reason: grains' stderr (warnings, a heading, the problems) came
+    over several lines after the tool's own words (bench_fmu.py's timing runs); it is one line now, and a grains that
+    said nothing is said to have said nothing."""
     sys.path.insert(0, str(ROOT / "runner"))
-    import reuse
+    import child_runs
     fake = tmp_path / "grains"
     fake.write_text("#!/bin/sh\nprintf 'warning: dt is large\\n\\nerror: the run stopped\\n  - particle 7: position is nan\\n' >&2\nexit 1\n")
     fake.chmod(0o755)
     with pytest.raises(SystemExit) as ended:
-        reuse.run_grains("tool.py", [fake, "run", "scene.toml"])
+        child_runs.run_grains("tool.py", [fake, "run", "scene.toml"])
     assert str(ended.value) == ("tool.py: grains run ended with status 1: warning: dt is large; error: the run stopped; "
                                 "particle 7: position is nan")
     fake.write_text("#!/bin/sh\nexit 3\n")
     with pytest.raises(SystemExit) as ended:
-        reuse.run_grains("tool.py", [fake, "run", "scene.toml"])
+        child_runs.run_grains("tool.py", [fake, "run", "scene.toml"])
     assert str(ended.value) == "tool.py: grains run ended with status 3: it said nothing"
 
 
 def test_bench_cohesive_refuses_more_threads_than_cores_before_running(grains_bin, tmp_path):
-    """--threads 3 on 2 cores ran LAMMPS on one core, then ended in a CalledProcessError traceback from mpirun -np 3,
-    whose reason (too few slots) was captured and never shown (a review, 2026-12-07)."""
+    """--threads 3 on 2 cores would run LAMMPS on one core, then end in a CalledProcessError traceback from mpirun
+    -np 3, whose reason (too few slots) is captured and never shown."""
     import os
     cores = len(os.sched_getaffinity(0))
     refused(tool("bench_cohesive.py", "--binary", grains_bin, "--threads", f"1,{cores + 1}", "--steps", "10", cwd=tmp_path),
@@ -130,7 +130,7 @@ def test_bench_cohesive_times_grains_after_the_warm_up_lammps_has(tmp_path, monk
     import h5py
     sys.path.insert(0, str(ROOT / "runner"))
     import bench_cohesive
-    import reuse
+    import child_runs
     particles, asked = 1400, []
 
     def fake_grains(prog, command):   # start-up 0.5 s, the first 1000 steps 0.2 s slower, then 1 ms a step
@@ -142,7 +142,7 @@ def test_bench_cohesive_times_grains_after_the_warm_up_lammps_has(tmp_path, monk
             f.create_group("grains").attrs.update({"wall_seconds": wall, "particle_steps_per_second": steps * particles / wall,
                                                    "pair_loop_build": b"test"})
         return ""
-    monkeypatch.setattr(reuse, "run_grains", fake_grains)
+    monkeypatch.setattr(child_runs, "run_grains", fake_grains)
     rate, contacts, build = bench_cohesive.grains_rate("grains", tmp_path / "s.toml", 300, 1, tmp_path, particles)
     assert sorted(set(asked)) == [bench_cohesive.WARMUP, bench_cohesive.WARMUP + 300] and bench_cohesive.WARMUP == 1000
     assert rate == pytest.approx(particles / 1e-3) and contacts == 7 and build == "test"

@@ -78,9 +78,9 @@ def test_plot_to_an_unsupported_format(grains_bin, tmp_path):
 
 
 def test_plot_never_writes_over_its_run_file_or_into_a_folder(grains_bin, tmp_path):
-    """Until 2026-12-06 a run file named RUN.png was replaced by its own plot (the default image is RUN with .png),
-    and a folder at the image's name met matplotlib's IsADirectoryError after the figure was drawn; an
-    --observables of commas alone fell back to the default panels."""
+    """A run file named RUN.png must not be replaced by its own plot (the default image is RUN with .png), nor a
+    folder at the image's name meet matplotlib's IsADirectoryError after the figure is drawn; an --observables of
+    commas alone must not fall back to the default panels."""
     run = tmp_path / "c.png"
     r = subprocess.run([grains_bin, "run", str(ROOT / "models" / "collision.toml"), "--out", str(run), "--quiet",
                         "--set", "time.duration=0.1", "--set", "output.xdmf=false"], capture_output=True, text=True)
@@ -152,8 +152,8 @@ def test_bad_arguments_end_in_one_line_naming_the_option(tmp_path, stage_table, 
 ])
 @pytest.mark.parametrize("kind", ["folder", "FIFO (named pipe)"])
 def test_a_run_file_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, name, args, lead, kind):
-    """A folder or a FIFO given as the run's file was said not to exist (runner/reuse.py's not_a_run_file, in the words
-    of `grains resume`)."""
+    """A folder or a FIFO given as the run's file was said not to exist (runner/run_files.py's not_a_run_file, in the
+    words of `grains resume`)."""
     run = tmp_path / "run.h5"
     run.mkdir() if kind == "folder" else os.mkfifo(run)
     fill = lambda text: text.format(run=run, tmp=tmp_path)
@@ -163,7 +163,7 @@ def test_a_run_file_that_is_not_a_regular_file_is_named_as_what_it_is(tmp_path, 
 
 
 def test_collisions_names_a_table_of_another_shape(tmp_path):
-    """A /grains/collisions that is not grains' table (a group, a 1-D dataset) ended in a traceback (a review, 2026-12-07)."""
+    """A /grains/collisions that is not grains' table (a group, a 1-D dataset) is named, not a traceback."""
     import h5py
     for name, make in (("flat", lambda f: f.create_dataset("grains/collisions", data=[1, 2, 3])),
                        ("group", lambda f: f.create_group("grains/collisions"))):
@@ -176,15 +176,15 @@ def test_collisions_names_a_table_of_another_shape(tmp_path):
 
 @pytest.mark.parametrize("script, peer", [("bench.py", "gas.lmp"), ("bench_cohesive.py", "disks2d.lmp")])
 def test_a_benchmark_refuses_a_peers_folder_given_without_its_input(tmp_path, script, peer):
-    """A --peers the user gave without the LAMMPS input ran grains alone, printed NaN ratios and exited 0 (a review,
-    2026-12-07); only the default folder may lack it."""
+    """A --peers the user gave without the LAMMPS input would run grains alone, print NaN ratios and exit 0; only the
+    default folder may lack it."""
     r = tool(script, "--peers", tmp_path, "--steps", "10")
     refused(r, f"--peers {tmp_path}: no {peer} there")
 
 
 def test_the_shell_entry_points_answer_help_and_a_missing_script_before_any_setup(tmp_path):
-    """main.sh --help ran the setup and the build, then grains run's help, then plotted an old output;
-    with_lammps.sh without a script failed on an unbound variable after installing LAMMPS (a review, 2026-12-07)."""
+    """main.sh --help must not run the setup and the build, then grains run's help, then plot an old output;
+    with_lammps.sh without a script must not fail on an unbound variable after installing LAMMPS."""
     tools = tmp_path / "bin"   # only what the answers need: any setup step (cmake, apt, python) would fail
     tools.mkdir()
     for name in ("cat", "dirname", "ls", "tr"):
@@ -199,7 +199,7 @@ def test_the_shell_entry_points_answer_help_and_a_missing_script_before_any_setu
 
 
 def test_collisions_refuses_an_adhesive_flag_other_than_0_or_1(tmp_path):
-    """An adhesive column of 2s was summed as it stood: "adhesive 8 (200.00 %)", exit 0 (a review, 2026-12-07)."""
+    """An adhesive column of 2s summed as it stands would give "adhesive 8 (200.00 %)", exit 0."""
     import h5py
     table = np.array([[0, 1, 0.1, 0.2, 1.0, 0.5, 0], [1, 2, 0.3, 0.4, 1.0, 0.5, 2], [2, 3, 0.5, np.nan, 1.0, 0.0, 0]])
     path = tmp_path / "coll.h5"
@@ -219,7 +219,7 @@ def test_collisions_refuses_an_adhesive_flag_other_than_0_or_1(tmp_path):
                                          ([0, 1, 0.3, 0.2, 1.0, 0.5, 0], ["row 0", "ends at 0.2 before it starts (0.3)"])],
                          ids=["nan-impact", "negative-rebound", "ends-first"])
 def test_collisions_refuses_a_completed_event_that_grains_cannot_have_written(tmp_path, row, words):
-    """A NaN or negative speed went into the restitution's mean and quartiles as it stood (a review, 2026-12-07)."""
+    """A NaN or negative speed must not go into the restitution's mean and quartiles as it stands."""
     import h5py
     path = tmp_path / "coll.h5"
     with h5py.File(path, "w") as f:   # the open event (end NaN, rebound 0) is grains' own and passes
