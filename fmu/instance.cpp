@@ -60,8 +60,7 @@ std::string shown_value(const FmuVariable& v, double value) {
 
 // A fixed parameter's value in a scene (its type's reading of the scene key).
 double scene_value(const Scene& scene, const FmuVariable& v) {
-  if (!v.items.empty())
-    return double(std::find(v.items.begin(), v.items.end(), scene.text(v.scene_key)) - v.items.begin() + 1);
+  if (!v.items.empty()) return item_value(v, scene.text(v.scene_key));
   return v.type == ValueType::real      ? scene.real(v.scene_key)
          : v.type == ValueType::integer ? double(scene.integer(v.scene_key))
                                         : double(scene.boolean(v.scene_key));

@@ -59,13 +59,10 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
     v.description = std::string(e.doc);
     v.unit = scene_key_unit(e.path, t.dimension);   // the schema's, as the scene reference gives it
     if (e.kind == ValueKind::text) {
-      for (std::size_t from = 0, bar; from <= e.choices.size(); from = bar + 1) {
-        bar = std::min(e.choices.find('|', from), e.choices.size());
-        v.items.emplace_back(e.choices.substr(from, bar - from));
-      }
+      for (const std::string_view item : choice_list(e)) v.items.emplace_back(item);
       v.type = ValueType::integer;
       v.min = 1, v.max = double(v.items.size());
-      v.start = double(std::find(v.items.begin(), v.items.end(), scene.text(e.path)) - v.items.begin() + 1);
+      v.start = item_value(v, scene.text(e.path));
       v.description += fmt::format(" Values: {}.", item_values(v));
     } else {
       v.type = e.kind == ValueKind::real ? ValueType::real : e.kind == ValueKind::integer ? ValueType::integer : ValueType::boolean;
@@ -148,6 +145,10 @@ ModelTable describe_model(const Scene& scene, const Simulation& sim) {
   rad.description = fmt::format("particle radii, {}", rows);
   t.variables.push_back(rad);
   return t;
+}
+
+double item_value(const FmuVariable& v, std::string_view item) {
+  return double(std::find(v.items.begin(), v.items.end(), item) - v.items.begin() + 1);
 }
 
 std::string item_values(const FmuVariable& v) {

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/variables.hpp"
@@ -49,6 +50,8 @@ struct FmuVariable {
   std::vector<std::string> items;
 };
 
+// An enumeration's value of `item` (its position among the items, from 1).
+double item_value(const FmuVariable& v, std::string_view item);
 // An enumeration's values as the host reads them: "1 (direct), 2 (tree)".
 std::string item_values(const FmuVariable& v);
 

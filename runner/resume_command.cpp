@@ -14,6 +14,7 @@
 #include "core/simulation.hpp"
 #include "interactions/gravity_direct.hpp"
 #include "io/file_kind.hpp"
+#include "io/h5md_writer.hpp"
 #include "io/scene.hpp"
 #include "output_paths.hpp"
 #include "resume_probe.hpp"

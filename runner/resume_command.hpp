@@ -2,10 +2,10 @@
 #include <string>
 
 #include "io/h5md_checkpoint.hpp"
-#include "io/h5md_writer.hpp"
 
 namespace grains {
 
+class H5mdWriter;
 class Scene;
 class Simulation;
 

@@ -388,17 +388,8 @@ std::string Scene::text(std::string_view path) const {
       fail(path, fmt::format("value \"{}\" holds a control character (byte 0x{:02x} at position {}): allowed text without "
                              "control characters (but tabs and line ends)", printable(v), static_cast<unsigned char>(*c),
                              c - v.begin() + 1));
-    if (!e.choices.empty()) {
-      std::string_view c = e.choices;
-      bool ok = false;
-      for (std::size_t start = 0; start <= c.size();) {
-        auto bar = c.find('|', start);
-        if (bar == std::string_view::npos) bar = c.size();
-        if (c.substr(start, bar - start) == v) ok = true;
-        start = bar + 1;
-      }
-      if (!ok) fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
-    }
+    if (const auto choices = choice_list(e); !choices.empty() && std::find(choices.begin(), choices.end(), v) == choices.end())
+      fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
     if (e.file_name && !is_plain_file_name(v))
       fail(path, fmt::format("value \"{}\" is not allowed: allowed {}", v, describe_allowed(e)));
     return v;

@@ -38,6 +38,8 @@ struct SchemaEntry {
 
 const std::vector<SchemaEntry>& scene_schema();
 const SchemaEntry* find_schema_entry(std::string_view path);
+// A text key's choices in order ("a|b|c": a, b, c); none for a key without.
+std::vector<std::string_view> choice_list(const SchemaEntry& e);
 // The SI unit of a schema key in a scene of this dimension (2D densities per area): "" for a pure number, text or a
 // switch. The FMUs declare it, and the engine's variables named after a key.
 std::string scene_key_unit(std::string_view path, int scene_dimension);

@@ -1,5 +1,6 @@
 // The scene format: every key, its type, dimension (so its unit), default, allowed range and meaning, in one table.
 // docs/scene-reference.md is generated from this table (`grains scene-reference`).
+#include <algorithm>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -7,6 +8,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "io/file_name.hpp"
 #include "io/scene.hpp"
@@ -440,6 +442,16 @@ const std::vector<UnreadKeyRule>& unread_key_rules() {
   return rules;
 }
 
+std::vector<std::string_view> choice_list(const SchemaEntry& e) {
+  std::vector<std::string_view> list;
+  if (e.choices.empty()) return list;
+  for (std::size_t from = 0, bar; from <= e.choices.size(); from = bar + 1) {
+    bar = std::min(e.choices.find('|', from), e.choices.size());
+    list.push_back(e.choices.substr(from, bar - from));
+  }
+  return list;
+}
+
 const SchemaEntry* find_schema_entry(std::string_view path) {
   for (const auto& e : scene_schema())
     if (e.path == path) return &e;
@@ -471,11 +483,7 @@ std::string unit_text(const SchemaEntry& e) {
   return u3 == u2 ? u3 : fmt::format("{} (3D), {} (2D)", u3, u2);
 }
 std::string range_text(const SchemaEntry& e) {
-  if (!e.choices.empty()) {
-    std::string c(e.choices);
-    for (auto pos = c.find('|'); pos != std::string::npos; pos = c.find('|', pos)) c.replace(pos, 1, ", ");
-    return fmt::format("one of {}", c);
-  }
+  if (!e.choices.empty()) return fmt::format("one of {}", fmt::join(choice_list(e), ", "));
   if (e.kind == K::boolean || e.kind == K::text || e.kind == K::real_matrix) return "";
   bool lo = e.min > -1e307, hi = e.max < 1e307;
   // An infinite end is open: inf itself is never a value (in_range refuses non-finite ones).
